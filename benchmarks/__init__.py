@@ -1,0 +1,1 @@
+"""femb benchmark scenes (installed as ``femb.benchmarks``)."""

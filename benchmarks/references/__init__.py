@@ -1,0 +1,1 @@
+"""Independent reference models (checks, never the thing tested)."""

@@ -1,0 +1,1 @@
+"""femb element library (installed as ``femb.elements``)."""

@@ -1,0 +1,1 @@
+"""femb: flexible multibody dynamics."""

@@ -1,0 +1,1 @@
+"""Output layer: VTK time series and rendering (the only layer that imports meshio/pyvista)."""
