@@ -1,1 +1,22 @@
-"""femb: flexible multibody dynamics."""
+"""femb: flexible multibody dynamics in absolute coordinates.
+
+Build a :class:`Mechanism` from elements (:mod:`femb.elements`), compile it
+into a frozen :class:`~femb.model.Model`, and integrate it with the index-3
+generalized-α scheme of Arnold & Brüls (2007) via :func:`simulate`.
+"""
+from femb.alpha import GeneralizedAlpha
+from femb.errors import (ConvergenceError, FembError, InitializationError, ModelError, OutputError,
+                         ParameterError, ParameterWarning, SingularMatrixError, SolverError)
+from femb.mechanism import Mechanism
+from femb.model import Model, State
+from femb.result import Result
+from femb.solver import GeneralizedAlphaSolver, consistent_initial_state, simulate
+
+__version__ = "0.1.0"
+
+__all__ = [
+    "GeneralizedAlpha", "Mechanism", "Model", "State", "Result", "GeneralizedAlphaSolver",
+    "simulate", "consistent_initial_state", "FembError", "ModelError", "ParameterError",
+    "InitializationError", "SolverError", "ConvergenceError", "SingularMatrixError", "OutputError",
+    "ParameterWarning",
+]

@@ -1,1 +1,51 @@
-"""Output layer: VTK time series and rendering (the only layer that imports meshio/pyvista)."""
+"""Output layer: VTK time series, pictures, animations and progress reports.
+
+This is the only layer that imports meshio or pyvista. The public names are
+loaded on first use, so ``import femb.io`` costs nothing; meshio is imported
+with :mod:`femb.io.vtk`, and pyvista only inside the rendering functions of
+:mod:`femb.io.render` (so writing files never needs OpenGL or a display).
+
+Public names
+------------
+OutputError, merge_blocks, write_vtu, TimeSeriesWriter, read_pvd, read_frame
+    from :mod:`femb.io.vtk`
+can_render, render_png, render_strip, render_animation
+    from :mod:`femb.io.render`
+progress
+    from :mod:`femb.io.progress`
+"""
+from __future__ import annotations
+
+import importlib
+
+# Imported eagerly (it is light): the function must shadow the submodule of
+# the same name, which any import of femb.io.progress would bind here.
+from .progress import progress
+
+_EXPORTS = {
+    "OutputError": "vtk",
+    "merge_blocks": "vtk",
+    "write_vtu": "vtk",
+    "TimeSeriesWriter": "vtk",
+    "read_pvd": "vtk",
+    "read_frame": "vtk",
+    "can_render": "render",
+    "render_png": "render",
+    "render_strip": "render",
+    "render_animation": "render",
+}
+
+__all__ = sorted([*_EXPORTS, "progress"])
+
+
+def __getattr__(name):
+    module = _EXPORTS.get(name)
+    if module is None:
+        raise AttributeError(f"module 'femb.io' has no attribute {name!r}")
+    value = getattr(importlib.import_module(f".{module}", __name__), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__():
+    return sorted(set(globals()) | set(__all__))

@@ -1,0 +1,72 @@
+"""femb's exception and warning classes.
+
+Every error raised for bad input names the element or parameter at fault and
+says what is wrong. Errors raised during a simulation carry the time, the step
+index and the residual norms, and the partial result computed so far.
+"""
+from __future__ import annotations
+
+
+class FembError(Exception):
+    """Base class of all femb errors."""
+
+
+class ModelError(FembError, ValueError):
+    """Invalid mechanism input: a bad parameter, reference or name."""
+
+
+class ParameterError(FembError, ValueError):
+    """Invalid solver or method parameter (step size, end time, rho_inf, ...)."""
+
+
+class InitializationError(FembError):
+    """The initial state cannot be made consistent with the constraints."""
+
+
+class SolverError(FembError):
+    """A simulation failed; carries where and how, and the partial result.
+
+    Attributes
+    ----------
+    t : float or None
+        Time the failing step was trying to reach.
+    step : int or None
+        Index of the failing step (1 is the first step).
+    residuals : dict
+        Residual norms at the last Newton iterate (``"r_q"`` in force units,
+        ``"Phi"`` in length units), when known.
+    result : femb.result.Result or None
+        Everything stored up to the last accepted step.
+    """
+
+    def __init__(self, message, *, t=None, step=None, residuals=None, result=None):
+        super().__init__(message)
+        self.t = t
+        self.step = step
+        self.residuals = dict(residuals or {})
+        self.result = result
+
+
+class ConvergenceError(SolverError):
+    """Newton's method did not converge within the iteration limit."""
+
+
+class SingularMatrixError(SolverError):
+    """The iteration matrix (or an initialization matrix) is singular."""
+
+
+class OutputError(FembError):
+    """Writing or reading output (VTK files, pictures) failed."""
+
+
+class ParameterWarning(UserWarning):
+    """Method parameters that violate an order or stability condition."""
+
+
+SINGULAR_HINT = (
+    "hint: look for redundant constraints (e.g. a closed planar loop with only "
+    "hinges over-constrains nothing, but two identical joints do), a coordinate "
+    "without mass and without constraint (a body with zero inertia, a point "
+    "mass whose position nothing restrains), or a constraint that acts only on "
+    "fixed coordinates"
+)

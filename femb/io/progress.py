@@ -1,0 +1,150 @@
+"""Progress reporting on stderr that suits both terminals and log files.
+
+:func:`progress` returns a tqdm bar when stderr is a terminal (and tqdm is
+installed); otherwise a plain reporter that prints a few lines (every 10 %,
+or every few seconds when the total is unknown), which keeps CI logs and
+redirected output readable.
+"""
+from __future__ import annotations
+
+import numbers
+import sys
+import time
+
+__all__ = ["progress", "PlainProgress"]
+
+
+class PlainProgress:
+    """Line-based progress reporter (no carriage returns, sparse output).
+
+    Parameters
+    ----------
+    iterable : iterable, optional
+        Items to iterate over (reported as they are consumed).
+    total : int, optional
+        Number of steps; taken from ``len(iterable)`` when possible.
+    desc : str
+        Label printed at the start of each line.
+    enabled : bool, default True
+        When False nothing is printed; counting still works.
+    stream : file, optional
+        Where to print (default ``sys.stderr``).
+    step : float, default 0.1
+        Print each time another ``step`` fraction of the total is done.
+    interval : float, default 10
+        With an unknown total, print at most once per ``interval`` seconds.
+    """
+
+    def __init__(self, iterable=None, total=None, desc="", enabled=True, stream=None,
+                 step=0.1, interval=10.0):
+        self.iterable = iterable
+        if total is None and iterable is not None:
+            try:
+                total = len(iterable)
+            except TypeError:
+                total = None
+        self.total = total
+        self.desc = desc
+        self.enabled = enabled
+        self.stream = stream
+        self.step = step
+        self.interval = interval
+        self.n = 0
+        self._t0 = time.monotonic()
+        self._next_frac = step
+        self._last_print = self._t0
+        self._closed = False
+
+    def _print(self, msg):
+        if self.enabled:
+            stream = self.stream if self.stream is not None else sys.stderr
+            print(f"{self.desc}: {msg}" if self.desc else msg, file=stream, flush=True)
+
+    def update(self, n=1):
+        """Advance by ``n`` steps, printing a line when a threshold is crossed."""
+        self.n += n
+        now = time.monotonic()
+        if self.total:
+            frac = self.n / self.total
+            if frac >= self._next_frac and self.n < self.total:
+                self._print(f"{100 * frac:3.0f}% ({self.n}/{self.total}) "
+                            f"{now - self._t0:.1f} s")
+                while self._next_frac <= frac:
+                    self._next_frac += self.step
+        elif now - self._last_print >= self.interval:
+            self._print(f"{self.n} done, {now - self._t0:.1f} s")
+            self._last_print = now
+
+    def close(self):
+        """Print the closing line (once)."""
+        if self._closed:
+            return
+        self._closed = True
+        elapsed = time.monotonic() - self._t0
+        total = f"/{self.total}" if self.total else ""
+        self._print(f"done {self.n}{total} in {elapsed:.1f} s")
+
+    def __iter__(self):
+        if self.iterable is None:
+            raise TypeError("this progress reporter was made from a total, not an iterable")
+        try:
+            for item in self.iterable:
+                yield item
+                self.update(1)
+        finally:
+            self.close()
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, exc_type, exc, tb):
+        self.close()
+        return False
+
+
+def progress(iterable_or_total, desc="", enabled=True):
+    """Progress reporter over an iterable or for a number of steps.
+
+    Parameters
+    ----------
+    iterable_or_total : iterable or int or None
+        What to iterate over, or the total number of steps (None if unknown).
+    desc : str
+        Label of the task.
+    enabled : bool, default True
+        When False nothing is shown.
+
+    Returns
+    -------
+    tqdm.tqdm or PlainProgress
+        Both iterate (when given an iterable), support ``update(n)`` and
+        ``close()``, and are context managers.
+
+    Examples
+    --------
+    >>> with progress(100, "solve") as bar:  # doctest: +SKIP
+    ...     for _ in range(100):
+    ...         bar.update(1)
+    """
+    if isinstance(iterable_or_total, bool):
+        raise TypeError("iterable_or_total must be an iterable or an int, not a bool")
+    if iterable_or_total is None or isinstance(iterable_or_total, numbers.Integral):
+        iterable, total = None, int(iterable_or_total)
+    else:
+        iterable, total = iterable_or_total, None
+    if enabled and _is_terminal(sys.stderr):
+        try:
+            from tqdm import tqdm
+        except ImportError:
+            pass
+        else:
+            return tqdm(iterable, total=total, desc=desc or None, file=sys.stderr,
+                        dynamic_ncols=True)
+    return PlainProgress(iterable, total=total, desc=desc, enabled=enabled)
+
+
+def _is_terminal(stream):
+    try:
+        return stream.isatty()
+    except (AttributeError, ValueError):
+        return False

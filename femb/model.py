@@ -1,0 +1,344 @@
+"""The frozen model compiled from a mechanism, and the state.
+
+The model holds everything that does not change during a simulation: the
+coordinate numbering, the element batches with their packed parameters and
+coordinate index arrays, the sparsity bookkeeping, and the constant parts
+(mass matrix, constant forces). The state (t, q, q̇, q̈, λ) is separate.
+
+Coordinates: every node coordinate is either free (an entry of q, index
+0..nq-1) or fixed (a constant). Elements see the *extended* vector
+``q_ext = [q, q_fixed]`` through their index arrays ``dofs`` (values ≥ nq are
+fixed coordinates); contributions to fixed coordinates are dropped once, at
+compile time.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+import scipy.sparse as sp
+
+from femb.errors import ModelError
+
+
+@dataclass
+class State:
+    """A state of the model.
+
+    Attributes
+    ----------
+    t : float
+    q, qd, qdd : ndarray, shape (nq,)
+        Coordinates, velocities, accelerations.
+    lam : ndarray, shape (nc,)
+        Lagrange multipliers.
+    """
+
+    t: float
+    q: np.ndarray
+    qd: np.ndarray
+    qdd: np.ndarray
+    lam: np.ndarray
+
+    def copy(self):
+        return State(self.t, self.q.copy(), self.qd.copy(), self.qdd.copy(), self.lam.copy())
+
+
+@dataclass
+class Group:
+    """One batch of elements of a type with equal layout (compiled)."""
+
+    cls: type
+    key: object
+    elements: list
+    names: list
+    params: dict
+    dofs: np.ndarray          # (nel, nd) indices into q_ext
+    traits: dict
+    lam: np.ndarray           # (nel, nc) indices into λ
+    nn_sel: np.ndarray = None  # flat indices of free-free entries of (nel, nd, nd)
+    nn_rows: np.ndarray = None
+    nn_cols: np.ndarray = None
+    cq_sel: np.ndarray = None  # flat indices of entries of (nel, nc, nd) on free columns
+    cq_rows: np.ndarray = None  # constraint index
+    cq_cols: np.ndarray = None  # coordinate index
+
+    @property
+    def nel(self):
+        return self.dofs.shape[0]
+
+    @property
+    def nd(self):
+        return self.dofs.shape[1]
+
+    @property
+    def nc(self):
+        return self.lam.shape[1]
+
+    @property
+    def name(self):
+        return self.cls.__name__
+
+
+class Model:
+    """A compiled, frozen mechanism (create with :meth:`Mechanism.compile`).
+
+    Attributes
+    ----------
+    name : str
+    nq, nc, nfix : int
+        Free coordinates, constraints, fixed coordinates.
+    q0, qd0 : ndarray, shape (nq,)
+        Initial coordinates and velocities as given (not yet consistent).
+    q_fixed : ndarray, shape (nfix,)
+    groups : list of Group
+    mass_groups, force_groups, constraint_groups : list of Group
+        The batches that contribute mass, (non-constant) forces, constraints.
+    constant_mass : bool
+        True when M does not depend on q (then ``M_const`` holds it).
+    M_const : scipy.sparse.csr_matrix, shape (nq, nq), or None
+    f_const : ndarray, shape (nq,)
+        Constant forces (constant loads and, with constant mass, gravity).
+    needs_C : bool
+        Some force depends on q̇ (C_t is assembled).
+    rheonomic : bool
+        Some constraint depends explicitly on t.
+    length_scale : float
+        Characteristic length (m) for the constraint tolerance.
+    """
+
+    def __init__(self, **kw):
+        self.__dict__.update(kw)
+        self._frozen = True
+
+    def __setattr__(self, key, value):
+        if getattr(self, "_frozen", False):
+            raise AttributeError(f"femb models are frozen: cannot set '{key}'")
+        object.__setattr__(self, key, value)
+
+    # ------------------------------------------------------------ helpers
+    def ext(self, q):
+        """Extended coordinates [q, q_fixed], shape (nq + nfix,)."""
+        return np.concatenate((q, self.q_fixed))
+
+    def ext_velocity(self, qd):
+        """Extended velocities [q̇, 0], shape (nq + nfix,)."""
+        return np.concatenate((qd, np.zeros(self.nfix)))
+
+    def initial_state(self, t0=0.0):
+        """The state as given by the user (not projected onto the constraints)."""
+        return State(float(t0), self.q0.copy(), self.qd0.copy(), np.zeros(self.nq), np.zeros(self.nc))
+
+    def node_coordinates(self, name, q):
+        """Coordinates of node ``name`` (fixed ones included) for q of shape (..., nq)."""
+        try:
+            idx = self.node_index[name]
+        except KeyError:
+            raise ModelError(f"model '{self.name}' has no node/body named '{name}'") from None
+        q = np.asarray(q)
+        out = np.empty(q.shape[:-1] + (idx.size,))
+        for k, i in enumerate(idx):
+            out[..., k] = q[..., i] if i < self.nq else self.q_fixed[i - self.nq]
+        return out
+
+    def lam_indices(self, name):
+        """Indices into λ of element ``name`` (empty for elements without constraints)."""
+        try:
+            return self.lam_index[name]
+        except KeyError:
+            raise ModelError(f"model '{self.name}' has no element named '{name}'") from None
+
+    def describe(self):
+        """A short text summary of the model."""
+        lines = [f"model '{self.name}': nq = {self.nq}, nc = {self.nc}, fixed = {self.nfix}, "
+                 f"constant mass: {self.constant_mass}, damping matrix: {self.needs_C}, "
+                 f"rheonomic: {self.rheonomic}"]
+        for g in self.groups:
+            lines.append(f"  {g.name:24s} x{g.nel:<6d} nd={g.nd} nc={g.nc} {g.key}")
+        return "\n".join(lines)
+
+    def __repr__(self):
+        return f"<femb Model '{self.name}' nq={self.nq} nc={self.nc}>"
+
+
+# --------------------------------------------------------------------------
+def _group_key(e):
+    k = e.group_key()
+    return (type(e), k)
+
+
+def compile_model(mech, *, length_scale=None):
+    """Compile a :class:`~femb.mechanism.Mechanism` (see :meth:`Mechanism.compile`)."""
+    from femb.elements.bodies import Body
+    from femb.elements.forces import Gravity
+
+    elements = mech.elements
+    members = set(id(e) for e in elements) | {id(mech.ground)}
+
+    def lookup_for(owner):
+        def lookup(ref, role):
+            if isinstance(ref, str):
+                if ref not in mech:
+                    raise ModelError(f"{type(owner).__name__} '{owner.name}': {role} refers to '{ref}', "
+                                     f"which is not in mechanism '{mech.name}'")
+                ref = mech[ref]
+            if not isinstance(ref, Body):
+                raise ModelError(f"{type(owner).__name__} '{owner.name}': {role} must be a body, got {ref!r}")
+            if id(ref) not in members:
+                raise ModelError(f"{type(owner).__name__} '{owner.name}': {role} refers to body "
+                                 f"'{ref.name}', which was not added to mechanism '{mech.name}'")
+            return ref
+        return lookup
+
+    gravity = [e for e in elements if isinstance(e, Gravity)]
+    if len(gravity) > 1:
+        raise ModelError(f"mechanism '{mech.name}' has {len(gravity)} Gravity elements; give one")
+    others = [e for e in elements if not isinstance(e, Gravity)]
+    for e in others:
+        e.resolve(lookup_for(e))
+        e.validate()
+
+    # ---- nodes and coordinate numbering
+    nodes, seen = [mech.ground.node], {id(mech.ground.node)}
+    for e in others:
+        for nd in e.nodes():
+            if id(nd) not in seen:
+                seen.add(id(nd))
+                nodes.append(nd)
+    names = {}
+    for nd in nodes:
+        if nd.name in names:
+            raise ModelError(f"duplicate node name '{nd.name}'")
+        names[nd.name] = nd
+    nq = sum(int((~nd.fixed).sum()) for nd in nodes)
+    nfix = sum(int(nd.fixed.sum()) for nd in nodes)
+    q0 = np.empty(nq)
+    qd0 = np.empty(nq)
+    q_fixed = np.empty(nfix)
+    node_index = {}
+    labels = []
+    kq = kf = 0
+    for nd in nodes:
+        idx = np.empty(nd.ncoord, dtype=np.int64)
+        for c in range(nd.ncoord):
+            if nd.fixed[c]:
+                idx[c] = nq + kf
+                q_fixed[kf] = nd.q0[c]
+                kf += 1
+            else:
+                idx[c] = kq
+                q0[kq] = nd.q0[c]
+                qd0[kq] = nd.qd0[c]
+                labels.append(f"{nd.name}.{nd.coord_names[c]}")
+                kq += 1
+        node_index[nd.name] = idx
+    if nq == 0:
+        raise ModelError(f"mechanism '{mech.name}' has no free coordinates (add a body)")
+    next_ = nq + nfix
+
+    # ---- batches
+    batches = {}
+    for e in others:
+        batches.setdefault(_group_key(e), []).append(e)
+    groups = []
+    nc = 0
+    lam_index = {}
+    for (cls, key), els in batches.items():
+        dofs = np.array([np.concatenate([node_index[n.name] for n in e.nodes()]) for e in els],
+                        dtype=np.int64).reshape(len(els), -1)
+        tr = cls.traits(els)
+        ncon = int(tr["n_constraints"])
+        lam = (nc + np.arange(len(els) * ncon)).reshape(len(els), ncon)
+        nc += len(els) * ncon
+        for e, row in zip(els, lam):
+            lam_index[e.name] = row.copy()
+        g = Group(cls=cls, key=key, elements=els, names=[e.name for e in els],
+                  params=cls.pack(els), dofs=dofs, traits=tr, lam=lam)
+        _index_group(g, nq)
+        groups.append(g)
+    for e in gravity:
+        lam_index[e.name] = np.zeros(0, dtype=np.int64)
+
+    mass_groups = [g for g in groups if g.traits["has_mass"]]
+    const_force_groups = [g for g in groups if g.traits["has_force"] and g.traits["constant_force"]]
+    force_groups = [g for g in groups if g.traits["has_force"] and not g.traits["constant_force"]]
+    constraint_groups = [g for g in groups if g.nc > 0]
+    if not mass_groups:
+        raise ModelError(f"mechanism '{mech.name}' has no mass (add a RigidBody, PointMass or beam)")
+
+    qx0 = np.concatenate((q0, q_fixed))
+    qdx0 = np.concatenate((qd0, np.zeros(nfix)))
+
+    # ---- constant mass and constant forces
+    constant_mass = all(g.traits["constant_mass"] for g in mass_groups)
+    g_hat = None
+    if gravity:
+        g_hat = np.zeros(next_)
+        for nd in nodes:
+            idx = node_index[nd.name]
+            for c, comp in zip(nd.translational, gravity[0].g):
+                g_hat[idx[c]] = comp
+    f_const = np.zeros(next_)
+    M_const = None
+    if constant_mass:
+        rows, cols, vals = [], [], []
+        for g in mass_groups:
+            Me = g.cls.mass(g.params, qx0[g.dofs])
+            rows.append(g.nn_rows)
+            cols.append(g.nn_cols)
+            vals.append(Me.reshape(-1)[g.nn_sel])
+            if g_hat is not None:
+                fe = np.einsum("eij,ej->ei", Me, g_hat[g.dofs])
+                f_const += np.bincount(g.dofs.ravel(), fe.ravel(), minlength=next_)
+        M_const = sp.csr_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
+                                shape=(nq, nq))
+        M_const.sum_duplicates()
+    for g in const_force_groups:
+        fe, _, _ = g.cls.force(g.params, 0.0, qx0[g.dofs], qdx0[g.dofs], False)
+        f_const += np.bincount(g.dofs.ravel(), fe.ravel(), minlength=next_)
+
+    # ---- length scale
+    if length_scale is None:
+        pts = [nd.q0[list(nd.translational)] for nd in nodes if len(nd.translational)]
+        pts = np.array(pts) if pts else np.zeros((1, 2))
+        L = float(np.max(np.ptp(pts, axis=0))) if len(pts) > 1 else 0.0
+        for e in [mech.ground] + others:
+            for s in getattr(e, "points", {}).values():
+                L = max(L, float(np.linalg.norm(s)))
+        length_scale = L if L > 0.0 else 1.0
+    else:
+        length_scale = float(length_scale)
+        if not (length_scale > 0.0 and np.isfinite(length_scale)):
+            raise ModelError(f"length_scale must be a positive finite number, got {length_scale!r}")
+
+    model = Model(
+        name=mech.name, nq=nq, nc=nc, nfix=nfix, q0=q0, qd0=qd0, q_fixed=q_fixed,
+        node_index=node_index, node_names=[nd.name for nd in nodes], coord_labels=labels,
+        groups=groups, mass_groups=mass_groups, force_groups=force_groups,
+        const_force_groups=const_force_groups, constraint_groups=constraint_groups,
+        constant_mass=constant_mass, M_const=M_const, f_const=f_const[:nq].copy(),
+        g_hat=g_hat, gravity=None if not gravity else gravity[0].g.copy(),
+        needs_C=any(g.traits["force_depends_on_qd"] for g in force_groups),
+        rheonomic=any(g.traits["rheonomic"] for g in constraint_groups),
+        lam_index=lam_index, length_scale=length_scale,
+        bodies={e.name: e for e in [mech.ground] + others if isinstance(e, Body)},
+        element_types={e.name: type(e).__name__ for e in elements},
+    )
+    for arr in (q0, qd0, q_fixed):
+        arr.flags.writeable = False
+    return model
+
+
+def _index_group(g, nq):
+    """Free-coordinate bookkeeping of a batch (done once)."""
+    nel, nd = g.dofs.shape
+    R = np.broadcast_to(g.dofs[:, :, None], (nel, nd, nd)).reshape(-1)
+    C = np.broadcast_to(g.dofs[:, None, :], (nel, nd, nd)).reshape(-1)
+    sel = np.nonzero((R < nq) & (C < nq))[0]
+    g.nn_sel, g.nn_rows, g.nn_cols = sel, R[sel], C[sel]
+    nc = g.lam.shape[1]
+    if nc:
+        R = np.broadcast_to(g.lam[:, :, None], (nel, nc, nd)).reshape(-1)
+        C = np.broadcast_to(g.dofs[:, None, :], (nel, nc, nd)).reshape(-1)
+        sel = np.nonzero(C < nq)[0]
+        g.cq_sel, g.cq_rows, g.cq_cols = sel, R[sel], C[sel]
