@@ -64,9 +64,8 @@ class ParameterWarning(UserWarning):
 
 
 SINGULAR_HINT = (
-    "hint: look for redundant constraints (e.g. a closed planar loop with only "
-    "hinges over-constrains nothing, but two identical joints do), a coordinate "
-    "without mass and without constraint (a body with zero inertia, a point "
-    "mass whose position nothing restrains), or a constraint that acts only on "
-    "fixed coordinates"
+    "hint: look for redundant constraints (two joints that remove the same motion, "
+    "e.g. a duplicated hinge, or a Slider where a PointOnLine suffices), a coordinate "
+    "that has neither mass nor a constraint, or a mechanism locked in a singular "
+    "(dead-centre) position"
 )

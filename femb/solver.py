@@ -160,7 +160,15 @@ def consistent_initial_state(model, state=None, *, t0=0.0, phi_tol=1e-12, max_it
                     "check the bodies' positions and the joints' points")
             B = assembly.constraint_jacobian(model, t, q)
             _zero_rows(B, owner)
-            dq, _ = _solve_augmented(I, B, q0 - q, -Phi, "position projection")
+            try:
+                dq, _ = _solve_augmented(I, B, q0 - q, -Phi, "position projection")
+            except InitializationError:
+                i = int(np.argmax(np.abs(Phi)))
+                raise InitializationError(
+                    f"cannot project the initial configuration onto the constraints: ‖Φ‖ = {err:.3e} "
+                    f"(largest residual in element '{owner[i]}', {Phi[i]:.3e}) and the constraint "
+                    f"Jacobian is rank-deficient at Gauss–Newton iteration {k}: the joints cannot all be "
+                    f"closed from these positions, or some are redundant; {SINGULAR_HINT}") from None
             q += dq
         st.q = q
         B = assembly.constraint_jacobian(model, t, st.q)
@@ -392,9 +400,15 @@ class GeneralizedAlphaSolver:
                 try:
                     self._lu = _LU(S, self.assembler.dense)
                 except _Singular:
+                    if k > 0:
+                        raise ConvergenceError(
+                            f"Newton diverged at t = {t1:.6g} s (step {self.step_index + 1}): the iteration "
+                            f"matrix became singular at iteration {k} with ‖r_q‖∞ = {err_f:.3e} N, "
+                            f"‖Φ‖∞ = {err_phi:.3e} m; try a smaller h", t=t1, step=self.step_index + 1,
+                            residuals={"r_q": err_f, "Phi": err_phi}) from None
                     raise SingularMatrixError(
-                        f"singular iteration matrix at t = {t1:.6g} s (step {self.step_index + 1}, "
-                        f"iteration {k}); {SINGULAR_HINT}", t=t1, step=self.step_index + 1,
+                        f"singular iteration matrix at t = {t1:.6g} s (step {self.step_index + 1}); "
+                        f"{SINGULAR_HINT}", t=t1, step=self.step_index + 1,
                         residuals={"r_q": err_f, "Phi": err_phi}) from None
                 self._lu_h = h
                 self.stats["factorizations"] += 1

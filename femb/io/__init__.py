@@ -20,7 +20,7 @@ import importlib
 
 # Imported eagerly (it is light): the function must shadow the submodule of
 # the same name, which any import of femb.io.progress would bind here.
-from .progress import progress
+from .progress import progress  # noqa: F401
 
 _EXPORTS = {
     "OutputError": "vtk",

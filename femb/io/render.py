@@ -217,14 +217,13 @@ def _values(mesh, name):
 
 
 class _Scan:
-    """Bounds, planarity, scalar range and element-type count of a motion."""
+    """Bounds, planarity and scalar range of a whole motion (reads every frame)."""
 
     def __init__(self, pv, entries, scalars):
         lo = np.full(3, np.inf)
         hi = np.full(3, -np.inf)
         smin, smax = np.inf, -np.inf
         found = False
-        ntypes = 0
         names = set()
         for _, path in entries:
             m = _read(pv, path)
@@ -232,8 +231,6 @@ class _Scan:
                 pts = np.asarray(m.points)
                 lo = np.minimum(lo, pts.min(axis=0))
                 hi = np.maximum(hi, pts.max(axis=0))
-            if "element_type" in m.cell_data and m.n_cells:
-                ntypes = max(ntypes, int(np.max(m.cell_data["element_type"])) + 1)
             if scalars is not None:
                 v = _values(m, scalars)
                 if v is None:
@@ -250,7 +247,6 @@ class _Scan:
         size = float(np.max(hi - lo))
         self.size = size if size > 0 else 1.0
         self.planar = (hi[2] - lo[2]) <= 1e-9 * self.size
-        self.ntypes = ntypes
         if scalars is not None and not found:
             raise OutputError(
                 f"scalars={scalars!r}: no point or cell data of that name in the frames "

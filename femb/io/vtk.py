@@ -139,6 +139,8 @@ def merge_blocks(blocks, field_data=None):
     * A point or cell data field that only some blocks provide is filled with
       zeros of the same trailing shape and dtype in the others, so every
       field exists on every cell and point (ParaView can colour by it).
+    * A block with points but no cells gets one ``"vertex"`` cell per point,
+      so its points are visible.
     * Cell data ``element_type`` (int32) holds, for each cell, the index of
       its block's name among the distinct block names in order of first
       appearance; field data ``"element_type.<name>"`` holds ``[index]`` for
@@ -161,6 +163,10 @@ def merge_blocks(blocks, field_data=None):
         k = len(pts)
         npts_per_block.append(k)
         all_points.append(pts)
+        if not b.cells and k:
+            # a block of bare points is shown as its points
+            cells.append(("vertex", np.arange(offset, offset + k, dtype=np.int64)[:, None]))
+            cell_src.append((bi, None, None))
         for ci, item in enumerate(b.cells):
             try:
                 ctype, conn = item
@@ -190,7 +196,7 @@ def merge_blocks(blocks, field_data=None):
             if n not in pd_names:
                 pd_names.append(n)
     for name in pd_names:
-        proto = None
+        present = {}
         for bi, b in enumerate(blocks):
             if name in b.point_data:
                 a = _check_dtype(
@@ -202,23 +208,19 @@ def merge_blocks(blocks, field_data=None):
                         f"geometry block {bi} ({b.name!r}) point data {name!r}: "
                         f"expected {npts_per_block[bi]} values, got shape {a.shape}"
                     )
-                if proto is not None and a.shape[1:] != proto.shape[1:]:
-                    raise OutputError(
-                        f"point data {name!r}: shape {a.shape[1:]} per point in block "
-                        f"{bi} ({b.name!r}) differs from {proto.shape[1:]} in another block"
-                    )
-                proto = a if proto is None else proto
-        dtype = np.result_type(
-            *[np.asarray(b.point_data[name]).dtype for b in blocks if name in b.point_data]
-        )
-        if dtype == bool:
-            dtype = np.dtype(np.uint8)
-        parts = []
-        for bi, b in enumerate(blocks):
-            if name in b.point_data:
-                parts.append(np.asarray(b.point_data[name]).astype(dtype, copy=False))
-            else:
-                parts.append(np.zeros((npts_per_block[bi],) + proto.shape[1:], dtype))
+                present[bi] = a
+        trailing = {a.shape[1:] for a in present.values()}
+        if len(trailing) > 1:
+            raise OutputError(
+                f"point data {name!r}: blocks give different shapes per point {sorted(trailing)}"
+            )
+        tshape = trailing.pop()
+        dtype = np.result_type(*[a.dtype for a in present.values()])
+        parts = [
+            present[bi].astype(dtype, copy=False) if bi in present
+            else np.zeros((npts_per_block[bi],) + tshape, dtype)
+            for bi in range(len(blocks))
+        ]
         point_data[name] = np.concatenate(parts)
 
     # --- cell data --------------------------------------------------------
@@ -259,14 +261,15 @@ def merge_blocks(blocks, field_data=None):
         trailing = {a.shape[1:] for a in present}
         if len(trailing) > 1:
             raise OutputError(
-                f"cell data {name!r}: blocks give different shapes per cell {sorted(trailing)}"
+                f"cell data {name!r}: blocks give different shapes per cell "
+                f"{sorted(trailing)}"
             )
         tshape = present[0].shape[1:] if present else ()
         dtype = np.result_type(*[a.dtype for a in present]) if present else np.float64
         out = []
-        for (bi, ci, rows), (ctype, arr) in zip(cell_src, cells):
+        for (bi, ci, rows), (_, arr) in zip(cell_src, cells):
             b = blocks[bi]
-            if name in b.cell_data:
+            if name in b.cell_data and ci is not None:
                 a = block_cell_array(bi, b, name, ci).astype(dtype, copy=False)
                 out.append(a if rows is None else a[rows])
             else:
@@ -625,7 +628,9 @@ def read_pvd(path):
         try:
             t = float(ds.get("timestep", i))
         except ValueError:
-            raise OutputError(f"{path}: DataSet {i} has a bad timestep {ds.get('timestep')!r}")
+            raise OutputError(
+                f"{path}: DataSet {i} has a bad timestep {ds.get('timestep')!r}"
+            ) from None
         out.append((t, path.parent / f))
     out.sort(key=lambda e: e[0])
     return out
@@ -645,4 +650,25 @@ def read_frame(path):
     try:
         return meshio.read(path)
     except Exception as exc:
+        empty = _read_empty_vtu(path)
+        if empty is not None:
+            return empty
         raise OutputError(f"{path}: cannot read frame ({exc})") from exc
+
+
+def _read_empty_vtu(path):
+    """A frame with no points (which meshio cannot read), else None."""
+    try:
+        if path.stat().st_size > 1 << 16:
+            return None
+        root = ET.parse(path).getroot()
+    except (OSError, ET.ParseError):
+        return None
+    pieces = root.findall("./UnstructuredGrid/Piece")
+    if not pieces or any(p.get("NumberOfPoints") != "0" for p in pieces):
+        return None
+    field_data = {}
+    for da in root.findall("./UnstructuredGrid/FieldData/DataArray"):
+        dtype = np.float64 if da.get("type", "").startswith("Float") else np.int64
+        field_data[da.get("Name")] = np.array((da.text or "").split(), dtype=dtype)
+    return meshio.Mesh(np.zeros((0, 3)), [], field_data=field_data)

@@ -1,0 +1,46 @@
+"""Shared test fixtures: small mechanisms using every element type."""
+import math
+
+import numpy as np
+import pytest
+
+from femb import Mechanism
+from femb.functions import Harmonic, Polynomial, TimeFunction
+
+
+def every_element_mechanism():
+    """A (not physically meaningful) mechanism with one of every element type.
+
+    Used for Jacobian checks: constraints need not be satisfied there.
+    """
+    from femb.elements import (DrivenAngle, DrivenDisplacement, Force, Gravity, Hinge, PointMass,
+                               PointOnLine, RigidBody, RotationalSpringDamper, Slider, SpringDamper,
+                               Torque)
+    m = Mechanism("every")
+    b1 = m.add(RigidBody("b1", 1.2, 0.05, (0.1, 0.2), 0.3, points={"p": (0.2, -0.1), "q": (-0.3, 0.05)}))
+    b2 = m.add(RigidBody("b2", 0.7, 0.02, (0.6, -0.1), -0.4, points={"p": (-0.15, 0.1)}))
+    b3 = m.add(RigidBody("b3", 0.4, 0.01, (1.0, 0.4), 1.1))
+    pm = m.add(PointMass("pm", 0.3, (0.5, 0.5)))
+    m.ground.add_point("A", (-0.2, 0.1))
+    m.add(Hinge("h1", "ground", b1, point_a="A", point_b="q"))
+    m.add(Hinge("h2", b1, b2, point_a="p", point_b="p"))
+    m.add(Hinge("h3", b2, pm, point_a=(0.1, 0.2)))
+    m.add(Slider("s1", b2, b3, axis=(0.6, 0.8), point_a=(0.05, 0.0), point_b=(-0.1, 0.02)))
+    m.add(PointOnLine("l1", "ground", pm, axis=(1.0, 0.3)))
+    m.add(DrivenAngle("da", b1, b3, Harmonic(0.3, 5.0, 0.2)))
+    m.add(DrivenDisplacement("dd", b3, b2, Polynomial([0.0, 0.1, -0.4]), axis=(0.2, 1.0),
+                             point_a=(0.03, 0.01), point_b=(0.02, -0.05)))
+    m.add(SpringDamper("k1", b1, b3, 50.0, 0.7, 0.5, point_a="p", point_b=(0.1, 0.1)))
+    m.add(SpringDamper("k2", b3, "ground", 20.0, 0.0, 0.3, point_b="A"))
+    m.add(RotationalSpringDamper("r1", b2, b3, 3.0, 0.2, 0.1))
+    m.add(Force("F1", b2, (1.5, -0.5), point="p"))
+    m.add(Force("F2", b3, (Harmonic(2.0, 3.0), 0.7), point=(0.2, 0.1), frame="body"))
+    m.add(Torque("T1", b1, 0.4))
+    m.add(Torque("T2", b3, Harmonic(0.5, 2.0)))
+    m.add(Gravity((0.0, -9.81)))
+    return m
+
+
+@pytest.fixture
+def every_model():
+    return every_element_mechanism().compile()
