@@ -13,9 +13,10 @@ import numpy as np
 
 from femb.element import Element
 from femb.errors import ModelError
+from femb.geometry import GeometryBlock
 from femb.nodes import PlanarNode
 
-from ._planar import rot
+from ._planar import perp, rot
 
 
 def _check_scalar(owner, what, value, *, positive=False, nonneg=False):
@@ -81,11 +82,107 @@ class Body:
         c, s = math.cos(th), math.sin(th)
         return np.array([c * d[0] + s * d[1], -s * d[0] + c * d[1]])
 
+    def outline(self):
+        """Drawing outline in the body frame, shape (k, 2), k ≥ 3 (a closed polygon).
+
+        From ``shape`` when given (bar, box, disc, polygon), else the convex hull
+        of the named points and the node, widened into a thin bar when they are
+        collinear.
+        """
+        sh = self.shape or {}
+        typ = sh.get("type")
+        if typ == "box":
+            a, b = (0.5 * float(v) for v in sh["size"])
+            return np.array([(-a, -b), (a, -b), (a, b), (-a, b)])
+        if typ == "disc":
+            r = float(sh["radius"])
+            ang = np.linspace(0.0, 2 * math.pi, 24, endpoint=False)
+            return np.column_stack((r * np.cos(ang), r * np.sin(ang)))
+        if typ == "polygon":
+            return np.asarray(sh["points"], dtype=float).reshape(-1, 2)
+        pts = np.array([(0.0, 0.0)] + [tuple(v) for v in self.points.values()])
+        width = float(sh.get("width", 0.0)) if typ == "bar" else 0.0
+        return _hull_or_bar(pts, width)
+
     def global_point(self, spec, q=None):
         """Inertial coordinates of a body point for coordinates q (x, y, θ) (default: initial)."""
         x, y, th = self.node.q0 if q is None else q
         s = self.local(spec)
         return np.array([x, y]) + rot(np.array([th]), s[None])[0]
+
+
+def _hull_or_bar(pts, width=0.0):
+    """Convex hull (counter-clockwise) of 2D points, or a thin bar around collinear ones."""
+    pts = np.unique(np.round(pts, 15), axis=0)
+    span = np.ptp(pts, axis=0).max() if len(pts) > 1 else 0.0
+    if len(pts) >= 3:
+        c = pts.mean(0)
+        d = pts - c
+        # collinear test: smallest singular value of the centred points
+        sv = np.linalg.svd(d, compute_uv=False)
+        if sv[-1] > 1e-9 * max(sv[0], 1e-300) and width == 0.0:
+            return _graham(pts)
+    if span == 0.0:
+        r = 0.01 if width == 0.0 else 0.5 * width
+        ang = np.linspace(0.0, 2 * math.pi, 12, endpoint=False)
+        return pts[0] + np.column_stack((r * np.cos(ang), r * np.sin(ang)))
+    # a bar along the principal direction through the extreme points
+    c = pts.mean(0)
+    u = np.linalg.svd(pts - c)[2][0]
+    s = (pts - c) @ u
+    p0, p1 = c + s.min() * u, c + s.max() * u
+    w = 0.5 * (width if width > 0.0 else 0.06 * (s.max() - s.min()))
+    n = np.array([-u[1], u[0]]) * w
+    return np.array([p0 - n, p1 - n, p1 + n, p0 + n])
+
+
+def _graham(pts):
+    """Convex hull by Andrew's monotone chain (counter-clockwise, no repeated end)."""
+    P = sorted(map(tuple, pts))
+
+    def cross(o, a, b):
+        return (a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0])
+
+    lower, upper = [], []
+    for p in P:
+        while len(lower) >= 2 and cross(lower[-2], lower[-1], p) <= 0:
+            lower.pop()
+        lower.append(p)
+    for p in reversed(P):
+        while len(upper) >= 2 and cross(upper[-2], upper[-1], p) <= 0:
+            upper.pop()
+        upper.append(p)
+    return np.array(lower[:-1] + upper[:-1])
+
+
+def _body_geometry(name, p, qe, qde):
+    """Outline polygons of all bodies of a batch: one vectorized transform."""
+    own = p["outline_owner"]
+    th = qe[own, 2]
+    d = rot(th, p["outline_local"])
+    pts = np.zeros((own.size, 3))
+    pts[:, :2] = qe[own, 0:2] + d
+    vel = np.zeros((own.size, 3))
+    vel[:, :2] = qde[own, 0:2] + perp(d) * qde[own, 2:3]
+    cells = [("polygon", conn) for conn in p["outline_cells"]]
+    ids = [p["body_id"][cb] for cb in p["outline_cell_body"]]
+    return [GeometryBlock(name, pts, cells, point_data={"velocity": vel},
+                          cell_data={"body_id": ids})]
+
+
+def _pack_outlines(elements):
+    loc, owner, by_count = [], [], {}
+    start = 0
+    for k, e in enumerate(elements):
+        o = e.outline()
+        loc.append(o)
+        owner.append(np.full(len(o), k))
+        by_count.setdefault(len(o), []).append((k, np.arange(start, start + len(o))))
+        start += len(o)
+    cells = [np.array([c for _, c in v]) for v in by_count.values()]
+    cell_body = [np.array([k for k, _ in v]) for v in by_count.values()]
+    return {"outline_local": np.concatenate(loc), "outline_owner": np.concatenate(owner),
+            "outline_cells": cells, "outline_cell_body": cell_body}
 
 
 class Ground(Body):
@@ -149,7 +246,14 @@ class RigidBody(Body, Element):
 
     @classmethod
     def pack(cls, elements):
-        return {"m": np.array([e.m for e in elements]), "J": np.array([e.J for e in elements])}
+        p = {"m": np.array([e.m for e in elements]), "J": np.array([e.J for e in elements]),
+             "body_id": np.arange(len(elements))}
+        p.update(_pack_outlines(elements))
+        return p
+
+    @classmethod
+    def geometry(cls, p, t, qe, qde, lame, names):
+        return _body_geometry(cls.__name__, p, qe, qde)
 
     @classmethod
     def mass(cls, p, qe):
@@ -191,6 +295,16 @@ class PointMass(Body, Element):
     @classmethod
     def pack(cls, elements):
         return {"m": np.array([e.m for e in elements])}
+
+    @classmethod
+    def geometry(cls, p, t, qe, qde, lame, names):
+        n = qe.shape[0]
+        pts = np.zeros((n, 3))
+        pts[:, :2] = qe[:, 0:2]
+        vel = np.zeros((n, 3))
+        vel[:, :2] = qde[:, 0:2]
+        return [GeometryBlock(cls.__name__, pts, [("vertex", np.arange(n)[:, None])],
+                              point_data={"velocity": vel}, cell_data={"mass": [p["m"].copy()]})]
 
     @classmethod
     def mass(cls, p, qe):

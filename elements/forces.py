@@ -136,7 +136,7 @@ class SpringDamper(PairElement):
         return f, f_q, f_qd
 
     @classmethod
-    def geometry(cls, p, qe, qde, lame, names, n_zig=12):
+    def geometry(cls, p, t, qe, qde, lame, names, n_zig=12):
         da, db, D, l, e, ge = cls._kin(p, qe)
         ra = qe[:, 0:2] + da
         n = qe.shape[0]
@@ -268,6 +268,11 @@ class Torque(_BodyLoad):
         f[:, 2] = evaluate(p["fn"], t, 0)
         return f, (np.zeros((qe.shape[0], 3, 3)) if jac else None), None
 
+    @classmethod
+    def geometry(cls, p, t, qe, qde, lame, names):
+        T = evaluate(p["fn"], t, 0)
+        return _load_geometry("Torque", qe[:, 0:2], np.zeros((qe.shape[0], 2)), {"torque": T})
+
 
 class Force(_BodyLoad):
     """Applied force F(t) at a body point.
@@ -327,6 +332,25 @@ class Force(_BodyLoad):
         # ∂((J d)·F)/∂θ = (J J d)·F + (J d)·∂F/∂θ = −d·F + bf (J d)·(J F)
         f_q[:, 2, 2] = -np.einsum("ij,ij->i", d, F) + np.where(bf, np.einsum("ij,ij->i", d, F), 0.0)
         return f, f_q, None
+
+    @classmethod
+    def geometry(cls, p, t, qe, qde, lame, names):
+        Fb = np.stack((evaluate(p["fx"], t, 0), evaluate(p["fy"], t, 0)), axis=1)
+        th = qe[:, 2]
+        F = np.where(p["body_frame"][:, None], rot(th, Fb), Fb)
+        return _load_geometry("Force", qe[:, 0:2] + rot(th, p["s"]), F)
+
+
+def _load_geometry(name, pts2, vec2, extra=None):
+    n = pts2.shape[0]
+    pts = np.zeros((n, 3))
+    pts[:, :2] = pts2
+    vec = np.zeros((n, 3))
+    vec[:, :2] = vec2
+    pd = {"load": vec}
+    if extra:
+        pd.update(extra)
+    return [GeometryBlock(name, pts, [("vertex", np.arange(n)[:, None])], point_data=pd)]
 
 
 class Gravity(Element):

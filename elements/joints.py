@@ -148,7 +148,7 @@ class Hinge(PairElement):
         return np.zeros_like(gamma), gamma
 
     @classmethod
-    def geometry(cls, p, qe, qde, lame, names):
+    def geometry(cls, p, t, qe, qde, lame, names):
         xa, tha, _, _ = _split(qe)
         pts = np.zeros((qe.shape[0], 3))
         pts[:, :2] = xa + rot(tha, p["sa"])
@@ -220,19 +220,22 @@ class _LineJoint(PairElement):
     def validate(self):
         self.sa, self.sb = self._points(*self._spec)
         self.phi0 = float(self.b.node.q0[2] - self.a.node.q0[2])
+        sep = np.linalg.norm(self.b.global_point(self.sb) - self.a.global_point(self.sa))
+        self.draw_length = max(2.5 * sep, 0.05)
 
     @classmethod
     def pack(cls, elements):
         return {"sa": np.array([e.sa for e in elements]), "sb": np.array([e.sb for e in elements]),
-                "u": np.array([e.u for e in elements]), "phi0": np.array([e.phi0 for e in elements])}
+                "u": np.array([e.u for e in elements]), "phi0": np.array([e.phi0 for e in elements]),
+                "draw_length": np.array([e.draw_length for e in elements])}
 
     @classmethod
-    def geometry(cls, p, qe, qde, lame, names):
+    def geometry(cls, p, t, qe, qde, lame, names):
         xa, tha, _, _ = _split(qe)
         n = qe.shape[0]
         c = xa + rot(tha, p["sa"])
         u = rot(tha, p["u"])
-        L = p.get("draw_length", np.full(n, 1.0))
+        L = p["draw_length"]
         pts = np.zeros((2 * n, 3))
         pts[0::2, :2] = c - 0.5 * L[:, None] * u
         pts[1::2, :2] = c + 0.5 * L[:, None] * u

@@ -156,6 +156,6 @@ class Element:
         raise NotImplementedError
 
     @classmethod
-    def geometry(cls, p, qe, qde, lame, names):
+    def geometry(cls, p, t, qe, qde, lame, names):
         """Plain geometry for output: list of :class:`femb.geometry.GeometryBlock`."""
         return []

@@ -104,6 +104,12 @@ class Result:
         idx = self.model.lam_indices(name)
         return self.lam[:, idx]
 
+    def write_vtk(self, directory, every=1, basename="frame"):
+        """Write the stored steps as a ParaView time series (``.pvd`` + ``.vtu``); returns the ``.pvd`` path."""
+        from femb.io.frames import write_vtk
+
+        return write_vtk(self, directory, every=every, basename=basename)
+
     def at(self, time):
         """Index of the stored step nearest to ``time``."""
         return int(np.argmin(np.abs(self.t - time)))

@@ -13,6 +13,8 @@ can_render, render_png, render_strip, render_animation
     from :mod:`femb.io.render`
 progress
     from :mod:`femb.io.progress`
+model_blocks, VTKStream, write_vtk, write_vtk_stream
+    from :mod:`femb.io.frames` (elements → frames, streaming during a run)
 """
 from __future__ import annotations
 
@@ -33,6 +35,10 @@ _EXPORTS = {
     "render_png": "render",
     "render_strip": "render",
     "render_animation": "render",
+    "model_blocks": "frames",
+    "VTKStream": "frames",
+    "write_vtk": "frames",
+    "write_vtk_stream": "frames",
 }
 
 __all__ = sorted([*_EXPORTS, "progress"])

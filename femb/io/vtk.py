@@ -42,11 +42,7 @@ PVD_FLUSH_INTERVAL = 0.5
 ELEMENT_TYPE_PREFIX = "element_type."
 
 
-class OutputError(Exception):
-    """An output file cannot be written, read or rendered.
-
-    The message names the file or the parameter at fault.
-    """
+from femb.errors import OutputError  # noqa: E402  (femb's own exception class)
 
 
 # ---------------------------------------------------------------------------
