@@ -57,15 +57,21 @@ def _constraint_owner(model):
 # linear solves
 # --------------------------------------------------------------------------
 class _LU:
-    """One factorization of a dense array or a CSC matrix."""
+    """One factorization of a dense array or a CSC matrix.
 
-    def __init__(self, S, dense):
+    A pivot below ``rel_tol`` times the largest one is taken as singularity.
+    That test is only meaningful for a well-scaled matrix (the scaled Newton
+    system); the unscaled one has pivots of order h⁴ relative to the largest
+    by design, so there only exact singularity (a zero pivot) is reported.
+    """
+
+    def __init__(self, S, dense, rel_tol=1e-13):
         self.dense = dense
         if dense:
             # LAPACK getrf/getrs directly: the wrappers' checks cost more than a 40x40 LU
             lu, piv, info = _getrf(S, overwrite_a=True)
             d = np.abs(np.diag(lu))
-            if info > 0 or not np.all(np.isfinite(d)) or d.min() <= 1e-13 * d.max():
+            if info > 0 or not np.all(np.isfinite(d)) or d.min() <= rel_tol * d.max():
                 raise _Singular()
             self.lu = (lu, piv)
         else:
@@ -74,7 +80,7 @@ class _LU:
             except RuntimeError:
                 raise _Singular() from None
             d = np.abs(self.lu.U.diagonal())
-            if not np.all(np.isfinite(d)) or d.min() <= 1e-13 * d.max():
+            if not np.all(np.isfinite(d)) or d.min() <= rel_tol * d.max():
                 raise _Singular()
 
     def solve(self, b):
@@ -309,6 +315,7 @@ class GeneralizedAlphaSolver:
             st = (state or model.initial_state(t0)).copy()
         self.init_time = time.perf_counter() - t_init
         self.state = st
+        self.t0 = st.t
         self.a = st.qdd.copy()                   # a_0 = q̈_0
         self.step_index = 0
         self.stats = {"steps": 0, "evaluations": 0, "factorizations": 0, "solves": 0}
@@ -346,7 +353,7 @@ class GeneralizedAlphaSolver:
         bp, gp = al.newton_factors(h)
         c = beta * h * h if self.scaling else 1.0
         st = self.state
-        t1 = st.t + h
+        t1 = self.t0 + (self.step_index + 1) * h      # no accumulation of round-off in t
         # Algorithm 1. The Newton iterates keep (3)-(5) satisfied for any initial
         # guess of q̈_{n+1}; "zero" starts from q̈ = 0, λ = 0 as printed, "previous"
         # from q̈_n, λ_n (an O(h) better start, the same converged solution).
@@ -409,7 +416,7 @@ class GeneralizedAlphaSolver:
                     self.stats["evaluations"] += 1
             if S is not None:
                 try:
-                    self._lu = _LU(S, self.assembler.dense)
+                    self._lu = _LU(S, self.assembler.dense, 1e-13 if self.scaling else 0.0)
                 except _Singular:
                     if k > 0:
                         raise ConvergenceError(
@@ -519,7 +526,7 @@ def simulate(model, t_end, h, *, rho_inf=None, alpha=None, scaling=True, t0=0.0,
             iters[n - 1] = solver.step()
             st = solver.state
             if n == n_steps:
-                st.t = t_end if n_steps * h_eff + t0 != t_end else st.t
+                st.t = t_end          # t0 + n h_eff may differ from t_end in the last bit
             if store and (n % stride == 0 or n == n_steps):
                 T.append(st.t)
                 Q.append(st.q.copy())
