@@ -5,6 +5,19 @@ Seven rigid bodies, ten hinges, one spring and one torque; planar, no gravity;
 Data: Hairer & Wanner, Solving ODEs II, Sect. VII.7, as in the IVP test set
 (Mazzia & Magherini, problem ``andrews``); see docs/benchmarks data.
 
+Outputs (:func:`outputs`)
+-------------------------
+* Hairer's relative angles ``beta, Theta, gamma, Phi, delta, Omega, epsilon``
+  (rad), their rates (suffix ``_d``, rad/s) and accelerations (suffix ``_dd``);
+* ``xP, yP`` (m) and ``xP_dd, yP_dd`` (m/s²): position and acceleration of the
+  crank–rod hinge P (seed, Figs. 6–8);
+* ``lambda_1`` … ``lambda_6`` (N): the reactions at E of the hinges rod–triangle
+  (``E23``), rod–body 4 (``E24``), rod–body 6 (``E26``), (x, y) each. These
+  hinges have the rod as body a, so Φ = r_rod(E) − r_k(E) and the multiplier is
+  the force the rod exerts on body k: the order and the sign convention
+  (M q̈ = f − Gᵀλ) of the published relative-coordinate reference (IVP test set;
+  see :mod:`femb.benchmarks.references.andrews`).
+
 References
 ----------
 G. C. Andrews, H. K. Richard, Multibody dynamics benchmark (Schiehlen, 1990).
@@ -38,6 +51,24 @@ ANGLES0 = (-0.0617138900142764496358948458001, 0.0,
            1.23054744454982119249735015568)
 
 ANGLE_NAMES = ("beta", "Theta", "gamma", "Phi", "delta", "Omega", "epsilon")
+
+#: Names of the six multipliers at E, in the order of the published reference.
+LAMBDA_NAMES = tuple(f"lambda_{k}" for k in range(1, 7))
+
+#: The hinges whose multipliers are ``lambda_1`` … ``lambda_6`` (two each, x then y).
+E_HINGES = ("E23", "E24", "E26")
+
+#: Run settings of the seed's plots: t ∈ [0, 0.03] s, h = 3e-4 s, ρ∞ = 0.7 (Sect. 5.2, Figs. 5–7).
+DEFAULTS = {"t_end": 0.03, "h": 3e-4, "rho_inf": 0.7}
+
+#: The h-convergence study (Fig. 9 of the seed): all seven angles and the six
+#: multipliers at E at t = 0.03 s.
+CONVERGENCE = {
+    "t_end": 0.03,
+    "h": [4e-5, 2e-5, 1e-5, 5e-6, 2.5e-6, 1.25e-6],
+    "q": list(ANGLE_NAMES),
+    "lambda": list(LAMBDA_NAMES),
+}
 
 
 def body_points(D=DATA):
@@ -147,3 +178,148 @@ def rates(result):
     """Rates of Hairer's relative angles over time, shape (nt, 7)."""
     w = np.stack([result.body(f"b{k}", "qd")[:, 2] for k in range(1, 8)], axis=1)
     return relative_angles(w)
+
+
+def outputs(result):
+    """Named outputs over the stored time steps.
+
+    Parameters
+    ----------
+    result : femb.Result
+        A run of :func:`build`'s mechanism.
+
+    Returns
+    -------
+    dict of str to ndarray, each of shape (nt,)
+        The seven angles (rad), their rates (``_d``) and accelerations
+        (``_dd``); ``xP, yP, xP_dd, yP_dd`` for the hinge P; ``lambda_1`` …
+        ``lambda_6`` (N) in the published order and sign convention.
+    """
+    phi = np.stack([result.body(f"b{k}") for k in range(1, 8)], axis=1)        # (nt, 7, 3)
+    qd = np.stack([result.body(f"b{k}", "qd") for k in range(1, 8)], axis=1)
+    qdd = np.stack([result.body(f"b{k}", "qdd") for k in range(1, 8)], axis=1)
+    out = {}
+    for what, arr in (("", phi), ("_d", qd), ("_dd", qdd)):
+        rel = relative_angles(arr[:, :, 2])
+        for k, name in enumerate(ANGLE_NAMES):
+            out[name + what] = rel[:, k]
+    # hinge P on the crank: r = x + R(φ) s, r̈ = ẍ + R(φ)(φ̈ J s − φ̇² s)
+    sP = body_points()[0]["P"]
+    th, w, al = phi[:, 0, 2], qd[:, 0, 2], qdd[:, 0, 2]
+    c, sn = np.cos(th), np.sin(th)
+    dx, dy = c * sP[0] - sn * sP[1], sn * sP[0] + c * sP[1]      # R(φ) s
+    out["xP"] = phi[:, 0, 0] + dx
+    out["yP"] = phi[:, 0, 1] + dy
+    out["xP_dd"] = qdd[:, 0, 0] - al * dy - w * w * dx
+    out["yP_dd"] = qdd[:, 0, 1] + al * dx - w * w * dy
+    lam = np.concatenate([result.reaction(name) for name in E_HINGES], axis=1)
+    for k, name in enumerate(LAMBDA_NAMES):
+        out[name] = lam[:, k]
+    return out
+
+
+def energy(result, mom=DATA["mom"], c0=DATA["c0"], l0=DATA["l0"]):
+    """Energy integral T + V − mom·β from femb's absolute coordinates.
+
+    Constant along exact solutions (the torque is constant, nothing dissipates);
+    computed from the bodies' centre velocities and rotation rates and from the
+    spring's end points, independently of any relative-coordinate formula.
+
+    Parameters
+    ----------
+    result : femb.Result
+    mom, c0, l0 : float
+        Torque, spring stiffness and length given to :func:`build`.
+
+    Returns
+    -------
+    ndarray, shape (nt,)
+        Energy integral (J) at every stored step.
+    """
+    D = DATA
+    kin = np.zeros(result.t.size)
+    for k in range(7):
+        v = result.body(f"b{k + 1}", "qd")
+        kin += 0.5 * (D["m"][k] * (v[:, 0] ** 2 + v[:, 1] ** 2) + D["i"][k] * v[:, 2] ** 2)
+    d = result.position("b3", "D") - np.array([D["xc"], D["yc"]])
+    pot = 0.5 * c0 * (np.hypot(d[:, 0], d[:, 1]) - l0) ** 2
+    beta = result.body("b1")[:, 2]
+    return kin + pot - mom * beta
+
+
+def published():
+    """The published reference solution at t = 0.03 s, by output name.
+
+    Source: IVP test set (Mazzia & Magherini), problem ``andrews``, PSIDE at
+    rtol = atol = 1e-14 (docs/benchmarks.md §2); accurate to about 3e-10
+    relative in the angles, 5e-8 in the rates, 1e-6 in the multipliers.
+
+    Returns
+    -------
+    dict of str to float
+        ``t``, the seven angles, their rates (``_d``) and accelerations
+        (``_dd``), and ``lambda_1`` … ``lambda_6``.
+    """
+    from femb.benchmarks.references.andrews import PUBLISHED_T003 as P
+
+    out = {"t": float(P["t"])}
+    for k, name in enumerate(ANGLE_NAMES):
+        out[name] = float(P["angles"][k])
+        out[name + "_d"] = float(P["rates"][k])
+        out[name + "_dd"] = float(P["accelerations"][k])
+    for k, name in enumerate(LAMBDA_NAMES):
+        out[name] = float(P["lam"][k])
+    return out
+
+
+def reference(t, mom=DATA["mom"], c0=DATA["c0"], l0=DATA["l0"]):
+    """Independent reference solution at times ``t``.
+
+    The relative-coordinate model of Hairer & Wanner
+    (:mod:`femb.benchmarks.references.andrews`), index-1 form integrated with
+    scipy's DOP853 at rtol = atol = 1e-12, gives every output; at t = 0.03 s
+    the angles and rates are replaced by the published IVP-test-set values
+    (as in the seed: "a reference solution is given for the body angles at
+    final time"), while the multipliers stay those of the tight-tolerance run
+    (the published ones are only good to about 1e-6).
+
+    Parameters
+    ----------
+    t : array_like, shape (nt,)
+        Output times (s) in [0, 0.03] or beyond.
+    mom, c0, l0 : float
+        Must be the published values (the reference has no other data).
+
+    Returns
+    -------
+    dict
+        Angle, rate, acceleration and multiplier names of :func:`outputs`
+        mapped to arrays (nt,), plus ``"description"`` (str).
+    """
+    from femb.benchmarks.references import andrews as ref
+
+    if (mom, c0, l0) != (DATA["mom"], DATA["c0"], DATA["l0"]):
+        raise ValueError("andrews.reference: the reference exists only for the published data "
+                         "(mom = 0.033, c0 = 4530, l0 = 0.07785)")
+    t = np.atleast_1d(np.asarray(t, dtype=float))
+    sol = ref.solve(t, rtol=1e-12, atol=1e-12)
+    out = {}
+    for k, name in enumerate(ANGLE_NAMES):
+        out[name] = sol["angles"][:, k].copy()
+        out[name + "_d"] = sol["rates"][:, k].copy()
+        out[name + "_dd"] = sol["accelerations"][:, k].copy()
+    for k, name in enumerate(LAMBDA_NAMES):
+        out[name] = sol["lam"][:, k].copy()
+    desc = ("relative coordinates (Hairer & Wanner VII.7), index-1 form, scipy solve_ivp DOP853 "
+            "at rtol = atol = 1e-12 (femb.benchmarks.references.andrews)")
+    pub = published()
+    at = np.nonzero(np.abs(t - pub["t"]) <= 1e-12)[0]
+    if at.size:
+        for name in ANGLE_NAMES:
+            out[name][at] = pub[name]
+            out[name + "_d"][at] = pub[name + "_d"]
+        desc = ("angles and rates at t = 0.03 s: published IVP test set values (Mazzia & Magherini, "
+                "problem andrews, PSIDE at rtol = atol = 1e-14); multipliers (and all values at other "
+                "times): " + desc)
+    out["description"] = desc
+    return out

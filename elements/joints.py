@@ -225,9 +225,14 @@ class _LineJoint(PairElement):
 
     @classmethod
     def pack(cls, elements):
+        n = len(elements)
+        u = np.array([e.u for e in elements])
+        Bq = np.zeros((n, 2, 6))          # rotation-lock row of a Slider's Φ_q (constant)
+        Bq[:, 1, 2] = -1.0
+        Bq[:, 1, 5] = 1.0
         return {"sa": np.array([e.sa for e in elements]), "sb": np.array([e.sb for e in elements]),
-                "u": np.array([e.u for e in elements]), "phi0": np.array([e.phi0 for e in elements]),
-                "draw_length": np.array([e.draw_length for e in elements])}
+                "u": u, "n": perp(u), "phi0": np.array([e.phi0 for e in elements]),
+                "draw_length": np.array([e.draw_length for e in elements]), "Bq": Bq}
 
     @classmethod
     def geometry(cls, p, t, qe, qde, lame, names):
@@ -266,6 +271,11 @@ class PointOnLine(_LineJoint):
     def constraint(cls, p, t, qe):
         Phi, g, _ = _line_kernel(p, qe, perp(p["u"]))
         return Phi[:, None], g[:, None, :]
+
+    @classmethod
+    def constraint_all(cls, p, t, qe, lame, jac):
+        Phi, g, parts = _line_kernel(p, qe, p["n"])
+        return Phi[:, None], g[:, None, :], (_line_hessian(parts, lame[:, 0]) if jac else None)
 
     @classmethod
     def constraint_hessian(cls, p, t, qe, lame):
@@ -323,6 +333,17 @@ class Slider(_LineJoint):
     def constraint_hessian(cls, p, t, qe, lame):
         _, _, parts = _line_kernel(p, qe, perp(p["u"]))
         return _line_hessian(parts, lame[:, 0])
+
+    @classmethod
+    def constraint_all(cls, p, t, qe, lame, jac):
+        Phi1, g, parts = _line_kernel(p, qe, p["n"])
+        n = qe.shape[0]
+        Phi = np.empty((n, 2))
+        Phi[:, 0] = Phi1
+        Phi[:, 1] = qe[:, 5] - qe[:, 2] - p["phi0"]
+        Phi_q = p["Bq"].copy()
+        Phi_q[:, 0, :] = g
+        return Phi, Phi_q, (_line_hessian(parts, lame[:, 0]) if jac else None)
 
     @classmethod
     def constraint_rates(cls, p, t, qe, qde):
@@ -383,6 +404,12 @@ class DrivenDisplacement(_LineJoint):
     def constraint_hessian(cls, p, t, qe, lame):
         _, _, parts = _line_kernel(p, qe, p["u"])
         return _line_hessian(parts, lame[:, 0])
+
+    @classmethod
+    def constraint_all(cls, p, t, qe, lame, jac):
+        Phi, g, parts = _line_kernel(p, qe, p["u"])
+        Phi = Phi - p["d0"] - evaluate(p["fn"], t, 0)
+        return Phi[:, None], g[:, None, :], (_line_hessian(parts, lame[:, 0]) if jac else None)
 
     @classmethod
     def constraint_rates(cls, p, t, qe, qde):

@@ -384,7 +384,10 @@ class GeneralizedAlphaSolver:
         for k in range(self.max_iter + 1):
             qx[:nq] = q
             qdx[:nq] = qd
-            need_jac = full or self._lu is None or self._lu_h != h
+            # Full Newton needs S_t only where it solves; the first iterate of a step
+            # almost always needs a correction, later ones are usually converged, so
+            # S_t is built with the residual at k = 0 and on demand after that.
+            need_jac = (full and k == 0) or self._lu is None or self._lu_h != h
             r_q, Phi, scale, S = self.assembler.evaluate(t1, qx, qdx, qdd, lam, need_jac,
                                                          c * bp, c * gp, c)
             self.stats["evaluations"] += 1
@@ -408,6 +411,9 @@ class GeneralizedAlphaSolver:
                     f"{self.rtol * self.F_ref + self.atol:.3e}), ‖Φ‖∞ = {err_phi:.3e} m (tolerance "
                     f"{tol_phi:.3e}){where}; try a smaller h", t=t1, step=self.step_index + 1,
                     residuals={"r_q": err_f, "Phi": err_phi})
+            if full and S is None:
+                r_q, Phi, scale, S = self.assembler.evaluate(t1, qx, qdx, qdd, lam, True, c * bp, c * gp, c)
+                self.stats["evaluations"] += 1
             if not full and prev_norm is not None and self._lu is not None:
                 # modified Newton: refactor when contraction is poor
                 cur = max(c * err_f / max(self.F_ref * c, 1e-300), err_phi / max(tol_phi, 1e-300))

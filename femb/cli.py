@@ -1,0 +1,466 @@
+"""The ``femb`` command line.
+
+Subcommands (one function each, ``cmd_*``)::
+
+    femb list                                   built-in scenes and their parameters
+    femb run SCENE [options]                    run one scene, print/write its outputs at t_end
+    femb bench convergence SCENE [options]      h-convergence study (seed Figs. 3, 9)
+    femb bench figures SCENE --out DIR          the seed's figures as PNG files
+
+``SCENE`` is a built-in scene name (``femb list``) or a path to a Python file
+that defines ``build()`` (see :mod:`femb.benchmarks.registry` for the scene
+protocol). ``femb bench`` without a subcommand is reserved for the benchmark
+suite; for now it prints its help and exits with status 2.
+
+Exit status: 0 on success, 1 when a simulation fails (Newton does not
+converge, singular matrix), 2 for bad arguments (one line on stderr).
+
+JSON written by ``femb run --json FILE``::
+
+    {"scene", "t_end", "h", "rho_inf", "scaling", "steps", "newton_iterations",
+     "wall_time_s", "outputs": {name: value at t_end}, ...}
+
+and by ``femb bench convergence --json FILE``: the dict returned by
+:func:`femb.benchmarks.convergence.convergence_study` (keys ``scene``,
+``rho_inf``, ``h``, ``error_q``, ``error_lambda``, ``order_q``,
+``order_lambda``, ``reference``, ...).
+"""
+from __future__ import annotations
+
+import argparse
+import ast
+import json
+import math
+import sys
+import time
+import warnings
+from pathlib import Path
+
+from femb.errors import FembError, ParameterWarning, SolverError
+
+PROG = "femb"
+
+#: (module, function) called by ``femb run --vtk DIR --every N``; see :func:`_vtk_stream`.
+VTK_HOOK = ("femb.io", "write_vtk_stream")
+
+
+class UsageError(Exception):
+    """Bad command-line input: reported in one line, exit status 2."""
+
+
+class _Parser(argparse.ArgumentParser):
+    """argparse with one-line errors (``femb run: error: ...``) and exit status 2."""
+
+    def error(self, message):
+        raise UsageError(f"{message} (see '{self.prog} --help')")
+
+
+# --------------------------------------------------------------------------
+# helpers
+# --------------------------------------------------------------------------
+def parse_value(text):
+    """A ``--set`` value: a Python literal when it is one (numbers, True, None, tuples), else the string."""
+    t = text.strip()
+    low = t.lower()
+    if low in ("true", "false"):
+        return low == "true"
+    if low in ("none", "null"):
+        return None
+    try:
+        return ast.literal_eval(t)
+    except (ValueError, SyntaxError, MemoryError, RecursionError):
+        pass
+    try:
+        return float(t)             # inf, nan, 1_000.5 variants literal_eval rejects
+    except ValueError:
+        return text
+
+
+def parse_sets(items):
+    """``["NAME=VALUE", ...]`` -> dict, values parsed by :func:`parse_value`."""
+    params = {}
+    for item in items or []:
+        name, sep, value = item.partition("=")
+        name = name.strip()
+        if not sep or not name.isidentifier():
+            raise UsageError(f"--set expects NAME=VALUE with NAME a parameter name, got {item!r}")
+        params[name] = parse_value(value)
+    return params
+
+
+def _positive(name):
+    def conv(text):
+        try:
+            v = float(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{name} must be a number, got {text!r}") from None
+        if not (math.isfinite(v) and v > 0.0):
+            raise argparse.ArgumentTypeError(f"{name} must be a positive number, got {text!r}")
+        return v
+    return conv
+
+
+def _rho(text):
+    try:
+        v = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"rho_inf must be a number in [0, 1], got {text!r}") from None
+    if not 0.0 <= v <= 1.0:
+        raise argparse.ArgumentTypeError(f"rho_inf must lie in [0, 1], got {text!r}")
+    return v
+
+
+def _count(text):
+    try:
+        v = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be a positive integer, got {text!r}") from None
+    if v < 1:
+        raise argparse.ArgumentTypeError(f"must be a positive integer, got {text!r}")
+    return v
+
+
+def _load_scene(spec):
+    from femb.benchmarks.registry import SceneError, load
+
+    try:
+        return load(spec)
+    except SceneError as exc:
+        raise UsageError(str(exc)) from None
+
+
+def _json_value(v):
+    try:
+        f = float(v)
+    except (TypeError, ValueError):
+        return v
+    return f if math.isfinite(f) else None
+
+
+def _write_json(data, dest):
+    text = json.dumps(data, indent=2) + "\n"
+    if dest == "-":
+        sys.stdout.write(text)
+        return
+    try:
+        Path(dest).parent.mkdir(parents=True, exist_ok=True)
+        Path(dest).write_text(text)
+    except OSError as exc:
+        raise UsageError(f"cannot write {dest}: {exc}") from None
+
+
+def _vtk_stream(model, directory, every):
+    """INTEGRATION POINT for VTK output of ``femb run --vtk DIR --every N``.
+
+    Calls ``femb.io.write_vtk_stream(model, directory, every=every)``, which
+    must return either a context manager whose ``__enter__`` gives an
+    observer ``callable(state, step)`` for :func:`femb.simulate`, or such an
+    observer directly. Until the output layer provides that function,
+    ``--vtk`` fails with a one-line error (exit status 2).
+    """
+    import importlib
+
+    module_name, func_name = VTK_HOOK
+    hook = getattr(importlib.import_module(module_name), func_name, None)
+    if hook is None:
+        raise UsageError(f"--vtk: VTK streaming is not available in this version of femb "
+                         f"({module_name}.{func_name} is missing)")
+    try:
+        return hook(model, directory, every=every)
+    except Exception as exc:   # output layer: bad directory, permissions, ...
+        raise UsageError(f"--vtk {directory}: {str(exc).splitlines()[0] if str(exc) else type(exc).__name__}") from None
+
+
+class _OutputFailure(Exception):
+    """Writing output during a run failed: one line, exit status 1."""
+
+
+class _NullContext:
+    def __init__(self, value):
+        self.value = value
+
+    def __enter__(self):
+        return self.value
+
+    def __exit__(self, *exc):
+        return False
+
+
+# --------------------------------------------------------------------------
+# subcommands
+# --------------------------------------------------------------------------
+def cmd_list(args):
+    """femb list: the built-in scenes, their build() parameters and default run settings."""
+    import inspect
+
+    from femb.benchmarks import registry
+
+    for name in registry.names():
+        scene = registry.load(name)
+        print(f"{name}: {scene.description}")
+        params = ", ".join(f"{k}={v!r}" if v is not inspect.Parameter.empty else k
+                           for k, v in scene.parameters().items())
+        print(f"    parameters: {params or '(none)'}")
+        d = scene.defaults
+        print(f"    defaults:   t_end={d['t_end']!r} h={d['h']!r} rho_inf={d['rho_inf']!r}"
+              f"{'   reference: yes' if scene.has_reference else ''}")
+    return 0
+
+
+def cmd_run(args):
+    """femb run: build a scene, integrate it, report its outputs at t_end."""
+    import numpy as np
+
+    from femb.solver import simulate
+
+    if args.every is not None and args.vtk is None:
+        raise UsageError("--every needs --vtk DIR")
+    scene = _load_scene(args.scene)
+    params = parse_sets(args.set)
+    d = scene.defaults
+    t_end = args.t_end if args.t_end is not None else d["t_end"]
+    h = args.h if args.h is not None else d["h"]
+    rho_inf = args.rho_inf if args.rho_inf is not None else d["rho_inf"]
+    missing = [opt for opt, v in (("--t-end", t_end), ("--h", h)) if v is None]
+    if missing:
+        raise UsageError(f"scene '{scene.name}' has no DEFAULTS for {' and '.join(missing)}: give them")
+    from femb.benchmarks.registry import SceneError
+
+    try:
+        model = scene.model(**params)
+    except SceneError as exc:
+        raise UsageError(str(exc)) from None
+    except (FembError, ValueError, TypeError) as exc:
+        raise UsageError(f"scene '{scene.name}': build() rejected the parameters: {exc}") from None
+
+    stream = _NullContext(None)
+    if args.vtk is not None:
+        stream = _vtk_stream(model, args.vtk, args.every or 1)
+        if not hasattr(stream, "__enter__"):
+            stream = _NullContext(stream)
+    t0 = time.perf_counter()
+    with stream as observer, warnings.catch_warnings():
+        if rho_inf == 1.0:
+            warnings.simplefilter("ignore", ParameterWarning)
+            print("note: rho_inf = 1 is not strictly stable at infinity; multipliers may oscillate",
+                  file=sys.stderr)
+        try:
+            result = simulate(model, t_end, h, rho_inf=rho_inf, scaling=not args.no_scaling,
+                              store=False, observer=observer)
+        except (FembError, KeyboardInterrupt):
+            raise
+        except Exception as exc:
+            if observer is not None and (type(exc).__name__ == "OutputError" or isinstance(exc, OSError)):
+                raise _OutputFailure(f"writing output failed: {str(exc).splitlines()[0]}") from exc
+            raise
+    total = time.perf_counter() - t0
+    outs = scene.outputs(result)
+    final = {k: _json_value(np.asarray(v)[-1]) for k, v in outs.items()}
+    iters = int(result.newton_iterations.sum())
+    data = {
+        "scene": scene.name,
+        "t_end": float(result.t[-1]),
+        "h": float(result.settings.get("h", h)),
+        "rho_inf": float(rho_inf),
+        "scaling": not args.no_scaling,
+        "steps": result.steps,
+        "newton_iterations": iters,
+        "wall_time_s": result.wall_time,
+        "outputs": final,
+        "params": {k: _json_value(v) for k, v in params.items()},
+        "newton_per_step": iters / max(result.steps, 1),
+        "us_per_step": 1e6 * result.wall_time / max(result.steps, 1),
+        "total_time_s": total,
+        "source": scene.source,
+    }
+    if args.json:
+        _write_json(data, args.json)
+    if args.json != "-":
+        print(f"{scene.name}: {result.steps} steps of h = {data['h']:.6g} s to t = {data['t_end']:.6g} s, "
+              f"rho_inf = {rho_inf:g}, scaling {'on' if data['scaling'] else 'off'}")
+        print(f"  {iters} Newton iterations ({data['newton_per_step']:.2f}/step), "
+              f"{result.wall_time:.3f} s in the time loop ({data['us_per_step']:.1f} us/step), "
+              f"{total:.3f} s in all")
+        width = max((len(k) for k in final), default=0)
+        for k, v in final.items():
+            print(f"  {k:<{width}s} = {v:.12g}" if isinstance(v, float) else f"  {k:<{width}s} = {v}")
+    return 0
+
+
+def cmd_bench_convergence(args):
+    """femb bench convergence: the h-convergence study of one scene."""
+    from femb.benchmarks.convergence import convergence_study, format_table
+
+    scene = _load_scene(args.scene)
+    params = parse_sets(args.set)
+    try:
+        scene.check_parameters(params)
+    except ValueError as exc:
+        raise UsageError(str(exc)) from None
+    quiet = args.json == "-"
+
+    def report(row):
+        if quiet:
+            return
+        if "failed" in row:
+            print(f"  h = {row['h']:.3e}: failed: {row['failed']}", flush=True)
+        else:
+            print(f"  h = {row['h']:.3e}: {row['steps']} steps, error q {row['error_q']:.3e}, "
+                  f"error lambda {row['error_lambda']:.3e}, {row['us_per_step']:.1f} us/step, "
+                  f"{row['newton_per_step']:.2f} Newton/step", flush=True)
+
+    try:
+        study = convergence_study(scene, h=args.h, rho_inf=args.rho_inf, scaling=not args.no_scaling,
+                                  t_end=args.t_end, params=params, report=report)
+    except (FembError, ValueError, TypeError) as exc:
+        if isinstance(exc, SolverError):
+            raise
+        raise UsageError(f"scene '{scene.name}': {exc}") from None
+    if args.json:
+        _write_json(study, args.json)
+    if not quiet:
+        print(format_table(study))
+    if args.plot:
+        from femb.benchmarks.figures import convergence_figure
+
+        path = convergence_figure(study, args.plot)
+        if not quiet:
+            print(f"wrote {path}")
+    return 0
+
+
+def cmd_bench_figures(args):
+    """femb bench figures: the seed paper's figures for a scene, as PNG files."""
+    from femb.benchmarks.figures import make_figures
+
+    scene = _load_scene(args.scene)
+    t0 = time.perf_counter()
+    files = make_figures(scene, args.out, rho_inf=args.rho_inf, h=args.h)
+    for f in files:
+        print(f"wrote {f}")
+    print(f"({time.perf_counter() - t0:.1f} s)")
+    return 0
+
+
+# --------------------------------------------------------------------------
+# parser
+# --------------------------------------------------------------------------
+SCENE_HELP = "built-in scene name (see 'femb list') or path to a Python file defining build()"
+
+
+def build_parser():
+    """The argparse parser of the ``femb`` command."""
+    p = _Parser(prog=PROG, description="femb: flexible multibody dynamics with the index-3 "
+                "generalized-alpha scheme. Run benchmark scenes, convergence studies and figures.",
+                epilog="Exit status: 0 success, 1 simulation failure, 2 bad arguments.")
+    p.add_argument("--version", action="version", version=f"%(prog)s {_version()}")
+    p.add_argument("--debug", action="store_true", help="show full tracebacks on errors")
+    sub = p.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
+
+    sp = sub.add_parser("list", help="list the built-in scenes and their parameters",
+                        description="List the built-in scenes, the parameters of their build() "
+                        "functions (settable with 'femb run --set') and their default run settings.")
+    sp.set_defaults(func=cmd_list)
+
+    sp = sub.add_parser("run", help="run one scene and report its outputs at the final time",
+                        description="Build a scene from femb elements, integrate it with the "
+                        "generalized-alpha scheme at fixed step h, and print its named outputs at "
+                        "t_end (optionally as JSON).")
+    sp.add_argument("scene", metavar="SCENE", help=SCENE_HELP)
+    sp.add_argument("--t-end", type=_positive("t_end"), metavar="T", help="final time in s (default: the scene's)")
+    sp.add_argument("--h", type=_positive("h"), metavar="H", help="step size in s (default: the scene's)")
+    sp.add_argument("--rho-inf", type=_rho, metavar="R",
+                    help="spectral radius at infinity in [0, 1] (default: the scene's, usually 0.7)")
+    sp.add_argument("--no-scaling", action="store_true",
+                    help="solve the unscaled Newton system (default: scaled, Bottasso et al.)")
+    sp.add_argument("--set", action="append", metavar="NAME=VALUE", default=[],
+                    help="keyword argument of the scene's build() (repeatable; numbers are parsed as numbers)")
+    sp.add_argument("--json", metavar="FILE", help="write the run summary as JSON ('-' for stdout)")
+    sp.add_argument("--vtk", metavar="DIR", help="stream VTK frames into DIR (ParaView .pvd collection)")
+    sp.add_argument("--every", type=_count, metavar="N", help="with --vtk: write every N-th step (default 1)")
+    sp.set_defaults(func=cmd_run)
+
+    bp = sub.add_parser("bench", help="benchmarks: convergence studies and the paper's figures",
+                        description="Benchmarks of the seed paper (Arnold & Bruls 2007). "
+                        "'femb bench' alone is reserved for the benchmark suite.")
+    bsub = bp.add_subparsers(dest="bench_command", metavar="BENCH_COMMAND", parser_class=_Parser)
+    bp.set_defaults(func=None, bench_parser=bp)
+
+    cp = bsub.add_parser("convergence", help="h-convergence study of a scene (errors in q and lambda)",
+                         description="Run a scene with a sequence of step sizes, measure the relative "
+                         "errors at the final time of its coordinates and Lagrange multipliers against "
+                         "an independent reference, and fit the order in h.")
+    cp.add_argument("scene", metavar="SCENE", help=SCENE_HELP)
+    cp.add_argument("--rho-inf", type=_rho, default=0.7, metavar="R", help="spectral radius at infinity (default 0.7)")
+    cp.add_argument("--h", type=_positive("h"), nargs="+", metavar="H", help="step sizes (default: the scene's)")
+    cp.add_argument("--t-end", type=_positive("t_end"), metavar="T", help="final time (default: the scene's)")
+    cp.add_argument("--no-scaling", action="store_true", help="unscaled Newton system")
+    cp.add_argument("--set", action="append", metavar="NAME=VALUE", default=[],
+                    help="keyword argument of the scene's build() (repeatable)")
+    cp.add_argument("--json", metavar="FILE", help="write the study as JSON ('-' for stdout)")
+    cp.add_argument("--plot", metavar="FILE", help="write the log-log error plot (PNG)")
+    cp.set_defaults(func=cmd_bench_convergence)
+
+    fp = bsub.add_parser("figures", help="the seed paper's figures for a scene, as PNG files",
+                         description="Write the figures of the seed paper for a scene (time plots and "
+                         "the convergence plot) as PNG files, plus the convergence study as JSON.")
+    fp.add_argument("scene", metavar="SCENE", help=SCENE_HELP)
+    fp.add_argument("--out", required=True, metavar="DIR", help="output directory")
+    fp.add_argument("--rho-inf", type=_rho, default=0.7, metavar="R", help="spectral radius at infinity (default 0.7)")
+    fp.add_argument("--h", type=_positive("h"), nargs="+", metavar="H",
+                    help="step sizes of the convergence study (default: the scene's)")
+    fp.set_defaults(func=cmd_bench_figures)
+    return p
+
+
+def _version():
+    try:
+        from femb import __version__
+        return __version__
+    except Exception:   # pragma: no cover
+        return "unknown"
+
+
+def main(argv=None):
+    """Entry point of the ``femb`` console script; returns the exit status."""
+    parser = build_parser()
+    argv = sys.argv[1:] if argv is None else list(argv)
+    debug = "--debug" in argv
+    try:
+        args = parser.parse_args(argv)
+        if args.command is None:
+            parser.print_help(sys.stderr)
+            return 2
+        if args.command == "bench" and args.func is None:
+            args.bench_parser.print_help(sys.stderr)
+            return 2
+        return args.func(args)
+    except UsageError as exc:
+        if debug:
+            raise
+        print(f"{PROG}: error: {exc}", file=sys.stderr)
+        return 2
+    except (SolverError, FembError) as exc:
+        if debug:
+            raise
+        print(f"{PROG}: error: {str(exc).splitlines()[0]}", file=sys.stderr)
+        return 1 if isinstance(exc, SolverError) else 2
+    except _OutputFailure as exc:
+        if debug:
+            raise
+        print(f"{PROG}: error: {exc}", file=sys.stderr)
+        return 1
+    except BrokenPipeError:
+        # output piped into a command that stopped reading (e.g. head): not an error of ours
+        import os
+
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+        return 0
+    except KeyboardInterrupt:
+        print(f"{PROG}: interrupted", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

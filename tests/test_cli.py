@@ -1,0 +1,192 @@
+"""The ``femb`` command line (femb.cli): subcommands, JSON contract, errors."""
+import json
+import shutil
+import subprocess
+import sys
+import textwrap
+
+import pytest
+
+from femb import cli
+
+SCENE_FILE = textwrap.dedent('''
+    """Pendulum from a file (test scene)."""
+    from femb import Mechanism
+    from femb.elements import Gravity, Hinge, RigidBody
+
+    def build(length=0.5, mass=1.0):
+        mech = Mechanism("pendulum")
+        bar = mech.add(RigidBody("bar", mass, mass * length ** 2 / 12, (0.5 * length, 0.0),
+                                 points={"O": (-0.5 * length, 0.0)}))
+        mech.add(Hinge("pivot", "ground", bar, point_b="O"), Gravity((0.0, -9.81)))
+        return mech
+''')
+
+RUN_KEYS = {"scene", "t_end", "h", "rho_inf", "scaling", "steps", "newton_iterations", "wall_time_s", "outputs"}
+CONV_KEYS = {"scene", "rho_inf", "h", "error_q", "error_lambda", "order_q", "order_lambda", "reference"}
+
+
+def _err_line(capsys):
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1, err
+    assert err.startswith("femb: error:")
+    return err
+
+
+# ------------------------------------------------------------------ helpers
+def test_parse_value_and_sets():
+    assert cli.parse_value("3") == 3 and isinstance(cli.parse_value("3"), int)
+    assert cli.parse_value("1e3") == 1000.0
+    assert cli.parse_value("-0.5") == -0.5
+    assert cli.parse_value("inf") == float("inf")
+    assert cli.parse_value("true") is True and cli.parse_value("None") is None
+    assert cli.parse_value("(1, 2)") == (1, 2)
+    assert cli.parse_value("abc") == "abc"
+    assert cli.parse_sets(["T=2", "name=x"]) == {"T": 2, "name": "x"}
+    with pytest.raises(cli.UsageError):
+        cli.parse_sets(["novalue"])
+    with pytest.raises(cli.UsageError):
+        cli.parse_sets(["1x=2"])
+
+
+# ------------------------------------------------------------------ list / help
+def test_list_names_scenes_and_parameters(capsys):
+    assert cli.main(["list"]) == 0
+    out = capsys.readouterr().out
+    assert "slider_crank:" in out and "andrews:" in out
+    assert "mom=0.033" in out and "T=1.0" in out and "t_end=0.03" in out
+
+
+@pytest.mark.parametrize("argv", [["--help"], ["run", "--help"], ["list", "--help"],
+                                  ["bench", "--help"], ["bench", "convergence", "--help"],
+                                  ["bench", "figures", "--help"]])
+def test_help_says_what_each_command_does(argv, capsys):
+    with pytest.raises(SystemExit) as exc:
+        cli.main(argv)
+    assert exc.value.code == 0
+    out = capsys.readouterr().out
+    assert "usage: femb" in out and len(out.splitlines()) > 4
+
+
+def test_bench_without_subcommand_prints_help_and_exits_2(capsys):
+    assert cli.main(["bench"]) == 2
+    err = capsys.readouterr().err
+    assert "convergence" in err and "figures" in err
+
+
+# ------------------------------------------------------------------ run
+def test_run_json_contract(tmp_path, capsys):
+    path = tmp_path / "run.json"
+    assert cli.main(["run", "slider_crank", "--t-end", "0.05", "--h", "5e-3", "--set", "T=2",
+                     "--json", str(path)]) == 0
+    data = json.loads(path.read_text())
+    assert RUN_KEYS <= set(data)
+    assert data["scene"] == "slider_crank" and data["steps"] == 10
+    assert data["t_end"] == pytest.approx(0.05) and data["h"] == pytest.approx(5e-3)
+    assert data["rho_inf"] == 0.7 and data["scaling"] is True
+    assert data["params"] == {"T": 2}
+    assert {"theta", "x3", "x4", "R_pivot_x", "R_pivot_y"} <= set(data["outputs"])
+    assert all(isinstance(v, float) for v in data["outputs"].values())
+    assert "theta" in capsys.readouterr().out
+
+
+def test_run_json_to_stdout_and_options(capsys):
+    assert cli.main(["run", "slider_crank", "--t-end", "0.05", "--rho-inf", "0.5", "--no-scaling",
+                     "--h", "1e-3", "--json", "-"]) == 0
+    data = json.loads(capsys.readouterr().out)      # nothing but the JSON on stdout
+    assert data["scaling"] is False and data["rho_inf"] == 0.5 and data["steps"] == 50
+
+
+def test_run_andrews_outputs(capsys):
+    assert cli.main(["run", "andrews", "--t-end", "3e-3", "--json", "-"]) == 0
+    data = json.loads(capsys.readouterr().out)
+    names = ["beta", "Theta", "gamma", "Phi", "delta", "Omega", "epsilon"]
+    assert set(names + [n + "_d" for n in names] + [f"lambda_{k}" for k in range(1, 7)]) <= set(data["outputs"])
+
+
+def test_run_scene_file_with_set(tmp_path, capsys):
+    p = tmp_path / "pend.py"
+    p.write_text(SCENE_FILE)
+    out = tmp_path / "o.json"
+    assert cli.main(["run", str(p), "--t-end", "0.1", "--h", "1e-3", "--set", "length=1", "--json", str(out)]) == 0
+    data = json.loads(out.read_text())
+    assert data["scene"] == "pend" and data["params"] == {"length": 1}
+    assert "bar.theta" in data["outputs"]         # no outputs(): the free coordinates
+    # no DEFAULTS in the file: t_end and h are required
+    capsys.readouterr()
+    assert cli.main(["run", str(p)]) == 2
+    assert "--t-end" in _err_line(capsys)
+
+
+@pytest.mark.parametrize("argv, words", [
+    (["run", "no_such_scene"], "unknown scene"),
+    (["run", "andrews", "--h", "-1"], "positive"),
+    (["run", "andrews", "--h", "abc"], "number"),
+    (["run", "andrews", "--rho-inf", "2"], "[0, 1]"),
+    (["run", "andrews", "--set", "nope=1"], "no parameter 'nope'"),
+    (["run", "andrews", "--set", "mom"], "NAME=VALUE"),
+    (["run", "andrews", "--frobnicate"], "unrecognized"),
+    (["run"], "required"),
+    (["run", "slider_crank", "--set", "l1=0.9"], "l2 > l1"),
+    (["run", "slider_crank", "--every", "3"], "--vtk"),
+    (["run", "/nonexistent/scene.py"], "does not exist"),
+    (["bench", "convergence", "andrews", "--h", "0"], "positive"),
+    (["bench", "figures", "andrews"], "--out"),
+    (["frobnicate"], "invalid choice"),
+])
+def test_bad_arguments_give_one_line_and_exit_2(argv, words, capsys):
+    assert cli.main(argv) == 2
+    assert words in _err_line(capsys)
+
+
+def test_simulation_failure_exits_1(capsys):
+    # Newton fails for h ≥ 1.5e-3 s around t = 0.012 s on Andrews (docs/benchmarks.md §2)
+    assert cli.main(["run", "andrews", "--h", "3e-3"]) == 1
+    assert "t = 0.01" in _err_line(capsys)
+
+
+def test_vtk_hook_missing_is_a_clean_error(monkeypatch, tmp_path, capsys):
+    monkeypatch.setattr(cli, "VTK_HOOK", ("femb.io", "no_such_writer"))
+    assert cli.main(["run", "slider_crank", "--t-end", "0.01", "--vtk", str(tmp_path / "v")]) == 2
+    assert "--vtk" in _err_line(capsys)
+
+
+def test_vtk_stream_writes_frames(tmp_path):
+    import femb.io
+
+    if getattr(femb.io, "write_vtk_stream", None) is None:
+        pytest.skip("the output layer has no write_vtk_stream yet")
+    d = tmp_path / "vtk"
+    assert cli.main(["run", "slider_crank", "--t-end", "0.02", "--vtk", str(d), "--every", "2"]) == 0
+    assert list(d.glob("*.pvd")) and len(list(d.glob("*.vtu"))) >= 2
+
+
+# ------------------------------------------------------------------ bench
+def test_bench_convergence_json_and_plot(tmp_path, capsys):
+    js, png = tmp_path / "c.json", tmp_path / "c.png"
+    assert cli.main(["bench", "convergence", "slider_crank", "--h", "2e-3", "1e-3", "5e-4",
+                     "--json", str(js), "--plot", str(png)]) == 0
+    data = json.loads(js.read_text())
+    assert CONV_KEYS <= set(data)
+    assert data["h"] == [2e-3, 1e-3, 5e-4] and len(data["error_q"]) == 3
+    assert data["order_q"] > 1.8 and data["order_lambda"] > 1.8
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert "fitted order" in capsys.readouterr().out
+
+
+def test_bench_figures_slider_crank(tmp_path, capsys):
+    assert cli.main(["bench", "figures", "slider_crank", "--out", str(tmp_path), "--h", "2e-3", "1e-3"]) == 0
+    names = sorted(p.name for p in tmp_path.iterdir())
+    assert "slider_crank_fig2_theta_x4.png" in names
+    assert "slider_crank_fig3_convergence.png" in names
+    assert "slider_crank_convergence.json" in names
+
+
+# ------------------------------------------------------------------ console script
+def test_console_script():
+    exe = shutil.which("femb")
+    cmd = [exe] if exe else [sys.executable, "-m", "femb.cli"]
+    r = subprocess.run(cmd + ["--help"], capture_output=True, text=True, timeout=120)
+    assert r.returncode == 0 and "run" in r.stdout and "bench" in r.stdout
+    r = subprocess.run(cmd + ["run", "andrews", "--h", "x"], capture_output=True, text=True, timeout=120)
+    assert r.returncode == 2 and len(r.stderr.strip().splitlines()) == 1
