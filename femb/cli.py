@@ -149,14 +149,14 @@ def _write_json(data, dest):
         raise UsageError(f"cannot write {dest}: {exc}") from None
 
 
-def _vtk_stream(model, directory, every):
-    """INTEGRATION POINT for VTK output of ``femb run --vtk DIR --every N``.
+def _vtk_stream(model, directory, every, observer=None):
+    """VTK output of ``femb run --vtk DIR --every N``.
 
-    Calls ``femb.io.write_vtk_stream(model, directory, every=every)``, which
-    must return either a context manager whose ``__enter__`` gives an
-    observer ``callable(state, step)`` for :func:`femb.simulate`, or such an
-    observer directly. Until the output layer provides that function,
-    ``--vtk`` fails with a one-line error (exit status 2).
+    Calls ``femb.io.write_vtk_stream(model, directory, every=every,
+    observer=observer)``, a context manager whose ``__enter__`` gives an
+    observer ``callable(state, step)`` for :func:`femb.simulate` that writes
+    frames while the run goes and then calls ``observer``. Should the hook be
+    missing, ``--vtk`` fails with a one-line error (exit status 2).
     """
     import importlib
 
@@ -166,7 +166,7 @@ def _vtk_stream(model, directory, every):
         raise UsageError(f"--vtk: VTK streaming is not available in this version of femb "
                          f"({module_name}.{func_name} is missing)")
     try:
-        return hook(model, directory, every=every)
+        return hook(model, directory, every=every, observer=observer)
     except Exception as exc:   # output layer: bad directory, permissions, ...
         raise UsageError(f"--vtk {directory}: {str(exc).splitlines()[0] if str(exc) else type(exc).__name__}") from None
 
@@ -233,9 +233,21 @@ def cmd_run(args):
     except (FembError, ValueError, TypeError) as exc:
         raise UsageError(f"scene '{scene.name}': build() rejected the parameters: {exc}") from None
 
-    stream = _NullContext(None)
+    n_steps = max(1, int(round(t_end / h)))
+    bar = None
+    show = {"auto": n_steps >= 5000 or args.vtk is not None, "on": True, "off": False}[args.progress]
+    if show:
+        from femb.io.progress import progress
+
+        bar = progress(n_steps, desc=f"{scene.name}", enabled=True)
+
+    def tick(state, step):
+        if step:
+            bar.update(1)
+
+    stream = _NullContext(tick if bar is not None else None)
     if args.vtk is not None:
-        stream = _vtk_stream(model, args.vtk, args.every or 1)
+        stream = _vtk_stream(model, args.vtk, args.every or 1, tick if bar is not None else None)
         if not hasattr(stream, "__enter__"):
             stream = _NullContext(stream)
     t0 = time.perf_counter()
@@ -253,6 +265,8 @@ def cmd_run(args):
             if observer is not None and (type(exc).__name__ == "OutputError" or isinstance(exc, OSError)):
                 raise _OutputFailure(f"writing output failed: {str(exc).splitlines()[0]}") from exc
             raise
+    if bar is not None:
+        bar.close()
     total = time.perf_counter() - t0
     outs = scene.outputs(result)
     final = {k: _json_value(np.asarray(v)[-1]) for k, v in outs.items()}
@@ -348,6 +362,60 @@ def cmd_bench_figures(args):
 SCENE_HELP = "built-in scene name (see 'femb list') or path to a Python file defining build()"
 
 
+def cmd_render(args):
+    """femb render: pictures and animations of a written VTK series."""
+    from pathlib import Path
+
+    src = Path(args.source)
+    if src.is_dir():
+        pvds = sorted(src.glob("*.pvd"))
+        if not pvds:
+            raise UsageError(f"{src}: no .pvd collection in this folder (write one with 'femb run SCENE --vtk {src}')")
+        pvd = pvds[0]
+    elif src.suffix == ".pvd" and src.is_file():
+        pvd = src
+    else:
+        raise UsageError(f"{src}: not a folder with a .pvd collection nor a .pvd file")
+    outs = [(k, getattr(args, k)) for k in ("gif", "mp4", "png", "strip") if getattr(args, k)]
+    if not outs:
+        raise UsageError("give at least one of --gif FILE, --mp4 FILE, --png FILE, --strip FILE")
+    if args.time is not None and not args.png:
+        raise UsageError("--time goes with --png")
+    import femb.io
+
+    size = tuple(args.size) if args.size else None
+    try:
+        for kind, path in outs:
+            t0 = time.perf_counter()
+            if kind in ("gif", "mp4"):
+                if Path(path).suffix.lower() != f".{kind}":
+                    raise UsageError(f"--{kind} needs a file name ending in .{kind}, got {path}")
+                kw = {"window_size": size} if size else {}
+                femb.io.render_animation(pvd, path, fps=args.fps, every=args.every, scalars=args.scalars,
+                                         show_progress=True, **kw)
+            elif kind == "png":
+                kw = {"window_size": size} if size else {}
+                femb.io.render_png(pvd, path, time=args.time, scalars=args.scalars, **kw)
+            else:
+                femb.io.render_strip(pvd, path, n=args.n, scalars=args.scalars, window_size=size)
+            print(f"wrote {path} ({time.perf_counter() - t0:.1f} s)")
+    except femb.io.OutputError as exc:
+        raise _OutputFailure(str(exc).splitlines()[0]) from None
+    return 0
+
+
+def cmd_bench_suite(args):
+    """femb bench [--quick] [--out DIR]: the benchmark suite."""
+    if args.bench_command is not None:      # pragma: no cover (subcommands set their own func)
+        return args.func(args)
+    try:
+        from femb.benchmarks import suite
+    except ImportError as exc:
+        raise UsageError(f"the benchmark suite is not available: {exc}") from None
+    argv = (["--quick"] if args.quick else []) + ["--out", args.out]
+    return suite.main(argv) or 0
+
+
 def build_parser():
     """The argparse parser of the ``femb`` command."""
     p = _Parser(prog=PROG, description="femb: flexible multibody dynamics with the index-3 "
@@ -378,13 +446,35 @@ def build_parser():
     sp.add_argument("--json", metavar="FILE", help="write the run summary as JSON ('-' for stdout)")
     sp.add_argument("--vtk", metavar="DIR", help="stream VTK frames into DIR (ParaView .pvd collection)")
     sp.add_argument("--every", type=_count, metavar="N", help="with --vtk: write every N-th step (default 1)")
+    sp.add_argument("--progress", choices=("auto", "on", "off"), default="auto",
+                    help="progress bar on stderr (auto: for runs of 5000 steps or more, or with --vtk)")
     sp.set_defaults(func=cmd_run)
+
+    rp = sub.add_parser("render", help="render a written VTK series to a GIF, MP4 or PNG",
+                        description="Render the .pvd series written by 'femb run --vtk DIR' off-screen: "
+                        "an animation (GIF, or MP4 with the femb[mp4] extra), a snapshot at a time, or a "
+                        "strip of motion snapshots. The camera is fitted to the whole motion.")
+    rp.add_argument("source", metavar="DIR", help="folder written by --vtk (or a .pvd file)")
+    rp.add_argument("--gif", metavar="FILE", help="write an animated GIF")
+    rp.add_argument("--mp4", metavar="FILE", help="write an MP4 video (needs imageio-ffmpeg)")
+    rp.add_argument("--png", metavar="FILE", help="write a snapshot PNG (at --time, default the last frame)")
+    rp.add_argument("--strip", metavar="FILE", help="write a PNG with --n motion snapshots overlaid")
+    rp.add_argument("--time", type=float, metavar="T", help="with --png: the time of the snapshot")
+    rp.add_argument("--n", type=_count, default=6, metavar="N", help="with --strip: number of snapshots (default 6)")
+    rp.add_argument("--fps", type=_count, default=20, metavar="N", help="frames per second of animations (default 20)")
+    rp.add_argument("--every", type=_count, default=1, metavar="N", help="animate every N-th frame (default 1)")
+    rp.add_argument("--scalars", metavar="NAME", help="colour by this point/cell data field")
+    rp.add_argument("--size", type=_count, nargs=2, metavar=("W", "H"), help="picture size in pixels")
+    rp.set_defaults(func=cmd_render)
 
     bp = sub.add_parser("bench", help="benchmarks: convergence studies and the paper's figures",
                         description="Benchmarks of the seed paper (Arnold & Bruls 2007). "
                         "'femb bench' alone is reserved for the benchmark suite.")
+    bp.add_argument("--quick", action="store_true", help="the suite's quick variant (under 2 minutes)")
+    bp.add_argument("--out", metavar="DIR", default="bench-report",
+                    help="report folder of the suite (default bench-report/)")
     bsub = bp.add_subparsers(dest="bench_command", metavar="BENCH_COMMAND", parser_class=_Parser)
-    bp.set_defaults(func=None, bench_parser=bp)
+    bp.set_defaults(func=cmd_bench_suite, bench_parser=bp)
 
     cp = bsub.add_parser("convergence", help="h-convergence study of a scene (errors in q and lambda)",
                          description="Run a scene with a sequence of step sizes, measure the relative "
@@ -430,9 +520,6 @@ def main(argv=None):
         args = parser.parse_args(argv)
         if args.command is None:
             parser.print_help(sys.stderr)
-            return 2
-        if args.command == "bench" and args.func is None:
-            args.bench_parser.print_help(sys.stderr)
             return 2
         return args.func(args)
     except UsageError as exc:

@@ -100,3 +100,24 @@ def test_render_andrews_png_and_gif(andrews_run, tmp_path):
     femb.io.render_animation(pvd, gif, fps=10, window_size=(320, 240))
     with Image.open(gif) as im:
         assert im.n_frames == len(femb.io.read_pvd(pvd))
+
+
+def test_cli_run_vtk_then_render(tmp_path, capsys):
+    from femb.cli import main
+
+    out = tmp_path / "andrews"
+    assert main(["run", "andrews", "--t-end", "0.003", "--h", "1e-4", "--vtk", str(out), "--every", "5",
+                 "--progress", "off"]) == 0
+    frames = femb.io.read_pvd(out / "frame.pvd")
+    assert len(frames) == 7 and frames[-1][0] == pytest.approx(0.003)
+    assert main(["render", str(out / "missing")]) == 2
+    assert main(["render", str(out)]) == 2                       # no output asked for
+    assert "give at least one of" in capsys.readouterr().err
+    ok, reason = femb.io.can_render()
+    if not ok:
+        pytest.skip(f"no off-screen OpenGL context: {reason}")
+    from PIL import Image
+    gif = tmp_path / "a.gif"
+    assert main(["render", str(out), "--gif", str(gif), "--size", "200", "160"]) == 0
+    with Image.open(gif) as im:
+        assert im.n_frames == 7
