@@ -68,10 +68,12 @@ def test_help_says_what_each_command_does(argv, capsys):
     assert "usage: femb" in out and len(out.splitlines()) > 4
 
 
-def test_bench_without_subcommand_prints_help_and_exits_2(capsys):
-    assert cli.main(["bench"]) == 2
-    err = capsys.readouterr().err
-    assert "convergence" in err and "figures" in err
+def test_bench_help_names_the_suite_and_its_subcommands(capsys):
+    with pytest.raises(SystemExit) as exc:
+        cli.main(["bench", "--help"])
+    assert exc.value.code == 0
+    out = capsys.readouterr().out
+    assert "--quick" in out and "--out" in out and "convergence" in out and "figures" in out
 
 
 # ------------------------------------------------------------------ run
