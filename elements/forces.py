@@ -71,7 +71,7 @@ class SpringDamper(PairElement):
         G0 = np.zeros((len(elements), 2, 6))   # constant part of ∂D/∂q
         G0[:, 0, 0] = G0[:, 1, 1] = -1.0
         G0[:, 0, 3] = G0[:, 1, 4] = 1.0
-        return {"sa": sa, "sb": sb, "sa_c": sa[:, 0] + 1j * sa[:, 1], "sb_c": sb[:, 0] + 1j * sb[:, 1],
+        return {"sa": sa, "sb": sb, "s_c": np.stack((sa[:, 0] + 1j * sa[:, 1], sb[:, 0] + 1j * sb[:, 1]), axis=1),
                 "k": np.array([e.k for e in elements]), "c": np.array([e.c for e in elements]),
                 "l0": np.array([e.l0 for e in elements]), "G0": G0,
                 "damped": any(e.c != 0.0 for e in elements)}
@@ -79,8 +79,9 @@ class SpringDamper(PairElement):
     @classmethod
     def _kin(cls, p, qe):
         """Attachment offsets d_a, d_b, separation D = r_b − r_a, length l, direction e, ∂l/∂q."""
-        da = rotc(qe[:, 2], p["sa_c"])
-        db = rotc(qe[:, 5], p["sb_c"])
+        d = (np.exp(1j * qe[:, 2::3]) * p["s_c"]).view(np.float64)   # [d_a, d_b] in one product
+        da = d[:, 0:2]
+        db = d[:, 2:4]
         D = qe[:, 3:5] - qe[:, 0:2]
         D += db
         D -= da

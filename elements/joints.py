@@ -93,13 +93,15 @@ class Hinge(PairElement):
         Bq = np.zeros((n, 2, 6))        # constant part of Φ_q
         Bq[:, 0, 0] = Bq[:, 1, 1] = 1.0
         Bq[:, 0, 3] = Bq[:, 1, 4] = -1.0
-        return {"sa": sa, "sb": sb, "sa_c": sa[:, 0] + 1j * sa[:, 1], "sb_c": sb[:, 0] + 1j * sb[:, 1],
-                "Bq": Bq}
+        s_c = np.stack((sa[:, 0] + 1j * sa[:, 1], sb[:, 0] + 1j * sb[:, 1]), axis=1)
+        return {"sa": sa, "sb": sb, "s_c": s_c, "Bq": Bq}
 
     @classmethod
     def constraint_all(cls, p, t, qe, lame, jac):
-        da = rotc(qe[:, 2], p["sa_c"])
-        db = rotc(qe[:, 5], p["sb_c"])
+        # both offsets d_a = R(θ_a) s_a, d_b = R(θ_b) s_b in one complex product
+        d = (np.exp(1j * qe[:, 2::3]) * p["s_c"]).view(np.float64)
+        da = d[:, 0:2]
+        db = d[:, 2:4]
         Phi = qe[:, 0:2] - qe[:, 3:5] + (da - db)
         Phi_q = p["Bq"].copy()
         Phi_q[:, 0, 2] = -da[:, 1]
