@@ -55,6 +55,8 @@ import numpy as np
 SCENES = {
     "slider_crank": "femb.benchmarks.slider_crank",
     "andrews": "femb.benchmarks.andrews",
+    "flexible_slider_crank": "femb.benchmarks.flexible_slider_crank",
+    "spin_up": "femb.benchmarks.spin_up",
 }
 
 #: Run settings used for a scene file without DEFAULTS (only ρ∞; t_end and h must be given).

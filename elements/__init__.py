@@ -13,3 +13,5 @@ from .joints import DrivenAngle, DrivenDisplacement, Hinge, PointOnLine, Slider
 __all__ = ["Body", "Ground", "PointMass", "RigidBody", "Hinge", "Slider", "PointOnLine",
            "DrivenAngle", "DrivenDisplacement", "SpringDamper", "RotationalSpringDamper", "Force",
            "Torque", "Gravity"]
+from .beam import BeamMesh, BeamNode, Clamp, ReissnerBeam, Section, add_beam, beam_resultants, beam_strain_energy  # noqa: E402
+__all__ += ["Section", "BeamNode", "ReissnerBeam", "Clamp", "BeamMesh", "add_beam", "beam_resultants", "beam_strain_energy"]

@@ -50,7 +50,9 @@ def test_registry_names_and_protocol():
         assert set(scene.defaults) == {"t_end", "h", "rho_inf"}
         assert all(v is not None for v in scene.defaults.values())
         assert callable(scene.module.outputs)
-        assert scene.has_reference
+        # the seed paper's scenes have independent references; flexible scenes
+        # are checked against femb's own finest run (the study's JSON says so)
+        assert scene.has_reference or name not in ("slider_crank", "andrews")
         assert scene.description
         setup = scene.convergence_setup()
         assert setup["q"] and setup["lambda"] and setup["h"]

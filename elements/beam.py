@@ -1,0 +1,752 @@
+"""Planar geometrically exact beams (Reissner / Simo–Vu-Quoc) in absolute coordinates.
+
+A beam node carries the same absolute coordinates (x, y, θ) as the node of a
+rigid body: the position of the section's centroid and the rotation of the
+cross-section in the inertial frame (Géradin & Cardona 2001, Ch. 7). Beams,
+rigid bodies, hinges, sliders and drivers therefore connect freely: a beam
+node is a :class:`~femb.elements.bodies.Body` (a massless :class:`BeamNode`,
+or the node of an existing rigid body), and every joint of the library
+accepts it.
+
+Kinematics and strains (Reissner 1972; Simo & Vu-Quoc 1986, Part I, eqs.
+(2.6)–(2.8) restricted to the plane)::
+
+    x(s), θ(s)                  centroid and section rotation
+    Γ = R(θ)ᵀ x' − Γ₀           material axial (Γ₁) and shear (Γ₂) strain
+    κ = θ' − κ₀                 bending strain (curvature change)
+    N = EA Γ₁,  V = GA Γ₂,  M = EI κ      (plus η-proportional rates, below)
+
+with ``'`` = d/ds along the reference arc length and Γ₀, κ₀ the strains of
+the reference configuration, which is stress free (straight or curved).
+
+Discretization: two-node elements, linear interpolation of x and θ, and
+**one-point (reduced) Gauss integration** of all strain energy terms. Why
+this choice (against selective integration or higher-order/mixed
+interpolation):
+
+* no shear locking: with one point, the Kirchhoff constraint Γ₂ = 0 is
+  imposed once per element instead of pointwise, the classic cure for the
+  linear Timoshenko element (Hughes, Taylor & Kanoknukulchai 1977; Simo &
+  Vu-Quoc 1986 use exactly this reduced integration);
+* no membrane locking of curved beams: the axial strain is sampled at the
+  same single point (Stolarski & Belytschko 1982, Noor & Peters 1981);
+* no spurious zero-energy (hourglass) modes: the element has 6 coordinates,
+  3 rigid-body motions and exactly 3 independent strains (Γ₁, Γ₂, κ at the
+  midpoint), so its stiffness has full rank 3;
+* the bending strain κ = (θ_B − θ_A)/L is constant on the element, so the
+  single point integrates it exactly, and the discrete equations have an
+  exact constant-curvature solution: under a tip moment M = 2π EI/L a
+  cantilever rolls into a closed regular polygon whose tip is at the root
+  to round-off, for any number n ≥ 2 of elements (tests/test_beam_static.py);
+* every quantity is a small closed form, cheap to vectorize over elements.
+
+With one point at ξ = 0 (the element midpoint, reference length L)::
+
+    x' = (x_B − x_A)/L,  θ_m = (θ_A + θ_B)/2,  g = R(θ_m)ᵀ x',  Γ = g − Γ₀,
+    κ = (θ_B − θ_A)/L − κ₀,
+    f_int = L Bᵀ σ,  B = ∂(Γ₁, Γ₂, κ)/∂q_e,  σ = (N, V, M)
+
+giving, with n = R(θ_m)(N, V) the spatial force resultant,
+f_int = [−n, L/2 (g₂N − g₁V) − M, n, L/2 (g₂N − g₁V) + M]. The tangent
+stiffness is K = L Bᵀ D B + K_σ with the geometric part
+K_σ[x_A, θ_*] = −J n/2, K_σ[x_B, θ_*] = J n/2, K_σ[θ_*, θ_*] = −L/4 (N g₁ + V g₂)
+(J the rotation by +90°), all derived in the docstring of
+:meth:`ReissnerBeam.force`.
+
+Material damping is stiffness proportional (Kelvin–Voigt on the material
+strain rates, objective): σ = D (ε + η ε̇), which adds C = L η Bᵀ D B to the
+damping tangent and a (non-symmetric) term to the stiffness tangent.
+
+Inertia: the node sits at the section centroid, so the kinetic energy
+T = ½∫(ρA |ẋ|² + ρI θ̇²) ds has a constant mass matrix in these absolute
+coordinates (Simo & Vu-Quoc 1986, Part I, Sect. 3; no gyroscopic term in
+the plane). Consistent (linear shape functions, exact integration) or lumped.
+
+References
+----------
+E. Reissner, On one-dimensional finite-strain beam theory: the plane problem,
+Z. angew. Math. Phys. 23 (1972) 795–804.
+
+J. C. Simo, L. Vu-Quoc, On the dynamics of flexible beams under large overall
+motions—the plane case, Parts I & II, J. Appl. Mech. 53 (1986) 849–863.
+
+M. Géradin, A. Cardona, Flexible Multibody Dynamics: A Finite Element
+Approach, Wiley, 2001, Ch. 7 (beams in absolute nodal coordinates).
+
+T. J. R. Hughes, R. L. Taylor, W. Kanoknukulchai, A simple and efficient
+finite element for plate bending, Int. J. Numer. Meth. Eng. 11 (1977)
+1529–1543 (reduced integration against shear locking).
+
+H. Stolarski, T. Belytschko, Membrane locking and reduced integration for
+curved elements, J. Appl. Mech. 49 (1982) 172–176.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from femb.element import Element
+from femb.errors import ModelError
+from femb.geometry import GeometryBlock
+from femb.nodes import PlanarNode
+
+from ._planar import perp, rotc
+from .bodies import Body, _check_scalar, _point
+from .joints import Hinge, PairElement
+
+__all__ = ["Section", "BeamNode", "ReissnerBeam", "Clamp", "BeamMesh", "add_beam",
+           "beam_resultants", "beam_strain_energy"]
+
+
+# ---------------------------------------------------------------------------
+# section data
+# ---------------------------------------------------------------------------
+@dataclass(frozen=True)
+class Section:
+    """Cross-section data of a planar beam.
+
+    Parameters
+    ----------
+    EA : float > 0
+        Axial stiffness (N).
+    GA : float > 0
+        Effective shear stiffness k G A, shear factor k included (N).
+    EI : float > 0
+        Bending stiffness (N m²).
+    rhoA : float ≥ 0
+        Mass per unit length (kg/m).
+    rhoI : float ≥ 0
+        Rotational inertia of the section per unit length (kg m).
+    damping : float ≥ 0
+        Stiffness-proportional material damping coefficient η (s): the
+        stress resultants are D (ε + η ε̇).
+    """
+
+    EA: float
+    GA: float
+    EI: float
+    rhoA: float
+    rhoI: float
+    damping: float = 0.0
+
+    def __post_init__(self):
+        for k in ("EA", "GA", "EI"):
+            object.__setattr__(self, k, _check_scalar("Section", k, getattr(self, k), positive=True))
+        for k in ("rhoA", "rhoI", "damping"):
+            object.__setattr__(self, k, _check_scalar("Section", k, getattr(self, k), nonneg=True))
+
+    @classmethod
+    def rectangle(cls, E, G, width, height, density, shear_factor=5.0 / 6.0, damping=0.0):
+        """Solid rectangle ``width`` × ``height`` (height in the plane of bending)."""
+        A = width * height
+        I = width * height ** 3 / 12.0
+        return cls(E * A, shear_factor * G * A, E * I, density * A, density * I, damping)
+
+    @classmethod
+    def circle(cls, E, G, diameter, density, shear_factor=0.9, damping=0.0):
+        """Solid circle of ``diameter`` (shear factor 0.9 ≈ 6(1+ν)/(7+6ν) for ν = 0.3)."""
+        A = math.pi * diameter ** 2 / 4.0
+        I = math.pi * diameter ** 4 / 64.0
+        return cls(E * A, shear_factor * G * A, E * I, density * A, density * I, damping)
+
+
+# ---------------------------------------------------------------------------
+# nodes
+# ---------------------------------------------------------------------------
+class BeamNode(Body, Element):
+    """A massless body owning one beam node (x, y, θ).
+
+    It contributes no equations; it exists so that joints, loads and named
+    output (``result.body(name)``, ``result.position(name, point)``) work on
+    beam nodes exactly as on rigid bodies. Mass comes from the beam elements.
+
+    Parameters
+    ----------
+    name : str
+    position : (x, y)
+    angle : float
+        Section rotation θ (rad), normally the tangent angle.
+    velocity : (vx, vy), omega : float
+    fixed : sequence of 3 bool, optional
+        Coordinates held fixed (e.g. ``(True, True, True)`` clamps to the ground
+        without a constraint).
+    points : dict, optional
+        Named points in the section frame.
+    """
+
+    def __init__(self, name, position, angle=0.0, velocity=(0.0, 0.0), omega=0.0, fixed=None,
+                 points=None):
+        Element.__init__(self, name)
+        owner = f"BeamNode '{name}'"
+        pos = _point(owner, "position", position)
+        vel = _point(owner, "velocity", velocity)
+        th = _check_scalar(owner, "angle", angle)
+        om = _check_scalar(owner, "omega", omega)
+        Body.__init__(self, name, PlanarNode(name, (pos[0], pos[1], th), (vel[0], vel[1], om), fixed),
+                      points)
+
+    def nodes(self):
+        return [self.node]
+
+
+# ---------------------------------------------------------------------------
+# the element
+# ---------------------------------------------------------------------------
+def _strain_kinematics(p, qe):
+    """Midpoint kinematics: (c, s) of θ_m, x' (nel, 2), g = Rᵀx' (nel, 2), κ (nel,)."""
+    inv = p["invL"]
+    d = (qe[:, 3:5] - qe[:, 0:2]) * inv[:, None]
+    th = 0.5 * (qe[:, 2] + qe[:, 5])
+    c, s = np.cos(th), np.sin(th)
+    g = np.empty_like(d)
+    g[:, 0] = c * d[:, 0] + s * d[:, 1]
+    g[:, 1] = c * d[:, 1] - s * d[:, 0]
+    kap = (qe[:, 5] - qe[:, 2]) * inv - p["kappa0"]
+    return c, s, d, g, kap
+
+
+class ReissnerBeam(PairElement):
+    """Two-node geometrically exact planar beam element (one-point integration).
+
+    The element connects the nodes of bodies ``a`` and ``b`` (normally
+    :class:`BeamNode` objects made by :func:`add_beam`; any body works, its
+    node then is the beam node). Its reference configuration (length L,
+    strains Γ₀ and κ₀) is taken from the two nodes' initial coordinates and is
+    stress free. See the module docstring for the formulation.
+
+    Parameters
+    ----------
+    name : str
+    a, b : Body or str
+    section : Section
+    mass : {"consistent", "lumped"}
+        Consistent mass (linear shape functions) or row-sum lumped.
+
+    Notes
+    -----
+    Packed parameters: L (nel,), Γ₀ (nel, 2), κ₀ (nel,), EA, GA, EI, ρA, ρI, η.
+    Lagrange multipliers: none. Batches are split by damping (zero or not),
+    so undamped beams need no damping matrix.
+    """
+
+    has_mass = True
+    constant_mass = True
+    has_force = True
+    force_depends_on_qd = True
+
+    def __init__(self, name, a, b, section, mass="consistent"):
+        super().__init__(name, a, b)
+        if not isinstance(section, Section):
+            raise ModelError(f"ReissnerBeam '{name}': section must be a Section, got {section!r}")
+        if mass not in ("consistent", "lumped"):
+            raise ModelError(f"ReissnerBeam '{name}': mass must be 'consistent' or 'lumped', got {mass!r}")
+        self.section = section
+        self.mass_type = mass
+
+    def group_key(self):
+        return ("ReissnerBeam", self.section.damping != 0.0)
+
+    @classmethod
+    def traits(cls, elements):
+        tr = super().traits(elements)
+        tr["force_depends_on_qd"] = any(e.section.damping != 0.0 for e in elements)
+        return tr
+
+    def validate(self):
+        qa, qb = self.a.node.q0, self.b.node.q0
+        dx = qb[:2] - qa[:2]
+        L = float(np.hypot(dx[0], dx[1]))
+        if not L > 0.0:
+            raise ModelError(f"ReissnerBeam '{self.name}': its nodes '{self.a.node.name}' and "
+                             f"'{self.b.node.name}' coincide (zero length)")
+        th = 0.5 * (qa[2] + qb[2])
+        c, s = math.cos(th), math.sin(th)
+        d = dx / L
+        self.L0 = L
+        self.gamma0 = np.array([c * d[0] + s * d[1], c * d[1] - s * d[0]])
+        self.kappa0 = float(qb[2] - qa[2]) / L
+        if self.gamma0[0] <= 0.5:
+            raise ModelError(
+                f"ReissnerBeam '{self.name}': the section angles ({qa[2]:.4g}, {qb[2]:.4g} rad) are far "
+                f"from the direction of the element ({math.atan2(dx[1], dx[0]):.4g} rad); give the nodes "
+                "the tangent angle of the beam axis")
+
+    @classmethod
+    def pack(cls, elements):
+        sec = [e.section for e in elements]
+        L = np.array([e.L0 for e in elements])
+        lumped = np.array([e.mass_type == "lumped" for e in elements])
+        EA = np.array([s.EA for s in sec])
+        GA = np.array([s.GA for s in sec])
+        EI = np.array([s.EI for s in sec])
+        eta = np.array([s.damping for s in sec])
+        return {"L": L, "invL": 1.0 / L, "gamma0": np.array([e.gamma0 for e in elements]),
+                "kappa0": np.array([e.kappa0 for e in elements]),
+                "D": np.stack((EA, GA, EI), axis=1), "eta": eta, "damped": bool(np.any(eta != 0.0)),
+                "rhoA": np.array([s.rhoA for s in sec]), "rhoI": np.array([s.rhoI for s in sec]),
+                "m_diag": np.where(lumped, 0.5, 1.0 / 3.0), "m_off": np.where(lumped, 0.0, 1.0 / 6.0)}
+
+    # ------------------------------------------------------------------ mass
+    @classmethod
+    def mass(cls, p, qe):
+        """Constant element mass matrices (nel, 6, 6).
+
+        Consistent: ∫ Nᵢ Nⱼ ds = L/6 [[2, 1], [1, 2]] for each of x, y (× ρA) and
+        θ (× ρI); lumped: L/2 on the diagonal.
+        """
+        n = p["L"].shape[0]
+        Me = np.zeros((n, 6, 6))
+        for k, rho in ((0, p["rhoA"]), (1, p["rhoA"]), (2, p["rhoI"])):
+            m = rho * p["L"]
+            Me[:, k, k] = Me[:, 3 + k, 3 + k] = m * p["m_diag"]
+            Me[:, k, 3 + k] = Me[:, 3 + k, k] = m * p["m_off"]
+        return Me
+
+    # ------------------------------------------------------------------ strains
+    @classmethod
+    def strains(cls, p, qe):
+        """Material strains (Γ₁, Γ₂, κ) at the integration point, shape (nel, 3)."""
+        _, _, _, g, kap = _strain_kinematics(p, qe)
+        return np.column_stack((g - p["gamma0"], kap))
+
+    @classmethod
+    def strain_rates(cls, p, qe, qde):
+        """(Γ̇₁, Γ̇₂, κ̇), shape (nel, 3): Γ̇ = Rᵀẋ' − θ̇_m J Rᵀx'."""
+        c, s, _, g, _ = _strain_kinematics(p, qe)
+        inv = p["invL"]
+        dd = (qde[:, 3:5] - qde[:, 0:2]) * inv[:, None]
+        om = 0.5 * (qde[:, 2] + qde[:, 5])
+        return np.column_stack((c * dd[:, 0] + s * dd[:, 1] + om * g[:, 1],
+                                c * dd[:, 1] - s * dd[:, 0] - om * g[:, 0],
+                                (qde[:, 5] - qde[:, 2]) * inv))
+
+    @classmethod
+    def resultants(cls, p, qe, qde=None):
+        """Stress resultants (N, V, M) in the section frame, shape (nel, 3).
+
+        Elastic part D ε plus, for damped sections and given velocities, η D ε̇.
+        """
+        sig = cls.strains(p, qe) * p["D"]
+        if qde is not None and p["damped"]:
+            sig += (p["eta"][:, None] * p["D"]) * cls.strain_rates(p, qe, qde)
+        return sig
+
+    @classmethod
+    def strain_energy(cls, p, qe):
+        """Elastic energy ½ L (EA Γ₁² + GA Γ₂² + EI κ²) per element, shape (nel,)."""
+        eps = cls.strains(p, qe)
+        return 0.5 * p["L"] * np.einsum("ek,ek->e", eps * p["D"], eps)
+
+    # ------------------------------------------------------------------ forces
+    @classmethod
+    def force(cls, p, t, qe, qde, jac):
+        """f = −f_int with f_q = −K_t and f_qd = −C_t (batch over elements).
+
+        Derivation (one-point rule, midpoint quantities; J = [[0, −1], [1, 0]],
+        ∂Rᵀ/∂θ = −J Rᵀ; Simo & Vu-Quoc 1986, Part I, Sect. 4, specialised to a
+        linear element):
+
+        * δΓ = Rᵀ δx' − J g δθ_m, δκ = δθ', so the rows of B are
+          ∂Γ₁/∂(x_A, θ_A, x_B, θ_B) = (−(c, s)/L, g₂/2, (c, s)/L, g₂/2),
+          ∂Γ₂/∂(…) = ((s, −c)/L, −g₁/2, (−s, c)/L, −g₁/2),
+          ∂κ/∂(…) = (0, 0, −1/L, 0, 0, 1/L);
+        * f_int = L Bᵀσ; K_t = L BᵀDB + K_σ, with Σσᵢ ∂²εᵢ: ∂²(sᵀΓ)/∂x'∂θ_m = J n,
+          ∂²(sᵀΓ)/∂θ_m² = −sᵀg, s = (N, V), n = R s;
+        * damping: ε̇ = B q̇, σ_d = η D ε̇, C = L η BᵀDB, and ∂ε̇/∂q = E with
+          ∂Γ̇/∂x_A = θ̇_m J Rᵀ/L = −∂Γ̇/∂x_B, ∂Γ̇/∂θ_* = ½(−J Rᵀẋ' − θ̇_m g),
+          adding L Bᵀ η D E to K_t.
+        """
+        nel = qe.shape[0]
+        c, s, d, g, kap = _strain_kinematics(p, qe)
+        L, inv, D = p["L"], p["invL"], p["D"]
+        eps = np.empty((nel, 3))
+        eps[:, 0:2] = g - p["gamma0"]
+        eps[:, 2] = kap
+        sig = eps * D
+        damped = p["damped"]
+        if damped:
+            dd = (qde[:, 3:5] - qde[:, 0:2]) * inv[:, None]
+            om = 0.5 * (qde[:, 2] + qde[:, 5])
+            u1 = c * dd[:, 0] + s * dd[:, 1]
+            u2 = c * dd[:, 1] - s * dd[:, 0]
+            epsd = np.column_stack((u1 + om * g[:, 1], u2 - om * g[:, 0], (qde[:, 5] - qde[:, 2]) * inv))
+            Deta = p["eta"][:, None] * D
+            sig = sig + Deta * epsd
+        N, V, M = sig[:, 0], sig[:, 1], sig[:, 2]
+        n1 = c * N - s * V
+        n2 = s * N + c * V
+        mom = 0.5 * L * (g[:, 1] * N - g[:, 0] * V)
+        f = np.empty((nel, 6))
+        f[:, 0] = n1
+        f[:, 1] = n2
+        f[:, 2] = M - mom
+        f[:, 3] = -n1
+        f[:, 4] = -n2
+        f[:, 5] = -M - mom
+        if not jac:
+            return f, None, None
+        B = np.zeros((nel, 3, 6))
+        ci, si = c * inv, s * inv
+        B[:, 0, 0], B[:, 0, 1], B[:, 0, 3], B[:, 0, 4] = -ci, -si, ci, si
+        B[:, 1, 0], B[:, 1, 1], B[:, 1, 3], B[:, 1, 4] = si, -ci, -si, ci
+        B[:, 0, 2] = B[:, 0, 5] = 0.5 * g[:, 1]
+        B[:, 1, 2] = B[:, 1, 5] = -0.5 * g[:, 0]
+        B[:, 2, 2] = -inv
+        B[:, 2, 5] = inv
+        LB = B * L[:, None, None]
+        K = np.matmul((LB * D[:, :, None]).transpose(0, 2, 1), B)
+        # geometric stiffness
+        hw = 0.5 * np.column_stack((-n2, n1))                 # J n / 2
+        tt = -0.25 * L * (N * g[:, 0] + V * g[:, 1])
+        for j in (2, 5):
+            K[:, 0:2, j] -= hw
+            K[:, j, 0:2] -= hw
+            K[:, 3:5, j] += hw
+            K[:, j, 3:5] += hw
+        K[:, 2, 2] += tt
+        K[:, 2, 5] += tt
+        K[:, 5, 2] += tt
+        K[:, 5, 5] += tt
+        f_qd = None
+        if damped:
+            LBD = LB * Deta[:, :, None]
+            LBDt = LBD.transpose(0, 2, 1)
+            C = np.matmul(LBDt, B)
+            E = np.zeros((nel, 3, 6))
+            oc, os_ = om * ci, om * si       # θ̇_m J Rᵀ / L = θ̇_m/L [[s, −c], [c, s]]
+            E[:, 0, 0], E[:, 0, 1], E[:, 1, 0], E[:, 1, 1] = os_, -oc, oc, os_
+            E[:, :2, 3:5] = -E[:, :2, 0:2]
+            E[:, 0, 2] = E[:, 0, 5] = 0.5 * (u2 - om * g[:, 0])
+            E[:, 1, 2] = E[:, 1, 5] = 0.5 * (-u1 - om * g[:, 1])
+            K += np.matmul(LBDt, E)
+            f_qd = -C
+        return f, -K, f_qd
+
+    # ------------------------------------------------------------------ output
+    @classmethod
+    def geometry(cls, p, t, qe, qde, lame, names):
+        """Line cells through the two nodes of every element, with section forces.
+
+        Cell data (one value per element, at its integration point):
+        ``axial_force`` N, ``shear_force`` V (N), ``bending_moment`` M (N m),
+        in the section frame; elastic plus viscous parts.
+        """
+        n = qe.shape[0]
+        pts = np.zeros((2 * n, 3))
+        pts[0::2, :2] = qe[:, 0:2]
+        pts[1::2, :2] = qe[:, 3:5]
+        sig = cls.resultants(p, qe, qde)
+        conn = np.arange(2 * n).reshape(n, 2)
+        return [GeometryBlock(cls.__name__, pts, [("line", conn)],
+                              cell_data={"axial_force": [sig[:, 0]], "shear_force": [sig[:, 1]],
+                                         "bending_moment": [sig[:, 2]]})]
+
+
+# ---------------------------------------------------------------------------
+# clamp (rigid connection)
+# ---------------------------------------------------------------------------
+class Clamp(PairElement):
+    """Rigid connection: point P_a of body a coincides with P_b of body b, no relative rotation.
+
+    Φ = [r_a(P_a) − r_b(P_b); θ_b − θ_a − θ₀] (3 equations; θ₀ the initial
+    relative angle). λ = (F_x, F_y, T): the force the clamp exerts on body b
+    (−F on a) and the reaction torque (the clamp applies −T to b, +T to a).
+
+    Parameters
+    ----------
+    name : str
+    a, b : Body or str
+    at, point_a, point_b : see :class:`~femb.elements.Hinge`.
+    """
+
+    n_constraints = 3
+    constraint_names = ("x", "y", "moment")
+
+    def __init__(self, name, a, b, at=None, point_a=None, point_b=None):
+        super().__init__(name, a, b)
+        self._spec = (at, point_a, point_b)
+
+    def validate(self):
+        self.sa, self.sb = self._points(*self._spec)
+        if self.a.node.fixed[2] and self.b.node.fixed[2]:
+            raise ModelError(f"Clamp '{self.name}': neither '{self.a.name}' nor '{self.b.name}' can "
+                             "rotate, so the rotation lock is redundant; use a Hinge")
+        self.phi0 = float(self.b.node.q0[2] - self.a.node.q0[2])
+
+    @classmethod
+    def pack(cls, elements):
+        sa = np.array([e.sa for e in elements])
+        sb = np.array([e.sb for e in elements])
+        n = len(elements)
+        Bq = np.zeros((n, 3, 6))        # constant part of Φ_q
+        Bq[:, 0, 0] = Bq[:, 1, 1] = 1.0
+        Bq[:, 0, 3] = Bq[:, 1, 4] = -1.0
+        Bq[:, 2, 2] = -1.0
+        Bq[:, 2, 5] = 1.0
+        return {"sa": sa, "sb": sb, "sa_c": sa[:, 0] + 1j * sa[:, 1], "sb_c": sb[:, 0] + 1j * sb[:, 1],
+                "Bq": Bq, "phi0": np.array([e.phi0 for e in elements])}
+
+    @classmethod
+    def constraint_all(cls, p, t, qe, lame, jac):
+        da = rotc(qe[:, 2], p["sa_c"])
+        db = rotc(qe[:, 5], p["sb_c"])
+        n = qe.shape[0]
+        Phi = np.empty((n, 3))
+        Phi[:, 0:2] = qe[:, 0:2] - qe[:, 3:5] + (da - db)
+        Phi[:, 2] = qe[:, 5] - qe[:, 2] - p["phi0"]
+        Phi_q = p["Bq"].copy()
+        Phi_q[:, 0:2, 2] = perp(da)
+        Phi_q[:, 0:2, 5] = -perp(db)
+        if not jac:
+            return Phi, Phi_q, None
+        H = np.zeros((n, 6, 6))
+        H[:, 2, 2] = -(lame[:, 0] * da[:, 0] + lame[:, 1] * da[:, 1])
+        H[:, 5, 5] = lame[:, 0] * db[:, 0] + lame[:, 1] * db[:, 1]
+        return Phi, Phi_q, H
+
+    @classmethod
+    def constraint(cls, p, t, qe):
+        Phi, Phi_q, _ = cls.constraint_all(p, t, qe, None, False)
+        return Phi, Phi_q
+
+    @classmethod
+    def constraint_hessian(cls, p, t, qe, lame):
+        return cls.constraint_all(p, t, qe, lame, True)[2]
+
+    @classmethod
+    def constraint_rates(cls, p, t, qe, qde):
+        da = rotc(qe[:, 2], p["sa_c"])
+        db = rotc(qe[:, 5], p["sb_c"])
+        n = qe.shape[0]
+        gam = np.zeros((n, 3))
+        gam[:, 0:2] = -da * qde[:, 2:3] ** 2 + db * qde[:, 5:6] ** 2
+        return np.zeros((n, 3)), gam
+
+    @classmethod
+    def geometry(cls, p, t, qe, qde, lame, names):
+        n = qe.shape[0]
+        pts = np.zeros((n, 3))
+        pts[:, :2] = qe[:, 0:2] + rotc(qe[:, 2], p["sa_c"])
+        F = np.zeros((n, 3))
+        F[:, :2] = lame[:, :2]
+        return [GeometryBlock(cls.__name__, pts, [("vertex", np.arange(n)[:, None])],
+                              point_data={"reaction": F,
+                                          "reaction_magnitude": np.linalg.norm(lame[:, :2], axis=1),
+                                          "reaction_torque": lame[:, 2].copy()})]
+
+
+# ---------------------------------------------------------------------------
+# meshing helper
+# ---------------------------------------------------------------------------
+@dataclass
+class BeamMesh:
+    """What :func:`add_beam` added to a mechanism.
+
+    Attributes
+    ----------
+    name : str
+    nodes : list of Body
+        The n + 1 node bodies from start to end (:class:`BeamNode`, or the
+        connected body itself for a ``"shared"`` end).
+    elements : list of ReissnerBeam
+    joints : dict
+        ``{"start": element or None, "end": element or None}``.
+    section : Section
+    arc_length : ndarray, shape (n + 1,)
+        Reference arc-length coordinate of the nodes (m).
+    """
+
+    name: str
+    nodes: list
+    elements: list
+    joints: dict
+    section: Section
+    arc_length: np.ndarray = field(repr=False)
+
+    @property
+    def node_names(self):
+        return [b.node.name for b in self.nodes]
+
+    @property
+    def length(self):
+        """Reference length (sum of the element lengths)."""
+        return float(self.arc_length[-1])
+
+    def coordinates(self, model, q):
+        """Node coordinates (x, y, θ) for q of shape (..., nq): shape (..., n + 1, 3)."""
+        return np.stack([model.node_coordinates(nm, q) for nm in self.node_names], axis=-2)
+
+    def point_at(self, model, q, s):
+        """Centreline point at reference arc length ``s`` (linear interpolation), shape (..., 2)."""
+        X = self.coordinates(model, q)
+        k = int(np.clip(np.searchsorted(self.arc_length, s, side="right") - 1, 0, len(self.elements) - 1))
+        xi = (s - self.arc_length[k]) / (self.arc_length[k + 1] - self.arc_length[k])
+        return (1.0 - xi) * X[..., k, :2] + xi * X[..., k + 1, :2]
+
+
+def _end_spec(mech, spec, what):
+    """Parse an end: a point (x, y), a body (or its name), or (body, point)."""
+    def body_of(ref):
+        if isinstance(ref, Body):
+            return ref
+        if isinstance(ref, str):
+            b = mech[ref]
+            if not isinstance(b, Body):
+                raise ModelError(f"add_beam: {what} '{ref}' is not a body")
+            return b
+        return None
+
+    b = body_of(spec)
+    if b is not None:
+        return b, np.asarray(b.node.q0[:2], dtype=float).copy()
+    if isinstance(spec, (tuple, list)) and len(spec) == 2:
+        b = body_of(spec[0])
+        if b is not None:
+            return b, b.global_point(spec[1])
+    return None, _point("add_beam", what, spec)
+
+
+def add_beam(mech, name, section, start, end, n_elements, *, sweep=0.0, start_joint=None,
+             end_joint=None, mass="consistent", velocities=None):
+    """Mesh a straight or circular beam into ``n_elements`` elements and add it to ``mech``.
+
+    Parameters
+    ----------
+    mech : Mechanism
+    name : str
+        Prefix of the names: nodes ``{name}.n0`` … ``{name}.n{n}``, elements
+        ``{name}.e0`` …, joints ``{name}.start`` and ``{name}.end``.
+    section : Section
+    start, end : (x, y), Body, str, or (Body or str, point)
+        End points: an inertial point; a body (its node position); or a body
+        with one of its points (a name or body-frame coordinates).
+    n_elements : int ≥ 1
+    sweep : float
+        Angle (rad) through which the tangent turns from start to end:
+        0 for a straight beam, otherwise a circular arc through both points
+        (positive: counter-clockwise).
+    start_joint, end_joint : {"clamp", "hinge", "shared", None}
+        How the end connects to its body (to the ground when the end is a
+        plain point): a :class:`Clamp` or a :class:`~femb.elements.Hinge` at
+        the end point, or ``"shared"``: the beam's end node *is* the body's
+        node (the body's node must lie at the end point; no constraint).
+        Default: ``"clamp"`` when the end names a body, None (free) otherwise.
+    mass : {"consistent", "lumped"}
+    velocities : array_like (n + 1, 3) or callable, optional
+        Initial (vx, vy, ω) of the nodes, or a function
+        ``f(xy (n+1, 2), theta (n+1,)) -> (n+1, 3)``. Default: at rest.
+        Ignored for shared nodes (they move with their body).
+
+    Returns
+    -------
+    BeamMesh
+
+    Notes
+    -----
+    Node angles are the tangent angles of the centreline; the elements'
+    reference strains are computed from the nodes, so the initial shape is
+    stress free. A free end needs no joint; a ground clamp or hinge can also
+    be made by fixing the node's coordinates (``BeamNode(fixed=...)``), at the
+    price of losing the reaction as a multiplier.
+    """
+    n = int(n_elements)
+    if n < 1:
+        raise ModelError(f"add_beam '{name}': n_elements must be at least 1, got {n_elements!r}")
+    if not isinstance(section, Section):
+        raise ModelError(f"add_beam '{name}': section must be a Section, got {section!r}")
+    b0, P0 = _end_spec(mech, start, "start")
+    b1, P1 = _end_spec(mech, end, "end")
+    chord = P1 - P0
+    dist = float(np.hypot(*chord))
+    if not dist > 0.0:
+        raise ModelError(f"add_beam '{name}': start and end coincide")
+    sweep = float(sweep)
+    if not (abs(sweep) < 2.0 * math.pi):
+        raise ModelError(f"add_beam '{name}': |sweep| must be below 2π, got {sweep!r}")
+    phi = math.atan2(chord[1], chord[0])
+    k = np.arange(n + 1) / n
+    if sweep == 0.0:
+        xy = P0[None, :] + k[:, None] * chord[None, :]
+        th = np.full(n + 1, phi)
+        arc = k * dist
+    else:
+        R = dist / (2.0 * math.sin(0.5 * sweep))      # signed radius
+        th0 = phi - 0.5 * sweep
+        th = th0 + sweep * k
+        xy = P0[None, :] + R * np.column_stack((np.sin(th) - math.sin(th0), math.cos(th0) - np.cos(th)))
+        xy[-1] = P1
+        arc = R * sweep * k
+    if velocities is None:
+        V = np.zeros((n + 1, 3))
+    elif callable(velocities):
+        V = np.asarray(velocities(xy.copy(), th.copy()), dtype=float).reshape(n + 1, 3)
+    else:
+        V = np.asarray(velocities, dtype=float).reshape(n + 1, 3)
+
+    joints_kind = {}
+    for which, b, kind in (("start", b0, start_joint), ("end", b1, end_joint)):
+        if kind is None and b is not None:
+            kind = "clamp"
+        if kind not in (None, "clamp", "hinge", "shared"):
+            raise ModelError(f"add_beam '{name}': {which}_joint must be 'clamp', 'hinge', 'shared' or None, "
+                             f"got {kind!r}")
+        if kind == "shared" and b is None:
+            raise ModelError(f"add_beam '{name}': a shared {which} needs a body")
+        joints_kind[which] = kind
+
+    nodes = []
+    for i in range(n + 1):
+        shared = ((i == 0 and joints_kind["start"] == "shared") or
+                  (i == n and joints_kind["end"] == "shared"))
+        if shared:
+            b = b0 if i == 0 else b1
+            if np.hypot(*(b.node.q0[:2] - xy[i])) > 1e-9 * max(dist, 1.0):
+                raise ModelError(f"add_beam '{name}': a shared end must lie at the node of body "
+                                 f"'{b.name}' ({b.node.q0[:2].tolist()}), the end is at {xy[i].tolist()}")
+            nodes.append(b)
+        else:
+            nodes.append(mech.add(BeamNode(f"{name}.n{i}", xy[i], th[i], V[i, :2], V[i, 2])))
+    elements = [mech.add(ReissnerBeam(f"{name}.e{i}", nodes[i], nodes[i + 1], section, mass))
+                for i in range(n)]
+    joints = {"start": None, "end": None}
+    for which, b, i in (("start", b0, 0), ("end", b1, n)):
+        kind = joints_kind[which]
+        if kind in ("clamp", "hinge"):
+            other = b if b is not None else mech.ground
+            cls = Clamp if kind == "clamp" else Hinge
+            joints[which] = mech.add(cls(f"{name}.{which}", other, nodes[i], at=tuple(xy[i])))
+    return BeamMesh(name, nodes, elements, joints, section, arc)
+
+
+# ---------------------------------------------------------------------------
+# post-processing
+# ---------------------------------------------------------------------------
+def _beam_groups(model):
+    return [g for g in model.groups if issubclass(g.cls, ReissnerBeam)]
+
+
+def beam_resultants(model, q, qd=None):
+    """Section forces of every beam element: dict name -> (N, V, M) at its midpoint.
+
+    Parameters
+    ----------
+    model : Model
+    q : ndarray, shape (nq,)
+    qd : ndarray, shape (nq,), optional
+        Velocities (adds the viscous part for damped sections).
+    """
+    qx = model.ext(np.asarray(q, dtype=float))
+    qdx = None if qd is None else model.ext_velocity(np.asarray(qd, dtype=float))
+    out = {}
+    for g in _beam_groups(model):
+        sig = g.cls.resultants(g.params, qx[g.dofs], None if qdx is None else qdx[g.dofs])
+        out.update(zip(g.names, sig))
+    return out
+
+
+def beam_strain_energy(model, q):
+    """Total elastic energy of all beams at q (J)."""
+    qx = model.ext(np.asarray(q, dtype=float))
+    return float(sum(g.cls.strain_energy(g.params, qx[g.dofs]).sum() for g in _beam_groups(model)))
