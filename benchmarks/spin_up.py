@@ -29,6 +29,8 @@ import math
 
 import numpy as np
 
+from femb.benchmarks import studies
+
 from femb import Mechanism
 from femb.elements import DrivenAngle, Hinge, RigidBody, Section, add_beam
 from femb.functions import TimeFunction
@@ -173,20 +175,7 @@ def final_outputs(result):
 def time_convergence(n_elements=4, t_end=2.0, hs=(0.04, 0.02, 0.01, 0.005), h_ref=0.000625, rho_inf=0.7,
                      **kw):
     """Global errors at t_end against a run with h_ref: dict with ``h``, ``err_q``, ``err_lam``, orders."""
-    import femb
-
-    model = build(n_elements, **kw).compile()
-    opts = newton_options(n_elements)
-    ref = femb.simulate(model, t_end, h_ref, rho_inf=rho_inf, store=False, **opts)
-    eq, el = [], []
-    for h in hs:
-        r = femb.simulate(model, t_end, h, rho_inf=rho_inf, store=False, **opts)
-        eq.append(np.abs(r.q[-1] - ref.q[-1]).max())
-        el.append(np.abs(r.lam[-1] - ref.lam[-1]).max())
-    hs = np.asarray(hs)
-    return {"h": hs, "err_q": np.array(eq), "err_lam": np.array(el),
-            "order_q": float(np.polyfit(np.log(hs), np.log(eq), 1)[0]),
-            "order_lam": float(np.polyfit(np.log(hs), np.log(el), 1)[0])}
+    return studies.time_convergence(build, newton_options, n_elements, t_end, hs, h_ref, rho_inf, **kw)
 
 
 def mesh_convergence(ns=(4, 8, 16, 32), t_end=5.0, h=H, rho_inf=0.7, **kw):
@@ -195,17 +184,10 @@ def mesh_convergence(ns=(4, 8, 16, 32), t_end=5.0, h=H, rho_inf=0.7, **kw):
     Returns a dict with ``n``, ``tip_deflection``, ``diff`` (|w_{k+1} − w_k|)
     and ``orders`` log₂(diff_k / diff_{k+1}) for meshes refined by 2.
     """
-    import femb
-
-    w = []
-    for n in ns:
-        r = femb.simulate(build(n, **kw).compile(), t_end, h, rho_inf=rho_inf, store=False,
-                          **newton_options(n))
-        w.append(final_outputs(r)["tip_deflection"])
-    w = np.array(w)
-    d = np.abs(np.diff(w))
-    return {"n": np.asarray(ns), "tip_deflection": w, "diff": d,
-            "orders": np.log(d[:-1] / d[1:]) / np.log(np.asarray(ns[1:-1]) / np.asarray(ns[:-2]))}
+    res = studies.mesh_convergence(build, newton_options, lambda r: final_outputs(r)["tip_deflection"],
+                                   ns, t_end, h, rho_inf, **kw)
+    res["tip_deflection"] = res.pop("value")
+    return res
 
 
 def main(argv=None):

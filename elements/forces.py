@@ -18,7 +18,21 @@ from .joints import PairElement, _split
 from ._planar import perp, rot, rotc
 
 
-class SpringDamper(PairElement):
+class _DampedBatches:
+    """Instances with and without damping (``self.c``) form separate batches, so
+    the model assembles no C_t for the undamped ones."""
+
+    def group_key(self):
+        return (type(self).__name__, self.c != 0.0)
+
+    @classmethod
+    def traits(cls, elements):
+        tr = super().traits(elements)
+        tr["force_depends_on_qd"] = any(e.c != 0.0 for e in elements)
+        return tr
+
+
+class SpringDamper(_DampedBatches, PairElement):
     """Linear spring–damper between point P_a of body a and P_b of body b.
 
     Tension N = k (l − l_0) + c l̇ along the line of the points; the force on
@@ -45,16 +59,6 @@ class SpringDamper(PairElement):
         self.c = _check_scalar(owner, "damping", damping, nonneg=True)
         self.l0 = None if length is None else _check_scalar(owner, "length", length, nonneg=True)
         self._spec = (point_a, point_b)
-
-    def group_key(self):
-        # springs with and without damping are separate batches: no C_t for undamped ones
-        return ("SpringDamper", self.c != 0.0)
-
-    @classmethod
-    def traits(cls, elements):
-        tr = super().traits(elements)
-        tr["force_depends_on_qd"] = any(e.c != 0.0 for e in elements)
-        return tr
 
     def validate(self):
         self.sa, self.sb = self._points(None, *self._spec)
@@ -160,7 +164,7 @@ class SpringDamper(PairElement):
                                          "elongation": [np.repeat(l - p["l0"], rep)]})]
 
 
-class RotationalSpringDamper(PairElement):
+class RotationalSpringDamper(_DampedBatches, PairElement):
     """Torsional spring–damper between the rotations of bodies a and b.
 
     Torque on b: −(k (θ_b − θ_a − θ_0) + c (θ̇_b − θ̇_a)), the opposite on a.
@@ -183,15 +187,6 @@ class RotationalSpringDamper(PairElement):
         self.k = _check_scalar(owner, "stiffness", stiffness, nonneg=True)
         self.c = _check_scalar(owner, "damping", damping, nonneg=True)
         self.phi0 = None if angle is None else _check_scalar(owner, "angle", angle)
-
-    def group_key(self):
-        return ("RotationalSpringDamper", self.c != 0.0)
-
-    @classmethod
-    def traits(cls, elements):
-        tr = super().traits(elements)
-        tr["force_depends_on_qd"] = any(e.c != 0.0 for e in elements)
-        return tr
 
     def validate(self):
         if self.phi0 is None:
