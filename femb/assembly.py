@@ -271,7 +271,9 @@ class Assembler:
         self.tg_all = np.concatenate(order) if order else np.zeros(0, np.int64)
         idx = [g.dofs.ravel() for g in model.force_groups] + [g.dofs.ravel() for g in model.constraint_groups]
         self.w_idx = np.concatenate(idx) if idx else np.zeros(0, np.int64)
-        self.f_const_max = float(np.abs(model.f_const).max(initial=0.0))
+        self.weight = model.force_weight                  # moments → forces (1/L on rotation rows)
+        self.w_weight = model.force_weight_ext[self.w_idx]
+        self.f_const_max = float(np.abs(model.f_const * self.weight).max(initial=0.0))
 
     def mass_times(self, qx, qdd):
         """M q̈."""
@@ -308,7 +310,8 @@ class Assembler:
         Phi : ndarray (nc,)
         scale : float
             The force scale of the residual: the largest of ‖M q̈‖∞, ‖f_const‖∞
-            and every element's force and constraint-force entry.
+            and every element's force and constraint-force entry, with moment
+            rows divided by the length scale (``model.force_weight``).
         S : ndarray (N, N), scipy.sparse.csc_matrix or None
         """
         m = self.model
@@ -336,20 +339,20 @@ class Assembler:
                 vals.append(b)
                 vals.append(cK * H.reshape(-1)[nn_sel] if H is not None else np.zeros(nsel))
         r_q = Mqdd - m.f_const
-        scale = max(np.abs(Mqdd).max(), self.f_const_max)
+        scale = max(np.abs(Mqdd * self.weight).max(), self.f_const_max)
         if w:
             if nf:
                 w[:nf] = [-x for x in w[:nf]]
             wv = np.concatenate(w)
             r_q += np.bincount(self.w_idx, wv, minlength=self.next)[:nq]
-            scale = max(scale, np.abs(wv).max())
+            scale = max(scale, np.abs(wv * self.w_weight).max())
         if m.g_hat is not None and not m.constant_mass:
             for g in m.mass_groups:
                 Me = g.cls.mass(g.params, qx[g.dofs])
                 fg = np.bincount(g.dofs.ravel(), np.einsum("eij,ej->ei", Me, m.g_hat[g.dofs]).ravel(),
                                  minlength=self.next)[:nq]
                 r_q -= fg
-                scale = max(scale, np.abs(fg).max())
+                scale = max(scale, np.abs(fg * self.weight).max())
         if not jac:
             return r_q, Phi, scale, None
         if m.constant_mass:

@@ -105,6 +105,9 @@ class Model:
         Some constraint depends explicitly on t.
     length_scale : float
         Characteristic length (m) for the constraint tolerance.
+    force_weight : ndarray, shape (nq,)
+        1 for translational coordinates, 1/length_scale for rotations: turns
+        the moment rows of a force residual into forces for the Newton test.
     """
 
     def __init__(self, **kw):
@@ -266,6 +269,9 @@ def compile_model(mech, *, length_scale=None):
     if not mass_groups:
         raise ModelError(f"mechanism '{mech.name}' has no mass (add a RigidBody, PointMass or beam)")
 
+    # ---- residual weights: moments (rows of non-translational coordinates) are
+    # divided by the length scale so the force-residual test mixes N with N, not
+    # N with N·m (unit-invariant Newton stopping); computed after the length scale.
     qx0 = np.concatenate((q0, q_fixed))
     qdx0 = np.concatenate((qd0, np.zeros(nfix)))
 
@@ -311,6 +317,10 @@ def compile_model(mech, *, length_scale=None):
         if not (length_scale > 0.0 and np.isfinite(length_scale)):
             raise ModelError(f"length_scale must be a positive finite number, got {length_scale!r}")
 
+    w_ext = np.full(next_, 1.0 / length_scale)
+    for nd in nodes:
+        w_ext[node_index[nd.name][list(nd.translational)]] = 1.0
+
     model = Model(
         name=mech.name, nq=nq, nc=nc, nfix=nfix, q0=q0, qd0=qd0, q_fixed=q_fixed,
         node_index=node_index, node_names=[nd.name for nd in nodes], coord_labels=labels,
@@ -321,6 +331,7 @@ def compile_model(mech, *, length_scale=None):
         needs_C=any(g.traits["force_depends_on_qd"] for g in force_groups),
         rheonomic=any(g.traits["rheonomic"] for g in constraint_groups),
         lam_index=lam_index, length_scale=length_scale,
+        force_weight=w_ext[:nq].copy(), force_weight_ext=w_ext,
         bodies={e.name: e for e in [mech.ground] + others if isinstance(e, Body)},
         element_types={e.name: type(e).__name__ for e in elements},
     )

@@ -225,3 +225,14 @@ def test_progress_without_terminal_is_plain(capsys):
     assert isinstance(bar, PlainProgress)
     assert "render: done 4/4" in capsys.readouterr().err
     assert list(progress(iter("ab"), "it", enabled=False)) == ["a", "b"]
+
+
+def test_progress_with_unknown_total():
+    import io as _io
+
+    from femb.io.progress import PlainProgress, progress
+
+    bar = progress(None, "open-ended")
+    bar.update(3)
+    bar.close()
+    assert bar.n == 3

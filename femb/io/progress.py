@@ -129,7 +129,8 @@ def progress(iterable_or_total, desc="", enabled=True):
     if isinstance(iterable_or_total, bool):
         raise TypeError("iterable_or_total must be an iterable or an int, not a bool")
     if iterable_or_total is None or isinstance(iterable_or_total, numbers.Integral):
-        iterable, total = None, int(iterable_or_total)
+        iterable = None
+        total = None if iterable_or_total is None else int(iterable_or_total)
     else:
         iterable, total = iterable_or_total, None
     if enabled and _is_terminal(sys.stderr):
