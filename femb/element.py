@@ -129,7 +129,7 @@ class Element:
     @classmethod
     def constraint_hessian(cls, p, t, qe, lame):
         """∂(Φ_qᵀ λ)/∂q per element, shape (nel, nd, nd), or None if zero."""
-        raise NotImplementedError
+        raise NotImplementedError(f"{cls.__name__} declares constraints but has no constraint_hessian kernel")
 
     @classmethod
     def constraint_all(cls, p, t, qe, lame, jac):
@@ -153,7 +153,7 @@ class Element:
         gamma : ndarray, shape (nel, nc)
             (Φ_q q̇)_q q̇ + 2 Φ_qt q̇ + Φ_tt, so that Φ_q q̈ = −gamma.
         """
-        raise NotImplementedError
+        raise NotImplementedError(f"{cls.__name__} declares constraints but has no constraint_rates kernel")
 
     @classmethod
     def geometry(cls, p, t, qe, qde, lame, names):
