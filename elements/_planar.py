@@ -34,9 +34,3 @@ def perp(d):
     out[..., 0] = -d[..., 1]
     out[..., 1] = d[..., 0]
     return out
-
-
-def as_points(values, n, what):
-    """Broadcast a point/vector argument to shape (n, 2)."""
-    a = np.asarray(values, dtype=float)
-    return np.broadcast_to(a, (n, 2)).copy()

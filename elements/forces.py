@@ -14,8 +14,8 @@ from femb.functions import Constant, as_time_function, evaluate
 from femb.geometry import GeometryBlock
 
 from .bodies import _check_scalar, _point
-from .joints import PairElement, _split
-from ._planar import perp, rot, rotc
+from .joints import PairElement
+from ._planar import perp, rot
 
 
 class _DampedBatches:

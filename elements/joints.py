@@ -21,7 +21,7 @@ from femb.errors import ModelError
 from femb.functions import as_time_function, evaluate
 from femb.geometry import GeometryBlock
 
-from ._planar import perp, rot, rotc
+from ._planar import perp, rot
 
 
 class PairElement(Element):

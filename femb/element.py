@@ -40,8 +40,6 @@ Sign conventions follow Arnold & Brüls (2007): M q̈ = f − Φ_qᵀ λ, Φ = 0
 """
 from __future__ import annotations
 
-import numpy as np
-
 from .errors import ModelError
 
 

@@ -194,7 +194,6 @@ def consistent_initial_state(model, state=None, *, t0=0.0, phi_tol=1e-12, max_it
 
 
 def _zero_rows(B, owner):
-    nnz_rows = np.diff(B.tocsr().indptr)
     absmax = np.zeros(B.shape[0])
     Bc = B.tocoo()
     np.maximum.at(absmax, Bc.row, np.abs(Bc.data))
