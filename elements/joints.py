@@ -20,6 +20,7 @@ from femb.element import Element
 from femb.errors import ModelError
 from femb.functions import as_time_function, evaluate
 from femb.geometry import GeometryBlock
+from femb.jit import kernel
 
 from ._planar import perp, rot
 
@@ -57,6 +58,43 @@ def _split(qe):
 # ---------------------------------------------------------------------------
 # Hinge (revolute joint)
 # ---------------------------------------------------------------------------
+@kernel
+def hinge_constraint(P, t, tf, xe, le, jac, Phi, B, H):
+    """Φ = r_a + R(θ_a) s_a − r_b − R(θ_b) s_b; P = (s_a, s_b)."""
+    for e in range(xe.shape[0]):
+        ca, sa_ = math.cos(xe[e, 2]), math.sin(xe[e, 2])
+        cb, sb_ = math.cos(xe[e, 5]), math.sin(xe[e, 5])
+        dax = ca * P[e, 0] - sa_ * P[e, 1]
+        day = sa_ * P[e, 0] + ca * P[e, 1]
+        dbx = cb * P[e, 2] - sb_ * P[e, 3]
+        dby = sb_ * P[e, 2] + cb * P[e, 3]
+        Phi[e, 0] = xe[e, 0] - xe[e, 3] + (dax - dbx)
+        Phi[e, 1] = xe[e, 1] - xe[e, 4] + (day - dby)
+        B[e, 0, 0] = 1.0
+        B[e, 1, 1] = 1.0
+        B[e, 0, 3] = -1.0
+        B[e, 1, 4] = -1.0
+        B[e, 0, 2] = -day
+        B[e, 1, 2] = dax
+        B[e, 0, 5] = dby
+        B[e, 1, 5] = -dbx
+        if jac:
+            H[e, 2, 2] = -(le[e, 0] * dax + le[e, 1] * day)
+            H[e, 5, 5] = le[e, 0] * dbx + le[e, 1] * dby
+
+
+@kernel
+def hinge_rates(P, t, tf, xe, ve, Phi_t, gam):
+    """Φ_t = 0; γ = −d_a ω_a² + d_b ω_b²."""
+    for e in range(xe.shape[0]):
+        ca, sa_ = math.cos(xe[e, 2]), math.sin(xe[e, 2])
+        cb, sb_ = math.cos(xe[e, 5]), math.sin(xe[e, 5])
+        wa2 = ve[e, 2] * ve[e, 2]
+        wb2 = ve[e, 5] * ve[e, 5]
+        gam[e, 0] = -(ca * P[e, 0] - sa_ * P[e, 1]) * wa2 + (cb * P[e, 2] - sb_ * P[e, 3]) * wb2
+        gam[e, 1] = -(sa_ * P[e, 0] + ca * P[e, 1]) * wa2 + (sb_ * P[e, 2] + cb * P[e, 3]) * wb2
+
+
 class Hinge(PairElement):
     """Revolute joint: point P_a of body a coincides with point P_b of body b.
 
@@ -73,10 +111,15 @@ class Hinge(PairElement):
     point_a, point_b : str or (x, y), optional
         The hinge point on each body, by name or body-frame coordinates
         (default: the node, i.e. the centre of mass). Used when ``at`` is not given.
+
+    Notes
+    -----
+    Kernels: :func:`hinge_constraint`, :func:`hinge_rates`; ``P = (s_a, s_b)``.
     """
 
     n_constraints = 2
     constraint_names = ("x", "y")
+    kernels = {"constraint": hinge_constraint, "rates": hinge_rates}
 
     def __init__(self, name, a, b, at=None, point_a=None, point_b=None):
         super().__init__(name, a, b)
@@ -87,67 +130,9 @@ class Hinge(PairElement):
 
     @classmethod
     def pack(cls, elements):
-        sa = np.array([e.sa for e in elements])
-        sb = np.array([e.sb for e in elements])
-        n = len(elements)
-        Bq = np.zeros((n, 2, 6))        # constant part of Φ_q
-        Bq[:, 0, 0] = Bq[:, 1, 1] = 1.0
-        Bq[:, 0, 3] = Bq[:, 1, 4] = -1.0
-        s_c = np.stack((sa[:, 0] + 1j * sa[:, 1], sb[:, 0] + 1j * sb[:, 1]), axis=1)
-        return {"sa": sa, "sb": sb, "s_c": s_c, "Bq": Bq}
-
-    @classmethod
-    def constraint_all(cls, p, t, qe, lame, jac):
-        # both offsets d_a = R(θ_a) s_a, d_b = R(θ_b) s_b in one complex product
-        d = (np.exp(1j * qe[:, 2::3]) * p["s_c"]).view(np.float64)
-        da = d[:, 0:2]
-        db = d[:, 2:4]
-        Phi = qe[:, 0:2] - qe[:, 3:5] + (da - db)
-        Phi_q = p["Bq"].copy()
-        Phi_q[:, 0, 2] = -da[:, 1]
-        Phi_q[:, 1, 2] = da[:, 0]
-        Phi_q[:, 0, 5] = db[:, 1]
-        Phi_q[:, 1, 5] = -db[:, 0]
-        if not jac:
-            return Phi, Phi_q, None
-        H = np.zeros((qe.shape[0], 6, 6))
-        H[:, 2, 2] = -(lame[:, 0] * da[:, 0] + lame[:, 1] * da[:, 1])
-        H[:, 5, 5] = lame[:, 0] * db[:, 0] + lame[:, 1] * db[:, 1]
-        return Phi, Phi_q, H
-
-    @classmethod
-    def constraint(cls, p, t, qe):
-        xa, tha, xb, thb = _split(qe)
-        da = rot(tha, p["sa"])
-        db = rot(thb, p["sb"])
-        n = qe.shape[0]
-        Phi = xa + da - xb - db
-        Phi_q = np.zeros((n, 2, 6))
-        Phi_q[:, 0, 0] = 1.0
-        Phi_q[:, 1, 1] = 1.0
-        Phi_q[:, 0, 3] = -1.0
-        Phi_q[:, 1, 4] = -1.0
-        Phi_q[:, :, 2] = perp(da)
-        Phi_q[:, :, 5] = -perp(db)
-        return Phi, Phi_q
-
-    @classmethod
-    def constraint_hessian(cls, p, t, qe, lame):
-        _, tha, _, thb = _split(qe)
-        da = rot(tha, p["sa"])
-        db = rot(thb, p["sb"])
-        H = np.zeros((qe.shape[0], 6, 6))
-        H[:, 2, 2] = -np.einsum("ij,ij->i", lame, da)
-        H[:, 5, 5] = np.einsum("ij,ij->i", lame, db)
-        return H
-
-    @classmethod
-    def constraint_rates(cls, p, t, qe, qde):
-        _, tha, _, thb = _split(qe)
-        da = rot(tha, p["sa"])
-        db = rot(thb, p["sb"])
-        gamma = -da * qde[:, 2:3] ** 2 + db * qde[:, 5:6] ** 2
-        return np.zeros_like(gamma), gamma
+        sa = np.array([e.sa for e in elements], dtype=float).reshape(-1, 2)
+        sb = np.array([e.sb for e in elements], dtype=float).reshape(-1, 2)
+        return {"P": np.ascontiguousarray(np.hstack((sa, sb))), "sa": sa, "sb": sb}
 
     @classmethod
     def geometry(cls, p, t, qe, qde, lame, names):

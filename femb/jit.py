@@ -1,0 +1,44 @@
+"""numba in one place: the kernel decorator and the on-disk cache location.
+
+Element kernels are decorated with :func:`kernel` (``numba.njit`` without its own
+cache: they are compiled into, and cached with, the generated module of each
+model kind, see :mod:`femb.codegen`). ``NUMBA_DISABLE_JIT=1`` runs everything as
+plain Python for debugging.
+
+The cache directory is ``$FEMB_CACHE_DIR`` if set, else the user's cache
+directory (``$XDG_CACHE_HOME/femb`` or ``~/.cache/femb``).
+"""
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import numba
+
+#: numba options shared by every compiled function of femb
+OPTIONS = dict(nogil=True, error_model="numpy", boundscheck=False)
+
+
+def kernel(fn=None, **kw):
+    """Decorator for element kernels: ``numba.njit`` with femb's options, no cache."""
+    opts = dict(OPTIONS)
+    opts.update(kw)
+    if fn is None:
+        return lambda f: numba.njit(**opts)(f)
+    return numba.njit(**opts)(fn)
+
+
+def cache_dir() -> Path:
+    """Directory of femb's compiled-code cache (created on demand)."""
+    env = os.environ.get("FEMB_CACHE_DIR")
+    if env:
+        base = Path(env)
+    else:
+        xdg = os.environ.get("XDG_CACHE_HOME")
+        base = (Path(xdg) if xdg else Path.home() / ".cache") / "femb"
+    base.mkdir(parents=True, exist_ok=True)
+    return base
+
+
+def jit_disabled() -> bool:
+    return bool(numba.config.DISABLE_JIT)
