@@ -14,6 +14,7 @@ import numpy as np
 from femb.element import Element
 from femb.errors import ModelError
 from femb.geometry import GeometryBlock
+from femb.jit import kernel
 from femb.nodes import PlanarNode
 
 from ._planar import perp, rot
@@ -204,6 +205,23 @@ class Ground(Body):
         return name
 
 
+@kernel
+def rigid_body_mass(P, xe, Me):
+    """M_e = diag(m, m, J); P = (m, J)."""
+    for e in range(xe.shape[0]):
+        Me[e, 0, 0] = P[e, 0]
+        Me[e, 1, 1] = P[e, 0]
+        Me[e, 2, 2] = P[e, 1]
+
+
+@kernel
+def point_mass_mass(P, xe, Me):
+    """M_e = diag(m, m, 0) (θ of a point mass is fixed); P = (m,)."""
+    for e in range(xe.shape[0]):
+        Me[e, 0, 0] = P[e, 0]
+        Me[e, 1, 1] = P[e, 0]
+
+
 class RigidBody(Body, Element):
     """A planar rigid body; its node is the centre of mass.
 
@@ -227,6 +245,7 @@ class RigidBody(Body, Element):
 
     has_mass = True
     constant_mass = True
+    kernels = {"mass": rigid_body_mass}
 
     def __init__(self, name, mass, inertia, position=(0.0, 0.0), angle=0.0,
                  velocity=(0.0, 0.0), omega=0.0, points=None, shape=None):
@@ -247,7 +266,8 @@ class RigidBody(Body, Element):
     @classmethod
     def pack(cls, elements):
         p = {"m": np.array([e.m for e in elements]), "J": np.array([e.J for e in elements]),
-             "body_id": np.arange(len(elements))}
+             "body_id": np.arange(len(elements)),
+             "P": np.array([[e.m, e.J] for e in elements], dtype=float).reshape(-1, 2)}
         p.update(_pack_outlines(elements))
         return p
 
@@ -255,14 +275,6 @@ class RigidBody(Body, Element):
     def geometry(cls, p, t, qe, qde, lame, names):
         return _body_geometry(cls.__name__, p, qe, qde)
 
-    @classmethod
-    def mass(cls, p, qe):
-        n = p["m"].shape[0]
-        Me = np.zeros((n, 3, 3))
-        Me[:, 0, 0] = p["m"]
-        Me[:, 1, 1] = p["m"]
-        Me[:, 2, 2] = p["J"]
-        return Me
 
 
 class PointMass(Body, Element):
@@ -279,6 +291,7 @@ class PointMass(Body, Element):
 
     has_mass = True
     constant_mass = True
+    kernels = {"mass": point_mass_mass}
 
     def __init__(self, name, mass, position=(0.0, 0.0), velocity=(0.0, 0.0), points=None, shape=None):
         Element.__init__(self, name)
@@ -294,7 +307,8 @@ class PointMass(Body, Element):
 
     @classmethod
     def pack(cls, elements):
-        return {"m": np.array([e.m for e in elements])}
+        m = np.array([e.m for e in elements], dtype=float)
+        return {"m": m, "P": m.reshape(-1, 1).copy()}
 
     @classmethod
     def geometry(cls, p, t, qe, qde, lame, names):
@@ -306,10 +320,3 @@ class PointMass(Body, Element):
         return [GeometryBlock(cls.__name__, pts, [("vertex", np.arange(n)[:, None])],
                               point_data={"velocity": vel}, cell_data={"mass": [p["m"].copy()]})]
 
-    @classmethod
-    def mass(cls, p, qe):
-        n = p["m"].shape[0]
-        Me = np.zeros((n, 3, 3))
-        Me[:, 0, 0] = p["m"]
-        Me[:, 1, 1] = p["m"]
-        return Me

@@ -55,6 +55,8 @@ class Element:
     rheonomic = False
     #: names of this type's constraint equations, for named reactions
     constraint_names: tuple = ()
+    #: compiled kernels by role ("mass", "force", "constraint", "rates"), see docs/kernels.md
+    kernels: dict = {}
 
     def __init__(self, name):
         if not isinstance(name, str) or not name:
@@ -86,6 +88,11 @@ class Element:
         return {k: getattr(cls, k) for k in (
             "has_mass", "constant_mass", "has_force", "force_depends_on_qd",
             "constant_force", "n_constraints", "rheonomic")}
+
+    @classmethod
+    def time_functions(cls, element):
+        """The element's TimeFunctions (same count for every element of a batch)."""
+        return []
 
     # -------------------------------------------------------------- packing
     @classmethod

@@ -32,6 +32,10 @@ class TimeFunction:
     def __call__(self, t):
         return self.f(t)
 
+    def compiled(self):
+        """(kind, coefficients) for evaluation inside compiled code, or None (Python)."""
+        return None
+
     def __repr__(self):
         return f"TimeFunction({self.name})"
 
@@ -44,6 +48,9 @@ class Constant(TimeFunction):
         self.c = c
         super().__init__(lambda t: c, lambda t: 0.0, lambda t: 0.0, f"constant {c}")
 
+    def compiled(self):
+        return 1, [self.c]
+
 
 class Polynomial(TimeFunction):
     """f(t) = Σ c_k t^k (coefficients from the constant term up)."""
@@ -54,8 +61,12 @@ class Polynomial(TimeFunction):
             raise ModelError(f"Polynomial: coefficients must be finite numbers, got {coefficients!r}")
         p = np.polynomial.Polynomial(c)
         dp, ddp = p.deriv(1), p.deriv(2)
+        self.coefficients = c.copy()
         super().__init__(lambda t: float(p(t)), lambda t: float(dp(t)), lambda t: float(ddp(t)),
                          f"polynomial {c.tolist()}")
+
+    def compiled(self):
+        return 1, list(self.coefficients)
 
 
 def Linear(rate, offset=0.0):
@@ -68,10 +79,14 @@ class Harmonic(TimeFunction):
 
     def __init__(self, amplitude, omega, phase=0.0, offset=0.0):
         A, w, ph, o = map(float, (amplitude, omega, phase, offset))
+        self.coefficients = (A, w, ph, o)
         super().__init__(lambda t: o + A * math.sin(w * t + ph),
                          lambda t: A * w * math.cos(w * t + ph),
                          lambda t: -A * w * w * math.sin(w * t + ph),
                          f"harmonic A={A} w={w}")
+
+    def compiled(self):
+        return 2, list(self.coefficients)
 
 
 def as_time_function(value, owner, what):

@@ -18,6 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
+from femb import kernels as _kernels
 from femb.errors import ModelError
 
 
@@ -56,6 +57,9 @@ class Group:
     dofs: np.ndarray          # (nel, nd) indices into q_ext
     traits: dict
     lam: np.ndarray           # (nel, nc) indices into λ
+    P: np.ndarray = None       # (nel, npar) kernel parameters (params["P"])
+    tf_index: np.ndarray = None  # (nel, ntf) rows of the model's time-function table
+    time_functions: list = None  # per element, its TimeFunctions
     nn_sel: np.ndarray = None  # flat indices of free-free entries of (nel, nd, nd)
     nn_rows: np.ndarray = None
     nn_cols: np.ndarray = None
@@ -74,6 +78,10 @@ class Group:
     @property
     def nc(self):
         return self.lam.shape[1]
+
+    @property
+    def ndv(self):
+        return self.dofs.shape[1]
 
     @property
     def name(self):
@@ -246,6 +254,7 @@ def compile_model(mech, *, length_scale=None):
     groups = []
     nc = 0
     lam_index = {}
+    tf_all = []
     for (cls, key), els in batches.items():
         dofs = np.array([np.concatenate([node_index[n.name] for n in e.nodes()]) for e in els],
                         dtype=np.int64).reshape(len(els), -1)
@@ -255,8 +264,22 @@ def compile_model(mech, *, length_scale=None):
         nc += len(els) * ncon
         for e, row in zip(els, lam):
             lam_index[e.name] = row.copy()
+        params = cls.pack(els)
+        _check_kernels(cls, tr, params, len(els))
+        fns = [list(cls.time_functions(e)) for e in els]
+        ntf = {len(f) for f in fns}
+        if len(ntf) != 1:
+            raise ModelError(f"{cls.__name__}: elements of one batch must have the same number of time "
+                             f"functions (split them with group_key), got {sorted(ntf)}")
+        tf_index = np.empty((len(els), ntf.pop()), dtype=np.int64)
+        for e, row in enumerate(fns):
+            for k, fn in enumerate(row):
+                tf_index[e, k] = len(tf_all)
+                tf_all.append(fn)
         g = Group(cls=cls, key=key, elements=els, names=[e.name for e in els],
-                  params=cls.pack(els), dofs=dofs, traits=tr, lam=lam)
+                  params=params, dofs=dofs, traits=tr, lam=lam,
+                  P=np.ascontiguousarray(params["P"], dtype=np.float64), tf_index=tf_index,
+                  time_functions=fns)
         _index_group(g, nq)
         groups.append(g)
     for e in gravity:
@@ -268,6 +291,10 @@ def compile_model(mech, *, length_scale=None):
     constraint_groups = [g for g in groups if g.nc > 0]
     if not mass_groups:
         raise ModelError(f"mechanism '{mech.name}' has no mass (add a RigidBody, PointMass or beam)")
+    for g in mass_groups:
+        if not g.traits["constant_mass"]:
+            raise ModelError(f"{g.name}: a configuration-dependent mass matrix is not supported by the "
+                             "compiled time loop (every femb element has constant mass)")
 
     # ---- residual weights: moments (rows of non-translational coordinates) are
     # divided by the length scale so the force-residual test mixes N with N, not
@@ -289,7 +316,7 @@ def compile_model(mech, *, length_scale=None):
     if constant_mass:
         rows, cols, vals = [], [], []
         for g in mass_groups:
-            Me = g.cls.mass(g.params, qx0[g.dofs])
+            Me = _kernels.mass(g, qx0[g.dofs])
             rows.append(g.nn_rows)
             cols.append(g.nn_cols)
             vals.append(Me.reshape(-1)[g.nn_sel])
@@ -300,7 +327,7 @@ def compile_model(mech, *, length_scale=None):
                                 shape=(nq, nq))
         M_const.sum_duplicates()
     for g in const_force_groups:
-        fe, _, _ = g.cls.force(g.params, 0.0, qx0[g.dofs], qdx0[g.dofs], False)
+        fe, _, _ = _kernels.force(g, 0.0, qx0[g.dofs], qdx0[g.dofs], False)
         f_const += np.bincount(g.dofs.ravel(), fe.ravel(), minlength=next_)
 
     # ---- length scale
@@ -331,6 +358,7 @@ def compile_model(mech, *, length_scale=None):
         needs_C=any(g.traits["force_depends_on_qd"] for g in force_groups),
         rheonomic=any(g.traits["rheonomic"] for g in constraint_groups),
         lam_index=lam_index, length_scale=length_scale,
+        time_function_table=_time_function_table(tf_all),
         force_weight=w_ext[:nq].copy(), force_weight_ext=w_ext,
         bodies={e.name: e for e in [mech.ground] + others if isinstance(e, Body)},
         element_types={e.name: type(e).__name__ for e in elements},
@@ -353,3 +381,43 @@ def _index_group(g, nq):
         C = np.broadcast_to(g.dofs[:, None, :], (nel, nc, nd)).reshape(-1)
         sel = np.nonzero(C < nq)[0]
         g.cq_sel, g.cq_rows, g.cq_cols = sel, R[sel], C[sel]
+
+
+_ROLES = (("has_mass", "mass"), ("has_force", "force"))
+
+
+def _check_kernels(cls, tr, params, nel):
+    """The batch provides the compiled kernels its metadata declares, and a parameter array."""
+    ks = getattr(cls, "kernels", None) or {}
+    need = [role for flag, role in _ROLES if tr[flag]]
+    if int(tr["n_constraints"]):
+        need += ["constraint", "rates"]
+    missing = [r for r in need if r not in ks]
+    if missing:
+        raise ModelError(f"{cls.__name__}: its metadata declares {', '.join(missing)} but "
+                         f"{cls.__name__}.kernels has no such compiled kernel (see docs/kernels.md)")
+    P = params.get("P") if isinstance(params, dict) else None
+    if P is None or np.ndim(P) != 2 or np.shape(P)[0] != nel:
+        raise ModelError(f"{cls.__name__}.pack must return a dict with 'P', a float array of shape "
+                         f"(nel, npar) = ({nel}, ...), got {None if P is None else np.shape(P)}")
+
+
+def _time_function_table(fns):
+    """Compiled description of the model's time functions.
+
+    kind 1: polynomial (coefficients from the constant term up), kind 2: harmonic
+    (A, ω, φ, offset), kind 0: a Python function evaluated outside compiled code.
+    """
+    kind, off, coef = [], [0], []
+    python = []
+    for k, fn in enumerate(fns):
+        spec = fn.compiled() if hasattr(fn, "compiled") else None
+        if spec is None:
+            kind.append(0)
+            python.append((k, fn))
+        else:
+            kind.append(spec[0])
+            coef.extend(float(c) for c in spec[1])
+        off.append(len(coef))
+    return {"kind": np.array(kind, dtype=np.int64), "off": np.array(off, dtype=np.int64),
+            "coef": np.array(coef if coef else [0.0]), "python": python}

@@ -1,4 +1,10 @@
-"""The index-3 generalized-α scheme of Arnold & Brüls (2007): the one time loop.
+"""The index-3 generalized-α scheme of Arnold & Brüls (2007): the Python side of the time loop.
+
+The time step itself (predictor, Newton iteration, band LU, chunks of steps) is
+compiled code in ``femb/step.py``; this module validates options, computes
+consistent initial values, drives the compiled loop chunk by chunk (observers,
+stored steps, Python time functions) and turns its status codes into femb's
+errors.
 
 References
 ----------
@@ -14,6 +20,7 @@ J. Chung, G. M. Hulbert, J. Appl. Mech. 60 (1993) 371–375 (parameters).
 from __future__ import annotations
 
 import math
+import sys
 import time
 import warnings
 
@@ -24,14 +31,15 @@ import scipy.sparse.linalg as spla
 
 from femb import assembly
 from femb.alpha import GeneralizedAlpha
-from femb.assembly import Assembler
 from femb.errors import (SINGULAR_HINT, ConvergenceError, InitializationError, ParameterError,
                          SingularMatrixError)
 from femb.model import State
 from femb.result import Result
 
-#: systems with at most this many unknowns (nq + nc) use dense LU
+#: systems with at most this many unknowns use dense LU in the (Python) initialization
 DENSE_LIMIT = 200
+#: steps per call of the compiled loop when nothing needs Python between steps
+CHUNK = 4096
 
 _getrf, _getrs = sla.get_lapack_funcs(("getrf", "getrs"), dtype=np.float64)
 
@@ -207,6 +215,11 @@ def _zero_rows(B, owner):
 # --------------------------------------------------------------------------
 # the integrator
 # --------------------------------------------------------------------------
+def _stepmod():
+    from femb import codegen
+    return codegen
+
+
 class GeneralizedAlphaSolver:
     """Index-3 generalized-α integrator, Algorithm 1 of Arnold & Brüls (2007).
 
@@ -215,6 +228,7 @@ class GeneralizedAlphaSolver:
     accepts an unconverged step. The state (t, q, q̇, q̈, λ) satisfies the
     equations of motion and Φ = 0 at every accepted step to the Newton
     tolerance. The auxiliary variable ``a`` lives here, not in the state.
+    :func:`simulate` runs many steps per call of the compiled loop.
 
     Parameters
     ----------
@@ -237,40 +251,41 @@ class GeneralizedAlphaSolver:
         Absolute floor of that test (N); default 0. Independently, an iterate
         is accepted when Φ passes its test, the force residual is within 1e4 of
         its tolerance, and the last Newton correction is at round-off level,
-        ‖Δq‖∞ ≤ 64 ε (‖q‖∞ + L): then no iteration can improve it (counted in
-        ``stats["roundoff_accepts"]``).
+        ‖Δq‖∞ ≤ 64 ε (‖q‖∞ + L) (counted in ``stats["roundoff_accepts"]``).
     phi_tol : float
         Constraint test ‖Φ‖∞ ≤ phi_tol · L with L the model's length scale.
-        Keep it tight: a residual Φ puts an error ~‖Φ‖/h² into λ.
     max_iter : int
         Newton iteration limit per step.
     min_iter : {1, 0}
-        Newton corrections taken at least per step (default 1). With 0 a
-        prediction that already passes the tests is accepted as it is; its
-        leftover Φ then enters λ as an error of order ‖Φ‖/(βh²), which grows
-        like 1/h² for tiny steps.
+        Newton corrections taken at least per step (default 1).
     newton : {"full", "modified"}
-        "full" refactors the exact iteration matrix at every iteration
-        (quadratic convergence); "modified" reuses the last factorization
-        across iterations and steps while Newton contracts by at least a
-        factor 4 per iteration, refactoring otherwise.
-    linear_solver : {"auto", "dense", "sparse"}
-        Dense LAPACK LU for nq + nc ≤ ``DENSE_LIMIT``, SuperLU above (decided once).
+        "full" refactors the exact iteration matrix at every iteration;
+        "modified" reuses the last factorization across iterations and steps
+        while Newton contracts by at least a factor 4 per iteration.
+    linear_solver : {"auto", "band", "dense", "sparse"}
+        "auto" (= "band", = "sparse"): compiled band LU with partial pivoting
+        after a reverse Cuthill–McKee ordering of the iteration matrix, computed
+        once per model; "dense": the same LU on the full matrix in the natural
+        order (kl = ku = N − 1).
     predictor : {"extrapolate", "previous", "zero"}
-        Newton's starting guess for (q̈_{n+1}, λ_{n+1}): linear extrapolation
-        2(q̈_n, λ_n) − (q̈_{n−1}, λ_{n−1}) (default), (q̈_n, λ_n), or zeros
-        (Algorithm 1 as printed). q and q̇ follow from (3)–(5), so every choice
-        converges to the same solution; a closer start saves iterations.
+        Newton's starting guess for (q̈_{n+1}, λ_{n+1}).
     state : State, optional
         Initial state (default: the model's, made consistent).
     t0 : float
     initialize : bool
         Compute consistent initial values (method.md §5); default True.
+    n_steps : int, optional
+        Steps the solver may take (default: unlimited); ``t_end`` is reported
+        as the time of step ``n_steps``.
+    t_end : float, optional
     """
 
     def __init__(self, model, h, *, rho_inf=None, alpha=None, scaling=True, rtol=1e-10, atol=0.0,
                  phi_tol=1e-12, max_iter=25, min_iter=1, newton="full", linear_solver="auto", predictor="extrapolate",
-                 state=None, t0=0.0, initialize=True):
+                 state=None, t0=0.0, initialize=True, n_steps=None, t_end=None):
+        from femb.model import Model
+        if not isinstance(model, Model):
+            raise ParameterError(f"expected a compiled Model (call mechanism.compile()), got {type(model).__name__}")
         self.model = model
         self.h = _check_positive("h", h)
         if alpha is not None and rho_inf is not None:
@@ -307,17 +322,11 @@ class GeneralizedAlphaSolver:
             raise ParameterError(f"newton must be 'full' or 'modified', got {newton!r}")
         self.newton = newton
         if predictor not in ("zero", "previous", "extrapolate"):
-            raise ParameterError(f"predictor must be 'zero' or 'previous', got {predictor!r}")
+            raise ParameterError(f"predictor must be 'zero', 'previous' or 'extrapolate', got {predictor!r}")
         self.predictor = predictor
-        N = model.nq + model.nc
-        if linear_solver == "auto":
-            dense = N <= DENSE_LIMIT
-        elif linear_solver in ("dense", "sparse"):
-            dense = linear_solver == "dense"
-        else:
-            raise ParameterError(f"linear_solver must be 'auto', 'dense' or 'sparse', got {linear_solver!r}")
-        self.linear_solver = "dense" if dense else "sparse"
-        self.assembler = Assembler(model, dense)
+        if linear_solver not in ("auto", "band", "dense", "sparse"):
+            raise ParameterError(f"linear_solver must be 'auto', 'band', 'dense' or 'sparse', got {linear_solver!r}")
+        self.linear_solver = "dense" if linear_solver == "dense" else "band"
         self.owner = _constraint_owner(model)
 
         t_init = time.perf_counter()
@@ -327,164 +336,154 @@ class GeneralizedAlphaSolver:
         else:
             st = (state or model.initial_state(t0)).copy()
         self.init_time = time.perf_counter() - t_init
-        self.state = st
         self.t0 = st.t
+        self.cp = _stepmod().compiled(model, ordering="natural" if self.linear_solver == "dense" else "rcm")
+        cp = self.cp
+        nv, nc = model.nq, model.nc
+        N = nv + nc
+        al = self.alpha
+        self.n_steps = int(n_steps) if n_steps is not None else 2 ** 62
+        self.ip = np.array([nv, nc, model.nfix, N, cp.kl, cp.ku, self.max_iter, self.min_iter,
+                            1 if newton == "full" else 0,
+                            {"zero": 0, "previous": 1, "extrapolate": 2}[predictor],
+                            self.n_steps, 1, 1, 1 if cp.python_tf else 0], dtype=np.int64)
+        self.fp = np.array([self.h, self.t0, al.alpha_m, al.alpha_f, al.beta, al.gamma, self.rtol, self.atol,
+                            self.phi_tol, model.length_scale, 64.0 * np.finfo(float).eps,
+                            1.0 if self.scaling else 0.0, 1e-13 if self.scaling else 0.0,
+                            float(t_end) if t_end is not None else math.inf, 0.0])
+        self.si = np.zeros(4, dtype=np.int64)
+        self.sf = np.array([0.0, math.nan])
+        self.stats_arr = np.zeros(5, dtype=np.int64)
+        self.q, self.qd, self.qdd, self.lam = st.q.copy(), st.qd.copy(), st.qdd.copy(), st.lam.copy()
         self.a = st.qdd.copy()                   # a_0 = q̈_0
-        self.step_index = 0
-        self.stats = {"steps": 0, "evaluations": 0, "factorizations": 0, "solves": 0,
-                      "roundoff_accepts": 0}
-        #: relative size of a Newton correction taken as round-off (see _step_impl)
-        self.xtol_roundoff = 64.0 * np.finfo(float).eps
-        self._lu = None
-        self._lu_h = None
-        self._prev = None
-        self._qx = model.ext(st.q)
-        self._qdx = model.ext_velocity(st.qd)
-        qx = model.ext(st.q)
-        _, _, sc, _ = self.assembler.evaluate(st.t, qx, model.ext_velocity(st.qd), st.qdd, st.lam)
-        self.F_ref = sc
+        self.pqdd = np.zeros(nv)
+        self.plam = np.zeros(nc)
+        self.AB = np.zeros(N * cp.ldab)
+        self.ipiv = np.zeros(N, dtype=np.int64)
+        self.r = np.zeros(nv)
+        self.Phi = np.zeros(nc)
+        self.rhs = np.zeros(N)
+        self.x = np.zeros(N)
+        self.info = np.zeros(8)
+        self._bufs = None
+        self._t = st.t
+        # the force scale of the initial state starts the running scale F_ref
+        self._evaluate_scale()
+        self._compile()
+
+    # ------------------------------------------------------------------ internals
+    def _evaluate_scale(self):
+        cp = self.cp
+        if cp.python_tf:
+            self._fill_python_tf(self.t0)
+        else:
+            cp.mod.eval_time_functions(self.t0, cp.C[8], cp.C[9], cp.C[10], cp.tfv)
+        self.sf[0] = cp.mod.evaluate(cp.G, cp.C, self.t0, self.q, self.qd, self.qdd, self.lam, False,
+                                     0.0, 0.0, 0.0, self.AB, self.r, self.Phi)
+
+    def _fill_python_tf(self, t):
+        for k, fn in self.cp.python_tf:
+            self.cp.tfv[k, 0] = fn.f(t)
+            self.cp.tfv[k, 1] = fn.df(t)
+            self.cp.tfv[k, 2] = fn.ddf(t)
+        self.sf[1] = t
+
+    def _buffers(self, n):
+        b = self._bufs
+        if b is None or b[0].shape[0] < n:
+            nv, nc = self.model.nq, self.model.nc
+            b = (np.zeros(n), np.zeros((n, nv)), np.zeros((n, nv)), np.zeros((n, nv)), np.zeros((n, nc)))
+            self._bufs = b
+        return b
+
+    def _compile(self):
+        cp = self.cp
+        if not cp.announced:
+            cp.announced = True
+            if cp.fresh:
+                print(f"femb: compiling the time loop for this combination of elements "
+                      f"({cp.kind_summary}); cached for later runs in {cp.cache_path}", file=sys.stderr, flush=True)
+                t = time.perf_counter()
+                self._run(0, np.zeros(1, dtype=np.int32))
+                print(f"femb: compiled in {time.perf_counter() - t:.1f} s", file=sys.stderr, flush=True)
+
+    def _run(self, n_chunk, iters):
+        """Call the compiled loop for up to n_chunk steps; returns (status, stored)."""
+        cp = self.cp
+        bt, bq, bqd, bqdd, bl = self._buffers(max(1, n_chunk))
+        while True:
+            status = cp.mod.run_fixed(cp.G, cp.C, self.ip, self.fp, self.si, self.sf, self.stats_arr,
+                                      self.q, self.qd, self.qdd, self.lam, self.a, self.pqdd, self.plam,
+                                      cp.tfv, self.AB, self.ipiv, self.r, self.Phi, self.rhs, self.x, self.info,
+                                      n_chunk, bt, bq, bqd, bqdd, bl, iters)
+            if status == 2:                      # Python time functions needed at info[0]
+                self._fill_python_tf(float(self.info[0]))
+                continue
+            return status, int(self.si[3])
+
+    def _raise(self, status):
+        info = self.info
+        t1, err_f, err_phi, k, iphi = float(info[0]), float(info[1]), float(info[2]), int(info[3]), int(info[4])
+        n = int(self.si[0]) + 1
+        res = {"r_q": err_f, "Phi": err_phi}
+        if status == -1:
+            raise ConvergenceError(
+                f"non-finite residual at t = {t1:.6g} s (step {n}, iteration {k}): the step diverged; "
+                "try a smaller h", t=t1, step=n, residuals=res)
+        if status == -2:
+            where = f"; largest constraint residual in '{self.owner[iphi]}'" if iphi >= 0 else ""
+            raise ConvergenceError(
+                f"Newton did not converge at t = {t1:.6g} s (step {n}) within {self.max_iter} iterations: "
+                f"‖r_q‖∞ = {err_f:.3e} N (moments / L; tolerance {info[5]:.3e}), ‖Φ‖∞ = {err_phi:.3e} m "
+                f"(tolerance {info[6]:.3e}){where}; try a smaller h", t=t1, step=n, residuals=res)
+        if status == -3:
+            raise ConvergenceError(
+                f"Newton diverged at t = {t1:.6g} s (step {n}): the iteration matrix became singular at "
+                f"iteration {k} with ‖r_q‖∞ = {err_f:.3e} N, ‖Φ‖∞ = {err_phi:.3e} m; try a smaller h",
+                t=t1, step=n, residuals=res)
+        if status == -4:
+            raise SingularMatrixError(
+                f"singular iteration matrix at t = {t1:.6g} s (step {n}); {SINGULAR_HINT}",
+                t=t1, step=n, residuals=res)
+        raise RuntimeError(f"femb: unknown status {status} from the compiled loop")
 
     # ------------------------------------------------------------------ public
+    @property
+    def step_index(self):
+        return int(self.si[0])
+
+    @property
+    def F_ref(self):
+        return float(self.sf[0])
+
+    @property
+    def stats(self):
+        s = self.stats_arr
+        return {"steps": int(s[0]), "evaluations": int(s[1]), "factorizations": int(s[2]),
+                "solves": int(s[3]), "roundoff_accepts": int(s[4])}
+
+    @property
+    def state(self):
+        """The current State (copies)."""
+        n = self.step_index
+        t = self.t0 + n * self.h if n else self.t0
+        return State(t, self.q.copy(), self.qd.copy(), self.qdd.copy(), self.lam.copy())
+
     def step(self):
         """Advance one step; returns the number of Newton iterations."""
-        it = self._step_impl()
-        self.step_index += 1
-        self.stats["steps"] += 1
-        return it
+        it = np.zeros(max(self.n_steps if self.n_steps < 2 ** 40 else 0, self.step_index + 1), dtype=np.int32)
+        status, _ = self._run(1, it)
+        if status < 0:
+            self._raise(status)
+        return int(it[self.step_index - 1])
 
     def settings(self):
         a = self.alpha
         return {"h": self.h, "rho_inf": a.rho_inf, "alpha_m": a.alpha_m, "alpha_f": a.alpha_f,
                 "beta": a.beta, "gamma": a.gamma, "scaling": self.scaling, "rtol": self.rtol,
                 "atol": self.atol, "phi_tol": self.phi_tol, "max_iter": self.max_iter,
-                "min_iter": self.min_iter,
-                "newton": self.newton, "linear_solver": self.linear_solver, "predictor": self.predictor}
-
-    # ------------------------------------------------------------------ the step
-    def _step_impl(self):
-        m = self.model
-        nq = m.nq
-        al = self.alpha
-        h = self.h
-        am, af, beta, gamma = al.alpha_m, al.alpha_f, al.beta, al.gamma
-        bp, gp = al.newton_factors(h)
-        c = beta * h * h if self.scaling else 1.0
-        st = self.state
-        t1 = self.t0 + (self.step_index + 1) * h      # no accumulation of round-off in t
-        # Algorithm 1. The Newton iterates keep (3)-(5) satisfied for any initial
-        # guess (q̈, λ) of the new step: "zero" is Algorithm 1 as printed,
-        # "previous" starts from (q̈_n, λ_n), "extrapolate" from
-        # 2(q̈_n, λ_n) − (q̈_{n−1}, λ_{n−1}); all converge to the same solution.
-        ka = (1.0 - af) / (1.0 - am)                  # ∂a_{n+1}/∂q̈_{n+1}, eq. (3)
-        a_base = (af * st.qdd - am * self.a) / (1.0 - am)
-        if self.predictor == "zero":
-            qdd = np.zeros(nq)
-            lam = np.zeros(m.nc)
-            a_pred = a_base
-        else:
-            if self.predictor == "extrapolate" and self._prev is not None:
-                qdd = 2.0 * st.qdd - self._prev[0]
-                lam = 2.0 * st.lam - self._prev[1]
-            else:
-                qdd = st.qdd.copy()
-                lam = st.lam.copy()
-            a_pred = a_base + ka * qdd
-        qd = st.qd + (h * (1.0 - gamma)) * self.a + (h * gamma) * a_pred
-        q = st.q + h * st.qd + (h * h * (0.5 - beta)) * self.a + (h * h * beta) * a_pred
-        qx, qdx = self._qx, self._qdx
-        tol_phi = self.phi_tol * m.length_scale
-        rhs = np.empty(nq + m.nc)
-        weight = self.assembler.weight
-        full = self.newton == "full"
-        prev_norm = None
-        for k in range(self.max_iter + 1):
-            qx[:nq] = q
-            qdx[:nq] = qd
-            # Full Newton needs S_t only where it solves; the first iterate of a step
-            # almost always needs a correction, later ones are usually converged, so
-            # S_t is built with the residual at k = 0 and on demand after that.
-            need_jac = (full and k == 0) or self._lu is None or self._lu_h != h
-            r_q, Phi, scale, S = self.assembler.evaluate(t1, qx, qdx, qdd, lam, need_jac,
-                                                         c * bp, c * gp, c)
-            self.stats["evaluations"] += 1
-            # the test uses this iterate's force scale; the running scale F_ref is
-            # updated from accepted steps only (a diverging iterate must not loosen
-            # the tolerance for the rest of the run)
-            F = scale if scale > self.F_ref else self.F_ref
-            err_f = np.abs(r_q * weight).max(initial=0.0)
-            err_phi = np.abs(Phi).max(initial=0.0)
-            if not (math.isfinite(err_f) and math.isfinite(err_phi)):
-                raise ConvergenceError(
-                    f"non-finite residual at t = {t1:.6g} s (step {self.step_index + 1}, iteration {k}): "
-                    "the step diverged; try a smaller h", t=t1, step=self.step_index + 1,
-                    residuals={"r_q": err_f, "Phi": err_phi})
-            # at least one Newton correction per step: a prediction that already
-            # passes the tests still carries a Φ residual that becomes an O(‖Φ‖/h²)
-            # error in λ; one exact-Newton correction makes it quadratically small
-            if k >= self.min_iter and err_f <= self.rtol * F + self.atol and err_phi <= tol_phi:
-                break
-            if k == self.max_iter:
-                i = int(np.argmax(np.abs(Phi))) if m.nc else None
-                where = f"; largest constraint residual in '{self.owner[i]}'" if i is not None else ""
-                raise ConvergenceError(
-                    f"Newton did not converge at t = {t1:.6g} s (step {self.step_index + 1}) within "
-                    f"{self.max_iter} iterations: ‖r_q‖∞ = {err_f:.3e} N (moments / L; tolerance "
-                    f"{self.rtol * F + self.atol:.3e}), ‖Φ‖∞ = {err_phi:.3e} m (tolerance "
-                    f"{tol_phi:.3e}){where}; try a smaller h", t=t1, step=self.step_index + 1,
-                    residuals={"r_q": err_f, "Phi": err_phi})
-            if full and S is None:
-                r_q, Phi, scale, S = self.assembler.evaluate(t1, qx, qdx, qdd, lam, True, c * bp, c * gp, c)
-                self.stats["evaluations"] += 1
-            if not full and prev_norm is not None and self._lu is not None:
-                # modified Newton: refactor when contraction is poor
-                cur = max(err_f / max(F, 1e-300), err_phi / max(tol_phi, 1e-300))
-                if cur > 0.25 * prev_norm and S is None:
-                    r_q, Phi, scale, S = self.assembler.evaluate(t1, qx, qdx, qdd, lam, True, c * bp, c * gp, c)
-                    self.stats["evaluations"] += 1
-            if S is not None:
-                try:
-                    self._lu = _LU(S, self.assembler.dense, 1e-13 if self.scaling else 0.0)
-                except _Singular:
-                    if k > 0:
-                        raise ConvergenceError(
-                            f"Newton diverged at t = {t1:.6g} s (step {self.step_index + 1}): the iteration "
-                            f"matrix became singular at iteration {k} with ‖r_q‖∞ = {err_f:.3e} N, "
-                            f"‖Φ‖∞ = {err_phi:.3e} m; try a smaller h", t=t1, step=self.step_index + 1,
-                            residuals={"r_q": err_f, "Phi": err_phi}) from None
-                    raise SingularMatrixError(
-                        f"singular iteration matrix at t = {t1:.6g} s (step {self.step_index + 1}); "
-                        f"{SINGULAR_HINT}", t=t1, step=self.step_index + 1,
-                        residuals={"r_q": err_f, "Phi": err_phi}) from None
-                self._lu_h = h
-                self.stats["factorizations"] += 1
-            if not full:
-                prev_norm = max(err_f / max(F, 1e-300), err_phi / max(tol_phi, 1e-300))
-            rhs[:nq] = r_q
-            rhs[:nq] *= -c
-            rhs[nq:] = -Phi
-            x = self._lu.solve(rhs)
-            self.stats["solves"] += 1
-            dq = x[:nq]
-            q += dq
-            qd += gp * dq
-            qdd += bp * dq
-            lam += x[nq:] * (1.0 / c)
-            # Round-off floor: a correction at the level of the coordinates' own
-            # round-off cannot improve the iterate, so with Φ satisfied the step
-            # has converged to machine precision (the force residual of stiff
-            # elements stalls at ~ε·stiffness·|q|, which a relative test alone
-            # would demand to beat when the motion is nearly at rest).
-            if (err_phi <= tol_phi and err_f <= 1e4 * (self.rtol * F + self.atol)
-                    and np.abs(dq).max() <= self.xtol_roundoff * (np.abs(q).max() + m.length_scale)):
-                self.stats["roundoff_accepts"] += 1
-                k += 1
-                break
-        self.a = a_base + ka * qdd
-        if F > self.F_ref:
-            self.F_ref = F
-        self._prev = (st.qdd, st.lam)
-        self.state = State(t1, q, qd, qdd, lam)
-        return k
+                "min_iter": self.min_iter, "newton": self.newton, "linear_solver": self.linear_solver,
+                "predictor": self.predictor, "band": (self.cp.kl, self.cp.ku)}
 
 
 # --------------------------------------------------------------------------
@@ -495,6 +494,7 @@ def simulate(model, t_end, h, *, rho_inf=None, alpha=None, scaling=True, t0=0.0,
     Parameters
     ----------
     model : Model
+        A compiled model (a :class:`~femb.mechanism.Mechanism` is compiled first).
     t_end : float
         Final time; the number of steps is round((t_end − t0)/h) and the last
         step lands on t_end exactly when (t_end − t0)/h is an integer (else h
@@ -503,7 +503,7 @@ def simulate(model, t_end, h, *, rho_inf=None, alpha=None, scaling=True, t0=0.0,
         Step size.
     rho_inf, alpha, scaling, initialize, **newton_options
         See :class:`GeneralizedAlphaSolver` (rtol, atol, phi_tol, max_iter,
-        newton, linear_solver, predictor).
+        min_iter, newton, linear_solver, predictor).
     t0 : float
     state : State, optional
     stride : int
@@ -514,8 +514,9 @@ def simulate(model, t_end, h, *, rho_inf=None, alpha=None, scaling=True, t0=0.0,
         for runs streamed through ``observer``).
     observer : callable(state, step), optional
         Called after initialization (step 0) and after every accepted step
-        with the current :class:`State` (do not modify it). Use it to stream
-        output or show progress.
+        with the current :class:`State`. The compiled loop then returns to
+        Python after every step; without an observer it runs up to
+        ``CHUNK`` steps per call.
 
     Returns
     -------
@@ -528,6 +529,9 @@ def simulate(model, t_end, h, *, rho_inf=None, alpha=None, scaling=True, t0=0.0,
     ConvergenceError, SingularMatrixError
         A step failed; ``err.result`` holds what was stored until then.
     """
+    from femb.mechanism import Mechanism
+    if isinstance(model, Mechanism):
+        model = model.compile()
     h = _check_positive("h", h)
     t0 = float(state.t) if state is not None else float(t0)
     try:
@@ -545,44 +549,46 @@ def simulate(model, t_end, h, *, rho_inf=None, alpha=None, scaling=True, t0=0.0,
     n_steps = max(1, int(round((t_end - t0) / h)))
     h_eff = (t_end - t0) / n_steps
     solver = GeneralizedAlphaSolver(model, h_eff, rho_inf=rho_inf, alpha=alpha, scaling=scaling,
-                                    state=state, t0=t0, initialize=initialize, **newton_options)
+                                    state=state, t0=t0, initialize=initialize, n_steps=n_steps, t_end=t_end,
+                                    **newton_options)
+    solver.ip[11] = stride
+    solver.ip[12] = 1 if store else 0
     st = solver.state
     T, Q, QD, QDD, L = [st.t], [st.q.copy()], [st.qd.copy()], [st.qdd.copy()], [st.lam.copy()]
     iters = np.zeros(n_steps, dtype=np.int32)
     if observer is not None:
         observer(st, 0)
     wall0 = time.perf_counter()
+    chunk = 1 if observer is not None else min(CHUNK, n_steps)
 
     def result(status, message, upto):
         return Result(model=model, t=np.array(T), q=np.array(Q), qd=np.array(QD), qdd=np.array(QDD),
                       lam=np.array(L).reshape(len(T), model.nc), newton_iterations=iters[:upto].copy(),
                       status=status, message=message, wall_time=time.perf_counter() - wall0,
-                      init_time=solver.init_time, stats=dict(solver.stats), settings=solver.settings())
+                      init_time=solver.init_time, stats=solver.stats, settings=solver.settings())
 
-    n = 0
-    try:
-        for n in range(1, n_steps + 1):
-            iters[n - 1] = solver.step()
-            st = solver.state
-            if n == n_steps:
-                st.t = t_end          # t0 + n h_eff may differ from t_end in the last bit
-            if store and (n % stride == 0 or n == n_steps):
-                T.append(st.t)
-                Q.append(st.q.copy())
-                QD.append(st.qd.copy())
-                QDD.append(st.qdd.copy())
-                L.append(st.lam.copy())
-            elif not store and n == n_steps:
-                T.append(st.t)
-                Q.append(st.q.copy())
-                QD.append(st.qd.copy())
-                QDD.append(st.qdd.copy())
-                L.append(st.lam.copy())
-            if observer is not None:
-                observer(st, n)
-    except (ConvergenceError, SingularMatrixError) as err:
-        err.result = result("failed", str(err), n - 1)
-        raise
-    except KeyboardInterrupt:
-        raise
+    def collect(m):
+        bt, bq, bqd, bqdd, bl = solver._bufs
+        T.extend(bt[:m].tolist())
+        Q.extend(bq[:m].copy())
+        QD.extend(bqd[:m].copy())
+        QDD.extend(bqdd[:m].copy())
+        L.extend(bl[:m].copy())
+
+    while True:
+        status, m = solver._run(chunk, iters)
+        collect(m)
+        if status < 0:
+            try:
+                solver._raise(status)
+            except (ConvergenceError, SingularMatrixError) as err:
+                err.result = result("failed", str(err), solver.step_index)
+                raise
+        if observer is not None and solver.step_index > 0:
+            s = solver.state
+            if solver.step_index == n_steps:
+                s.t = t_end
+            observer(s, solver.step_index)
+        if status == 1 or solver.step_index >= n_steps:
+            break
     return result("success", f"reached t = {T[-1]:.6g} s in {n_steps} steps", n_steps)

@@ -45,7 +45,7 @@ import scipy.linalg as sla
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from femb import assembly
+from femb import assembly, kernels
 from femb.errors import ConvergenceError, ParameterError, SingularMatrixError
 from femb.model import State
 from femb.result import Result
@@ -93,7 +93,7 @@ def _external(model, groups, t, q, jac):
     f = model.f_const.copy()
     rows, cols, vals = [], [], []
     for g in groups:
-        fe, fq, _ = g.cls.force(g.params, t, qx[g.dofs], qdx[g.dofs], jac)
+        fe, fq, _ = kernels.force(g, t, qx[g.dofs], qdx[g.dofs], jac)
         f += np.bincount(g.dofs.ravel(), fe.ravel(), minlength=next_)[:nq]
         if jac:
             rows.append(g.nn_rows)

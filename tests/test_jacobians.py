@@ -3,7 +3,7 @@ import numpy as np
 import pytest
 
 from femb import GeneralizedAlpha, State
-from femb import assembly
+from femb import assembly, kernels
 
 def _random_qe(model, g, rng):
     qx = model.ext(model.q0 + 0.1 * rng.standard_normal(model.nq))
@@ -34,13 +34,13 @@ def test_force_jacobians(every_model, trial):
     checked = 0
     for g in m.force_groups:
         qe, qde = _random_qe(m, g, rng)
-        f, f_q, f_qd = g.cls.force(g.params, t, qe, qde, True)
-        f2, _, _ = g.cls.force(g.params, t, qe, qde, False)
+        f, f_q, f_qd = kernels.force(g, t, qe, qde, True)
+        f2, _, _ = kernels.force(g, t, qe, qde, False)
         np.testing.assert_allclose(f, f2, rtol=0, atol=0)
-        Jq = _blockwise(lambda x: g.cls.force(g.params, t, x, qde, False)[0], qe)
+        Jq = _blockwise(lambda x: kernels.force(g, t, x, qde, False)[0], qe)
         np.testing.assert_allclose(f_q, Jq, rtol=1e-6, atol=1e-7 * max(1.0, np.abs(Jq).max()),
                                    err_msg=f"{g.name} df/dq")
-        Jv = _blockwise(lambda v: g.cls.force(g.params, t, qe, v, False)[0], qde)
+        Jv = _blockwise(lambda v: kernels.force(g, t, qe, v, False)[0], qde)
         if g.traits["force_depends_on_qd"]:
             np.testing.assert_allclose(f_qd, Jv, rtol=1e-6, atol=1e-7 * max(1.0, np.abs(Jv).max()),
                                        err_msg=f"{g.name} df/dqd")
@@ -59,26 +59,23 @@ def test_constraint_jacobians_hessians_and_rates(every_model, trial):
     for g in m.constraint_groups:
         qe, qde = _random_qe(m, g, rng)
         lame = rng.standard_normal((g.nel, g.nc))
-        Phi, Phi_q = g.cls.constraint(g.params, t, qe)
-        Phi2, Phi_q2, H = g.cls.constraint_all(g.params, t, qe, lame, True)
+        con = lambda x, tt=t: kernels.constraint(g, tt, x, jac=False)[:2]
+        Phi, Phi_q = con(qe)
+        Phi2, Phi_q2, H = kernels.constraint(g, t, qe, lame, jac=True)
         np.testing.assert_allclose(Phi, Phi2, atol=1e-15)
         np.testing.assert_allclose(Phi_q, Phi_q2, atol=1e-15)
-        J = _blockwise(lambda x: g.cls.constraint(g.params, t, x)[0], qe)
+        J = _blockwise(lambda x: con(x)[0], qe)
         np.testing.assert_allclose(Phi_q, J, rtol=1e-7, atol=1e-8, err_msg=f"{g.name} Phi_q")
         # ∂(Φ_qᵀλ)/∂q
-        Hfd = _blockwise(lambda x: np.einsum("ecd,ec->ed", g.cls.constraint(g.params, t, x)[1], lame), qe)
-        Hk = g.cls.constraint_hessian(g.params, t, qe, lame)
-        Hk = np.zeros_like(Hfd) if Hk is None else Hk
-        np.testing.assert_allclose(Hk, Hfd, rtol=1e-6, atol=1e-7, err_msg=f"{g.name} hessian")
-        np.testing.assert_allclose(H if H is not None else 0.0, Hk, atol=1e-14)
+        Hfd = _blockwise(lambda x: np.einsum("ecd,ec->ed", con(x)[1], lame), qe)
+        np.testing.assert_allclose(H, Hfd, rtol=1e-6, atol=1e-7, err_msg=f"{g.name} hessian")
         # Φ_t and γ = d²/ds² Φ(q + s q̇, t + s) at s = 0
-        Phi_t, gam = g.cls.constraint_rates(g.params, t, qe, qde)
+        Phi_t, gam = kernels.rates(g, t, qe, qde)
         eps = 1e-6
-        Pt = (g.cls.constraint(g.params, t + eps, qe)[0] - g.cls.constraint(g.params, t - eps, qe)[0]) / (2 * eps)
+        Pt = (con(qe, t + eps)[0] - con(qe, t - eps)[0]) / (2 * eps)
         np.testing.assert_allclose(Phi_t, Pt, rtol=1e-6, atol=1e-8, err_msg=f"{g.name} Phi_t")
         e2 = 1e-4
-        d2 = (g.cls.constraint(g.params, t + e2, qe + e2 * qde)[0] - 2 * Phi
-              + g.cls.constraint(g.params, t - e2, qe - e2 * qde)[0]) / e2 ** 2
+        d2 = (con(qe + e2 * qde, t + e2)[0] - 2 * Phi + con(qe - e2 * qde, t - e2)[0]) / e2 ** 2
         np.testing.assert_allclose(gam, d2, rtol=1e-5, atol=1e-5, err_msg=f"{g.name} gamma")
         names.add(g.name)
     assert names == {"Hinge", "Slider", "PointOnLine", "DrivenAngle", "DrivenDisplacement"}
@@ -118,25 +115,20 @@ def test_global_iteration_matrix_matches_newton_residual(every_model, scaled):
     np.testing.assert_allclose(S, J, rtol=1e-5, atol=1e-6 * np.abs(S).max())
 
 
-def test_hot_path_assembler_equals_user_functions(every_model):
-    """The solver's compiled assembler and the documented functions agree exactly."""
-    from femb.assembly import Assembler
+@pytest.mark.parametrize("ordering", ["rcm", "natural"])
+def test_compiled_evaluate_equals_user_functions(every_model, ordering):
+    """The generated compiled evaluate() (band storage, reordered) and the documented functions agree."""
+    from femb.codegen import evaluate_dense
     rng = np.random.default_rng(3)
     m = every_model
     al = GeneralizedAlpha.from_rho_inf(0.8)
     h = 2e-3
-    bp, gp = al.newton_factors(h)
-    c = al.beta * h * h
     st = State(0.4, m.q0 + 0.05 * rng.standard_normal(m.nq), rng.standard_normal(m.nq),
                rng.standard_normal(m.nq), rng.standard_normal(m.nc))
     S_ref = assembly.iteration_matrix(m, st, h, al, scaled=True).toarray()
     r_ref = assembly.residual(m, st)
-    for dense in (True, False):
-        A = Assembler(m, dense)
-        r_q, Phi, scale, S = A.evaluate(st.t, m.ext(st.q), m.ext_velocity(st.qd), st.qdd, st.lam,
-                                        True, c * bp, c * gp, c)
-        S = np.asarray(S) if dense else S.toarray()
-        np.testing.assert_allclose(S, S_ref, rtol=1e-12, atol=1e-12 * np.abs(S_ref).max())
-        np.testing.assert_allclose(r_q, r_ref[0], rtol=1e-12, atol=1e-12 * np.abs(r_ref[0]).max())
-        np.testing.assert_allclose(Phi, r_ref[1], rtol=1e-12, atol=1e-15)
-        assert scale > 0
+    r_q, Phi, scale, S = evaluate_dense(m, st, h, al, scaled=True, ordering=ordering)
+    np.testing.assert_allclose(S, S_ref, rtol=1e-12, atol=1e-12 * np.abs(S_ref).max())
+    np.testing.assert_allclose(r_q, r_ref[0], rtol=1e-12, atol=1e-12 * np.abs(r_ref[0]).max())
+    np.testing.assert_allclose(Phi, r_ref[1], rtol=1e-12, atol=1e-15)
+    assert scale > 0
