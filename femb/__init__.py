@@ -6,7 +6,8 @@ generalized-α scheme of Arnold & Brüls (2007) via :func:`simulate`.
 """
 from femb.alpha import GeneralizedAlpha
 from femb.errors import (ConvergenceError, FembError, InitializationError, ModelError, OutputError,
-                         ParameterError, ParameterWarning, SingularMatrixError, SolverError)
+                         ParameterError, ParameterWarning, SingularMatrixError, SolverError,
+                         AccuracyWarning)
 from femb.mechanism import Mechanism
 from femb.model import Model, State
 from femb.result import Result
@@ -18,5 +19,5 @@ __all__ = [
     "GeneralizedAlpha", "Mechanism", "Model", "State", "Result", "GeneralizedAlphaSolver",
     "simulate", "consistent_initial_state", "FembError", "ModelError", "ParameterError",
     "InitializationError", "SolverError", "ConvergenceError", "SingularMatrixError", "OutputError",
-    "ParameterWarning",
+    "ParameterWarning", "AccuracyWarning",
 ]

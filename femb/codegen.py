@@ -121,6 +121,26 @@ def generate_source(model):
                       "                Phi_t[c] = Pt[e, j]",
                       "                gam[c] = gm[e, j]"]
     lines.append("    return 0")
+    # B v (constraint Jacobian times a vector), for velocity projections
+    lines += ["", "", "@njit(cache=True, **OPTIONS)",
+              "def jacobian_times(G, C, t, q, v, out):",
+              '    """out = B(q, t) v for all constraints."""',
+              "    nv = q.shape[0]", "    qfix = C[5]", "    tfv = C[13]", "    out[:] = 0.0"]
+    for role, gi, fn, _ in roles:
+        if role == "constraint":
+            k = imports[_kernel_ref(fn)[:2]]
+            lines += [f"    P, dofs, lamidx, tfi, tnn, tB, tBt, xe, ve, le, tf, Phe, Be, He, Pt, gm = {GC}[{gi}]",
+                      "    gather_xv(q, v, qfix, dofs, xe, ve, nv)",
+                      "    gather_tf(tfv, tfi, tf)",
+                      "    Phe[:] = 0.0", "    Be[:] = 0.0",
+                      f"    {k}(P, t, tf, xe, le, False, Phe, Be, He)",
+                      "    for e in range(lamidx.shape[0]):",
+                      "        for j in range(lamidx.shape[1]):",
+                      "            s = 0.0",
+                      "            for i in range(dofs.shape[1]):",
+                      "                s += Be[e, j, i] * ve[e, i]",
+                      "            out[lamidx[e, j]] = s"]
+    lines.append("    return 0")
     body = "\n".join(lines) + "\n\n\n" + _STEP_SOURCE.read_text()
     h = hashlib.sha256(body.encode())
     for f in sorted(files):

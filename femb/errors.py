@@ -69,3 +69,7 @@ SINGULAR_HINT = (
     "that has neither mass nor a constraint, or a mechanism locked in a singular "
     "(dead-centre) position"
 )
+
+
+class AccuracyWarning(UserWarning):
+    """A fixed-step run whose local error estimate says the steps are far too large."""

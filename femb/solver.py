@@ -220,21 +220,36 @@ def _stepmod():
     return codegen
 
 
-class GeneralizedAlphaSolver:
-    """Index-3 generalized-α integrator, Algorithm 1 of Arnold & Brüls (2007).
+def error_constants(alpha):
+    """Local error constants (C_q, C_v) of the generalized-α scheme (stepsize.md §1).
 
-    Contract: ``step()`` advances the state by one step of size ``h`` or
-    raises (:class:`ConvergenceError`, :class:`SingularMatrixError`); it never
-    accepts an unconverged step. The state (t, q, q̇, q̈, λ) satisfies the
-    equations of motion and Φ = 0 at every accepted step to the Newton
-    tolerance. The auxiliary variable ``a`` lives here, not in the state.
-    :func:`simulate` runs many steps per call of the compiled loop.
+    q(t_n + h) − q_{n+1} = C_q h³ q⃛ and q̇(t_n + h) − q̇_{n+1} = C_v h³ q⁗ with
+    C_q = 1/6 − β − Δ/2, C_v = 1/6 − ½[(1 − γ)Δ² + γ(1 + Δ)²] − Δ(1 − α_m − α_f)/2,
+    Δ = α_m − α_f.
+    """
+    am, af, beta, gamma = alpha.alpha_m, alpha.alpha_f, alpha.beta, alpha.gamma
+    d = am - af
+    Cq = 1.0 / 6.0 - beta - 0.5 * d
+    Cv = 1.0 / 6.0 - 0.5 * ((1.0 - gamma) * d * d + gamma * (1.0 + d) ** 2) - 0.5 * d * (1.0 - am - af)
+    return Cq, Cv
+
+
+class GeneralizedAlphaSolver:
+    """Index-3 generalized-α integrator, Algorithm 1 of Arnold & Brüls (2007), fixed or adaptive steps.
+
+    Contract: :meth:`advance` runs the compiled loop (``femb/step.py``) for a
+    chunk of accepted steps, or raises (:class:`ConvergenceError`,
+    :class:`SingularMatrixError`); it never accepts an unconverged step. The
+    state (t, q, q̇, q̈, λ) satisfies the equations of motion and Φ = 0 at every
+    accepted step to the Newton tolerance. The auxiliary variable ``a`` lives
+    here, not in the state. :func:`simulate` is the usual entry point.
 
     Parameters
     ----------
     model : Model
-    h : float
-        Fixed step size.
+    h : float or None
+        Fixed step size; None for adaptive steps (then ``rtol``/``atol`` set the
+        local error tolerance and ``h0`` the first step).
     rho_inf : float in [0, 1], optional
         Spectral radius at infinity (Chung & Hulbert); default 0.7 unless
         ``alpha`` is given.
@@ -242,16 +257,28 @@ class GeneralizedAlphaSolver:
         Parameters given directly; conditions are checked and violations warned.
     scaling : bool
         Solve the scaled Newton system (method.md eq. 8); default True.
-    rtol : float
-        Dynamic residual test ‖W r_q‖∞ ≤ rtol · F + atol in force units, where
-        W divides moment rows by the length scale L (so the test does not
-        depend on the choice of units) and F is the largest of the iterate's
-        ‖W M q̈‖∞, ‖W f‖∞, ‖W Φ_qᵀλ‖∞ and of those of the accepted steps.
-    atol : float
-        Absolute floor of that test (N); default 0. Independently, an iterate
-        is accepted when Φ passes its test, the force residual is within 1e4 of
-        its tolerance, and the last Newton correction is at round-off level,
-        ‖Δq‖∞ ≤ 64 ε (‖q‖∞ + L) (counted in ``stats["roundoff_accepts"]``).
+    rtol, atol : float
+        Local error tolerance of adaptive steps (atol may be an array of shape
+        (nq,)); for fixed steps the tolerance of the step-size check (default
+        1e-3 both).
+    h0, h_max : float, optional
+        First and largest adaptive step.
+    error_per : {"unit_step", "step"}
+        Adaptive error test per unit step (err/h ≤ 1, controller exponent 2:
+        global error roughly proportional to the tolerance; default) or per
+        step (err ≤ 1, exponent 3: global error ∝ tol^(2/3)).
+    start : {"consistent", "seed"}
+        "consistent" (default): a_0 = q̈_0 + Δ h_0 j_0 and the normal velocity
+        matched to the scheme's O(h²) offset (stepsize.md §2), so that λ and
+        driving forces are second order from the first step; "seed": a_0 = q̈_0
+        and the exact q̇_0 (the seed paper's start, with an O(h) transient in λ).
+    newton_test : {"correction", "residual"}
+        Newton stopping rule: "correction" (default; weighted correction in q
+        and acceleration units, contraction-rate test; stepsize.md §5) or
+        "residual" (the force-residual test of the seed reproduction, with
+        ``newton_rtol``, ``newton_atol``).
+    newton_rtol, newton_atol : float
+        Residual test ‖W r_q‖∞ ≤ newton_rtol · F + newton_atol ("residual" rule).
     phi_tol : float
         Constraint test ‖Φ‖∞ ≤ phi_tol · L with L the model's length scale.
     max_iter : int
@@ -259,35 +286,41 @@ class GeneralizedAlphaSolver:
     min_iter : {1, 0}
         Newton corrections taken at least per step (default 1).
     newton : {"full", "modified"}
-        "full" refactors the exact iteration matrix at every iteration;
-        "modified" reuses the last factorization across iterations and steps
-        while Newton contracts by at least a factor 4 per iteration.
+        With the residual rule: "full" refactors at every iteration,
+        "modified" reuses the factorization while Newton contracts.
+        (The correction rule refactors when contraction is slow.)
     linear_solver : {"auto", "band", "dense", "sparse"}
         "auto" (= "band", = "sparse"): compiled band LU with partial pivoting
-        after a reverse Cuthill–McKee ordering of the iteration matrix, computed
-        once per model; "dense": the same LU on the full matrix in the natural
-        order (kl = ku = N − 1).
+        after a reverse Cuthill–McKee ordering, computed once per model;
+        "dense": the same LU on the full matrix in the natural order.
     predictor : {"extrapolate", "previous", "zero"}
         Newton's starting guess for (q̈_{n+1}, λ_{n+1}).
+    check_every : int
+        Fixed steps: compute the local error estimate over one step every
+        ``check_every`` steps (two extra solves of the constrained
+        accelerations) and warn once when it exceeds ``warn_factor`` (default
+        10): the steps are then more than about twice too large for rtol/atol.
+        0 disables the check.
     state : State, optional
         Initial state (default: the model's, made consistent).
-    t0 : float
+    t0, t_end : float
     initialize : bool
         Compute consistent initial values (method.md §5); default True.
     n_steps : int, optional
-        Steps the solver may take (default: unlimited); ``t_end`` is reported
-        as the time of step ``n_steps``.
-    t_end : float, optional
+        Fixed steps: number of steps to t_end.
     """
 
-    def __init__(self, model, h, *, rho_inf=None, alpha=None, scaling=True, rtol=1e-10, atol=0.0,
-                 phi_tol=1e-12, max_iter=25, min_iter=1, newton="full", linear_solver="auto", predictor="extrapolate",
-                 state=None, t0=0.0, initialize=True, n_steps=None, t_end=None):
+    def __init__(self, model, h=None, *, rho_inf=None, alpha=None, scaling=True, rtol=None, atol=None,
+                 h0=None, h_max=None, error_per="unit_step", start="consistent", newton_test="correction",
+                 newton_rtol=1e-10, newton_atol=0.0, phi_tol=1e-12, max_iter=25, min_iter=1, newton="full",
+                 linear_solver="auto", predictor="extrapolate", check_every=8, warn_factor=10.0,
+                 state=None, t0=0.0, t_end=None, initialize=True, n_steps=None):
         from femb.model import Model
         if not isinstance(model, Model):
             raise ParameterError(f"expected a compiled Model (call mechanism.compile()), got {type(model).__name__}")
         self.model = model
-        self.h = _check_positive("h", h)
+        self.adaptive = h is None
+        self.h = None if h is None else _check_positive("h", h)
         if alpha is not None and rho_inf is not None:
             raise ParameterError("give either rho_inf or alpha, not both")
         if alpha is None:
@@ -307,10 +340,28 @@ class GeneralizedAlphaSolver:
                 raise ParameterError(f"alpha must be (alpha_m, alpha_f, beta, gamma), got {alpha!r}") from None
             self.alpha = GeneralizedAlpha.from_values(am, af, b, g)
         self.scaling = bool(scaling)
-        self.rtol = _check_positive("rtol", rtol)
-        self.atol = float(atol)
-        if not (self.atol >= 0.0 and math.isfinite(self.atol)):
-            raise ParameterError(f"atol must be a non-negative number, got {atol!r}")
+        self.rtol = 1e-3 if rtol is None else _check_positive("rtol", rtol)
+        atol = 1e-3 if (atol is None and not self.adaptive) else (1e-6 if atol is None else atol)
+        atolv = np.asarray(atol, dtype=float)
+        if atolv.ndim == 0:
+            atolv = np.full(model.nq, float(atolv))
+        if atolv.shape != (model.nq,) or not np.all(np.isfinite(atolv)) or np.any(atolv <= 0.0):
+            raise ParameterError(f"atol must be a positive number or an array of {model.nq} positive numbers, "
+                                 f"got {atol!r}")
+        self.atol = atolv
+        if error_per not in ("unit_step", "step"):
+            raise ParameterError(f"error_per must be 'unit_step' or 'step', got {error_per!r}")
+        self.error_per = error_per
+        if start not in ("consistent", "seed"):
+            raise ParameterError(f"start must be 'consistent' or 'seed', got {start!r}")
+        self.start = start
+        if newton_test not in ("correction", "residual"):
+            raise ParameterError(f"newton_test must be 'correction' or 'residual', got {newton_test!r}")
+        self.newton_test = newton_test
+        self.newton_rtol = _check_positive("newton_rtol", newton_rtol)
+        self.newton_atol = float(newton_atol)
+        if not (self.newton_atol >= 0.0 and math.isfinite(self.newton_atol)):
+            raise ParameterError(f"newton_atol must be a non-negative number, got {newton_atol!r}")
         self.phi_tol = _check_positive("phi_tol", phi_tol)
         if int(max_iter) < 1:
             raise ParameterError(f"max_iter must be at least 1, got {max_iter!r}")
@@ -327,7 +378,13 @@ class GeneralizedAlphaSolver:
         if linear_solver not in ("auto", "band", "dense", "sparse"):
             raise ParameterError(f"linear_solver must be 'auto', 'band', 'dense' or 'sparse', got {linear_solver!r}")
         self.linear_solver = "dense" if linear_solver == "dense" else "band"
+        check_every = int(check_every)
+        if check_every < 0 or check_every == 1:
+            raise ParameterError(f"check_every must be 0 (off) or at least 2, got {check_every}")
+        self.check_every = check_every
+        self.warn_factor = _check_positive("warn_factor", warn_factor)
         self.owner = _constraint_owner(model)
+        self.h0 = None if h0 is None else _check_positive("h0", h0)
 
         t_init = time.perf_counter()
         if initialize:
@@ -336,26 +393,47 @@ class GeneralizedAlphaSolver:
         else:
             st = (state or model.initial_state(t0)).copy()
         self.init_time = time.perf_counter() - t_init
+        self.initial_state = st.copy()
         self.t0 = st.t
+        if t_end is None:
+            if self.adaptive:
+                raise ParameterError("adaptive steps need t_end")
+            t_end = self.t0 + self.h * (n_steps if n_steps is not None else 1)
+        self.t_end = float(t_end)
         self.cp = _stepmod().compiled(model, ordering="natural" if self.linear_solver == "dense" else "rcm")
         cp = self.cp
+        NFP, NNS, NSF, NSI = cp.mod.NFP, cp.mod.NNS, cp.mod.NSF, cp.mod.NSI
         nv, nc = model.nq, model.nc
         N = nv + nc
         al = self.alpha
-        self.n_steps = int(n_steps) if n_steps is not None else 2 ** 62
-        self.ip = np.array([nv, nc, model.nfix, N, cp.kl, cp.ku, self.max_iter, self.min_iter,
-                            1 if newton == "full" else 0,
-                            {"zero": 0, "previous": 1, "extrapolate": 2}[predictor],
-                            self.n_steps, 1, 1, 1 if cp.python_tf else 0], dtype=np.int64)
-        self.fp = np.array([self.h, self.t0, al.alpha_m, al.alpha_f, al.beta, al.gamma, self.rtol, self.atol,
-                            self.phi_tol, model.length_scale, 64.0 * np.finfo(float).eps,
-                            1.0 if self.scaling else 0.0, 1e-13 if self.scaling else 0.0,
-                            float(t_end) if t_end is not None else math.inf, 0.0])
-        self.si = np.zeros(4, dtype=np.int64)
-        self.sf = np.array([0.0, math.nan])
-        self.stats_arr = np.zeros(5, dtype=np.int64)
+        self.Cq, self.Cv = error_constants(al)
+        if not self.adaptive:
+            self.n_steps = int(n_steps) if n_steps is not None else max(1, int(round((self.t_end - self.t0) / self.h)))
+        else:
+            self.n_steps = 2 ** 62
+        span = self.t_end - self.t0
+        self.h_max = math.inf if h_max is None else _check_positive("h_max", h_max)
+        self.h_min = 1e-10 * max(abs(self.t_end), span)
+        self.ip = np.zeros(17, dtype=np.int64)
+        self.ip[:] = [nv, nc, model.nfix, N, cp.kl, cp.ku, self.max_iter, self.min_iter,
+                      1 if newton == "full" else 0, {"zero": 0, "previous": 1, "extrapolate": 2}[predictor],
+                      self.n_steps, 1, 1, 1 if cp.python_tf else 0, 1 if self.adaptive else 0,
+                      1 if newton_test == "correction" else 0, 0 if self.adaptive else check_every]
+        self.fp = np.zeros(NFP)
+        self.fp[:] = [self.h or 0.0, self.t0, al.alpha_m, al.alpha_f, al.beta, al.gamma, self.newton_rtol,
+                      self.newton_atol, self.phi_tol, model.length_scale, 64.0 * np.finfo(float).eps,
+                      1.0 if self.scaling else 0.0, 1e-13 if self.scaling else 0.0, self.t_end, 0.0,
+                      self.rtol, self.h_max, self.h_min, self.Cq, self.Cv,
+                      2.0 if error_per == "unit_step" else 3.0, 1.0 if error_per == "unit_step" else 0.0,
+                      self.warn_factor, 1e-3 if self.adaptive else 1e-13, 1e3]
+        self.si = np.zeros(NSI, dtype=np.int64)
+        self.sf = np.zeros(NSF)
+        self.sf[1] = math.nan
+        self.sf[8] = math.nan
+        self.sf[2] = self.t0
+        self.stats_arr = np.zeros(NNS, dtype=np.int64)
         self.q, self.qd, self.qdd, self.lam = st.q.copy(), st.qd.copy(), st.qdd.copy(), st.lam.copy()
-        self.a = st.qdd.copy()                   # a_0 = q̈_0
+        self.a = st.qdd.copy()
         self.pqdd = np.zeros(nv)
         self.plam = np.zeros(nc)
         self.AB = np.zeros(N * cp.ldab)
@@ -365,21 +443,20 @@ class GeneralizedAlphaSolver:
         self.rhs = np.zeros(N)
         self.x = np.zeros(N)
         self.info = np.zeros(8)
+        z = np.zeros
+        self.W = (z(nv), z(nv), z(nv), z(nc), z(nv), z(nv), z(nc), z(nv), z(nv), z(nv), z(nv),
+                  z(N * cp.ldab), z(N * cp.ldab), z(N, dtype=np.int64), z(N, dtype=np.int64),
+                  z(nv), z(N), z(nc), z(nc), z(nv), z(nc), z(nc), z(nc), z(nv), z(nv), self.atol.copy(), z(nv))
         self._bufs = None
-        self._t = st.t
-        # the force scale of the initial state starts the running scale F_ref
-        self._evaluate_scale()
         self._compile()
+        self._start()
 
     # ------------------------------------------------------------------ internals
-    def _evaluate_scale(self):
+    def _tf_at(self, t):
         cp = self.cp
         if cp.python_tf:
-            self._fill_python_tf(self.t0)
-        else:
-            cp.mod.eval_time_functions(self.t0, cp.C[8], cp.C[9], cp.C[10], cp.tfv)
-        self.sf[0] = cp.mod.evaluate(cp.G, cp.C, self.t0, self.q, self.qd, self.qdd, self.lam, False,
-                                     0.0, 0.0, 0.0, self.AB, self.r, self.Phi)
+            self._fill_python_tf(t)
+        cp.mod.eval_time_functions(float(t), cp.C[8], cp.C[9], cp.C[10], cp.tfv)
 
     def _fill_python_tf(self, t):
         for k, fn in self.cp.python_tf:
@@ -388,11 +465,76 @@ class GeneralizedAlphaSolver:
             self.cp.tfv[k, 2] = fn.ddf(t)
         self.sf[1] = t
 
+    def _qpp(self, t, q, qd, KB, kpiv):
+        """Constrained accelerations q̈ᵖᵖ at (t, q, q̇) (compiled KKT solve)."""
+        cp = self.cp
+        W = self.W
+        self._tf_at(t)
+        out = np.zeros(self.model.nq)
+        if cp.mod.kkt_accelerations(cp.G, cp.C, self.ip, float(t), q, qd, KB, kpiv, W[15], np.zeros(self.model.nc),
+                                    W[16], W[17], W[18], W[19], W[20], out) != 0:
+            raise InitializationError(f"the matrix [[M, Φ_qᵀ], [Φ_q, 0]] is singular at t = {t:.6g} s; "
+                                      f"{SINGULAR_HINT}")
+        return out
+
+    def _start(self):
+        """Force scale, jerk j_0, consistent a_0 and q̇_0, first step (stepsize.md §2, §4)."""
+        cp = self.cp
+        W = self.W
+        t0 = self.t0
+        self._tf_at(t0)
+        self.sf[0] = cp.mod.evaluate(cp.G, cp.C, t0, self.q, self.qd, self.qdd, self.lam, False,
+                                     0.0, 0.0, 0.0, self.AB, self.r, self.Phi)
+        need_j = self.adaptive or self.start == "consistent"
+        h0 = self.h
+        if need_j:
+            dl = min(1e-4, 1e-3 * (self.t_end - t0))
+            q0, v0, a0 = self.q, self.qd, self.qdd
+            KBt = np.zeros_like(self.AB)
+            kp = np.zeros_like(self.ipiv)
+            ap = self._qpp(t0 + dl, q0 + dl * v0 + 0.5 * dl * dl * a0, v0 + dl * a0, KBt, kp)
+            am_ = self._qpp(t0 - dl, q0 - dl * v0 + 0.5 * dl * dl * a0, v0 - dl * a0, KBt, kp)
+            j0 = (ap - am_) / (2.0 * dl)
+            # the factorization at the initial state, for re-synchronisations
+            qpp0 = self._qpp(t0, self.q, self.qd, W[12], W[14])
+            W[7][:] = qpp0
+            W[9][:] = j0
+            self.si[8] = 1
+            if self.adaptive:
+                if self.h0 is not None:
+                    h0 = self.h0
+                else:
+                    wq = self.atol + self.rtol * np.abs(self.q)
+                    nrm = math.sqrt(np.mean((self.Cq * j0 / wq) ** 2))
+                    expo = -0.5 if self.error_per == "unit_step" else -1.0 / 3.0
+                    h0 = 0.5 * min(nrm ** expo if nrm > 0 else math.inf, 0.1)
+                h0 = min(h0, 0.05 * (self.t_end - t0), self.h_max)
+                self.sf[3] = h0
+                self.sf[4] = h0
+            if self.start == "consistent":
+                d = self.alpha.alpha_m - self.alpha.alpha_f
+                self.a[:] = self.qdd + d * h0 * j0
+                if self.model.nc:
+                    Bj = np.zeros(self.model.nc)
+                    cp.mod.jacobian_times(cp.G, cp.C, float(t0), self.q, j0, Bj)
+                    Pt = np.zeros(self.model.nc)
+                    gm = np.zeros(self.model.nc)
+                    self._tf_at(t0)
+                    cp.mod.rates(cp.G, cp.C, float(t0), self.q, self.qd, Pt, gm)
+                    target = -Pt + h0 * h0 * self.Cq * Bj
+                    cp.mod.project_normal_velocity(cp.G, cp.C, self.ip, float(t0), self.q, self.qd, target,
+                                                   W[12], W[14], W[16], W[21])
+        elif not self.adaptive and self.check_every:
+            pass
+        if not self.adaptive:
+            self.sf[4] = self.h
+
     def _buffers(self, n):
         b = self._bufs
         if b is None or b[0].shape[0] < n:
             nv, nc = self.model.nq, self.model.nc
-            b = (np.zeros(n), np.zeros((n, nv)), np.zeros((n, nv)), np.zeros((n, nv)), np.zeros((n, nc)))
+            b = (np.zeros(n), np.zeros((n, nv)), np.zeros((n, nv)), np.zeros((n, nv)), np.zeros((n, nc)),
+                 np.zeros(n), np.zeros(n, dtype=np.int32), np.zeros(n))
             self._bufs = b
         return b
 
@@ -404,38 +546,73 @@ class GeneralizedAlphaSolver:
                 print(f"femb: compiling the time loop for this combination of elements "
                       f"({cp.kind_summary}); cached for later runs in {cp.cache_path}", file=sys.stderr, flush=True)
                 t = time.perf_counter()
-                self._run(0, np.zeros(1, dtype=np.int32))
+                self.advance(0)
                 print(f"femb: compiled in {time.perf_counter() - t:.1f} s", file=sys.stderr, flush=True)
 
-    def _run(self, n_chunk, iters):
-        """Call the compiled loop for up to n_chunk steps; returns (status, stored)."""
+    def advance(self, n_chunk):
+        """Run the compiled loop for up to ``n_chunk`` accepted steps.
+
+        Returns
+        -------
+        status : int
+            1 when t_end was reached, 0 when the chunk is done; negative codes
+            are raised as femb errors by :meth:`raise_status`.
+        m : int
+            States written into the buffers (``self._bufs``: t, q, q̇, q̈, λ, then
+            per accepted step h, Newton iterations, error estimate).
+        k : int
+            Accepted steps in this call.
+        """
         cp = self.cp
-        bt, bq, bqd, bqdd, bl = self._buffers(max(1, n_chunk))
+        bt, bq, bqd, bqdd, bl, bh, bit, berr = self._buffers(max(1, n_chunk))
+        before = int(self.si[0])
         while True:
-            status = cp.mod.run_fixed(cp.G, cp.C, self.ip, self.fp, self.si, self.sf, self.stats_arr,
-                                      self.q, self.qd, self.qdd, self.lam, self.a, self.pqdd, self.plam,
-                                      cp.tfv, self.AB, self.ipiv, self.r, self.Phi, self.rhs, self.x, self.info,
-                                      n_chunk, bt, bq, bqd, bqdd, bl, iters)
+            status = cp.mod.run(cp.G, cp.C, self.ip, self.fp, self.si, self.sf, self.stats_arr,
+                                self.q, self.qd, self.qdd, self.lam, self.a, self.pqdd, self.plam,
+                                cp.tfv, self.AB, self.ipiv, self.r, self.Phi, self.rhs, self.x, self.info, self.W,
+                                n_chunk - (int(self.si[0]) - before), bt, bq, bqd, bqdd, bl,
+                                bh[int(self.si[0]) - before:], bit[int(self.si[0]) - before:],
+                                berr[int(self.si[0]) - before:])
             if status == 2:                      # Python time functions needed at info[0]
                 self._fill_python_tf(float(self.info[0]))
                 continue
-            return status, int(self.si[3])
+            return status, int(self.si[3]), int(self.si[0]) - before
 
-    def _raise(self, status):
+    def raise_status(self, status):
+        """Raise the femb error of a negative status of the compiled loop."""
         info = self.info
         t1, err_f, err_phi, k, iphi = float(info[0]), float(info[1]), float(info[2]), int(info[3]), int(info[4])
         n = int(self.si[0]) + 1
         res = {"r_q": err_f, "Phi": err_phi}
+        if status == -5:
+            last = int(self.si[7])
+            what = {-1: "non-finite residuals", -2: "Newton did not converge", -3: "Newton diverged",
+                    -4: "singular iteration matrix"}.get(last, "rejected steps")
+            msg = (f"step size fell below h_min = {self.h_min:.3g} s at t = {t1:.6g} s (step {n}) after "
+                   f"{int(self.si[5])} Newton failures and {int(self.si[4])} rejected steps; last failure: {what}")
+            if last == -4:
+                raise SingularMatrixError(f"{msg}; {SINGULAR_HINT}", t=t1, step=n, residuals=res)
+            raise ConvergenceError(msg + "; the motion may be singular here, or tighten phi_tol/rtol",
+                                   t=t1, step=n, residuals=res)
+        if status == -6:
+            raise SingularMatrixError(
+                f"the matrix [[M, Φ_qᵀ], [Φ_q, 0]] of the constrained accelerations is singular at "
+                f"t = {t1:.6g} s (step {n}); {SINGULAR_HINT}", t=t1, step=n, residuals=res)
         if status == -1:
             raise ConvergenceError(
                 f"non-finite residual at t = {t1:.6g} s (step {n}, iteration {k}): the step diverged; "
                 "try a smaller h", t=t1, step=n, residuals=res)
         if status == -2:
             where = f"; largest constraint residual in '{self.owner[iphi]}'" if iphi >= 0 else ""
+            if self.newton_test == "residual":
+                detail = (f"‖r_q‖∞ = {err_f:.3e} N (moments / L; tolerance {info[5]:.3e}), ‖Φ‖∞ = {err_phi:.3e} m "
+                          f"(tolerance {info[6]:.3e})")
+            else:
+                detail = (f"the corrections stopped contracting at iteration {k}; ‖r_q‖∞ = {err_f:.3e} N, "
+                          f"‖Φ‖∞ = {err_phi:.3e} m (tolerance {info[6]:.3e})")
             raise ConvergenceError(
                 f"Newton did not converge at t = {t1:.6g} s (step {n}) within {self.max_iter} iterations: "
-                f"‖r_q‖∞ = {err_f:.3e} N (moments / L; tolerance {info[5]:.3e}), ‖Φ‖∞ = {err_phi:.3e} m "
-                f"(tolerance {info[6]:.3e}){where}; try a smaller h", t=t1, step=n, residuals=res)
+                f"{detail}{where}; try a smaller h", t=t1, step=n, residuals=res)
         if status == -3:
             raise ConvergenceError(
                 f"Newton diverged at t = {t1:.6g} s (step {n}): the iteration matrix became singular at "
@@ -453,6 +630,10 @@ class GeneralizedAlphaSolver:
         return int(self.si[0])
 
     @property
+    def t(self):
+        return float(self.sf[2])
+
+    @property
     def F_ref(self):
         return float(self.sf[0])
 
@@ -460,79 +641,101 @@ class GeneralizedAlphaSolver:
     def stats(self):
         s = self.stats_arr
         return {"steps": int(s[0]), "evaluations": int(s[1]), "factorizations": int(s[2]),
-                "solves": int(s[3]), "roundoff_accepts": int(s[4])}
+                "solves": int(s[3]), "roundoff_accepts": int(s[4]), "kkt_solves": int(s[5]),
+                "rejected": int(self.si[4]), "newton_failures": int(self.si[5])}
 
     @property
     def state(self):
         """The current State (copies)."""
-        n = self.step_index
-        t = self.t0 + n * self.h if n else self.t0
-        return State(t, self.q.copy(), self.qd.copy(), self.qdd.copy(), self.lam.copy())
+        return State(self.t, self.q.copy(), self.qd.copy(), self.qdd.copy(), self.lam.copy())
 
     def step(self):
-        """Advance one step; returns the number of Newton iterations."""
-        it = np.zeros(max(self.n_steps if self.n_steps < 2 ** 40 else 0, self.step_index + 1), dtype=np.int32)
-        status, _ = self._run(1, it)
+        """Advance one accepted step; returns its number of Newton iterations."""
+        status, _, k = self.advance(1)
         if status < 0:
-            self._raise(status)
-        return int(it[self.step_index - 1])
+            self.raise_status(status)
+        return int(self._bufs[6][0]) if k else 0
+
+    def max_error_estimate(self):
+        """(largest local error estimate seen, its time); fixed steps only check every ``check_every``."""
+        return float(self.sf[6]), float(self.sf[7])
 
     def settings(self):
         a = self.alpha
-        return {"h": self.h, "rho_inf": a.rho_inf, "alpha_m": a.alpha_m, "alpha_f": a.alpha_f,
-                "beta": a.beta, "gamma": a.gamma, "scaling": self.scaling, "rtol": self.rtol,
-                "atol": self.atol, "phi_tol": self.phi_tol, "max_iter": self.max_iter,
+        return {"h": self.h, "adaptive": self.adaptive, "rtol": self.rtol,
+                "atol": float(self.atol[0]) if np.all(self.atol == self.atol[0]) else self.atol.tolist(),
+                "rho_inf": a.rho_inf, "alpha_m": a.alpha_m, "alpha_f": a.alpha_f,
+                "beta": a.beta, "gamma": a.gamma, "scaling": self.scaling, "start": self.start,
+                "error_per": self.error_per, "newton_test": self.newton_test, "newton_rtol": self.newton_rtol,
+                "newton_atol": self.newton_atol, "phi_tol": self.phi_tol, "max_iter": self.max_iter,
                 "min_iter": self.min_iter, "newton": self.newton, "linear_solver": self.linear_solver,
                 "predictor": self.predictor, "band": (self.cp.kl, self.cp.ku)}
 
 
 # --------------------------------------------------------------------------
-def simulate(model, t_end, h, *, rho_inf=None, alpha=None, scaling=True, t0=0.0, state=None,
-             stride=1, store=True, observer=None, initialize=True, **newton_options):
-    """Integrate a model from t0 to t_end with fixed step h.
+def simulate(model, t_end, h=None, *, rtol=None, atol=None, h0=None, h_max=None, t_eval=None,
+             rho_inf=None, alpha=None, scaling=True, t0=0.0, state=None, stride=1, store=True,
+             observer=None, initialize=True, progress=False, **options):
+    """Integrate a model from t0 to t_end, with fixed steps (``h``) or adaptive steps (``rtol``).
 
     Parameters
     ----------
     model : Model
         A compiled model (a :class:`~femb.mechanism.Mechanism` is compiled first).
     t_end : float
-        Final time; the number of steps is round((t_end − t0)/h) and the last
-        step lands on t_end exactly when (t_end − t0)/h is an integer (else h
-        is reduced slightly so that it does).
-    h : float
-        Step size.
-    rho_inf, alpha, scaling, initialize, **newton_options
-        See :class:`GeneralizedAlphaSolver` (rtol, atol, phi_tol, max_iter,
-        min_iter, newton, linear_solver, predictor).
+        Final time, hit exactly.
+    h : float, optional
+        Fixed step size: the number of steps is round((t_end − t0)/h) and h is
+        adjusted slightly so that they end on t_end. With ``rtol`` also given,
+        h is the first adaptive step instead.
+    rtol, atol : float, optional
+        Adaptive steps with local error tolerance rtol·|x| + atol on q and q̇
+        (default when neither h nor rtol is given: rtol = 1e-3, atol = 1e-6).
+        With fixed steps they set the tolerance of the step-size check
+        (default 1e-3 both), which warns once when the steps are far too large.
+    h0, h_max : float, optional
+        First and largest adaptive step.
+    t_eval : array_like, optional
+        Output times (sorted, within [t0, t_end]): the result holds the
+        solution there, interpolated between accepted steps (cubic Hermite in
+        q from q and q̇, cubic Hermite in q̇ from q̇ and q̈, linear in q̈ and λ).
+        Steps are not forced onto these times.
+    rho_inf, alpha, scaling, initialize, **options
+        See :class:`GeneralizedAlphaSolver` (start, error_per, newton_test,
+        phi_tol, max_iter, newton, linear_solver, predictor, check_every, ...).
     t0 : float
     state : State, optional
     stride : int
-        Store every ``stride``-th step (the initial and the final state are
-        always stored).
+        Store every ``stride``-th accepted step (the initial and the final
+        state are always stored).
     store : bool
         Keep stored steps in memory (False: only the initial and last state,
         for runs streamed through ``observer``).
     observer : callable(state, step), optional
         Called after initialization (step 0) and after every accepted step
         with the current :class:`State`. The compiled loop then returns to
-        Python after every step; without an observer it runs up to
-        ``CHUNK`` steps per call.
+        Python after every step; without an observer it runs many steps per call.
+    progress : bool
+        Show a progress bar (tqdm on a terminal, plain lines otherwise).
 
     Returns
     -------
     Result
+        With ``h_steps`` (every accepted step size), ``n_rejected``,
+        ``error_estimates`` and ``newton_iterations`` per accepted step.
 
     Raises
     ------
     ParameterError
         Bad h, t_end, stride, rho_inf, ...
     ConvergenceError, SingularMatrixError
-        A step failed; ``err.result`` holds what was stored until then.
+        A step failed (fixed steps), or the step size fell below its floor
+        (adaptive); ``err.result`` holds what was stored until then.
     """
     from femb.mechanism import Mechanism
+    from femb.errors import AccuracyWarning
     if isinstance(model, Mechanism):
         model = model.compile()
-    h = _check_positive("h", h)
     t0 = float(state.t) if state is not None else float(t0)
     try:
         t_end = float(t_end)
@@ -546,49 +749,134 @@ def simulate(model, t_end, h, *, rho_inf=None, alpha=None, scaling=True, t0=0.0,
         raise ParameterError(f"stride must be a positive integer, got {stride!r}") from None
     if stride < 1:
         raise ParameterError(f"stride must be a positive integer, got {stride!r}")
-    n_steps = max(1, int(round((t_end - t0) / h)))
-    h_eff = (t_end - t0) / n_steps
-    solver = GeneralizedAlphaSolver(model, h_eff, rho_inf=rho_inf, alpha=alpha, scaling=scaling,
-                                    state=state, t0=t0, initialize=initialize, n_steps=n_steps, t_end=t_end,
-                                    **newton_options)
+    adaptive = rtol is not None or h is None
+    if h is not None:
+        h = _check_positive("h", h)
+    if adaptive:
+        if h0 is None and h is not None:
+            h0 = h
+        n_steps = None
+        h_fixed = None
+    else:
+        n_steps = max(1, int(round((t_end - t0) / h)))
+        h_fixed = (t_end - t0) / n_steps
+    if t_eval is not None:
+        t_eval = np.asarray(t_eval, dtype=float).reshape(-1)
+        if t_eval.size == 0 or not np.all(np.isfinite(t_eval)) or np.any(np.diff(t_eval) < 0) \
+                or t_eval[0] < t0 - 1e-12 * max(1.0, abs(t0)) or t_eval[-1] > t_end * (1 + 1e-12) + 1e-300:
+            raise ParameterError(f"t_eval must be sorted finite times within [{t0}, {t_end}]")
+        stride, store = 1, True
+    solver = GeneralizedAlphaSolver(model, h_fixed, rho_inf=rho_inf, alpha=alpha, scaling=scaling,
+                                    rtol=rtol, atol=atol, h0=h0, h_max=h_max, state=state, t0=t0, t_end=t_end,
+                                    initialize=initialize, n_steps=n_steps, **options)
     solver.ip[11] = stride
     solver.ip[12] = 1 if store else 0
-    st = solver.state
+    st = solver.initial_state
     T, Q, QD, QDD, L = [st.t], [st.q.copy()], [st.qd.copy()], [st.qdd.copy()], [st.lam.copy()]
-    iters = np.zeros(n_steps, dtype=np.int32)
+    H, IT, ERR = [], [], []
     if observer is not None:
-        observer(st, 0)
+        observer(st.copy(), 0)
     wall0 = time.perf_counter()
-    chunk = 1 if observer is not None else min(CHUNK, n_steps)
+    chunk = 1 if observer is not None else (256 if progress else CHUNK)
+    bar = None
+    if progress:
+        from femb.io.progress import progress as _progress
+        bar = _progress(1000, f"{model.name} (per mille of [t0, t_end])")
+        done_pm = 0
 
-    def result(status, message, upto):
-        return Result(model=model, t=np.array(T), q=np.array(Q), qd=np.array(QD), qdd=np.array(QDD),
-                      lam=np.array(L).reshape(len(T), model.nc), newton_iterations=iters[:upto].copy(),
-                      status=status, message=message, wall_time=time.perf_counter() - wall0,
-                      init_time=solver.init_time, stats=solver.stats, settings=solver.settings())
+    def result(status, message):
+        lam = np.array(L).reshape(len(T), model.nc)
+        res = Result(model=model, t=np.array(T), q=np.array(Q), qd=np.array(QD), qdd=np.array(QDD),
+                     lam=lam, newton_iterations=np.array(IT, dtype=np.int32),
+                     status=status, message=message, wall_time=time.perf_counter() - wall0,
+                     init_time=solver.init_time, stats=solver.stats, settings=solver.settings())
+        res.h_steps = np.array(H)
+        res.error_estimates = np.array(ERR)
+        res.n_rejected = int(solver.si[4])
+        res.n_newton_failures = int(solver.si[5])
+        if t_eval is not None and status == "success":
+            res = _interpolated(res, t_eval)
+        return res
 
-    def collect(m):
-        bt, bq, bqd, bqdd, bl = solver._bufs
+    def collect(m, k):
+        bt, bq, bqd, bqdd, bl, bh, bit, berr = solver._bufs
         T.extend(bt[:m].tolist())
         Q.extend(bq[:m].copy())
         QD.extend(bqd[:m].copy())
         QDD.extend(bqdd[:m].copy())
         L.extend(bl[:m].copy())
+        H.extend(bh[:k].tolist())
+        IT.extend(bit[:k].tolist())
+        ERR.extend(berr[:k].tolist())
 
-    while True:
-        status, m = solver._run(chunk, iters)
-        collect(m)
-        if status < 0:
-            try:
-                solver._raise(status)
-            except (ConvergenceError, SingularMatrixError) as err:
-                err.result = result("failed", str(err), solver.step_index)
-                raise
-        if observer is not None and solver.step_index > 0:
-            s = solver.state
-            if solver.step_index == n_steps:
-                s.t = t_end
-            observer(s, solver.step_index)
-        if status == 1 or solver.step_index >= n_steps:
-            break
-    return result("success", f"reached t = {T[-1]:.6g} s in {n_steps} steps", n_steps)
+    try:
+        while True:
+            status, m, k = solver.advance(chunk)
+            collect(m, k)
+            if status < 0:
+                try:
+                    solver.raise_status(status)
+                except (ConvergenceError, SingularMatrixError) as err:
+                    err.result = result("failed", str(err))
+                    raise
+            if bar is not None:
+                pm = int(1000 * (solver.t - t0) / (t_end - t0))
+                if pm > done_pm:
+                    bar.update(pm - done_pm)
+                    done_pm = pm
+            if observer is not None and k:
+                s = solver.state
+                if status == 1:
+                    s.t = t_end
+                observer(s, solver.step_index)
+            if status == 1:
+                break
+    finally:
+        if bar is not None:
+            bar.close()
+    if not adaptive and solver.sf[8] == solver.sf[8]:
+        warnings.warn(
+            f"the fixed step h = {h_fixed:.3g} s looks far too large: the local error estimate reached "
+            f"{solver.sf[9]:.3g} times the tolerance (rtol = {solver.rtol:g}, atol = {float(solver.atol.max()):g}) "
+            f"at t = {solver.sf[8]:.6g} s; the result may be wrong. Use a smaller h or adaptive steps "
+            f"(simulate(..., rtol=...))", AccuracyWarning, stacklevel=2)
+    n = solver.step_index
+    how = "adaptive steps" if adaptive else "steps"
+    return result("success", f"reached t = {T[-1]:.6g} s in {n} {how}"
+                  + (f" ({solver.si[4]} rejected)" if adaptive else ""))
+
+
+def _hermite(t0, t1, y0, y1, d0, d1, t):
+    h = t1 - t0
+    s = (t - t0) / h
+    h00 = (1 + 2 * s) * (1 - s) ** 2
+    h10 = s * (1 - s) ** 2
+    h01 = s * s * (3 - 2 * s)
+    h11 = s * s * (s - 1)
+    return h00 * y0 + h10 * h * d0 + h01 * y1 + h11 * h * d1
+
+
+def _interpolated(res, t_eval):
+    """A Result at the times t_eval, interpolated between the stored accepted steps."""
+    T = res.t
+    idx = np.clip(np.searchsorted(T, t_eval, side="right") - 1, 0, len(T) - 2)
+    q = np.empty((t_eval.size, res.q.shape[1]))
+    qd = np.empty_like(q)
+    qdd = np.empty_like(q)
+    lam = np.empty((t_eval.size, res.lam.shape[1]))
+    for n, (t, i) in enumerate(zip(t_eval, idx)):
+        t0, t1 = T[i], T[i + 1]
+        q[n] = _hermite(t0, t1, res.q[i], res.q[i + 1], res.qd[i], res.qd[i + 1], t)
+        qd[n] = _hermite(t0, t1, res.qd[i], res.qd[i + 1], res.qdd[i], res.qdd[i + 1], t)
+        s = (t - t0) / (t1 - t0)
+        qdd[n] = (1 - s) * res.qdd[i] + s * res.qdd[i + 1]
+        lam[n] = (1 - s) * res.lam[i] + s * res.lam[i + 1]
+    out = Result(model=res.model, t=t_eval.copy(), q=q, qd=qd, qdd=qdd, lam=lam,
+                 newton_iterations=res.newton_iterations, status=res.status, message=res.message,
+                 wall_time=res.wall_time, init_time=res.init_time, stats=res.stats, settings=res.settings)
+    out.h_steps = res.h_steps
+    out.error_estimates = res.error_estimates
+    out.n_rejected = res.n_rejected
+    out.n_newton_failures = res.n_newton_failures
+    out.steps_t = T
+    return out

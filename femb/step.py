@@ -29,18 +29,29 @@ ST_NONFINITE = -1
 ST_MAXITER = -2
 ST_DIVERGED_SINGULAR = -3
 ST_SINGULAR = -4
+ST_HMIN = -5          # adaptive: the step size fell below its floor
+ST_KKT_SINGULAR = -6  # the matrix [[M, Bᵀ], [B, 0]] of the error estimate is singular
 
 # ---- indices of the integer parameters ip[...] ------------------------------------------
 IP_NV, IP_NC, IP_NFIX, IP_N, IP_KL, IP_KU = 0, 1, 2, 3, 4, 5
 IP_MAXIT, IP_MINIT, IP_FULL, IP_PRED, IP_NSTEPS, IP_STRIDE, IP_STORE, IP_PYTF = 6, 7, 8, 9, 10, 11, 12, 13
+IP_MODE, IP_NTEST, IP_CHECK = 14, 15, 16
 # ---- indices of the float parameters fp[...] ---------------------------------------------
 FP_H, FP_T0, FP_AM, FP_AF, FP_BETA, FP_GAMMA, FP_RTOL, FP_ATOL = 0, 1, 2, 3, 4, 5, 6, 7
 FP_PHITOL, FP_L, FP_XTOL, FP_SCALED, FP_SINGTOL, FP_TEND, FP_FCONST = 8, 9, 10, 11, 12, 13, 14
+FP_ERTOL, FP_HMAX, FP_HMIN, FP_CQ, FP_CV, FP_KEXP, FP_EPUS, FP_WARN = 15, 16, 17, 18, 19, 20, 21, 22
+FP_TOLQ, FP_NEWTC = 23, 24
+NFP = 25
 # ---- indices of the run state si[...] (int) and sf[...] (float) ---------------------------
-SI_STEP, SI_HASPREV, SI_LUVALID, SI_STORED = 0, 1, 2, 3
-SF_FREF, SF_TFTIME = 0, 1
+SI_STEP, SI_HASPREV, SI_LUVALID, SI_STORED, SI_REJECTED, SI_NFAIL, SI_NOGROW, SI_LASTFAIL = 0, 1, 2, 3, 4, 5, 6, 7
+SI_HAVEJ = 8
+NSI = 9
+SF_FREF, SF_TFTIME, SF_T, SF_HNEXT, SF_HPREV, SF_ERRPREV, SF_ERRMAX, SF_ERRMAX_T, SF_WARN_T = 0, 1, 2, 3, 4, 5, 6, 7, 8
+SF_WARN_ERR = 9
+NSF = 10
 # ---- statistics counters ------------------------------------------------------------------
-NS_STEPS, NS_EVAL, NS_FACT, NS_SOLVE, NS_ROUNDOFF = 0, 1, 2, 3, 4
+NS_STEPS, NS_EVAL, NS_FACT, NS_SOLVE, NS_ROUNDOFF, NS_KKT = 0, 1, 2, 3, 4, 5
+NNS = 6
 
 
 @njit(cache=True, **OPTIONS)
@@ -144,14 +155,27 @@ def eval_time_functions(t, kind, off, coef, tfv):
 
 
 @njit(cache=True, **OPTIONS)
-def newton_step(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam, t1, h,
-                AB, ipiv, r, Phi, rhs, x, info):
+def newton_step(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam, t1, h, h_prev,
+                AB, ipiv, r, Phi, rhs, x, info, wq):
     """One step of Algorithm 1 (Arnold & Brüls 2007) from t1 − h to t1, in place.
 
     On success the arrays q, qd, qdd, lam, a hold the new step and the number of
     Newton iterations is returned (≥ 0). A negative return is a status code;
     ``info`` then holds (t1, ‖r_q‖, ‖Φ‖, iteration, index of the largest |Φ_i|,
     tolerance of r_q, tolerance of Φ).
+
+    Two stopping rules (``ip[IP_NTEST]``):
+
+    0. residual (the seed reproduction's rule): ‖W r_q‖∞ ≤ rtol·F + atol and
+       ‖Φ‖∞ ≤ phi_tol·L, with at least ``min_iter`` corrections and a round-off
+       floor on the correction;
+    1. correction (default, stepsize.md §5): after each correction Δq,
+       max_i |Δq_i|/wq_i ≤ 1 in q units and ‖β'Δq‖∞ ≤ 1e-8(1 + ‖q̈‖∞) +
+       c ε (1 + ‖q‖∞) β' in acceleration units, where ``wq`` is the q tolerance
+       per coordinate; the iteration matrix of the first iterate is reused while
+       Newton contracts (θ = ‖Δ_k‖/‖Δ_{k−1}‖ < 0.5), an iterate is accepted early
+       once θ/(1 − θ)·‖Δ_k‖ passes the same tests, and Newton gives up when θ ≥ 1
+       twice. The Φ test of rule 0 must hold at the last evaluated iterate.
     """
     nv = ip[IP_NV]
     nc = ip[IP_NC]
@@ -166,7 +190,6 @@ def newton_step(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam, t1,
     gp = gamma / (h * beta)
     c = beta * h * h if fp[FP_SCALED] != 0.0 else 1.0
     ka = (1.0 - af) / (1.0 - am)
-    perm = C[1]
     iperm = C[2]
     w = C[3]
     full = ip[IP_FULL] != 0
@@ -174,8 +197,11 @@ def newton_step(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam, t1,
     rtol = fp[FP_RTOL]
     atol = fp[FP_ATOL]
     L = fp[FP_L]
+    ntest = ip[IP_NTEST]
+    eps = 2.220446049250313e-16
     # predictor and (3)-(5) of Algorithm 1 for that guess of (q̈_{n+1}, λ_{n+1})
     pred = ip[IP_PRED]
+    rho = h / h_prev if h_prev > 0.0 else 1.0
     for i in range(nv):
         a_base = (af * qdd[i] - am * a[i]) / (1.0 - am)
         if pred == 0:
@@ -183,7 +209,7 @@ def newton_step(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam, t1,
             a_pred = a_base
         else:
             if pred == 2 and si[SI_HASPREV] != 0:
-                g = 2.0 * qdd[i] - pqdd[i]
+                g = (1.0 + rho) * qdd[i] - rho * pqdd[i]
             else:
                 g = qdd[i]
             a_pred = a_base + ka * g
@@ -198,18 +224,23 @@ def newton_step(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam, t1,
         if pred == 0:
             g = 0.0
         elif pred == 2 and si[SI_HASPREV] != 0:
-            g = 2.0 * lam[j] - plam[j]
+            g = (1.0 + rho) * lam[j] - rho * plam[j]
         else:
             g = lam[j]
         plam[j] = lam[j]
         lam[j] = g
     F_ref = sf[SF_FREF]
     prev_norm = -1.0
+    theta_prev_bad = 0
     k = 0
     maxit = ip[IP_MAXIT]
     F = F_ref
+    have_lu = False
     while True:
-        need_jac = (full and k == 0) or si[SI_LUVALID] == 0
+        if ntest == 0:
+            need_jac = (full and k == 0) or si[SI_LUVALID] == 0
+        else:
+            need_jac = not have_lu
         scale = evaluate(G, C, t1, q, qd, qdd, lam, need_jac, c * bp, c * gp, c, AB, r, Phi)
         stats[NS_EVAL] += 1
         F = scale if scale > F_ref else F_ref
@@ -234,28 +265,30 @@ def newton_step(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam, t1,
         info[6] = tol_phi
         if not (math.isfinite(err_f) and math.isfinite(err_phi)):
             return ST_NONFINITE
-        if k >= ip[IP_MINIT] and err_f <= rtol * F + atol and err_phi <= tol_phi:
+        if ntest == 0 and k >= ip[IP_MINIT] and err_f <= rtol * F + atol and err_phi <= tol_phi:
             break
         if k == maxit:
             return ST_MAXITER
         factor = need_jac
-        if full and not need_jac:
-            scale = evaluate(G, C, t1, q, qd, qdd, lam, True, c * bp, c * gp, c, AB, r, Phi)
-            stats[NS_EVAL] += 1
-            factor = True
-        if (not full) and prev_norm >= 0.0 and si[SI_LUVALID] != 0 and not factor:
-            cur = max(err_f / max(F, 1e-300), err_phi / max(tol_phi, 1e-300))
-            if cur > 0.25 * prev_norm:
+        if ntest == 0:
+            if full and not need_jac:
                 scale = evaluate(G, C, t1, q, qd, qdd, lam, True, c * bp, c * gp, c, AB, r, Phi)
                 stats[NS_EVAL] += 1
                 factor = True
+            if (not full) and prev_norm >= 0.0 and si[SI_LUVALID] != 0 and not factor:
+                cur = max(err_f / max(F, 1e-300), err_phi / max(tol_phi, 1e-300))
+                if cur > 0.25 * prev_norm:
+                    scale = evaluate(G, C, t1, q, qd, qdd, lam, True, c * bp, c * gp, c, AB, r, Phi)
+                    stats[NS_EVAL] += 1
+                    factor = True
         if factor:
             if band_lu(AB, N, kl, ku, ipiv, fp[FP_SINGTOL]) != 0:
                 si[SI_LUVALID] = 0
                 return ST_DIVERGED_SINGULAR if k > 0 else ST_SINGULAR
             si[SI_LUVALID] = 1
+            have_lu = True
             stats[NS_FACT] += 1
-        if not full:
+        if ntest == 0 and not full:
             prev_norm = max(err_f / max(F, 1e-300), err_phi / max(tol_phi, 1e-300))
         for i in range(nv):
             rhs[iperm[i]] = -c * r[i]
@@ -265,6 +298,8 @@ def newton_step(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam, t1,
         stats[NS_SOLVE] += 1
         dqmax = 0.0
         qmax = 0.0
+        dqw = 0.0          # max |Δq_i| / wq_i
+        qddmax = 0.0
         inv_c = 1.0 / c
         for i in range(nv):
             dq = rhs[iperm[i]]
@@ -275,15 +310,42 @@ def newton_step(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam, t1,
                 dqmax = abs(dq)
             if abs(q[i]) > qmax:
                 qmax = abs(q[i])
+            if abs(qdd[i]) > qddmax:
+                qddmax = abs(qdd[i])
+            v = abs(dq) / wq[i]
+            if v > dqw:
+                dqw = v
         for j in range(nc):
             lam[j] += rhs[iperm[nv + j]] * inv_c
         k += 1
-        # round-off floor: a correction at the level of the coordinates' own round-off
-        # cannot improve the iterate (stiff elements nearly at rest)
-        if (err_phi <= tol_phi and err_f <= 1e4 * (rtol * F + atol)
-                and dqmax <= fp[FP_XTOL] * (qmax + L)):
-            stats[NS_ROUNDOFF] += 1
-            break
+        if ntest == 0:
+            # round-off floor: a correction at the level of the coordinates' own round-off
+            # cannot improve the iterate (stiff elements nearly at rest)
+            if (err_phi <= tol_phi and err_f <= 1e4 * (rtol * F + atol)
+                    and dqmax <= fp[FP_XTOL] * (qmax + L)):
+                stats[NS_ROUNDOFF] += 1
+                break
+        else:
+            # the correction in q units (dqw ≤ 1) and in acceleration units
+            acc_tol = 1e-8 * (1.0 + qddmax) + fp[FP_NEWTC] * eps * (1.0 + qmax) * bp
+            acc_ratio = bp * dqmax / acc_tol
+            size = max(dqw, acc_ratio)
+            if prev_norm > 0.0:
+                theta = size / prev_norm
+                if theta >= 1.0:
+                    theta_prev_bad += 1
+                    if theta_prev_bad >= 2:
+                        info[3] = k
+                        return ST_MAXITER
+                    have_lu = False          # diverging: refresh the iteration matrix
+                elif theta > 0.5:
+                    have_lu = False          # slow contraction: refresh
+                if theta < 1.0 and theta / (1.0 - theta) * size <= 1.0 and err_phi <= tol_phi \
+                        and k >= ip[IP_MINIT]:
+                    break
+            if size <= 1.0 and err_phi <= tol_phi and k >= max(ip[IP_MINIT], 1):
+                break
+            prev_norm = size
     for i in range(nv):
         a[i] = x[i] + ka * qdd[i]
     if F > F_ref:
@@ -293,51 +355,279 @@ def newton_step(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam, t1,
 
 
 @njit(cache=True, **OPTIONS)
-def run_fixed(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam, tfv,
-              AB, ipiv, r, Phi, rhs, x, info, n_chunk, out_t, out_q, out_qd, out_qdd, out_lam, iters):
-    """Advance up to ``n_chunk`` fixed steps, storing every ``stride``-th state.
+def kkt_accelerations(G, C, ip, t, q, qd, KB, kpiv, kr, Phi, kx, gam, Pt, zq, zl, out):
+    """Constrained accelerations q̈ᵖᵖ of [[M, Bᵀ], [B, 0]] [q̈; λ] = [f; −γ] at (t, q, q̇).
 
-    Returns a status code (ST_*); ``si[SI_STORED]`` counts the states written into
-    the output buffers during this call.
+    Leaves the factorization in ``KB``/``kpiv`` (for velocity projections at this
+    configuration) and returns 0, or 1 if the matrix is singular.
     """
+    nv = ip[IP_NV]
+    nc = ip[IP_NC]
+    N = ip[IP_N]
+    kl = ip[IP_KL]
+    ku = ip[IP_KU]
+    iperm = C[2]
+    evaluate(G, C, t, q, qd, zq, zl, True, 1.0, 0.0, 0.0, KB, kr, Phi)
+    if band_lu(KB, N, kl, ku, kpiv, 1e-13) != 0:
+        return 1
+    rates(G, C, t, q, qd, Pt, gam)
+    for i in range(nv):
+        kx[iperm[i]] = -kr[i]                 # r = −f with q̈ = λ = 0
+    for j in range(nc):
+        kx[iperm[nv + j]] = -gam[j]
+    band_solve(KB, N, kl, ku, kpiv, kx)
+    for i in range(nv):
+        out[i] = kx[iperm[i]]
+    return 0
+
+
+@njit(cache=True, **OPTIONS)
+def project_normal_velocity(G, C, ip, t, q, qd, target, KB, kpiv, kx, Bv):
+    """q̇ ← q̇ + δ with B δ = target − B q̇ and δ M-orthogonal to the constraint manifold.
+
+    Solves [[M, Bᵀ], [B, 0]] [δ; μ] = [0; target − B q̇] with the factorization of
+    :func:`kkt_accelerations` at this configuration.
+    """
+    nv = ip[IP_NV]
+    nc = ip[IP_NC]
+    iperm = C[2]
+    jacobian_times(G, C, t, q, qd, Bv)
+    for i in range(nv):
+        kx[iperm[i]] = 0.0
+    for j in range(nc):
+        kx[iperm[nv + j]] = target[j] - Bv[j] if C[15][j] != 0 else 0.0
+    band_solve(KB, ip[IP_N], ip[IP_KL], ip[IP_KU], kpiv, kx)
+    for i in range(nv):
+        qd[i] += kx[iperm[i]]
+
+
+@njit(cache=True, **OPTIONS)
+def error_norm(ip, fp, q0, q1, qd0, qd1, eq, ev, atolv, use_v):
+    """RMS of the local error estimate over q (and q̇) weighted by atol + rtol·max(|x_n|, |x_{n+1}|)."""
+    nv = ip[IP_NV]
+    rtol = fp[FP_ERTOL]
+    s = 0.0
+    for i in range(nv):
+        wi = atolv[i] + rtol * max(abs(q0[i]), abs(q1[i]))
+        s += (eq[i] / wi) ** 2
+    n = nv
+    if use_v:
+        for i in range(nv):
+            wi = atolv[i] + rtol * max(abs(qd0[i]), abs(qd1[i]))
+            s += (ev[i] / wi) ** 2
+        n += nv
+    return math.sqrt(s / n)
+
+
+@njit(cache=True, **OPTIONS)
+def run(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam, tfv, AB, ipiv, r, Phi, rhs, x, info,
+        W, n_chunk, out_t, out_q, out_qd, out_qdd, out_lam, out_h, out_it, out_err):
+    """Advance up to ``n_chunk`` accepted steps: the one time loop, fixed or adaptive.
+
+    Fixed steps (``ip[IP_MODE] == 0``): t_{n} = t0 + n h; every ``IP_CHECK`` steps
+    the local error estimate is computed over one step and its largest value
+    kept (for the warning about steps far too large).
+
+    Adaptive steps (``ip[IP_MODE] == 1``, stepsize.md §§2–4): local error from
+    the constrained accelerations q̈ᵖᵖ of consecutive steps, e_q = C_q h² Δq̈ᵖᵖ,
+    e_v = C_v h³ Δj / h̄; PI controller (Gustafsson 1994) with exponent k,
+    rejected steps and Newton failures retried from the accepted state; at
+    every step change a and the normal velocity are re-synchronised
+    (a* = a + Δ (h − h_prev) j, B q̇* = h² C_q B j + (B q̇)_exact).
+
+    Every state written into ``out_*`` is an accepted step (with stride);
+    ``out_h``, ``out_it``, ``out_err`` record every accepted step. Returns a
+    status code (ST_*); ``si[SI_STORED]`` counts the states written.
+    """
+    nv = ip[IP_NV]
+    nc = ip[IP_NC]
     n_steps = ip[IP_NSTEPS]
     stride = ip[IP_STRIDE]
     store = ip[IP_STORE] != 0
-    h = fp[FP_H]
+    adaptive = ip[IP_MODE] == 1
     t0 = fp[FP_T0]
+    t_end = fp[FP_TEND]
+    Cq = fp[FP_CQ]
+    Cv = fp[FP_CV]
+    kexp = fp[FP_KEXP]
+    delta = fp[FP_AM] - fp[FP_AF]
     tf_kind = C[8]
     tf_off = C[9]
     tf_coef = C[10]
+    (q_s, qd_s, qdd_s, lam_s, a_s, pqdd_s, plam_s, qpp, qpp_new, jn, jnew, KB, KBacc, kpiv, kpivacc,
+     kr, kx, gam, Pt, zq, zl, Bv, tgt, eq, ev, atolv, wq) = W
     si[SI_STORED] = 0
     done = 0
     while done < n_chunk:
         n = si[SI_STEP] + 1
-        if n > n_steps:
-            return ST_DONE
-        t1 = t0 + n * h
+        t = sf[SF_T]
+        if adaptive:
+            if t >= t_end:
+                return ST_DONE
+            h = min(sf[SF_HNEXT], fp[FP_HMAX])
+            rem = t_end - t
+            last = False
+            if rem <= 1.05 * h:
+                h = rem
+                last = True
+            elif rem < 2.0 * h:
+                h = 0.5 * rem
+            if h < fp[FP_HMIN]:
+                info[0] = t
+                info[1] = h
+                return ST_HMIN
+            t1 = t_end if last else t + h
+        else:
+            if n > n_steps:
+                return ST_DONE
+            h = fp[FP_H]
+            t1 = t0 + n * h
         if ip[IP_PYTF] != 0:
             if sf[SF_TFTIME] != t1:
                 info[0] = t1
                 return ST_NEED_TF
         eval_time_functions(t1, tf_kind, tf_off, tf_coef, tfv)
+        h_prev = sf[SF_HPREV]
+        if adaptive:
+            # save the accepted state: a rejected or failed trial restarts from it
+            q_s[:] = q
+            qd_s[:] = qd
+            qdd_s[:] = qdd
+            lam_s[:] = lam
+            a_s[:] = a
+            pqdd_s[:] = pqdd
+            plam_s[:] = plam
+            hasprev_s = si[SI_HASPREV]
+            fref_s = sf[SF_FREF]
+            if h != h_prev and si[SI_HAVEJ] != 0:
+                # re-synchronise a and the normal velocity with the new step (stepsize.md §2)
+                for i in range(nv):
+                    a[i] += delta * (h - h_prev) * jn[i]
+                if nc > 0:
+                    jacobian_times(G, C, t, q, jn, Bv)
+                    rates(G, C, t, q, qd, Pt, gam)
+                    for j in range(nc):
+                        tgt[j] = -Pt[j] + h * h * Cq * Bv[j]
+                    project_normal_velocity(G, C, ip, t, q, qd, tgt, KBacc, kpivacc, kx, Bv)
+            for i in range(nv):
+                wq[i] = fp[FP_TOLQ] * (atolv[i] + fp[FP_ERTOL] * abs(q[i]))
+        else:
+            wC = C[3]
+            for i in range(nv):
+                wq[i] = fp[FP_TOLQ] * (abs(q[i]) + fp[FP_L] * wC[i])
         k = newton_step(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam, t1, h,
-                        AB, ipiv, r, Phi, rhs, x, info)
+                        h_prev if h_prev > 0.0 else h, AB, ipiv, r, Phi, rhs, x, info, wq)
         if k < 0:
-            return k
-        iters[n - 1] = k
+            if not adaptive:
+                return k
+            # Newton failed: retry from the accepted state with h/4, no growth next step
+            q[:] = q_s
+            qd[:] = qd_s
+            qdd[:] = qdd_s
+            lam[:] = lam_s
+            a[:] = a_s
+            pqdd[:] = pqdd_s
+            plam[:] = plam_s
+            si[SI_HASPREV] = hasprev_s
+            sf[SF_FREF] = fref_s
+            si[SI_NFAIL] += 1
+            si[SI_LASTFAIL] = k
+            si[SI_NOGROW] = 1
+            sf[SF_HNEXT] = 0.25 * h
+            continue
+        # ---- local error estimate (stepsize.md §3)
+        err = -1.0
+        if adaptive:
+            if kkt_accelerations(G, C, ip, t1, q, qd, KB, kpiv, kr, Phi, kx, gam, Pt, zq, zl, qpp_new) != 0:
+                info[0] = t1
+                return ST_KKT_SINGULAR
+            stats[NS_KKT] += 1
+            hbar = 0.5 * (h + (h_prev if h_prev > 0.0 else h))
+            for i in range(nv):
+                jnew[i] = (qpp_new[i] - qpp[i]) / h
+                eq[i] = Cq * h * h * (qpp_new[i] - qpp[i])
+                ev[i] = Cv * h * h * h * (jnew[i] - jn[i]) / hbar
+            err = error_norm(ip, fp, q_s, q, qd_s, qd, eq, ev, atolv, True)
+            if fp[FP_EPUS] != 0.0:
+                err /= h
+        elif ip[IP_CHECK] > 1:
+            # fixed steps: q̈ᵖᵖ at two consecutive steps every IP_CHECK steps, e_q only
+            phase = n % ip[IP_CHECK]
+            if phase == 0 or (phase == 1 and si[SI_HAVEJ] != 0):
+                if kkt_accelerations(G, C, ip, t1, q, qd, KB, kpiv, kr, Phi, kx, gam, Pt, zq, zl, qpp_new) != 0:
+                    info[0] = t1
+                    return ST_KKT_SINGULAR
+                stats[NS_KKT] += 1
+                if phase == 0:
+                    qpp[:] = qpp_new
+                    si[SI_HAVEJ] = 1
+                else:
+                    for i in range(nv):
+                        eq[i] = Cq * h * h * (qpp_new[i] - qpp[i])
+                    err = error_norm(ip, fp, q, q, qd, qd, eq, ev, atolv, False)
+                    if fp[FP_EPUS] != 0.0:
+                        err /= h
+                    si[SI_HAVEJ] = 0
+                    if err > sf[SF_ERRMAX]:
+                        sf[SF_ERRMAX] = err
+                        sf[SF_ERRMAX_T] = t1
+                    if err > fp[FP_WARN] and not (sf[SF_WARN_T] == sf[SF_WARN_T]):
+                        sf[SF_WARN_T] = t1
+                        sf[SF_WARN_ERR] = err
+        if adaptive:
+            if err > 1.0:
+                # rejected: back to the accepted state with a smaller step
+                q[:] = q_s
+                qd[:] = qd_s
+                qdd[:] = qdd_s
+                lam[:] = lam_s
+                a[:] = a_s
+                pqdd[:] = pqdd_s
+                plam[:] = plam_s
+                si[SI_HASPREV] = hasprev_s
+                sf[SF_FREF] = fref_s
+                si[SI_REJECTED] += 1
+                si[SI_NOGROW] = 1
+                sf[SF_HNEXT] = h * max(0.2, 0.9 * err ** (-1.0 / kexp))
+                continue
+            # accepted: next step size (PI controller)
+            e = max(err, 1e-10)
+            if si[SI_NOGROW] != 0 or sf[SF_ERRPREV] <= 0.0:
+                fac = 0.9 * e ** (-1.0 / kexp)
+            else:
+                fac = 0.9 * e ** (-0.7 / kexp) * (sf[SF_ERRPREV] / e) ** (0.4 / kexp)
+            fac = min(2.0, max(0.2, fac))
+            if si[SI_NOGROW] != 0:
+                fac = min(fac, 1.0)
+            si[SI_NOGROW] = 0
+            sf[SF_ERRPREV] = e
+            sf[SF_HNEXT] = h * fac
+            KBacc[:] = KB
+            kpivacc[:] = kpiv
+            qpp[:] = qpp_new
+            jn[:] = jnew
+            if err > sf[SF_ERRMAX]:
+                sf[SF_ERRMAX] = err
+                sf[SF_ERRMAX_T] = t1
+        sf[SF_HPREV] = h
+        sf[SF_T] = t1
         si[SI_STEP] = n
         stats[NS_STEPS] += 1
+        out_h[done] = h
+        out_it[done] = k
+        out_err[done] = err
         done += 1
-        if (store and n % stride == 0) or n == n_steps:
+        final = (t1 >= t_end) if adaptive else (n == n_steps)
+        if (store and n % stride == 0) or final:
             m = si[SI_STORED]
-            out_t[m] = fp[FP_TEND] if n == n_steps else t1
+            out_t[m] = t_end if final else t1
             out_q[m, :] = q
             out_qd[m, :] = qd
             out_qdd[m, :] = qdd
             out_lam[m, :] = lam
             si[SI_STORED] = m + 1
-    if si[SI_STEP] >= n_steps:
-        return ST_DONE
+        if final:
+            return ST_DONE
     return ST_CHUNK
 
 
