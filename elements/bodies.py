@@ -14,6 +14,7 @@ import numpy as np
 from femb.element import Element
 from femb.errors import ModelError
 from femb.geometry import GeometryBlock
+from femb.jit import kernel
 from femb.nodes import PlanarNode
 
 from ._planar import perp, rot
@@ -185,6 +186,23 @@ def _pack_outlines(elements):
             "outline_cells": cells, "outline_cell_body": cell_body}
 
 
+@kernel
+def rigid_body_mass(P, xe, Me):
+    """M_e = diag(m, m, J) on (x, y, θ) of the centre of mass; P = (m, J)."""
+    for e in range(xe.shape[0]):
+        Me[e, 0, 0] = P[e, 0]
+        Me[e, 1, 1] = P[e, 0]
+        Me[e, 2, 2] = P[e, 1]
+
+
+@kernel
+def point_mass_mass(P, xe, Me):
+    """M_e = diag(m, m, 0) on (x, y, θ) (θ is fixed); P = (m,)."""
+    for e in range(xe.shape[0]):
+        Me[e, 0, 0] = P[e, 0]
+        Me[e, 1, 1] = P[e, 0]
+
+
 class Ground(Body):
     """The fixed inertial frame; joints to it use its named points.
 
@@ -223,10 +241,15 @@ class RigidBody(Body, Element):
         Named points in the body frame (relative to the centre of mass).
     shape : dict, optional
         Drawing shape for output (see :class:`Body`).
+
+    Notes
+    -----
+    Kernel: :func:`rigid_body_mass`; ``P = (m, J)``.
     """
 
     has_mass = True
     constant_mass = True
+    kernels = {"mass": rigid_body_mass}
 
     def __init__(self, name, mass, inertia, position=(0.0, 0.0), angle=0.0,
                  velocity=(0.0, 0.0), omega=0.0, points=None, shape=None):
@@ -246,7 +269,10 @@ class RigidBody(Body, Element):
 
     @classmethod
     def pack(cls, elements):
-        p = {"m": np.array([e.m for e in elements]), "J": np.array([e.J for e in elements]),
+        """``P = (m, J)`` (nel, 2), plus masses, ids and outlines for :meth:`geometry`."""
+        m = np.array([e.m for e in elements], dtype=float)
+        J = np.array([e.J for e in elements], dtype=float)
+        p = {"P": np.ascontiguousarray(np.column_stack((m, J))), "m": m, "J": J,
              "body_id": np.arange(len(elements))}
         p.update(_pack_outlines(elements))
         return p
@@ -254,15 +280,6 @@ class RigidBody(Body, Element):
     @classmethod
     def geometry(cls, p, t, qe, qde, lame, names):
         return _body_geometry(cls.__name__, p, qe, qde)
-
-    @classmethod
-    def mass(cls, p, qe):
-        n = p["m"].shape[0]
-        Me = np.zeros((n, 3, 3))
-        Me[:, 0, 0] = p["m"]
-        Me[:, 1, 1] = p["m"]
-        Me[:, 2, 2] = p["J"]
-        return Me
 
 
 class PointMass(Body, Element):
@@ -275,10 +292,15 @@ class PointMass(Body, Element):
     position, velocity : (x, y)
     points : dict, optional
         Named points (offsets do not rotate: θ is fixed at 0).
+
+    Notes
+    -----
+    Kernel: :func:`point_mass_mass`; ``P = (m,)``.
     """
 
     has_mass = True
     constant_mass = True
+    kernels = {"mass": point_mass_mass}
 
     def __init__(self, name, mass, position=(0.0, 0.0), velocity=(0.0, 0.0), points=None, shape=None):
         Element.__init__(self, name)
@@ -294,7 +316,9 @@ class PointMass(Body, Element):
 
     @classmethod
     def pack(cls, elements):
-        return {"m": np.array([e.m for e in elements])}
+        """``P = (m,)`` (nel, 1), plus the masses for :meth:`geometry`."""
+        m = np.array([e.m for e in elements], dtype=float)
+        return {"P": np.ascontiguousarray(m.reshape(-1, 1)), "m": m}
 
     @classmethod
     def geometry(cls, p, t, qe, qde, lame, names):
@@ -305,11 +329,3 @@ class PointMass(Body, Element):
         vel[:, :2] = qde[:, 0:2]
         return [GeometryBlock(cls.__name__, pts, [("vertex", np.arange(n)[:, None])],
                               point_data={"velocity": vel}, cell_data={"mass": [p["m"].copy()]})]
-
-    @classmethod
-    def mass(cls, p, qe):
-        n = p["m"].shape[0]
-        Me = np.zeros((n, 3, 3))
-        Me[:, 0, 0] = p["m"]
-        Me[:, 1, 1] = p["m"]
-        return Me
