@@ -9,8 +9,8 @@ J d = (−d_y, d_x):
 
 All functions take stacked arrays with a leading element dimension. They serve
 Python-side code: packing, geometry and output (``geometry`` classmethods,
-``Body.global_point``). The compiled element kernels do not use them; they write
-the same trigonometry with scalars (see ``docs/kernels.md``).
+``Body.global_point``). Compiled element kernels cannot call them (they are numpy
+code); a kernel writes the same trigonometry with scalars (see ``docs/kernels.md``).
 """
 from __future__ import annotations
 
