@@ -4,6 +4,10 @@ A rigid body owns a :class:`~femb.nodes.PlanarNode` at its centre of mass,
 (x, y, θ) in the inertial frame, so its mass matrix is the constant
 diag(m, m, J) (Géradin & Cardona 2001, Ch. 5). A point mass owns a planar node
 whose θ is fixed. The ground owns a fully fixed node at the origin.
+
+Mass kernels (compiled, ``docs/kernels.md``): ``mass(P, xe, Me)`` writes the
+element mass matrices ``Me (nel, 3, 3)`` on (x, y, θ) from ``P (nel, npar)``;
+``xe (nel, 3)`` is not read (the mass is constant). The ground has no kernels.
 """
 from __future__ import annotations
 

@@ -4,6 +4,17 @@ Every joint connects body ``a`` to body ``b`` (either may be the ground or a
 point mass). Sign convention: M q̈ = f − Φ_qᵀ λ, so for a hinge with
 Φ = r_a − r_b the joint pushes body b with the force +λ and body a with −λ.
 
+Each type's equations are written once, as compiled kernels (``docs/kernels.md``),
+over a batch of ``nel`` joints with element coordinates ``xe (nel, 6)`` =
+(x_a, y_a, θ_a, x_b, y_b, θ_b), velocities ``ve (nel, 6)``, multipliers
+``le (nel, nc)``, parameters ``P (nel, npar)`` from ``pack`` and time-function
+values ``tf (nel, ntf, 3)``:
+
+* ``constraint(P, t, tf, xe, le, jac, Phi, B, H)`` writes Φ ``(nel, nc)``,
+  B = Φ_q ``(nel, nc, 6)`` and, if ``jac``, H = ∂(Φ_qᵀλ)/∂q ``(nel, 6, 6)``;
+* ``rates(P, t, tf, xe, ve, Phi_t, gam)`` writes Φ_t and γ = (Φ_q q̇)_q q̇ + 2 Φ_qt q̇ + Φ_tt
+  ``(nel, nc)``, so that Φ_q q̈ = −γ.
+
 References
 ----------
 M. Géradin, A. Cardona, Flexible Multibody Dynamics, Wiley, 2001, Ch. 5 & 9.
