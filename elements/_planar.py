@@ -7,7 +7,10 @@ J d = (−d_y, d_x):
 * ∂r/∂(x, y, θ) = [I, J d]
 * ∂²r/∂θ² = −d
 
-All functions take stacked arrays with a leading element dimension.
+All functions take stacked arrays with a leading element dimension. They serve
+Python-side code: packing, geometry and output (``geometry`` classmethods,
+``Body.global_point``). Compiled element kernels cannot call them (they are numpy
+code); a kernel writes the same trigonometry with scalars (see ``docs/kernels.md``).
 """
 from __future__ import annotations
 

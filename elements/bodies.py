@@ -4,6 +4,10 @@ A rigid body owns a :class:`~femb.nodes.PlanarNode` at its centre of mass,
 (x, y, θ) in the inertial frame, so its mass matrix is the constant
 diag(m, m, J) (Géradin & Cardona 2001, Ch. 5). A point mass owns a planar node
 whose θ is fixed. The ground owns a fully fixed node at the origin.
+
+Mass kernels (compiled, ``docs/kernels.md``): ``mass(P, xe, Me)`` writes the
+element mass matrices ``Me (nel, 3, 3)`` on (x, y, θ) from ``P (nel, npar)``;
+``xe (nel, 3)`` is not read (the mass is constant). The ground has no kernels.
 """
 from __future__ import annotations
 
@@ -186,6 +190,23 @@ def _pack_outlines(elements):
             "outline_cells": cells, "outline_cell_body": cell_body}
 
 
+@kernel
+def rigid_body_mass(P, xe, Me):
+    """M_e = diag(m, m, J) on (x, y, θ) of the centre of mass; P = (m, J)."""
+    for e in range(xe.shape[0]):
+        Me[e, 0, 0] = P[e, 0]
+        Me[e, 1, 1] = P[e, 0]
+        Me[e, 2, 2] = P[e, 1]
+
+
+@kernel
+def point_mass_mass(P, xe, Me):
+    """M_e = diag(m, m, 0) on (x, y, θ) (θ is fixed); P = (m,)."""
+    for e in range(xe.shape[0]):
+        Me[e, 0, 0] = P[e, 0]
+        Me[e, 1, 1] = P[e, 0]
+
+
 class Ground(Body):
     """The fixed inertial frame; joints to it use its named points.
 
@@ -203,23 +224,6 @@ class Ground(Body):
         """Add a named ground point; returns its name."""
         self.points[str(name)] = _point(f"ground '{self.name}'", f"point '{name}'", xy)
         return name
-
-
-@kernel
-def rigid_body_mass(P, xe, Me):
-    """M_e = diag(m, m, J); P = (m, J)."""
-    for e in range(xe.shape[0]):
-        Me[e, 0, 0] = P[e, 0]
-        Me[e, 1, 1] = P[e, 0]
-        Me[e, 2, 2] = P[e, 1]
-
-
-@kernel
-def point_mass_mass(P, xe, Me):
-    """M_e = diag(m, m, 0) (θ of a point mass is fixed); P = (m,)."""
-    for e in range(xe.shape[0]):
-        Me[e, 0, 0] = P[e, 0]
-        Me[e, 1, 1] = P[e, 0]
 
 
 class RigidBody(Body, Element):
@@ -241,6 +245,10 @@ class RigidBody(Body, Element):
         Named points in the body frame (relative to the centre of mass).
     shape : dict, optional
         Drawing shape for output (see :class:`Body`).
+
+    Notes
+    -----
+    Kernel: :func:`rigid_body_mass`; ``P = (m, J)``.
     """
 
     has_mass = True
@@ -265,16 +273,17 @@ class RigidBody(Body, Element):
 
     @classmethod
     def pack(cls, elements):
-        p = {"m": np.array([e.m for e in elements]), "J": np.array([e.J for e in elements]),
-             "body_id": np.arange(len(elements)),
-             "P": np.array([[e.m, e.J] for e in elements], dtype=float).reshape(-1, 2)}
+        """``P = (m, J)`` (nel, 2), plus masses, ids and outlines for :meth:`geometry`."""
+        m = np.array([e.m for e in elements], dtype=float)
+        J = np.array([e.J for e in elements], dtype=float)
+        p = {"P": np.ascontiguousarray(np.column_stack((m, J))), "m": m, "J": J,
+             "body_id": np.arange(len(elements))}
         p.update(_pack_outlines(elements))
         return p
 
     @classmethod
     def geometry(cls, p, t, qe, qde, lame, names):
         return _body_geometry(cls.__name__, p, qe, qde)
-
 
 
 class PointMass(Body, Element):
@@ -287,6 +296,10 @@ class PointMass(Body, Element):
     position, velocity : (x, y)
     points : dict, optional
         Named points (offsets do not rotate: θ is fixed at 0).
+
+    Notes
+    -----
+    Kernel: :func:`point_mass_mass`; ``P = (m,)``.
     """
 
     has_mass = True
@@ -307,8 +320,9 @@ class PointMass(Body, Element):
 
     @classmethod
     def pack(cls, elements):
+        """``P = (m,)`` (nel, 1), plus the masses for :meth:`geometry`."""
         m = np.array([e.m for e in elements], dtype=float)
-        return {"m": m, "P": m.reshape(-1, 1).copy()}
+        return {"P": np.ascontiguousarray(m.reshape(-1, 1)), "m": m}
 
     @classmethod
     def geometry(cls, p, t, qe, qde, lame, names):
@@ -319,4 +333,3 @@ class PointMass(Body, Element):
         vel[:, :2] = qde[:, 0:2]
         return [GeometryBlock(cls.__name__, pts, [("vertex", np.arange(n)[:, None])],
                               point_data={"velocity": vel}, cell_data={"mass": [p["m"].copy()]})]
-

@@ -4,6 +4,17 @@ Every joint connects body ``a`` to body ``b`` (either may be the ground or a
 point mass). Sign convention: M q̈ = f − Φ_qᵀ λ, so for a hinge with
 Φ = r_a − r_b the joint pushes body b with the force +λ and body a with −λ.
 
+Each type's equations are written once, as compiled kernels (``docs/kernels.md``),
+over a batch of ``nel`` joints with element coordinates ``xe (nel, 6)`` =
+(x_a, y_a, θ_a, x_b, y_b, θ_b), velocities ``ve (nel, 6)``, multipliers
+``le (nel, nc)``, parameters ``P (nel, npar)`` from ``pack`` and time-function
+values ``tf (nel, ntf, 3)``:
+
+* ``constraint(P, t, tf, xe, le, jac, Phi, B, H)`` writes Φ ``(nel, nc)``,
+  B = Φ_q ``(nel, nc, 6)`` and, if ``jac``, H = ∂(Φ_qᵀλ)/∂q ``(nel, 6, 6)``;
+* ``rates(P, t, tf, xe, ve, Phi_t, gam)`` writes Φ_t and γ = (Φ_q q̇)_q q̇ + 2 Φ_qt q̇ + Φ_tt
+  ``(nel, nc)``, so that Φ_q q̈ = −γ.
+
 References
 ----------
 M. Géradin, A. Cardona, Flexible Multibody Dynamics, Wiley, 2001, Ch. 5 & 9.
@@ -18,7 +29,7 @@ import numpy as np
 
 from femb.element import Element
 from femb.errors import ModelError
-from femb.functions import as_time_function, evaluate
+from femb.functions import as_time_function
 from femb.geometry import GeometryBlock
 from femb.jit import kernel
 
@@ -149,50 +160,117 @@ class Hinge(PairElement):
 # ---------------------------------------------------------------------------
 # Line constraints: slider, point on line, driven displacement
 # ---------------------------------------------------------------------------
-def _line_kernel(p, qe, w_bar):
-    """Φ = (R_a w̄)·Δ with Δ = r_b(P_b) − r_a(P_a); returns Φ (nel,), Φ_q (nel, 6), parts."""
-    xa, tha, xb, thb = _split(qe)
-    da = rot(tha, p["sa"])
-    db = rot(thb, p["sb"])
-    w = rot(tha, w_bar)
-    Jw = perp(w)
-    D = xb + db - xa - da
-    n = qe.shape[0]
-    Phi = np.einsum("ij,ij->i", w, D)
-    g = np.empty((n, 6))
-    g[:, 0:2] = -w
-    g[:, 2] = np.einsum("ij,ij->i", Jw, D) - np.einsum("ij,ij->i", w, perp(da))
-    g[:, 3:5] = w
-    g[:, 5] = np.einsum("ij,ij->i", w, perp(db))
-    return Phi, g, (w, Jw, D, da, db)
+# Columns of P for every line joint: 0:2 s_a, 2:4 s_b, 4:6 w̄ (the constrained direction
+# in body a's frame: n̄ = J ū for Slider and PointOnLine, ū for DrivenDisplacement),
+# then 6: θ_0 (Slider) or d_0 (DrivenDisplacement).
+#
+# Φ = w·Δ with w = R(θ_a) w̄, Δ = r_b(P_b) − r_a(P_a) = x_b + d_b − x_a − d_a,
+# d_a = R(θ_a) s_a, d_b = R(θ_b) s_b and J the rotation by +90°, J d = (−d_y, d_x):
+#   Φ_q = [−w, Jw·Δ − w·J d_a, w, w·J d_b]
+#   non-zero ∂²Φ/∂q²: θ_a r_a: −Jw, θ_a r_b: Jw, θ_a θ_a: −w·(Δ + d_a),
+#                     θ_a θ_b: w·d_b, θ_b θ_b: −w·d_b.
+@kernel
+def _line_terms(P, e, xe):
+    """(w_x, w_y, d_ax, d_ay, d_bx, d_by, Δ_x, Δ_y) of line joint e."""
+    ca, sa_ = math.cos(xe[e, 2]), math.sin(xe[e, 2])
+    cb, sb_ = math.cos(xe[e, 5]), math.sin(xe[e, 5])
+    dax = ca * P[e, 0] - sa_ * P[e, 1]
+    day = sa_ * P[e, 0] + ca * P[e, 1]
+    dbx = cb * P[e, 2] - sb_ * P[e, 3]
+    dby = sb_ * P[e, 2] + cb * P[e, 3]
+    wx = ca * P[e, 4] - sa_ * P[e, 5]
+    wy = sa_ * P[e, 4] + ca * P[e, 5]
+    Dx = xe[e, 3] + dbx - xe[e, 0] - dax
+    Dy = xe[e, 4] + dby - xe[e, 1] - day
+    return wx, wy, dax, day, dbx, dby, Dx, Dy
 
 
-def _line_hessian(parts, scale):
-    """Σ λ ∂²Φ/∂q² of the line constraint; scale (nel,) is λ."""
-    w, Jw, D, da, db = parts
-    n = w.shape[0]
-    H = np.zeros((n, 6, 6))
-    s = scale[:, None]
-    H[:, 2, 0:2] = -Jw * s
-    H[:, 0:2, 2] = -Jw * s
-    H[:, 2, 3:5] = Jw * s
-    H[:, 3:5, 2] = Jw * s
-    H[:, 2, 2] = -np.einsum("ij,ij->i", w, D + da) * scale
-    hab = np.einsum("ij,ij->i", w, db) * scale
-    H[:, 2, 5] = hab
-    H[:, 5, 2] = hab
-    H[:, 5, 5] = -hab
-    return H
+@kernel
+def _line_constraint(P, e, xe, lam, jac, B, H):
+    """Φ of line joint e (returned), its Φ_q into row 0 of ``B[e]``, λ Φ_qq into ``H[e]`` if ``jac``."""
+    wx, wy, dax, day, dbx, dby, Dx, Dy = _line_terms(P, e, xe)
+    B[e, 0, 0] = -wx
+    B[e, 0, 1] = -wy
+    B[e, 0, 2] = (-wy * Dx + wx * Dy) - (-wx * day + wy * dax)
+    B[e, 0, 3] = wx
+    B[e, 0, 4] = wy
+    B[e, 0, 5] = -wx * dby + wy * dbx
+    if jac:
+        # −Jw λ = (w_y, −w_x) λ
+        H[e, 2, 0] = wy * lam
+        H[e, 2, 1] = -wx * lam
+        H[e, 0, 2] = wy * lam
+        H[e, 1, 2] = -wx * lam
+        H[e, 2, 3] = -wy * lam
+        H[e, 2, 4] = wx * lam
+        H[e, 3, 2] = -wy * lam
+        H[e, 4, 2] = wx * lam
+        H[e, 2, 2] = -(wx * (Dx + dax) + wy * (Dy + day)) * lam
+        hab = (wx * dbx + wy * dby) * lam
+        H[e, 2, 5] = hab
+        H[e, 5, 2] = hab
+        H[e, 5, 5] = -hab
+    return wx * Dx + wy * Dy
 
 
-def _line_gamma(parts, qde):
-    """q̇ᵀ (∂²Φ/∂q²) q̇ of the line constraint, (nel,)."""
-    w, Jw, D, da, db = parts
-    va, oa, vb, ob = qde[:, 0:2], qde[:, 2], qde[:, 3:5], qde[:, 5]
-    return (2.0 * oa * np.einsum("ij,ij->i", Jw, vb - va)
-            - oa * oa * np.einsum("ij,ij->i", w, D + da)
-            + 2.0 * oa * ob * np.einsum("ij,ij->i", w, db)
-            - ob * ob * np.einsum("ij,ij->i", w, db))
+@kernel
+def _line_gamma(P, e, xe, ve):
+    """q̇ᵀ Φ_qq q̇ of line joint e:
+    2 ω_a Jw·(v_b − v_a) − ω_a² w·(Δ + d_a) + 2 ω_a ω_b w·d_b − ω_b² w·d_b."""
+    wx, wy, dax, day, dbx, dby, Dx, Dy = _line_terms(P, e, xe)
+    oa = ve[e, 2]
+    ob = ve[e, 5]
+    wdb = wx * dbx + wy * dby
+    return (2.0 * oa * (-wy * (ve[e, 3] - ve[e, 0]) + wx * (ve[e, 4] - ve[e, 1]))
+            - oa * oa * (wx * (Dx + dax) + wy * (Dy + day))
+            + 2.0 * oa * ob * wdb
+            - ob * ob * wdb)
+
+
+@kernel
+def point_on_line_constraint(P, t, tf, xe, le, jac, Phi, B, H):
+    """Φ = n_a·(r_b(P_b) − r_a(P_a)), n_a = R(θ_a) n̄; P = (s_a, s_b, n̄)."""
+    for e in range(xe.shape[0]):
+        Phi[e, 0] = _line_constraint(P, e, xe, le[e, 0], jac, B, H)
+
+
+@kernel
+def point_on_line_rates(P, t, tf, xe, ve, Phi_t, gam):
+    """Φ_t = 0; γ = q̇ᵀ Φ_qq q̇."""
+    for e in range(xe.shape[0]):
+        gam[e, 0] = _line_gamma(P, e, xe, ve)
+
+
+@kernel
+def slider_constraint(P, t, tf, xe, le, jac, Phi, B, H):
+    """Φ = (n_a·(r_b(P_b) − r_a(P_a)), θ_b − θ_a − θ_0); P = (s_a, s_b, n̄, θ_0)."""
+    for e in range(xe.shape[0]):
+        Phi[e, 0] = _line_constraint(P, e, xe, le[e, 0], jac, B, H)
+        Phi[e, 1] = xe[e, 5] - xe[e, 2] - P[e, 6]
+        B[e, 1, 2] = -1.0
+        B[e, 1, 5] = 1.0
+
+
+@kernel
+def slider_rates(P, t, tf, xe, ve, Phi_t, gam):
+    """Φ_t = 0; γ = (q̇ᵀ Φ_qq q̇ of the line constraint, 0)."""
+    for e in range(xe.shape[0]):
+        gam[e, 0] = _line_gamma(P, e, xe, ve)
+
+
+@kernel
+def driven_displacement_constraint(P, t, tf, xe, le, jac, Phi, B, H):
+    """Φ = u_a·(r_b(P_b) − r_a(P_a)) − d_0 − d(t), u_a = R(θ_a) ū; P = (s_a, s_b, ū, d_0), tf = d."""
+    for e in range(xe.shape[0]):
+        Phi[e, 0] = _line_constraint(P, e, xe, le[e, 0], jac, B, H) - P[e, 6] - tf[e, 0, 0]
+
+
+@kernel
+def driven_displacement_rates(P, t, tf, xe, ve, Phi_t, gam):
+    """Φ_t = −d′(t); γ = q̇ᵀ Φ_qq q̇ − d″(t)."""
+    for e in range(xe.shape[0]):
+        Phi_t[e, 0] = -tf[e, 0, 1]
+        gam[e, 0] = _line_gamma(P, e, xe, ve) - tf[e, 0, 2]
 
 
 class _LineJoint(PairElement):
@@ -210,16 +288,25 @@ class _LineJoint(PairElement):
         sep = np.linalg.norm(self.b.global_point(self.sb) - self.a.global_point(self.sa))
         self.draw_length = max(2.5 * sep, 0.05)
 
+    #: the constrained direction in body a's frame is J ū (False) or ū (True)
+    _along_axis = False
+
+    @classmethod
+    def _extra(cls, e):
+        """The parameters after (s_a, s_b, w̄) in a row of P."""
+        return ()
+
     @classmethod
     def pack(cls, elements):
-        n = len(elements)
-        u = np.array([e.u for e in elements])
-        Bq = np.zeros((n, 2, 6))          # rotation-lock row of a Slider's Φ_q (constant)
-        Bq[:, 1, 2] = -1.0
-        Bq[:, 1, 5] = 1.0
-        return {"sa": np.array([e.sa for e in elements]), "sb": np.array([e.sb for e in elements]),
-                "u": u, "n": perp(u), "phi0": np.array([e.phi0 for e in elements]),
-                "draw_length": np.array([e.draw_length for e in elements]), "Bq": Bq}
+        """``P = (s_a, s_b, w̄, extra...)`` (nel, 6 + extra) and the arrays of :meth:`geometry`."""
+        sa = np.array([e.sa for e in elements], dtype=float).reshape(-1, 2)
+        sb = np.array([e.sb for e in elements], dtype=float).reshape(-1, 2)
+        u = np.array([e.u for e in elements], dtype=float).reshape(-1, 2)
+        w = u if cls._along_axis else perp(u)
+        extra = np.array([cls._extra(e) for e in elements], dtype=float).reshape(len(elements), -1)
+        P = np.ascontiguousarray(np.hstack((sa, sb, w, extra)))
+        return {"P": P, "sa": sa, "sb": sb, "u": u,
+                "draw_length": np.array([e.draw_length for e in elements], dtype=float)}
 
     @classmethod
     def geometry(cls, p, t, qe, qde, lame, names):
@@ -249,31 +336,16 @@ class PointOnLine(_LineJoint):
     axis : (ux, uy)
         Line direction in body a's frame.
     at, point_a, point_b : see :class:`Hinge`.
+
+    Notes
+    -----
+    Kernels: :func:`point_on_line_constraint`, :func:`point_on_line_rates`;
+    ``P = (s_a, s_b, J ū)``.
     """
 
     n_constraints = 1
     constraint_names = ("normal",)
-
-    @classmethod
-    def constraint(cls, p, t, qe):
-        Phi, g, _ = _line_kernel(p, qe, perp(p["u"]))
-        return Phi[:, None], g[:, None, :]
-
-    @classmethod
-    def constraint_all(cls, p, t, qe, lame, jac):
-        Phi, g, parts = _line_kernel(p, qe, p["n"])
-        return Phi[:, None], g[:, None, :], (_line_hessian(parts, lame[:, 0]) if jac else None)
-
-    @classmethod
-    def constraint_hessian(cls, p, t, qe, lame):
-        _, _, parts = _line_kernel(p, qe, perp(p["u"]))
-        return _line_hessian(parts, lame[:, 0])
-
-    @classmethod
-    def constraint_rates(cls, p, t, qe, qde):
-        _, _, parts = _line_kernel(p, qe, perp(p["u"]))
-        gam = _line_gamma(parts, qde)
-        return np.zeros((qe.shape[0], 1)), gam[:, None]
+    kernels = {"constraint": point_on_line_constraint, "rates": point_on_line_rates}
 
 
 class Slider(_LineJoint):
@@ -291,10 +363,15 @@ class Slider(_LineJoint):
     axis : (ux, uy)
         Sliding direction in body a's frame.
     at, point_a, point_b : see :class:`Hinge`.
+
+    Notes
+    -----
+    Kernels: :func:`slider_constraint`, :func:`slider_rates`; ``P = (s_a, s_b, J ū, θ_0)``.
     """
 
     n_constraints = 2
     constraint_names = ("normal", "moment")
+    kernels = {"constraint": slider_constraint, "rates": slider_rates}
 
     def validate(self):
         super().validate()
@@ -304,41 +381,8 @@ class Slider(_LineJoint):
                 "the rotation lock is redundant; use PointOnLine instead")
 
     @classmethod
-    def constraint(cls, p, t, qe):
-        Phi1, g, _ = _line_kernel(p, qe, perp(p["u"]))
-        n = qe.shape[0]
-        Phi = np.empty((n, 2))
-        Phi[:, 0] = Phi1
-        Phi[:, 1] = qe[:, 5] - qe[:, 2] - p["phi0"]
-        Phi_q = np.zeros((n, 2, 6))
-        Phi_q[:, 0, :] = g
-        Phi_q[:, 1, 2] = -1.0
-        Phi_q[:, 1, 5] = 1.0
-        return Phi, Phi_q
-
-    @classmethod
-    def constraint_hessian(cls, p, t, qe, lame):
-        _, _, parts = _line_kernel(p, qe, perp(p["u"]))
-        return _line_hessian(parts, lame[:, 0])
-
-    @classmethod
-    def constraint_all(cls, p, t, qe, lame, jac):
-        Phi1, g, parts = _line_kernel(p, qe, p["n"])
-        n = qe.shape[0]
-        Phi = np.empty((n, 2))
-        Phi[:, 0] = Phi1
-        Phi[:, 1] = qe[:, 5] - qe[:, 2] - p["phi0"]
-        Phi_q = p["Bq"].copy()
-        Phi_q[:, 0, :] = g
-        return Phi, Phi_q, (_line_hessian(parts, lame[:, 0]) if jac else None)
-
-    @classmethod
-    def constraint_rates(cls, p, t, qe, qde):
-        _, _, parts = _line_kernel(p, qe, perp(p["u"]))
-        n = qe.shape[0]
-        gam = np.zeros((n, 2))
-        gam[:, 0] = _line_gamma(parts, qde)
-        return np.zeros((n, 2)), gam
+    def _extra(cls, e):
+        return (e.phi0,)
 
 
 class DrivenDisplacement(_LineJoint):
@@ -355,11 +399,18 @@ class DrivenDisplacement(_LineJoint):
     displacement : TimeFunction, number or (f, df, ddf)
         d(t) with its derivatives.
     axis, at, point_a, point_b : see :class:`Slider`.
+
+    Notes
+    -----
+    Kernels: :func:`driven_displacement_constraint`, :func:`driven_displacement_rates`;
+    ``P = (s_a, s_b, ū, d_0)``; one time function, d(t).
     """
 
     n_constraints = 1
     rheonomic = True
     constraint_names = ("force",)
+    kernels = {"constraint": driven_displacement_constraint, "rates": driven_displacement_rates}
+    _along_axis = True
 
     def __init__(self, name, a, b, displacement, axis=(1.0, 0.0), at=None, point_a=None, point_b=None):
         super().__init__(name, a, b, axis, at, point_a, point_b)
@@ -375,34 +426,30 @@ class DrivenDisplacement(_LineJoint):
         self.d0 = float(u @ (rb - ra))
 
     @classmethod
-    def pack(cls, elements):
-        p = super().pack(elements)
-        p["d0"] = np.array([e.d0 for e in elements])
-        p["fn"] = [e.fn for e in elements]
-        return p
+    def _extra(cls, e):
+        return (e.d0,)
 
     @classmethod
-    def constraint(cls, p, t, qe):
-        Phi, g, _ = _line_kernel(p, qe, p["u"])
-        Phi = Phi - p["d0"] - evaluate(p["fn"], t, 0)
-        return Phi[:, None], g[:, None, :]
+    def time_functions(cls, element):
+        """``[d]``: the prescribed displacement."""
+        return [element.fn]
 
-    @classmethod
-    def constraint_hessian(cls, p, t, qe, lame):
-        _, _, parts = _line_kernel(p, qe, p["u"])
-        return _line_hessian(parts, lame[:, 0])
 
-    @classmethod
-    def constraint_all(cls, p, t, qe, lame, jac):
-        Phi, g, parts = _line_kernel(p, qe, p["u"])
-        Phi = Phi - p["d0"] - evaluate(p["fn"], t, 0)
-        return Phi[:, None], g[:, None, :], (_line_hessian(parts, lame[:, 0]) if jac else None)
+@kernel
+def driven_angle_constraint(P, t, tf, xe, le, jac, Phi, B, H):
+    """Φ = θ_b − θ_a − θ_0 − φ(t); P = (θ_0,), tf = φ. Φ_qq = 0: H stays zero."""
+    for e in range(xe.shape[0]):
+        Phi[e, 0] = xe[e, 5] - xe[e, 2] - P[e, 0] - tf[e, 0, 0]
+        B[e, 0, 2] = -1.0
+        B[e, 0, 5] = 1.0
 
-    @classmethod
-    def constraint_rates(cls, p, t, qe, qde):
-        _, _, parts = _line_kernel(p, qe, p["u"])
-        gam = _line_gamma(parts, qde) - evaluate(p["fn"], t, 2)
-        return -evaluate(p["fn"], t, 1)[:, None], gam[:, None]
+
+@kernel
+def driven_angle_rates(P, t, tf, xe, ve, Phi_t, gam):
+    """Φ_t = −φ′(t); γ = −φ″(t)."""
+    for e in range(xe.shape[0]):
+        Phi_t[e, 0] = -tf[e, 0, 1]
+        gam[e, 0] = -tf[e, 0, 2]
 
 
 class DrivenAngle(PairElement):
@@ -417,11 +464,17 @@ class DrivenAngle(PairElement):
     a, b : Body or str
     angle : TimeFunction, number or (f, df, ddf)
         φ(t) with its derivatives (φ(t_0) is normally 0).
+
+    Notes
+    -----
+    Kernels: :func:`driven_angle_constraint`, :func:`driven_angle_rates`; ``P = (θ_0,)``;
+    one time function, φ(t).
     """
 
     n_constraints = 1
     rheonomic = True
     constraint_names = ("torque",)
+    kernels = {"constraint": driven_angle_constraint, "rates": driven_angle_rates}
 
     def __init__(self, name, a, b, angle):
         super().__init__(name, a, b)
@@ -434,21 +487,11 @@ class DrivenAngle(PairElement):
 
     @classmethod
     def pack(cls, elements):
-        return {"phi0": np.array([e.phi0 for e in elements]), "fn": [e.fn for e in elements]}
+        """``P = (θ_0,)`` (nel, 1)."""
+        phi0 = np.array([e.phi0 for e in elements], dtype=float)
+        return {"P": np.ascontiguousarray(phi0.reshape(-1, 1)), "phi0": phi0}
 
     @classmethod
-    def constraint(cls, p, t, qe):
-        n = qe.shape[0]
-        Phi = (qe[:, 5] - qe[:, 2] - p["phi0"] - evaluate(p["fn"], t, 0))[:, None]
-        Phi_q = np.zeros((n, 1, 6))
-        Phi_q[:, 0, 2] = -1.0
-        Phi_q[:, 0, 5] = 1.0
-        return Phi, Phi_q
-
-    @classmethod
-    def constraint_hessian(cls, p, t, qe, lame):
-        return None
-
-    @classmethod
-    def constraint_rates(cls, p, t, qe, qde):
-        return -evaluate(p["fn"], t, 1)[:, None], -evaluate(p["fn"], t, 2)[:, None]
+    def time_functions(cls, element):
+        """``[φ]``: the prescribed relative angle."""
+        return [element.fn]
