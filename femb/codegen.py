@@ -133,7 +133,7 @@ def generate_source(model):
                       "    gather_xv(q, v, qfix, dofs, xe, ve, nv)",
                       "    gather_tf(tfv, tfi, tf)",
                       "    Phe[:] = 0.0", "    Be[:] = 0.0",
-                      f"    {k}(P, t, tf, xe, le, False, Phe, Be, He)",
+                      f"    {k}(P, t, tf, xe, le, nv < 0, Phe, Be, He)",
                       "    for e in range(lamidx.shape[0]):",
                       "        for j in range(lamidx.shape[1]):",
                       "            s = 0.0",

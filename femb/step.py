@@ -236,52 +236,58 @@ def newton_step(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam, t1,
     maxit = ip[IP_MAXIT]
     F = F_ref
     have_lu = False
+    err_f = 0.0
+    err_phi = 0.0
+    redo = False
     while True:
-        if ntest == 0:
-            need_jac = (full and k == 0) or si[SI_LUVALID] == 0
+        if redo:
+            jac = True
+        elif ntest == 0:
+            jac = (full and k == 0) or si[SI_LUVALID] == 0
         else:
-            need_jac = not have_lu
-        scale = evaluate(G, C, t1, q, qd, qdd, lam, need_jac, c * bp, c * gp, c, AB, r, Phi)
+            jac = not have_lu
+        scale = evaluate(G, C, t1, q, qd, qdd, lam, jac, c * bp, c * gp, c, AB, r, Phi)
         stats[NS_EVAL] += 1
-        F = scale if scale > F_ref else F_ref
-        err_f = 0.0
-        for i in range(nv):
-            v = abs(r[i] * w[i])
-            if not (v <= err_f):
-                err_f = v if v == v else math.inf
-        err_phi = 0.0
-        iphi = -1
-        for j in range(nc):
-            v = abs(Phi[j])
-            if not (v <= err_phi):
-                err_phi = v if v == v else math.inf
-                iphi = j
-        info[0] = t1
-        info[1] = err_f
-        info[2] = err_phi
-        info[3] = k
-        info[4] = iphi
-        info[5] = rtol * F + atol
-        info[6] = tol_phi
-        if not (math.isfinite(err_f) and math.isfinite(err_phi)):
-            return ST_NONFINITE
-        if ntest == 0 and k >= ip[IP_MINIT] and err_f <= rtol * F + atol and err_phi <= tol_phi:
-            break
-        if k == maxit:
-            return ST_MAXITER
-        factor = need_jac
-        if ntest == 0:
-            if full and not need_jac:
-                scale = evaluate(G, C, t1, q, qd, qdd, lam, True, c * bp, c * gp, c, AB, r, Phi)
-                stats[NS_EVAL] += 1
-                factor = True
-            if (not full) and prev_norm >= 0.0 and si[SI_LUVALID] != 0 and not factor:
-                cur = max(err_f / max(F, 1e-300), err_phi / max(tol_phi, 1e-300))
-                if cur > 0.25 * prev_norm:
-                    scale = evaluate(G, C, t1, q, qd, qdd, lam, True, c * bp, c * gp, c, AB, r, Phi)
-                    stats[NS_EVAL] += 1
-                    factor = True
-        if factor:
+        if not redo:
+            F = scale if scale > F_ref else F_ref
+            err_f = 0.0
+            for i in range(nv):
+                v = abs(r[i] * w[i])
+                if not (v <= err_f):
+                    err_f = v if v == v else math.inf
+            err_phi = 0.0
+            iphi = -1
+            for j in range(nc):
+                v = abs(Phi[j])
+                if not (v <= err_phi):
+                    err_phi = v if v == v else math.inf
+                    iphi = j
+            info[0] = t1
+            info[1] = err_f
+            info[2] = err_phi
+            info[3] = k
+            info[4] = iphi
+            info[5] = rtol * F + atol
+            info[6] = tol_phi
+            if not (math.isfinite(err_f) and math.isfinite(err_phi)):
+                return ST_NONFINITE
+            if ntest == 0 and k >= ip[IP_MINIT] and err_f <= rtol * F + atol and err_phi <= tol_phi:
+                break
+            if k == maxit:
+                return ST_MAXITER
+            if ntest == 0 and not jac:
+                # the residual rule needs the iteration matrix at this iterate: full Newton always,
+                # modified Newton when the contraction was poor
+                if full:
+                    redo = True
+                    continue
+                if prev_norm >= 0.0 and si[SI_LUVALID] != 0:
+                    cur = max(err_f / max(F, 1e-300), err_phi / max(tol_phi, 1e-300))
+                    if cur > 0.25 * prev_norm:
+                        redo = True
+                        continue
+        redo = False
+        if jac:
             if band_lu(AB, N, kl, ku, ipiv, fp[FP_SINGTOL]) != 0:
                 si[SI_LUVALID] = 0
                 return ST_DIVERGED_SINGULAR if k > 0 else ST_SINGULAR
@@ -367,7 +373,8 @@ def kkt_accelerations(G, C, ip, t, q, qd, KB, kpiv, kr, Phi, kx, gam, Pt, zq, zl
     kl = ip[IP_KL]
     ku = ip[IP_KU]
     iperm = C[2]
-    evaluate(G, C, t, q, qd, zq, zl, True, 1.0, 0.0, 0.0, KB, kr, Phi)
+    yes = nv >= 0
+    evaluate(G, C, t, q, qd, zq, zl, yes, 1.0, 0.0, 0.0, KB, kr, Phi)
     if band_lu(KB, N, kl, ku, kpiv, 1e-13) != 0:
         return 1
     rates(G, C, t, q, qd, Pt, gam)
@@ -490,13 +497,13 @@ def run(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam, tfv, AB, ip
         h_prev = sf[SF_HPREV]
         if adaptive:
             # save the accepted state: a rejected or failed trial restarts from it
-            q_s[:] = q
-            qd_s[:] = qd
-            qdd_s[:] = qdd
-            lam_s[:] = lam
-            a_s[:] = a
-            pqdd_s[:] = pqdd
-            plam_s[:] = plam
+            copy_into(q_s, q)
+            copy_into(qd_s, qd)
+            copy_into(qdd_s, qdd)
+            copy_into(lam_s, lam)
+            copy_into(a_s, a)
+            copy_into(pqdd_s, pqdd)
+            copy_into(plam_s, plam)
             hasprev_s = si[SI_HASPREV]
             fref_s = sf[SF_FREF]
             if h != h_prev and si[SI_HAVEJ] != 0:
@@ -521,13 +528,13 @@ def run(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam, tfv, AB, ip
             if not adaptive:
                 return k
             # Newton failed: retry from the accepted state with h/4, no growth next step
-            q[:] = q_s
-            qd[:] = qd_s
-            qdd[:] = qdd_s
-            lam[:] = lam_s
-            a[:] = a_s
-            pqdd[:] = pqdd_s
-            plam[:] = plam_s
+            copy_into(q, q_s)
+            copy_into(qd, qd_s)
+            copy_into(qdd, qdd_s)
+            copy_into(lam, lam_s)
+            copy_into(a, a_s)
+            copy_into(pqdd, pqdd_s)
+            copy_into(plam, plam_s)
             si[SI_HASPREV] = hasprev_s
             sf[SF_FREF] = fref_s
             si[SI_NFAIL] += 1
@@ -547,7 +554,7 @@ def run(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam, tfv, AB, ip
                 jnew[i] = (qpp_new[i] - qpp[i]) / h
                 eq[i] = Cq * h * h * (qpp_new[i] - qpp[i])
                 ev[i] = Cv * h * h * h * (jnew[i] - jn[i]) / hbar
-            err = error_norm(ip, fp, q_s, q, qd_s, qd, eq, ev, atolv, True)
+            err = error_norm(ip, fp, q_s, q, qd_s, qd, eq, ev, atolv, nv >= 0)
             if fp[FP_EPUS] != 0.0:
                 err /= h
         elif ip[IP_CHECK] > 1:
@@ -559,12 +566,12 @@ def run(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam, tfv, AB, ip
                     return ST_KKT_SINGULAR
                 stats[NS_KKT] += 1
                 if phase == 0:
-                    qpp[:] = qpp_new
+                    copy_into(qpp, qpp_new)
                     si[SI_HAVEJ] = 1
                 else:
                     for i in range(nv):
                         eq[i] = Cq * h * h * (qpp_new[i] - qpp[i])
-                    err = error_norm(ip, fp, q, q, qd, qd, eq, ev, atolv, False)
+                    err = error_norm(ip, fp, q, q, qd, qd, eq, ev, atolv, nv < 0)
                     if fp[FP_EPUS] != 0.0:
                         err /= h
                     si[SI_HAVEJ] = 0
@@ -577,13 +584,13 @@ def run(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam, tfv, AB, ip
         if adaptive:
             if err > 1.0:
                 # rejected: back to the accepted state with a smaller step
-                q[:] = q_s
-                qd[:] = qd_s
-                qdd[:] = qdd_s
-                lam[:] = lam_s
-                a[:] = a_s
-                pqdd[:] = pqdd_s
-                plam[:] = plam_s
+                copy_into(q, q_s)
+                copy_into(qd, qd_s)
+                copy_into(qdd, qdd_s)
+                copy_into(lam, lam_s)
+                copy_into(a, a_s)
+                copy_into(pqdd, pqdd_s)
+                copy_into(plam, plam_s)
                 si[SI_HASPREV] = hasprev_s
                 sf[SF_FREF] = fref_s
                 si[SI_REJECTED] += 1
@@ -602,10 +609,10 @@ def run(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam, tfv, AB, ip
             si[SI_NOGROW] = 0
             sf[SF_ERRPREV] = e
             sf[SF_HNEXT] = h * fac
-            KBacc[:] = KB
-            kpivacc[:] = kpiv
-            qpp[:] = qpp_new
-            jn[:] = jnew
+            copy_into(KBacc, KB)
+            copy_into(kpivacc, kpiv)
+            copy_into(qpp, qpp_new)
+            copy_into(jn, jnew)
             if err > sf[SF_ERRMAX]:
                 sf[SF_ERRMAX] = err
                 sf[SF_ERRMAX_T] = t1
@@ -621,10 +628,10 @@ def run(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam, tfv, AB, ip
         if (store and n % stride == 0) or final:
             m = si[SI_STORED]
             out_t[m] = t_end if final else t1
-            out_q[m, :] = q
-            out_qd[m, :] = qd
-            out_qdd[m, :] = qdd
-            out_lam[m, :] = lam
+            copy_into(out_q[m], q)
+            copy_into(out_qd[m], qd)
+            copy_into(out_qdd[m], qdd)
+            copy_into(out_lam[m], lam)
             si[SI_STORED] = m + 1
         if final:
             return ST_DONE
@@ -740,10 +747,18 @@ def mass_residual(C, qdd, r, ABf, jac, cM):
             scale = v
         r[i] = s - fconst[i]
     if jac:
-        ABf[:] = 0.0
+        for k in range(ABf.shape[0]):
+            ABf[k] = 0.0
         for k in range(tM.shape[0]):
             ABf[tM[k]] += cM * Mx[k]
         tI = C[16]
         for k in range(tI.shape[0]):
             ABf[tI[k]] = 1.0
     return scale
+
+
+@njit(cache=True, **OPTIONS)
+def copy_into(dst, src):
+    """dst[...] = src for 1-D arrays of equal length."""
+    for i in range(src.shape[0]):
+        dst[i] = src[i]
