@@ -149,7 +149,7 @@ def _write_json(data, dest):
         raise UsageError(f"cannot write {dest}: {exc}") from None
 
 
-def _vtk_stream(model, directory, every, observer=None):
+def _vtk_stream(model, directory, every, observer=None, dt=None):
     """VTK output of ``femb run --vtk DIR --every N``.
 
     Calls ``femb.io.write_vtk_stream(model, directory, every=every,
@@ -166,7 +166,7 @@ def _vtk_stream(model, directory, every, observer=None):
         raise UsageError(f"--vtk: VTK streaming is not available in this version of femb "
                          f"({module_name}.{func_name} is missing)")
     try:
-        return hook(model, directory, every=every, observer=observer)
+        return hook(model, directory, every=every, observer=observer, **({"dt": dt} if dt is not None else {}))
     except Exception as exc:   # output layer: bad directory, permissions, ...
         raise UsageError(f"--vtk {directory}: {str(exc).splitlines()[0] if str(exc) else type(exc).__name__}") from None
 
@@ -215,13 +215,20 @@ def cmd_run(args):
 
     if args.every is not None and args.vtk is None:
         raise UsageError("--every needs --vtk DIR")
+    if args.dt is not None and args.vtk is None:
+        raise UsageError("--dt needs --vtk DIR")
+    if args.dt is not None and args.every is not None:
+        raise UsageError("give --every or --dt, not both")
+    if args.atol is not None and args.rtol is None:
+        raise UsageError("--atol needs --rtol (adaptive steps)")
     scene = _load_scene(args.scene)
     params = parse_sets(args.set)
     d = scene.defaults
     t_end = args.t_end if args.t_end is not None else d["t_end"]
-    h = args.h if args.h is not None else d["h"]
+    adaptive = args.rtol is not None
+    h = args.h if (args.h is not None or adaptive) else d["h"]
     rho_inf = args.rho_inf if args.rho_inf is not None else d["rho_inf"]
-    missing = [opt for opt, v in (("--t-end", t_end), ("--h", h)) if v is None]
+    missing = [opt for opt, v in (("--t-end", t_end), ("--h", h)) if v is None and not (adaptive and opt == "--h")]
     if missing:
         raise UsageError(f"scene '{scene.name}' has no DEFAULTS for {' and '.join(missing)}: give them")
     from femb.benchmarks.registry import SceneError
@@ -233,21 +240,12 @@ def cmd_run(args):
     except (FembError, ValueError, TypeError) as exc:
         raise UsageError(f"scene '{scene.name}': build() rejected the parameters: {exc}") from None
 
-    n_steps = max(1, int(round(t_end / h)))
-    bar = None
-    show = {"auto": n_steps >= 5000 or args.vtk is not None, "on": True, "off": False}[args.progress]
-    if show:
-        from femb.io.progress import progress
+    n_steps = max(1, int(round(t_end / h))) if not adaptive else 0
+    show = {"auto": n_steps >= 5000 or args.vtk is not None or adaptive, "on": True, "off": False}[args.progress]
 
-        bar = progress(n_steps, desc=f"{scene.name}", enabled=True)
-
-    def tick(state, step):
-        if step:
-            bar.update(1)
-
-    stream = _NullContext(tick if bar is not None else None)
+    stream = _NullContext(None)
     if args.vtk is not None:
-        stream = _vtk_stream(model, args.vtk, args.every or 1, tick if bar is not None else None)
+        stream = _vtk_stream(model, args.vtk, args.every or 1, None, dt=args.dt)
         if not hasattr(stream, "__enter__"):
             stream = _NullContext(stream)
     t0 = time.perf_counter()
@@ -257,16 +255,18 @@ def cmd_run(args):
             print("note: rho_inf = 1 is not strictly stable at infinity; multipliers may oscillate",
                   file=sys.stderr)
         try:
-            result = simulate(model, t_end, h, rho_inf=rho_inf, scaling=not args.no_scaling,
-                              store=False, observer=observer)
+            if adaptive:
+                result = simulate(model, t_end, rtol=args.rtol, atol=args.atol, h0=h, rho_inf=rho_inf,
+                                  scaling=not args.no_scaling, store=False, observer=observer, progress=show)
+            else:
+                result = simulate(model, t_end, h, rho_inf=rho_inf, scaling=not args.no_scaling,
+                                  store=False, observer=observer, progress=show)
         except (FembError, KeyboardInterrupt):
             raise
         except Exception as exc:
             if observer is not None and (type(exc).__name__ == "OutputError" or isinstance(exc, OSError)):
                 raise _OutputFailure(f"writing output failed: {str(exc).splitlines()[0]}") from exc
             raise
-    if bar is not None:
-        bar.close()
     total = time.perf_counter() - t0
     outs = scene.outputs(result)
     final = {k: _json_value(np.asarray(v)[-1]) for k, v in outs.items()}
@@ -274,7 +274,10 @@ def cmd_run(args):
     data = {
         "scene": scene.name,
         "t_end": float(result.t[-1]),
-        "h": float(result.settings.get("h", h)),
+        "h": float(result.settings.get("h") or np.median(result.h_steps)),
+        "adaptive": adaptive,
+        "rtol": args.rtol,
+        "rejected_steps": int(getattr(result, "n_rejected", 0)),
         "rho_inf": float(rho_inf),
         "scaling": not args.no_scaling,
         "steps": result.steps,
@@ -290,8 +293,13 @@ def cmd_run(args):
     if args.json:
         _write_json(data, args.json)
     if args.json != "-":
-        print(f"{scene.name}: {result.steps} steps of h = {data['h']:.6g} s to t = {data['t_end']:.6g} s, "
-              f"rho_inf = {rho_inf:g}, scaling {'on' if data['scaling'] else 'off'}")
+        if adaptive:
+            print(f"{scene.name}: {result.steps} adaptive steps (rtol = {args.rtol:g}, {data['rejected_steps']} "
+                  f"rejected; h from {result.h_steps.min():.3g} to {result.h_steps.max():.3g} s) to "
+                  f"t = {data['t_end']:.6g} s, rho_inf = {rho_inf:g}")
+        else:
+            print(f"{scene.name}: {result.steps} steps of h = {data['h']:.6g} s to t = {data['t_end']:.6g} s, "
+                  f"rho_inf = {rho_inf:g}, scaling {'on' if data['scaling'] else 'off'}")
         print(f"  {iters} Newton iterations ({data['newton_per_step']:.2f}/step), "
               f"{result.wall_time:.3f} s in the time loop ({data['us_per_step']:.1f} us/step), "
               f"{total:.3f} s in all")
@@ -436,7 +444,12 @@ def build_parser():
                         "t_end (optionally as JSON).")
     sp.add_argument("scene", metavar="SCENE", help=SCENE_HELP)
     sp.add_argument("--t-end", type=_positive("t_end"), metavar="T", help="final time in s (default: the scene's)")
-    sp.add_argument("--h", type=_positive("h"), metavar="H", help="step size in s (default: the scene's)")
+    sp.add_argument("--h", type=_positive("h"), metavar="H",
+                    help="fixed step size in s (default: the scene's); with --rtol the first step")
+    sp.add_argument("--rtol", type=_positive("rtol"), metavar="R",
+                    help="adaptive steps with this relative local error tolerance")
+    sp.add_argument("--atol", type=_positive("atol"), metavar="A",
+                    help="absolute local error tolerance of adaptive steps (default 1e-6)")
     sp.add_argument("--rho-inf", type=_rho, metavar="R",
                     help="spectral radius at infinity in [0, 1] (default: the scene's, usually 0.7)")
     sp.add_argument("--no-scaling", action="store_true",
@@ -446,6 +459,8 @@ def build_parser():
     sp.add_argument("--json", metavar="FILE", help="write the run summary as JSON ('-' for stdout)")
     sp.add_argument("--vtk", metavar="DIR", help="stream VTK frames into DIR (ParaView .pvd collection)")
     sp.add_argument("--every", type=_count, metavar="N", help="with --vtk: write every N-th step (default 1)")
+    sp.add_argument("--dt", type=_positive("dt"), metavar="DT",
+                    help="with --vtk: write frames every DT seconds, interpolated between steps (adaptive runs)")
     sp.add_argument("--progress", choices=("auto", "on", "off"), default="auto",
                     help="progress bar on stderr (auto: for runs of 5000 steps or more, or with --vtk)")
     sp.set_defaults(func=cmd_run)

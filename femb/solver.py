@@ -713,8 +713,10 @@ def simulate(model, t_end, h=None, *, rtol=None, atol=None, h0=None, h_max=None,
         for runs streamed through ``observer``).
     observer : callable(state, step), optional
         Called after initialization (step 0) and after every accepted step
-        with the current :class:`State`. The compiled loop then returns to
-        Python after every step; without an observer it runs many steps per call.
+        with the current :class:`State` — or, when the observer has an integer
+        attribute ``every`` (as :class:`femb.io.VTKStream` has), after every
+        ``every``-th step and the last one. The compiled loop returns to Python
+        only then; without an observer it runs many steps per call.
     progress : bool
         Show a progress bar (tqdm on a terminal, plain lines otherwise).
 
@@ -777,7 +779,11 @@ def simulate(model, t_end, h=None, *, rtol=None, atol=None, h0=None, h_max=None,
     if observer is not None:
         observer(st.copy(), 0)
     wall0 = time.perf_counter()
-    chunk = 1 if observer is not None else (256 if progress else CHUNK)
+    every = 1
+    if observer is not None:
+        every = getattr(observer, "every", 1)
+        every = every if isinstance(every, (int, np.integer)) and every >= 1 else 1
+    chunk = int(every) if observer is not None else (256 if progress else CHUNK)
     bar = None
     if progress:
         from femb.io.progress import progress as _progress
@@ -846,31 +852,10 @@ def simulate(model, t_end, h=None, *, rtol=None, atol=None, h0=None, h_max=None,
                   + (f" ({solver.si[4]} rejected)" if adaptive else ""))
 
 
-def _hermite(t0, t1, y0, y1, d0, d1, t):
-    h = t1 - t0
-    s = (t - t0) / h
-    h00 = (1 + 2 * s) * (1 - s) ** 2
-    h10 = s * (1 - s) ** 2
-    h01 = s * s * (3 - 2 * s)
-    h11 = s * s * (s - 1)
-    return h00 * y0 + h10 * h * d0 + h01 * y1 + h11 * h * d1
-
-
 def _interpolated(res, t_eval):
     """A Result at the times t_eval, interpolated between the stored accepted steps."""
-    T = res.t
-    idx = np.clip(np.searchsorted(T, t_eval, side="right") - 1, 0, len(T) - 2)
-    q = np.empty((t_eval.size, res.q.shape[1]))
-    qd = np.empty_like(q)
-    qdd = np.empty_like(q)
-    lam = np.empty((t_eval.size, res.lam.shape[1]))
-    for n, (t, i) in enumerate(zip(t_eval, idx)):
-        t0, t1 = T[i], T[i + 1]
-        q[n] = _hermite(t0, t1, res.q[i], res.q[i + 1], res.qd[i], res.qd[i + 1], t)
-        qd[n] = _hermite(t0, t1, res.qd[i], res.qd[i + 1], res.qdd[i], res.qdd[i + 1], t)
-        s = (t - t0) / (t1 - t0)
-        qdd[n] = (1 - s) * res.qdd[i] + s * res.qdd[i + 1]
-        lam[n] = (1 - s) * res.lam[i] + s * res.lam[i + 1]
+    from femb.interp import interpolate_rows
+    q, qd, qdd, lam = interpolate_rows(res.t, res.q, res.qd, res.qdd, res.lam, t_eval)
     out = Result(model=res.model, t=t_eval.copy(), q=q, qd=qd, qdd=qdd, lam=lam,
                  newton_iterations=res.newton_iterations, status=res.status, message=res.message,
                  wall_time=res.wall_time, init_time=res.init_time, stats=res.stats, settings=res.settings)
@@ -878,5 +863,5 @@ def _interpolated(res, t_eval):
     out.error_estimates = res.error_estimates
     out.n_rejected = res.n_rejected
     out.n_newton_failures = res.n_newton_failures
-    out.steps_t = T
+    out.steps_t = res.t
     return out

@@ -59,18 +59,50 @@ class VTKStream:
     basename : str
     observer : callable(state, step), optional
         Another observer to call after writing (e.g. a progress bar).
+    dt : float, optional
+        Write frames at t0 + k·dt instead, interpolated between the accepted
+        steps (cubic Hermite in q and q̇): for adaptive steps, whose step times
+        are not known in advance. ``every`` is then ignored.
     """
 
-    def __init__(self, model, directory, every=1, basename="frame", observer=None):
+    def __init__(self, model, directory, every=1, basename="frame", observer=None, dt=None):
         from femb.io.vtk import TimeSeriesWriter
+        from femb.errors import OutputError
 
         self.model = model
         self.every = int(every)
         if self.every < 1:
-            from femb.errors import OutputError
             raise OutputError(f"every must be a positive integer, got {every!r}")
+        self.dt = None
+        if dt is not None:
+            self.dt = float(dt)
+            if not (self.dt > 0.0 and np.isfinite(self.dt)):
+                raise OutputError(f"dt must be a positive finite time, got {dt!r}")
+            self.every = 1
+        self._prev = None
+        self._next_t = None
+        self._t0 = None
+        self._k = 0
         self.writer = TimeSeriesWriter(directory, basename=basename)
         self.observer = observer
+
+    def _frames_between(self, state, step):
+        from femb.interp import state_between
+        if step == 0 or self._prev is None:
+            self._t0 = state.t
+            self._k = 0
+            self.writer.write(state.t, model_blocks(self.model, state.t, state.q, state.qd, state.lam))
+            self._k = 1
+        else:
+            s0 = self._prev
+            while True:
+                t = self._t0 + self._k * self.dt
+                if t > state.t * (1 + 1e-12) + 1e-300:
+                    break
+                q, qd, _, lam = state_between(s0, state, min(t, state.t))
+                self.writer.write(t, model_blocks(self.model, t, q, qd, lam))
+                self._k += 1
+        self._prev = state.copy() if hasattr(state, "copy") else state
 
     @property
     def path(self):
@@ -78,7 +110,9 @@ class VTKStream:
         return self.writer.path
 
     def __call__(self, state, step):
-        if step % self.every == 0:
+        if self.dt is not None:
+            self._frames_between(state, step)
+        elif step % self.every == 0:
             self.writer.write(state.t, model_blocks(self.model, state.t, state.q, state.qd, state.lam))
         if self.observer is not None:
             self.observer(state, step)
@@ -114,6 +148,6 @@ def write_vtk(result, directory, every=1, basename="frame"):
     return w.path
 
 
-def write_vtk_stream(model, directory, every=1, basename="frame", observer=None):
+def write_vtk_stream(model, directory, every=1, basename="frame", observer=None, dt=None):
     """A :class:`VTKStream` (the hook the command line uses for ``--vtk``)."""
-    return VTKStream(model, directory, every=every, basename=basename, observer=observer)
+    return VTKStream(model, directory, every=every, basename=basename, observer=observer, dt=dt)
