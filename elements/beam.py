@@ -95,6 +95,7 @@ from femb.nodes import PlanarNode
 
 from ._planar import rot
 from .bodies import Body, _check_scalar, _point
+from .forces import write_pair_blocks
 from .joints import Hinge, PairElement
 
 __all__ = ["Section", "BeamNode", "ReissnerBeam", "Clamp", "BeamMesh", "add_beam",
@@ -226,12 +227,16 @@ def _midpoint_rates(P, ve, e, c, s):
 
 
 @kernel
-def _minus_btdb(out, e, L, inv, c, s, g1, g2, D0, D1, D2):
-    """Write −L Bᵀ diag(D0, D1, D2) B of element e into ``out[e]`` (6 × 6, symmetric).
+def _btdb(L, inv, c, s, g1, g2, D0, D1, D2):
+    """The distinct entries of L Bᵀ diag(D0, D1, D2) B of one element (6 × 6, symmetric).
 
-    With B = [−Rᵀ/L, t, Rᵀ/L, t′] (rows Γ₁, Γ₂; t = (g₂/2, −g₁/2, −1/L), t′ = (g₂/2, −g₁/2, 1/L)):
-    translational blocks ±R D̄ Rᵀ/L (D̄ = diag(D0, D1)), coupling ∓R w with
-    w = D̄ (g₂/2, −g₁/2), rotational L (D0 g₂² + D1 g₁²)/4 ± D2/L.
+    With B = [−Rᵀ/L, t, Rᵀ/L, t′] (rows Γ₁, Γ₂, κ; t = (g₂/2, −g₁/2, −1/L),
+    t′ = (g₂/2, −g₁/2, 1/L)) the matrix has the blocks [x_A, x_A] = [x_B, x_B] =
+    −[x_A, x_B] = R D̄ Rᵀ/L = a (D̄ = diag(D0, D1)), [x_A, θ_*] = −[x_B, θ_*] = −R w with
+    w = D̄ (g₂/2, −g₁/2), and [θ_A, θ_A] = [θ_B, θ_B] = q + r, [θ_A, θ_B] = q − r with
+    q = L (D0 g₂² + D1 g₁²)/4, r = D2/L.
+
+    Returns a11, a12, a22, (R w)₁, (R w)₂, q, r.
     """
     cc, ss, cs = c * c, s * s, c * s
     a11 = (cc * D0 + ss * D1) * inv
@@ -239,22 +244,8 @@ def _minus_btdb(out, e, L, inv, c, s, g1, g2, D0, D1, D2):
     a22 = (ss * D0 + cc * D1) * inv
     w1 = 0.5 * D0 * g2
     w2 = -0.5 * D1 * g1
-    r1 = c * w1 - s * w2
-    r2 = s * w1 + c * w2
     q = 0.25 * L * (D0 * g2 * g2 + D1 * g1 * g1)
-    r = D2 * inv
-    out[e, 0, 0] = out[e, 3, 3] = -a11
-    out[e, 0, 1] = out[e, 1, 0] = out[e, 3, 4] = out[e, 4, 3] = -a12
-    out[e, 1, 1] = out[e, 4, 4] = -a22
-    out[e, 0, 3] = out[e, 3, 0] = a11
-    out[e, 0, 4] = out[e, 4, 0] = out[e, 1, 3] = out[e, 3, 1] = a12
-    out[e, 1, 4] = out[e, 4, 1] = a22
-    out[e, 0, 2] = out[e, 0, 5] = out[e, 2, 0] = out[e, 5, 0] = r1
-    out[e, 1, 2] = out[e, 1, 5] = out[e, 2, 1] = out[e, 5, 1] = r2
-    out[e, 3, 2] = out[e, 3, 5] = out[e, 2, 3] = out[e, 5, 3] = -r1
-    out[e, 4, 2] = out[e, 4, 5] = out[e, 2, 4] = out[e, 5, 4] = -r2
-    out[e, 2, 2] = out[e, 5, 5] = -(q + r)
-    out[e, 2, 5] = out[e, 5, 2] = -(q - r)
+    return a11, a12, a22, c * w1 - s * w2, s * w1 + c * w2, q, D2 * inv
 
 
 @kernel
@@ -327,78 +318,42 @@ def beam_force(P, t, tf, xe, ve, jac, fe, fq, fv):
         fe[e, 5] = -M - mom
         if not jac:
             continue
-        _minus_btdb(fq, e, L, inv, c, s, g1, g2, EA, GA, EI)
-        # geometric stiffness, −K_σ: J n/2 = (hx, hy)
-        hx = -0.5 * n2
-        hy = 0.5 * n1
+        # −(L BᵀDB + K_σ), symmetric: −K_σ adds J n/2 to [x_A, θ_*] and L/4 (N g₁ + V g₂) to [θ_*, θ_*]
+        a11, a12, a22, r1, r2, q, rk = _btdb(L, inv, c, s, g1, g2, EA, GA, EI)
+        p1 = r1 - 0.5 * n2
+        p2 = r2 + 0.5 * n1
+        m1, m2 = p1, p2
+        Q11, Q12, Q21, Q22 = -a11, -a12, -a12, -a22
         tt = 0.25 * L * (N * g1 + V * g2)
-        fq[e, 0, 2] += hx
-        fq[e, 0, 5] += hx
-        fq[e, 2, 0] += hx
-        fq[e, 5, 0] += hx
-        fq[e, 1, 2] += hy
-        fq[e, 1, 5] += hy
-        fq[e, 2, 1] += hy
-        fq[e, 5, 1] += hy
-        fq[e, 3, 2] -= hx
-        fq[e, 3, 5] -= hx
-        fq[e, 2, 3] -= hx
-        fq[e, 5, 3] -= hx
-        fq[e, 4, 2] -= hy
-        fq[e, 4, 5] -= hy
-        fq[e, 2, 4] -= hy
-        fq[e, 5, 4] -= hy
-        fq[e, 2, 2] += tt
-        fq[e, 2, 5] += tt
-        fq[e, 5, 2] += tt
-        fq[e, 5, 5] += tt
+        d = tt - (q + rk)
+        o = tt - (q - rk)
         if damped:
+            # −L Bᵀ η D E: −A on [x_A, x_A], −b on [x_A, θ_*], −r on [θ_*, x_A], −L w·e_t on [θ_*, θ_*]
             Da = eta * EA
             Db = eta * GA
-            _minus_btdb(fv, e, L, inv, c, s, g1, g2, Da, Db, eta * EI)
-            # −L Bᵀ η D E: blocks ∓A (x, x), ∓b (x, θ), ∓r (θ, x), −L w·e_t (θ, θ)
             oi = om * inv
-            cs = c * s
-            A11 = oi * cs * (Da - Db)
-            A12 = -oi * (c * c * Da + s * s * Db)
-            A21 = oi * (s * s * Da + c * c * Db)
-            A22 = -A11
-            et1 = 0.5 * (u2 - om * g1)
+            A11 = oi * (c * s) * (Da - Db)           # A = θ̇_m/L · R D̄η J Rᵀ
+            Q11 += A11
+            Q12 -= oi * (c * c * Da + s * s * Db)
+            Q21 += oi * (s * s * Da + c * c * Db)
+            Q22 -= A11
+            et1 = 0.5 * (u2 - om * g1)               # ∂Γ̇/∂θ_* = e_t
             et2 = 0.5 * (-u1 - om * g2)
-            b1 = c * Da * et1 - s * Db * et2
-            b2 = s * Da * et1 + c * Db * et2
+            p1 += c * Da * et1 - s * Db * et2        # b = R D̄η e_t
+            p2 += s * Da * et1 + c * Db * et2
             w1 = 0.5 * Da * g2
             w2 = -0.5 * Db * g1
-            r1 = om * (w1 * s + w2 * c)
-            r2 = om * (w2 * s - w1 * c)
+            m1 -= om * (w1 * s + w2 * c)             # r = θ̇_m wηᵀ J Rᵀ
+            m2 -= om * (w2 * s - w1 * c)
             tw = L * (w1 * et1 + w2 * et2)
-            fq[e, 0, 0] += A11
-            fq[e, 0, 1] += A12
-            fq[e, 1, 0] += A21
-            fq[e, 1, 1] += A22
-            fq[e, 3, 3] += A11
-            fq[e, 3, 4] += A12
-            fq[e, 4, 3] += A21
-            fq[e, 4, 4] += A22
-            fq[e, 0, 3] -= A11
-            fq[e, 0, 4] -= A12
-            fq[e, 1, 3] -= A21
-            fq[e, 1, 4] -= A22
-            fq[e, 3, 0] -= A11
-            fq[e, 3, 1] -= A12
-            fq[e, 4, 0] -= A21
-            fq[e, 4, 1] -= A22
-            for j in (2, 5):
-                fq[e, 0, j] += b1
-                fq[e, 1, j] += b2
-                fq[e, 3, j] -= b1
-                fq[e, 4, j] -= b2
-                fq[e, j, 0] -= r1
-                fq[e, j, 1] -= r2
-                fq[e, j, 3] += r1
-                fq[e, j, 4] += r2
-                fq[e, j, 2] -= tw
-                fq[e, j, 5] -= tw
+            d -= tw
+            o -= tw
+            # f_q̇ = −C_t = −L Bᵀ η D B
+            b11, b12, b22, br1, br2, bq, brk = _btdb(L, inv, c, s, g1, g2, Da, Db, eta * EI)
+            write_pair_blocks(fv, e, -b11, -b12, -b12, -b22, br1, br2, br1, br2, br1, br2, br1, br2,
+                              -(bq + brk), -(bq - brk), -(bq - brk), -(bq + brk))
+        # both rotations enter through θ_m (same columns p, same rows m) except for bending (d, o)
+        write_pair_blocks(fq, e, Q11, Q12, Q21, Q22, p1, p2, p1, p2, m1, m2, m1, m2, d, o, o, d)
 
 
 @kernel

@@ -45,26 +45,72 @@ class _DampedBatches:
 # SpringDamper
 # ---------------------------------------------------------------------------
 @kernel
+def write_pair_blocks(out, e, X11, X12, X21, X22, pa1, pa2, pb1, pb2, ma1, ma2, mb1, mb2, taa, tab, tba, tbb):
+    """Write the 6 × 6 Jacobian of a two-node planar element that depends on r_b − r_a into ``out[e]``.
+
+    Rows and columns (r_a, θ_a, r_b, θ_b); X is 2 × 2, p_a, p_b, m_a, m_b are 2-vectors::
+
+        [[ X,    p_a,  −X,    p_b ],
+         [ m_aᵀ, t_aa, −m_aᵀ, t_ab],
+         [−X,   −p_a,   X,   −p_b ],
+         [ m_bᵀ, t_ba, −m_bᵀ, t_bb]]
+
+    (a function of r_b − r_a has opposite derivatives with respect to r_a and r_b, and so have
+    forces that act with opposite signs on the two nodes).
+    """
+    out[e, 0, 0] = X11
+    out[e, 0, 1] = X12
+    out[e, 0, 2] = pa1
+    out[e, 0, 3] = -X11
+    out[e, 0, 4] = -X12
+    out[e, 0, 5] = pb1
+    out[e, 1, 0] = X21
+    out[e, 1, 1] = X22
+    out[e, 1, 2] = pa2
+    out[e, 1, 3] = -X21
+    out[e, 1, 4] = -X22
+    out[e, 1, 5] = pb2
+    out[e, 2, 0] = ma1
+    out[e, 2, 1] = ma2
+    out[e, 2, 2] = taa
+    out[e, 2, 3] = -ma1
+    out[e, 2, 4] = -ma2
+    out[e, 2, 5] = tab
+    out[e, 3, 0] = -X11
+    out[e, 3, 1] = -X12
+    out[e, 3, 2] = -pa1
+    out[e, 3, 3] = X11
+    out[e, 3, 4] = X12
+    out[e, 3, 5] = -pb1
+    out[e, 4, 0] = -X21
+    out[e, 4, 1] = -X22
+    out[e, 4, 2] = -pa2
+    out[e, 4, 3] = X21
+    out[e, 4, 4] = X22
+    out[e, 4, 5] = -pb2
+    out[e, 5, 0] = mb1
+    out[e, 5, 1] = mb2
+    out[e, 5, 2] = tba
+    out[e, 5, 3] = -mb1
+    out[e, 5, 4] = -mb2
+    out[e, 5, 5] = tbb
+
+
+@kernel
 def spring_damper_force(P, t, tf, xe, ve, jac, fe, fq, fv):
     """Force of linear spring–dampers; P = (s_a, s_b, k, c, l_0), xe = (r_a, θ_a, r_b, θ_b).
 
     With d_a = R(θ_a) s_a, d_b = R(θ_b) s_b, D = r_b + d_b − r_a − d_a, l = |D|, e = D/l and
-    G = ∂D/∂q = [−I, −J d_a, I, J d_b] (2 × 6; J the rotation by +90°):
+    G = ∂D/∂q = [−I, g_a, I, g_b], g_a = −J d_a, g_b = J d_b (J the rotation by +90°):
 
-    * ∂l/∂q = Gᵀe (``ge``), tension N = k (l − l_0) + c l̇ with l̇ = geᵀ q̇, f = −N Gᵀe;
-    * f_q = −(N/l) GᵀG − (k − N/l) ge geᵀ + N diag(…, −e·d_a [θ_a], …, e·d_b [θ_b])
-      − c ge ⊗ ∂l̇/∂q, with ∂l̇/∂q = (Gᵀ(G q̇) − (e·G q̇) ge)/l + (θ̇_a e·d_a [θ_a], −θ̇_b e·d_b [θ_b]);
+    * ∂l/∂q = Gᵀe = (−e, g_a·e, e, g_b·e) (``ge``), l̇ = e·(G q̇);
+      tension N = k (l − l_0) + c l̇, f = −N Gᵀe;
+    * f_q = −(N/l) GᵀG − ge ⊗ w + N (−e·d_a at [θ_a, θ_a], e·d_b at [θ_b, θ_b]) with
+      w = (k − N/l) ge + c ∂l̇/∂q, ∂l̇/∂q = (Gᵀ(G q̇) − l̇ ge)/l + (θ̇_a e·d_a at θ_a, −θ̇_b e·d_b at θ_b);
     * f_q̇ = −c ge geᵀ (damped elements only: c ≠ 0).
 
     Coinciding points (l = 0, no direction) give NaN forces.
     """
-    G = np.zeros((2, 6))
-    G[0, 0] = -1.0
-    G[1, 1] = -1.0
-    G[0, 3] = 1.0
-    G[1, 4] = 1.0
-    ge = np.empty(6)
-    dl = np.empty(6)
     for e in range(xe.shape[0]):
         k = P[e, 4]
         c = P[e, 5]
@@ -86,51 +132,48 @@ def spring_damper_force(P, t, tf, xe, ve, jac, fe, fq, fv):
             continue
         ex = Dx / l
         ey = Dy / l
-        ge[0] = -ex
-        ge[1] = -ey
-        ge[2] = day * ex - dax * ey
-        ge[3] = ex
-        ge[4] = ey
-        ge[5] = dbx * ey - dby * ex
+        gax, gay = day, -dax                 # g_a = −J d_a
+        gbx, gby = -dby, dbx                 # g_b = J d_b
+        gae = gax * ex + gay * ey
+        gbe = gbx * ex + gby * ey
         N = k * (l - P[e, 6])
         if c != 0.0:
-            ldot = 0.0
-            for j in range(6):
-                ldot += ge[j] * ve[e, j]
+            Gvx = ve[e, 3] - ve[e, 0] + gax * ve[e, 2] + gbx * ve[e, 5]
+            Gvy = ve[e, 4] - ve[e, 1] + gay * ve[e, 2] + gby * ve[e, 5]
+            ldot = Gvx * ex + Gvy * ey
             N += c * ldot
-        for j in range(6):
-            fe[e, j] = -N * ge[j]
+        fe[e, 0] = N * ex
+        fe[e, 1] = N * ey
+        fe[e, 2] = -N * gae
+        fe[e, 3] = -N * ex
+        fe[e, 4] = -N * ey
+        fe[e, 5] = -N * gbe
         if not jac:
             continue
-        G[0, 2] = day
-        G[1, 2] = -dax
-        G[0, 5] = -dby
-        G[1, 5] = dbx
         Nl = N / l
         kN = k - Nl
-        for j in range(6):
-            for m in range(6):
-                fq[e, j, m] = -Nl * (G[0, j] * G[0, m] + G[1, j] * G[1, m]) - kN * ge[j] * ge[m]
         eda = ex * dax + ey * day
         edb = ex * dbx + ey * dby
-        fq[e, 2, 2] -= N * eda
-        fq[e, 5, 5] += N * edb
+        wx = kN * ex
+        wy = kN * ey
+        wa = kN * gae
+        wb = kN * gbe
         if c != 0.0:
-            Gvx = 0.0
-            Gvy = 0.0
-            for j in range(6):
-                Gvx += G[0, j] * ve[e, j]
-                Gvy += G[1, j] * ve[e, j]
-            Gve = Gvx * ex + Gvy * ey
-            for m in range(6):
-                dl[m] = (Gvx * G[0, m] + Gvy * G[1, m] - Gve * ge[m]) / l
-            dl[2] += ve[e, 2] * eda
-            dl[5] -= ve[e, 5] * edb
-            for j in range(6):
-                cg = c * ge[j]
-                for m in range(6):
-                    fq[e, j, m] -= cg * dl[m]
-                    fv[e, j, m] = -cg * ge[m]
+            cl = c / l
+            wx += cl * (Gvx - ldot * ex)
+            wy += cl * (Gvy - ldot * ey)
+            wa += cl * (gax * Gvx + gay * Gvy - ldot * gae) + c * ve[e, 2] * eda
+            wb += cl * (gbx * Gvx + gby * Gvy - ldot * gbe) - c * ve[e, 5] * edb
+            write_pair_blocks(fv, e, -c * ex * ex, -c * ex * ey, -c * ey * ex, -c * ey * ey,
+                              c * gae * ex, c * gae * ey, c * gbe * ex, c * gbe * ey,
+                              c * gae * ex, c * gae * ey, c * gbe * ex, c * gbe * ey,
+                              -c * gae * gae, -c * gae * gbe, -c * gbe * gae, -c * gbe * gbe)
+        gab = gax * gbx + gay * gby
+        write_pair_blocks(fq, e, -Nl - ex * wx, -ex * wy, -ey * wx, -Nl - ey * wy,
+                          Nl * gax + ex * wa, Nl * gay + ey * wa, Nl * gbx + ex * wb, Nl * gby + ey * wb,
+                          Nl * gax + gae * wx, Nl * gay + gae * wy, Nl * gbx + gbe * wx, Nl * gby + gbe * wy,
+                          -Nl * (gax * gax + gay * gay) - gae * wa - N * eda, -Nl * gab - gae * wb,
+                          -Nl * gab - gbe * wa, -Nl * (gbx * gbx + gby * gby) - gbe * wb + N * edb)
 
 
 class SpringDamper(_DampedBatches, PairElement):
