@@ -225,3 +225,20 @@ def test_the_same_checks_pass_as_plain_python():
                         "-k", "not plain_python"], env=env, capture_output=True, text=True, cwd=HERE.parent)
     assert r.returncode == 0, r.stdout[-3000:] + r.stderr[-3000:]
     assert " passed" in r.stdout and "failed" not in r.stdout
+
+
+@pytest.mark.parametrize("label", LABELS)
+def test_output_geometry_reads_the_packed_dict(label):
+    g = GROUPS[label]
+    t, xe, ve, le = S.random_state(g, np.random.default_rng(11))
+    blocks = g.cls.geometry(g.p, t, xe, ve, le, [e.name for e in g.els])
+    assert bool(blocks) == (g.cls is not RotationalSpringDamper)     # it has never drawn anything
+    for b in blocks:
+        assert np.all(np.isfinite(b.points)) and b.points.shape[1] == 3
+        for arrs in b.cell_data.values():
+            assert all(np.all(np.isfinite(a)) for a in arrs)
+        for a in b.point_data.values():
+            assert np.all(np.isfinite(a))
+    if g.cls is Clamp:
+        np.testing.assert_allclose(blocks[0].points[:, :2], xe[:, 0:2] + _rot(xe[:, 2], g.p["sa"]), rtol=1e-14)
+        np.testing.assert_array_equal(blocks[0].point_data["reaction_torque"], le[:, 2])
