@@ -51,7 +51,7 @@ f_int = [−n, L/2 (g₂N − g₁V) − M, n, L/2 (g₂N − g₁V) + M]. The t
 stiffness is K = L Bᵀ D B + K_σ with the geometric part
 K_σ[x_A, θ_*] = −J n/2, K_σ[x_B, θ_*] = J n/2, K_σ[θ_*, θ_*] = −L/4 (N g₁ + V g₂)
 (J the rotation by +90°), all derived in the docstring of
-:meth:`ReissnerBeam.force`.
+:func:`beam_force` (the compiled force kernel).
 
 Material damping is stiffness proportional (Kelvin–Voigt on the material
 strain rates, objective): σ = D (ε + η ε̇), which adds C = L η Bᵀ D B to the
@@ -90,10 +90,12 @@ import numpy as np
 from femb.element import Element
 from femb.errors import ModelError
 from femb.geometry import GeometryBlock
+from femb.jit import kernel
 from femb.nodes import PlanarNode
 
-from ._planar import perp, rotc
+from ._planar import rot
 from .bodies import Body, _check_scalar, _point
+from .forces import write_pair_blocks
 from .joints import Hinge, PairElement
 
 __all__ = ["Section", "BeamNode", "ReissnerBeam", "Clamp", "BeamMesh", "add_beam",
@@ -192,19 +194,184 @@ class BeamNode(Body, Element):
 
 
 # ---------------------------------------------------------------------------
-# the element
+# the element: compiled kernels
 # ---------------------------------------------------------------------------
-def _strain_kinematics(p, qe):
-    """Midpoint kinematics: (c, s) of θ_m, x' (nel, 2), g = Rᵀx' (nel, 2), κ (nel,)."""
-    inv = p["invL"]
-    d = (qe[:, 3:5] - qe[:, 0:2]) * inv[:, None]
-    th = 0.5 * (qe[:, 2] + qe[:, 5])
-    c, s = np.cos(th), np.sin(th)
-    g = np.empty_like(d)
-    g[:, 0] = c * d[:, 0] + s * d[:, 1]
-    g[:, 1] = c * d[:, 1] - s * d[:, 0]
-    kap = (qe[:, 5] - qe[:, 2]) * inv - p["kappa0"]
-    return c, s, d, g, kap
+# Packed parameters of a ReissnerBeam batch, P (nel, 13): the columns below.
+_L, _INVL, _G01, _G02, _K0, _EA, _GA, _EI, _ETA, _RHOA, _RHOI, _MDIAG, _MOFF = range(13)
+
+
+@kernel
+def _midpoint(P, xe, e):
+    """Midpoint kinematics of element e: (c, s) of θ_m, g = R(θ_m)ᵀ x′, κ (strain, κ₀ removed)."""
+    inv = P[e, _INVL]
+    d1 = (xe[e, 3] - xe[e, 0]) * inv
+    d2 = (xe[e, 4] - xe[e, 1]) * inv
+    th = 0.5 * (xe[e, 2] + xe[e, 5])
+    c, s = math.cos(th), math.sin(th)
+    g1 = c * d1 + s * d2
+    g2 = c * d2 - s * d1
+    kap = (xe[e, 5] - xe[e, 2]) * inv - P[e, _K0]
+    return c, s, g1, g2, kap
+
+
+@kernel
+def _midpoint_rates(P, ve, e, c, s):
+    """u = R(θ_m)ᵀ ẋ′ (u₁, u₂), θ̇_m and κ̇ of element e; Γ̇ = u − θ̇_m J g = (u₁ + θ̇_m g₂, u₂ − θ̇_m g₁)."""
+    inv = P[e, _INVL]
+    dd1 = (ve[e, 3] - ve[e, 0]) * inv
+    dd2 = (ve[e, 4] - ve[e, 1]) * inv
+    om = 0.5 * (ve[e, 2] + ve[e, 5])
+    u1 = c * dd1 + s * dd2
+    u2 = c * dd2 - s * dd1
+    return u1, u2, om, (ve[e, 5] - ve[e, 2]) * inv
+
+
+@kernel
+def _btdb(L, inv, c, s, g1, g2, D0, D1, D2):
+    """The distinct entries of L Bᵀ diag(D0, D1, D2) B of one element (6 × 6, symmetric).
+
+    With B = [−Rᵀ/L, t, Rᵀ/L, t′] (rows Γ₁, Γ₂, κ; t = (g₂/2, −g₁/2, −1/L),
+    t′ = (g₂/2, −g₁/2, 1/L)) the matrix has the blocks [x_A, x_A] = [x_B, x_B] =
+    −[x_A, x_B] = R D̄ Rᵀ/L = a (D̄ = diag(D0, D1)), [x_A, θ_*] = −[x_B, θ_*] = −R w with
+    w = D̄ (g₂/2, −g₁/2), and [θ_A, θ_A] = [θ_B, θ_B] = q + r, [θ_A, θ_B] = q − r with
+    q = L (D0 g₂² + D1 g₁²)/4, r = D2/L.
+
+    Returns a11, a12, a22, (R w)₁, (R w)₂, q, r.
+    """
+    cc, ss, cs = c * c, s * s, c * s
+    a11 = (cc * D0 + ss * D1) * inv
+    a12 = cs * (D0 - D1) * inv
+    a22 = (ss * D0 + cc * D1) * inv
+    w1 = 0.5 * D0 * g2
+    w2 = -0.5 * D1 * g1
+    q = 0.25 * L * (D0 * g2 * g2 + D1 * g1 * g1)
+    return a11, a12, a22, c * w1 - s * w2, s * w1 + c * w2, q, D2 * inv
+
+
+@kernel
+def beam_mass(P, xe, Me):
+    """Constant mass matrices of two-node beams (consistent or lumped).
+
+    Consistent: ∫ Nᵢ Nⱼ ds = L/6 [[2, 1], [1, 2]] for each of x, y (× ρA) and θ (× ρI);
+    lumped: L/2 on the diagonal. P[:, m_diag], P[:, m_off] hold 1/3, 1/6 or 1/2, 0.
+    """
+    for e in range(P.shape[0]):
+        L = P[e, _L]
+        md = P[e, _MDIAG]
+        mo = P[e, _MOFF]
+        for k in range(3):
+            m = (P[e, _RHOI] if k == 2 else P[e, _RHOA]) * L
+            Me[e, k, k] = m * md
+            Me[e, 3 + k, 3 + k] = m * md
+            Me[e, k, 3 + k] = m * mo
+            Me[e, 3 + k, k] = m * mo
+
+
+@kernel
+def beam_force(P, t, tf, xe, ve, jac, fe, fq, fv):
+    """f = −f_int with f_q = −K_t and f_q̇ = −C_t of two-node Reissner beams (one-point rule).
+
+    Derivation (midpoint quantities; J = [[0, −1], [1, 0]], ∂Rᵀ/∂θ = −J Rᵀ; Simo & Vu-Quoc
+    1986, Part I, Sect. 4, specialised to a linear element):
+
+    * δΓ = Rᵀ δx′ − J g δθ_m, δκ = δθ′, so the rows of B are
+      ∂Γ₁/∂(x_A, θ_A, x_B, θ_B) = (−(c, s)/L, g₂/2, (c, s)/L, g₂/2),
+      ∂Γ₂/∂(…) = ((s, −c)/L, −g₁/2, (−s, c)/L, −g₁/2),
+      ∂κ/∂(…) = (0, 0, −1/L, 0, 0, 1/L);
+    * σ = (N, V, M) = D ε (+ η D ε̇), n = R(θ_m)(N, V);
+      f = −L Bᵀσ = [n, M − m, −n, −M − m] with m = L/2 (g₂N − g₁V);
+    * K_t = L BᵀDB + K_σ, K_σ from Σσᵢ ∂²εᵢ: ∂²(sᵀΓ)/∂x′∂θ_m = J n, ∂²(sᵀΓ)/∂θ_m² = −sᵀg
+      (s = (N, V)), i.e. K_σ[x_A, θ_*] = −J n/2, K_σ[x_B, θ_*] = J n/2,
+      K_σ[θ_*, θ_*] = −L/4 (N g₁ + V g₂);
+    * damping (η ≠ 0): ε̇ = B q̇, C_t = L η BᵀDB, and ∂ε̇/∂q = E with
+      ∂Γ̇/∂x_A = θ̇_m J Rᵀ/L = −∂Γ̇/∂x_B, ∂Γ̇/∂θ_* = ½(−J Rᵀẋ′ − θ̇_m g), adding L Bᵀ η D E
+      (not symmetric) to K_t.
+
+    P columns: L, 1/L, Γ₀ (2), κ₀, EA, GA, EI, η, ρA, ρI, m_diag, m_off.
+    """
+    for e in range(xe.shape[0]):
+        L = P[e, _L]
+        inv = P[e, _INVL]
+        EA = P[e, _EA]
+        GA = P[e, _GA]
+        EI = P[e, _EI]
+        eta = P[e, _ETA]
+        c, s, g1, g2, kap = _midpoint(P, xe, e)
+        N = EA * (g1 - P[e, _G01])
+        V = GA * (g2 - P[e, _G02])
+        M = EI * kap
+        damped = eta != 0.0
+        u1 = u2 = om = 0.0
+        if damped:
+            u1, u2, om, kd = _midpoint_rates(P, ve, e, c, s)
+            N += (eta * EA) * (u1 + om * g2)
+            V += (eta * GA) * (u2 - om * g1)
+            M += (eta * EI) * kd
+        n1 = c * N - s * V
+        n2 = s * N + c * V
+        mom = 0.5 * L * (g2 * N - g1 * V)
+        fe[e, 0] = n1
+        fe[e, 1] = n2
+        fe[e, 2] = M - mom
+        fe[e, 3] = -n1
+        fe[e, 4] = -n2
+        fe[e, 5] = -M - mom
+        if not jac:
+            continue
+        # −(L BᵀDB + K_σ), symmetric: −K_σ adds J n/2 to [x_A, θ_*] and L/4 (N g₁ + V g₂) to [θ_*, θ_*]
+        a11, a12, a22, r1, r2, q, rk = _btdb(L, inv, c, s, g1, g2, EA, GA, EI)
+        p1 = r1 - 0.5 * n2
+        p2 = r2 + 0.5 * n1
+        m1, m2 = p1, p2
+        Q11, Q12, Q21, Q22 = -a11, -a12, -a12, -a22
+        tt = 0.25 * L * (N * g1 + V * g2)
+        d = tt - (q + rk)
+        o = tt - (q - rk)
+        if damped:
+            # −L Bᵀ η D E: −A on [x_A, x_A], −b on [x_A, θ_*], −r on [θ_*, x_A], −L w·e_t on [θ_*, θ_*]
+            Da = eta * EA
+            Db = eta * GA
+            oi = om * inv
+            A11 = oi * (c * s) * (Da - Db)           # A = θ̇_m/L · R D̄η J Rᵀ
+            Q11 += A11
+            Q12 -= oi * (c * c * Da + s * s * Db)
+            Q21 += oi * (s * s * Da + c * c * Db)
+            Q22 -= A11
+            et1 = 0.5 * (u2 - om * g1)               # ∂Γ̇/∂θ_* = e_t
+            et2 = 0.5 * (-u1 - om * g2)
+            p1 += c * Da * et1 - s * Db * et2        # b = R D̄η e_t
+            p2 += s * Da * et1 + c * Db * et2
+            w1 = 0.5 * Da * g2
+            w2 = -0.5 * Db * g1
+            m1 -= om * (w1 * s + w2 * c)             # r = θ̇_m wηᵀ J Rᵀ
+            m2 -= om * (w2 * s - w1 * c)
+            tw = L * (w1 * et1 + w2 * et2)
+            d -= tw
+            o -= tw
+            # f_q̇ = −C_t = −L Bᵀ η D B
+            b11, b12, b22, br1, br2, bq, brk = _btdb(L, inv, c, s, g1, g2, Da, Db, eta * EI)
+            write_pair_blocks(fv, e, -b11, -b12, -b12, -b22, br1, br2, br1, br2, br1, br2, br1, br2,
+                              -(bq + brk), -(bq - brk), -(bq - brk), -(bq + brk))
+        # both rotations enter through θ_m (same columns p, same rows m) except for bending (d, o)
+        write_pair_blocks(fq, e, Q11, Q12, Q21, Q22, p1, p2, p1, p2, m1, m2, m1, m2, d, o, o, d)
+
+
+@kernel
+def beam_strains(P, xe, ve, rates, eps, epsd):
+    """Material strains ε = (Γ₁, Γ₂, κ) of beams into ``eps (nel, 3)``; with ``rates`` also ε̇ into ``epsd``.
+
+    For output (resultants, strain energy); the same midpoint kinematics as :func:`beam_force`.
+    """
+    for e in range(xe.shape[0]):
+        c, s, g1, g2, kap = _midpoint(P, xe, e)
+        eps[e, 0] = g1 - P[e, _G01]
+        eps[e, 1] = g2 - P[e, _G02]
+        eps[e, 2] = kap
+        if rates:
+            u1, u2, om, kd = _midpoint_rates(P, ve, e, c, s)
+            epsd[e, 0] = u1 + om * g2
+            epsd[e, 1] = u2 - om * g1
+            epsd[e, 2] = kd
 
 
 class ReissnerBeam(PairElement):
@@ -226,15 +393,18 @@ class ReissnerBeam(PairElement):
 
     Notes
     -----
-    Packed parameters: L (nel,), Γ₀ (nel, 2), κ₀ (nel,), EA, GA, EI, ρA, ρI, η.
-    Lagrange multipliers: none. Batches are split by damping (zero or not),
-    so undamped beams need no damping matrix.
+    Kernels: :func:`beam_mass`, :func:`beam_force`. Packed parameters
+    ``P (nel, 13)`` = (L, 1/L, Γ₀ (2), κ₀, EA, GA, EI, η, ρA, ρI, m_diag, m_off);
+    the dict also holds ``L``, ``invL``, ``gamma0``, ``kappa0``, ``D`` = (EA, GA, EI),
+    ``eta``, ``damped`` for output. Lagrange multipliers: none. Batches are split
+    by damping (zero or not), so undamped beams need no damping matrix.
     """
 
     has_mass = True
     constant_mass = True
     has_force = True
     force_depends_on_qd = True
+    kernels = {"mass": beam_mass, "force": beam_force}
 
     def __init__(self, name, a, b, section, mass="consistent"):
         super().__init__(name, a, b)
@@ -275,52 +445,48 @@ class ReissnerBeam(PairElement):
 
     @classmethod
     def pack(cls, elements):
+        n = len(elements)
         sec = [e.section for e in elements]
-        L = np.array([e.L0 for e in elements])
-        lumped = np.array([e.mass_type == "lumped" for e in elements])
-        EA = np.array([s.EA for s in sec])
-        GA = np.array([s.GA for s in sec])
-        EI = np.array([s.EI for s in sec])
-        eta = np.array([s.damping for s in sec])
-        return {"L": L, "invL": 1.0 / L, "gamma0": np.array([e.gamma0 for e in elements]),
-                "kappa0": np.array([e.kappa0 for e in elements]),
-                "D": np.stack((EA, GA, EI), axis=1), "eta": eta, "damped": bool(np.any(eta != 0.0)),
-                "rhoA": np.array([s.rhoA for s in sec]), "rhoI": np.array([s.rhoI for s in sec]),
-                "m_diag": np.where(lumped, 0.5, 1.0 / 3.0), "m_off": np.where(lumped, 0.0, 1.0 / 6.0)}
+        lumped = np.array([e.mass_type == "lumped" for e in elements], dtype=bool)
+        P = np.empty((n, 13))
+        P[:, _L] = [e.L0 for e in elements]
+        P[:, _INVL] = 1.0 / P[:, _L]
+        P[:, _G01:_G02 + 1] = np.array([e.gamma0 for e in elements], dtype=float).reshape(n, 2)
+        P[:, _K0] = [e.kappa0 for e in elements]
+        P[:, _EA] = [s.EA for s in sec]
+        P[:, _GA] = [s.GA for s in sec]
+        P[:, _EI] = [s.EI for s in sec]
+        P[:, _ETA] = [s.damping for s in sec]
+        P[:, _RHOA] = [s.rhoA for s in sec]
+        P[:, _RHOI] = [s.rhoI for s in sec]
+        P[:, _MDIAG] = np.where(lumped, 0.5, 1.0 / 3.0)
+        P[:, _MOFF] = np.where(lumped, 0.0, 1.0 / 6.0)
+        return {"P": P, "L": P[:, _L].copy(), "invL": P[:, _INVL].copy(),
+                "gamma0": P[:, _G01:_G02 + 1].copy(), "kappa0": P[:, _K0].copy(),
+                "D": P[:, _EA:_EI + 1].copy(), "eta": P[:, _ETA].copy(),
+                "damped": bool(np.any(P[:, _ETA] != 0.0)),
+                "rhoA": P[:, _RHOA].copy(), "rhoI": P[:, _RHOI].copy()}
 
-    # ------------------------------------------------------------------ mass
+    # ------------------------------------------------------------------ strains (output)
     @classmethod
-    def mass(cls, p, qe):
-        """Constant element mass matrices (nel, 6, 6).
+    def _strains(cls, p, qe, qde=None):
+        qe = np.ascontiguousarray(qe, dtype=np.float64)
+        eps = np.zeros((qe.shape[0], 3))
+        epsd = np.zeros((qe.shape[0], 3))
+        rates = qde is not None
+        ve = np.ascontiguousarray(qde, dtype=np.float64) if rates else qe
+        beam_strains(p["P"], qe, ve, rates, eps, epsd)
+        return eps, (epsd if rates else None)
 
-        Consistent: ∫ Nᵢ Nⱼ ds = L/6 [[2, 1], [1, 2]] for each of x, y (× ρA) and
-        θ (× ρI); lumped: L/2 on the diagonal.
-        """
-        n = p["L"].shape[0]
-        Me = np.zeros((n, 6, 6))
-        for k, rho in ((0, p["rhoA"]), (1, p["rhoA"]), (2, p["rhoI"])):
-            m = rho * p["L"]
-            Me[:, k, k] = Me[:, 3 + k, 3 + k] = m * p["m_diag"]
-            Me[:, k, 3 + k] = Me[:, 3 + k, k] = m * p["m_off"]
-        return Me
-
-    # ------------------------------------------------------------------ strains
     @classmethod
     def strains(cls, p, qe):
         """Material strains (Γ₁, Γ₂, κ) at the integration point, shape (nel, 3)."""
-        _, _, _, g, kap = _strain_kinematics(p, qe)
-        return np.column_stack((g - p["gamma0"], kap))
+        return cls._strains(p, qe)[0]
 
     @classmethod
     def strain_rates(cls, p, qe, qde):
         """(Γ̇₁, Γ̇₂, κ̇), shape (nel, 3): Γ̇ = Rᵀẋ' − θ̇_m J Rᵀx'."""
-        c, s, _, g, _ = _strain_kinematics(p, qe)
-        inv = p["invL"]
-        dd = (qde[:, 3:5] - qde[:, 0:2]) * inv[:, None]
-        om = 0.5 * (qde[:, 2] + qde[:, 5])
-        return np.column_stack((c * dd[:, 0] + s * dd[:, 1] + om * g[:, 1],
-                                c * dd[:, 1] - s * dd[:, 0] - om * g[:, 0],
-                                (qde[:, 5] - qde[:, 2]) * inv))
+        return cls._strains(p, qe, qde)[1]
 
     @classmethod
     def resultants(cls, p, qe, qde=None):
@@ -328,9 +494,11 @@ class ReissnerBeam(PairElement):
 
         Elastic part D ε plus, for damped sections and given velocities, η D ε̇.
         """
-        sig = cls.strains(p, qe) * p["D"]
-        if qde is not None and p["damped"]:
-            sig += (p["eta"][:, None] * p["D"]) * cls.strain_rates(p, qe, qde)
+        damped = qde is not None and p["damped"]
+        eps, epsd = cls._strains(p, qe, qde if damped else None)
+        sig = eps * p["D"]
+        if damped:
+            sig += (p["eta"][:, None] * p["D"]) * epsd
         return sig
 
     @classmethod
@@ -338,91 +506,6 @@ class ReissnerBeam(PairElement):
         """Elastic energy ½ L (EA Γ₁² + GA Γ₂² + EI κ²) per element, shape (nel,)."""
         eps = cls.strains(p, qe)
         return 0.5 * p["L"] * np.einsum("ek,ek->e", eps * p["D"], eps)
-
-    # ------------------------------------------------------------------ forces
-    @classmethod
-    def force(cls, p, t, qe, qde, jac):
-        """f = −f_int with f_q = −K_t and f_qd = −C_t (batch over elements).
-
-        Derivation (one-point rule, midpoint quantities; J = [[0, −1], [1, 0]],
-        ∂Rᵀ/∂θ = −J Rᵀ; Simo & Vu-Quoc 1986, Part I, Sect. 4, specialised to a
-        linear element):
-
-        * δΓ = Rᵀ δx' − J g δθ_m, δκ = δθ', so the rows of B are
-          ∂Γ₁/∂(x_A, θ_A, x_B, θ_B) = (−(c, s)/L, g₂/2, (c, s)/L, g₂/2),
-          ∂Γ₂/∂(…) = ((s, −c)/L, −g₁/2, (−s, c)/L, −g₁/2),
-          ∂κ/∂(…) = (0, 0, −1/L, 0, 0, 1/L);
-        * f_int = L Bᵀσ; K_t = L BᵀDB + K_σ, with Σσᵢ ∂²εᵢ: ∂²(sᵀΓ)/∂x'∂θ_m = J n,
-          ∂²(sᵀΓ)/∂θ_m² = −sᵀg, s = (N, V), n = R s;
-        * damping: ε̇ = B q̇, σ_d = η D ε̇, C = L η BᵀDB, and ∂ε̇/∂q = E with
-          ∂Γ̇/∂x_A = θ̇_m J Rᵀ/L = −∂Γ̇/∂x_B, ∂Γ̇/∂θ_* = ½(−J Rᵀẋ' − θ̇_m g),
-          adding L Bᵀ η D E to K_t.
-        """
-        nel = qe.shape[0]
-        c, s, d, g, kap = _strain_kinematics(p, qe)
-        L, inv, D = p["L"], p["invL"], p["D"]
-        eps = np.empty((nel, 3))
-        eps[:, 0:2] = g - p["gamma0"]
-        eps[:, 2] = kap
-        sig = eps * D
-        damped = p["damped"]
-        if damped:
-            dd = (qde[:, 3:5] - qde[:, 0:2]) * inv[:, None]
-            om = 0.5 * (qde[:, 2] + qde[:, 5])
-            u1 = c * dd[:, 0] + s * dd[:, 1]
-            u2 = c * dd[:, 1] - s * dd[:, 0]
-            epsd = np.column_stack((u1 + om * g[:, 1], u2 - om * g[:, 0], (qde[:, 5] - qde[:, 2]) * inv))
-            Deta = p["eta"][:, None] * D
-            sig = sig + Deta * epsd
-        N, V, M = sig[:, 0], sig[:, 1], sig[:, 2]
-        n1 = c * N - s * V
-        n2 = s * N + c * V
-        mom = 0.5 * L * (g[:, 1] * N - g[:, 0] * V)
-        f = np.empty((nel, 6))
-        f[:, 0] = n1
-        f[:, 1] = n2
-        f[:, 2] = M - mom
-        f[:, 3] = -n1
-        f[:, 4] = -n2
-        f[:, 5] = -M - mom
-        if not jac:
-            return f, None, None
-        B = np.zeros((nel, 3, 6))
-        ci, si = c * inv, s * inv
-        B[:, 0, 0], B[:, 0, 1], B[:, 0, 3], B[:, 0, 4] = -ci, -si, ci, si
-        B[:, 1, 0], B[:, 1, 1], B[:, 1, 3], B[:, 1, 4] = si, -ci, -si, ci
-        B[:, 0, 2] = B[:, 0, 5] = 0.5 * g[:, 1]
-        B[:, 1, 2] = B[:, 1, 5] = -0.5 * g[:, 0]
-        B[:, 2, 2] = -inv
-        B[:, 2, 5] = inv
-        LB = B * L[:, None, None]
-        K = np.matmul((LB * D[:, :, None]).transpose(0, 2, 1), B)
-        # geometric stiffness
-        hw = 0.5 * np.column_stack((-n2, n1))                 # J n / 2
-        tt = -0.25 * L * (N * g[:, 0] + V * g[:, 1])
-        for j in (2, 5):
-            K[:, 0:2, j] -= hw
-            K[:, j, 0:2] -= hw
-            K[:, 3:5, j] += hw
-            K[:, j, 3:5] += hw
-        K[:, 2, 2] += tt
-        K[:, 2, 5] += tt
-        K[:, 5, 2] += tt
-        K[:, 5, 5] += tt
-        f_qd = None
-        if damped:
-            LBD = LB * Deta[:, :, None]
-            LBDt = LBD.transpose(0, 2, 1)
-            C = np.matmul(LBDt, B)
-            E = np.zeros((nel, 3, 6))
-            oc, os_ = om * ci, om * si       # θ̇_m J Rᵀ / L = θ̇_m/L [[s, −c], [c, s]]
-            E[:, 0, 0], E[:, 0, 1], E[:, 1, 0], E[:, 1, 1] = os_, -oc, oc, os_
-            E[:, :2, 3:5] = -E[:, :2, 0:2]
-            E[:, 0, 2] = E[:, 0, 5] = 0.5 * (u2 - om * g[:, 0])
-            E[:, 1, 2] = E[:, 1, 5] = 0.5 * (-u1 - om * g[:, 1])
-            K += np.matmul(LBDt, E)
-            f_qd = -C
-        return f, -K, f_qd
 
     # ------------------------------------------------------------------ output
     @classmethod
@@ -447,6 +530,50 @@ class ReissnerBeam(PairElement):
 # ---------------------------------------------------------------------------
 # clamp (rigid connection)
 # ---------------------------------------------------------------------------
+@kernel
+def clamp_constraint(P, t, tf, xe, le, jac, Phi, B, H):
+    """Φ = [r_a + d_a − r_b − d_b; θ_b − θ_a − θ₀], d = R(θ) s; P = (s_a, s_b, θ₀).
+
+    Φ_q = [[I, J d_a, −I, −J d_b], [0, −1, 0, 1]]; ∂(Φ_qᵀλ)/∂q has only the
+    [θ_a, θ_a] = −λ·d_a and [θ_b, θ_b] = λ·d_b entries (λ = the first two multipliers).
+    """
+    for e in range(xe.shape[0]):
+        ca, sa = math.cos(xe[e, 2]), math.sin(xe[e, 2])
+        cb, sb = math.cos(xe[e, 5]), math.sin(xe[e, 5])
+        dax = ca * P[e, 0] - sa * P[e, 1]
+        day = sa * P[e, 0] + ca * P[e, 1]
+        dbx = cb * P[e, 2] - sb * P[e, 3]
+        dby = sb * P[e, 2] + cb * P[e, 3]
+        Phi[e, 0] = xe[e, 0] - xe[e, 3] + (dax - dbx)
+        Phi[e, 1] = xe[e, 1] - xe[e, 4] + (day - dby)
+        Phi[e, 2] = xe[e, 5] - xe[e, 2] - P[e, 4]
+        B[e, 0, 0] = 1.0
+        B[e, 1, 1] = 1.0
+        B[e, 0, 3] = -1.0
+        B[e, 1, 4] = -1.0
+        B[e, 2, 2] = -1.0
+        B[e, 2, 5] = 1.0
+        B[e, 0, 2] = -day
+        B[e, 1, 2] = dax
+        B[e, 0, 5] = dby
+        B[e, 1, 5] = -dbx
+        if jac:
+            H[e, 2, 2] = -(le[e, 0] * dax + le[e, 1] * day)
+            H[e, 5, 5] = le[e, 0] * dbx + le[e, 1] * dby
+
+
+@kernel
+def clamp_rates(P, t, tf, xe, ve, Phi_t, gam):
+    """Φ_t = 0; γ = (−d_a θ̇_a² + d_b θ̇_b², 0)."""
+    for e in range(xe.shape[0]):
+        ca, sa = math.cos(xe[e, 2]), math.sin(xe[e, 2])
+        cb, sb = math.cos(xe[e, 5]), math.sin(xe[e, 5])
+        wa2 = ve[e, 2] * ve[e, 2]
+        wb2 = ve[e, 5] * ve[e, 5]
+        gam[e, 0] = -(ca * P[e, 0] - sa * P[e, 1]) * wa2 + (cb * P[e, 2] - sb * P[e, 3]) * wb2
+        gam[e, 1] = -(sa * P[e, 0] + ca * P[e, 1]) * wa2 + (sb * P[e, 2] + cb * P[e, 3]) * wb2
+
+
 class Clamp(PairElement):
     """Rigid connection: point P_a of body a coincides with P_b of body b, no relative rotation.
 
@@ -459,10 +586,15 @@ class Clamp(PairElement):
     name : str
     a, b : Body or str
     at, point_a, point_b : see :class:`~femb.elements.Hinge`.
+
+    Notes
+    -----
+    Kernels: :func:`clamp_constraint`, :func:`clamp_rates`; ``P = (s_a, s_b, θ₀)``.
     """
 
     n_constraints = 3
     constraint_names = ("x", "y", "moment")
+    kernels = {"constraint": clamp_constraint, "rates": clamp_rates}
 
     def __init__(self, name, a, b, at=None, point_a=None, point_b=None):
         super().__init__(name, a, b)
@@ -477,58 +609,17 @@ class Clamp(PairElement):
 
     @classmethod
     def pack(cls, elements):
-        sa = np.array([e.sa for e in elements])
-        sb = np.array([e.sb for e in elements])
-        n = len(elements)
-        Bq = np.zeros((n, 3, 6))        # constant part of Φ_q
-        Bq[:, 0, 0] = Bq[:, 1, 1] = 1.0
-        Bq[:, 0, 3] = Bq[:, 1, 4] = -1.0
-        Bq[:, 2, 2] = -1.0
-        Bq[:, 2, 5] = 1.0
-        return {"sa": sa, "sb": sb, "sa_c": sa[:, 0] + 1j * sa[:, 1], "sb_c": sb[:, 0] + 1j * sb[:, 1],
-                "Bq": Bq, "phi0": np.array([e.phi0 for e in elements])}
-
-    @classmethod
-    def constraint_all(cls, p, t, qe, lame, jac):
-        da = rotc(qe[:, 2], p["sa_c"])
-        db = rotc(qe[:, 5], p["sb_c"])
-        n = qe.shape[0]
-        Phi = np.empty((n, 3))
-        Phi[:, 0:2] = qe[:, 0:2] - qe[:, 3:5] + (da - db)
-        Phi[:, 2] = qe[:, 5] - qe[:, 2] - p["phi0"]
-        Phi_q = p["Bq"].copy()
-        Phi_q[:, 0:2, 2] = perp(da)
-        Phi_q[:, 0:2, 5] = -perp(db)
-        if not jac:
-            return Phi, Phi_q, None
-        H = np.zeros((n, 6, 6))
-        H[:, 2, 2] = -(lame[:, 0] * da[:, 0] + lame[:, 1] * da[:, 1])
-        H[:, 5, 5] = lame[:, 0] * db[:, 0] + lame[:, 1] * db[:, 1]
-        return Phi, Phi_q, H
-
-    @classmethod
-    def constraint(cls, p, t, qe):
-        Phi, Phi_q, _ = cls.constraint_all(p, t, qe, None, False)
-        return Phi, Phi_q
-
-    @classmethod
-    def constraint_hessian(cls, p, t, qe, lame):
-        return cls.constraint_all(p, t, qe, lame, True)[2]
-
-    @classmethod
-    def constraint_rates(cls, p, t, qe, qde):
-        da = rotc(qe[:, 2], p["sa_c"])
-        db = rotc(qe[:, 5], p["sb_c"])
-        n = qe.shape[0]
-        gam = np.zeros((n, 3))
-        gam[:, 0:2] = -da * qde[:, 2:3] ** 2 + db * qde[:, 5:6] ** 2
-        return np.zeros((n, 3)), gam
+        sa = np.array([e.sa for e in elements], dtype=float).reshape(-1, 2)
+        sb = np.array([e.sb for e in elements], dtype=float).reshape(-1, 2)
+        phi0 = np.array([e.phi0 for e in elements], dtype=float)
+        return {"P": np.ascontiguousarray(np.column_stack((sa, sb, phi0))), "sa": sa, "sb": sb,
+                "phi0": phi0}
 
     @classmethod
     def geometry(cls, p, t, qe, qde, lame, names):
         n = qe.shape[0]
         pts = np.zeros((n, 3))
-        pts[:, :2] = qe[:, 0:2] + rotc(qe[:, 2], p["sa_c"])
+        pts[:, :2] = qe[:, 0:2] + rot(qe[:, 2], p["sa"])
         F = np.zeros((n, 3))
         F[:, :2] = lame[:, :2]
         return [GeometryBlock(cls.__name__, pts, [("vertex", np.arange(n)[:, None])],

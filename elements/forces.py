@@ -1,10 +1,18 @@
 """Force elements: springs and dampers, applied loads, gravity (planar).
 
+Each element type writes its equations once, as compiled kernels (``@kernel``,
+see docs/kernels.md): :func:`spring_damper_force`, :func:`rotational_spring_force`,
+:func:`torque_force`, :func:`point_force`. Loads read their time functions from
+``tf[e, k, 0/1/2]`` = (f, f′, f″) at the kernel's time. Gravity has no kernel: the
+model assembles it as M ĝ.
+
 References
 ----------
 M. Géradin, A. Cardona, Flexible Multibody Dynamics, Wiley, 2001, Ch. 9.
 """
 from __future__ import annotations
+
+import math
 
 import numpy as np
 
@@ -12,6 +20,7 @@ from femb.element import Element
 from femb.errors import ModelError
 from femb.functions import Constant, as_time_function, evaluate
 from femb.geometry import GeometryBlock
+from femb.jit import kernel
 
 from .bodies import _check_scalar, _point
 from .joints import PairElement
@@ -32,6 +41,141 @@ class _DampedBatches:
         return tr
 
 
+# ---------------------------------------------------------------------------
+# SpringDamper
+# ---------------------------------------------------------------------------
+@kernel
+def write_pair_blocks(out, e, X11, X12, X21, X22, pa1, pa2, pb1, pb2, ma1, ma2, mb1, mb2, taa, tab, tba, tbb):
+    """Write the 6 × 6 Jacobian of a two-node planar element that depends on r_b − r_a into ``out[e]``.
+
+    Rows and columns (r_a, θ_a, r_b, θ_b); X is 2 × 2, p_a, p_b, m_a, m_b are 2-vectors::
+
+        [[ X,    p_a,  −X,    p_b ],
+         [ m_aᵀ, t_aa, −m_aᵀ, t_ab],
+         [−X,   −p_a,   X,   −p_b ],
+         [ m_bᵀ, t_ba, −m_bᵀ, t_bb]]
+
+    (a function of r_b − r_a has opposite derivatives with respect to r_a and r_b, and so have
+    forces that act with opposite signs on the two nodes).
+    """
+    out[e, 0, 0] = X11
+    out[e, 0, 1] = X12
+    out[e, 0, 2] = pa1
+    out[e, 0, 3] = -X11
+    out[e, 0, 4] = -X12
+    out[e, 0, 5] = pb1
+    out[e, 1, 0] = X21
+    out[e, 1, 1] = X22
+    out[e, 1, 2] = pa2
+    out[e, 1, 3] = -X21
+    out[e, 1, 4] = -X22
+    out[e, 1, 5] = pb2
+    out[e, 2, 0] = ma1
+    out[e, 2, 1] = ma2
+    out[e, 2, 2] = taa
+    out[e, 2, 3] = -ma1
+    out[e, 2, 4] = -ma2
+    out[e, 2, 5] = tab
+    out[e, 3, 0] = -X11
+    out[e, 3, 1] = -X12
+    out[e, 3, 2] = -pa1
+    out[e, 3, 3] = X11
+    out[e, 3, 4] = X12
+    out[e, 3, 5] = -pb1
+    out[e, 4, 0] = -X21
+    out[e, 4, 1] = -X22
+    out[e, 4, 2] = -pa2
+    out[e, 4, 3] = X21
+    out[e, 4, 4] = X22
+    out[e, 4, 5] = -pb2
+    out[e, 5, 0] = mb1
+    out[e, 5, 1] = mb2
+    out[e, 5, 2] = tba
+    out[e, 5, 3] = -mb1
+    out[e, 5, 4] = -mb2
+    out[e, 5, 5] = tbb
+
+
+@kernel
+def spring_damper_force(P, t, tf, xe, ve, jac, fe, fq, fv):
+    """Force of linear spring–dampers; P = (s_a, s_b, k, c, l_0), xe = (r_a, θ_a, r_b, θ_b).
+
+    With d_a = R(θ_a) s_a, d_b = R(θ_b) s_b, D = r_b + d_b − r_a − d_a, l = |D|, e = D/l and
+    G = ∂D/∂q = [−I, g_a, I, g_b], g_a = −J d_a, g_b = J d_b (J the rotation by +90°):
+
+    * ∂l/∂q = Gᵀe = (−e, g_a·e, e, g_b·e) (``ge``), l̇ = e·(G q̇);
+      tension N = k (l − l_0) + c l̇, f = −N Gᵀe;
+    * f_q = −(N/l) GᵀG − ge ⊗ w + N (−e·d_a at [θ_a, θ_a], e·d_b at [θ_b, θ_b]) with
+      w = (k − N/l) ge + c ∂l̇/∂q, ∂l̇/∂q = (Gᵀ(G q̇) − l̇ ge)/l + (θ̇_a e·d_a at θ_a, −θ̇_b e·d_b at θ_b);
+    * f_q̇ = −c ge geᵀ (damped elements only: c ≠ 0).
+
+    Coinciding points (l = 0, no direction) give NaN forces.
+    """
+    for e in range(xe.shape[0]):
+        k = P[e, 4]
+        c = P[e, 5]
+        ca, sa = math.cos(xe[e, 2]), math.sin(xe[e, 2])
+        cb, sb = math.cos(xe[e, 5]), math.sin(xe[e, 5])
+        dax = ca * P[e, 0] - sa * P[e, 1]
+        day = sa * P[e, 0] + ca * P[e, 1]
+        dbx = cb * P[e, 2] - sb * P[e, 3]
+        dby = sb * P[e, 2] + cb * P[e, 3]
+        Dx = xe[e, 3] - xe[e, 0] + dbx - dax
+        Dy = xe[e, 4] - xe[e, 1] + dby - day
+        l = math.hypot(Dx, Dy)
+        if not l > 0.0:
+            for j in range(6):
+                fe[e, j] = math.nan
+                if jac:
+                    for m in range(6):
+                        fq[e, j, m] = math.nan
+            continue
+        ex = Dx / l
+        ey = Dy / l
+        gax, gay = day, -dax                 # g_a = −J d_a
+        gbx, gby = -dby, dbx                 # g_b = J d_b
+        gae = gax * ex + gay * ey
+        gbe = gbx * ex + gby * ey
+        N = k * (l - P[e, 6])
+        if c != 0.0:
+            Gvx = ve[e, 3] - ve[e, 0] + gax * ve[e, 2] + gbx * ve[e, 5]
+            Gvy = ve[e, 4] - ve[e, 1] + gay * ve[e, 2] + gby * ve[e, 5]
+            ldot = Gvx * ex + Gvy * ey
+            N += c * ldot
+        fe[e, 0] = N * ex
+        fe[e, 1] = N * ey
+        fe[e, 2] = -N * gae
+        fe[e, 3] = -N * ex
+        fe[e, 4] = -N * ey
+        fe[e, 5] = -N * gbe
+        if not jac:
+            continue
+        Nl = N / l
+        kN = k - Nl
+        eda = ex * dax + ey * day
+        edb = ex * dbx + ey * dby
+        wx = kN * ex
+        wy = kN * ey
+        wa = kN * gae
+        wb = kN * gbe
+        if c != 0.0:
+            cl = c / l
+            wx += cl * (Gvx - ldot * ex)
+            wy += cl * (Gvy - ldot * ey)
+            wa += cl * (gax * Gvx + gay * Gvy - ldot * gae) + c * ve[e, 2] * eda
+            wb += cl * (gbx * Gvx + gby * Gvy - ldot * gbe) - c * ve[e, 5] * edb
+            write_pair_blocks(fv, e, -c * ex * ex, -c * ex * ey, -c * ey * ex, -c * ey * ey,
+                              c * gae * ex, c * gae * ey, c * gbe * ex, c * gbe * ey,
+                              c * gae * ex, c * gae * ey, c * gbe * ex, c * gbe * ey,
+                              -c * gae * gae, -c * gae * gbe, -c * gbe * gae, -c * gbe * gbe)
+        gab = gax * gbx + gay * gby
+        write_pair_blocks(fq, e, -Nl - ex * wx, -ex * wy, -ey * wx, -Nl - ey * wy,
+                          Nl * gax + ex * wa, Nl * gay + ey * wa, Nl * gbx + ex * wb, Nl * gby + ey * wb,
+                          Nl * gax + gae * wx, Nl * gay + gae * wy, Nl * gbx + gbe * wx, Nl * gby + gbe * wy,
+                          -Nl * (gax * gax + gay * gay) - gae * wa - N * eda, -Nl * gab - gae * wb,
+                          -Nl * gab - gbe * wa, -Nl * (gbx * gbx + gby * gby) - gbe * wb + N * edb)
+
+
 class SpringDamper(_DampedBatches, PairElement):
     """Linear spring–damper between point P_a of body a and P_b of body b.
 
@@ -48,9 +192,14 @@ class SpringDamper(_DampedBatches, PairElement):
         Unstretched length l_0 (default: the initial distance).
     point_a, point_b : str or (x, y)
         The attachment points (default: the nodes).
+
+    Notes
+    -----
+    Kernel: :func:`spring_damper_force`; ``P = (s_a, s_b, k, c, l_0)``.
     """
 
     has_force = True
+    kernels = {"force": spring_damper_force}
 
     def __init__(self, name, a, b, stiffness, damping=0.0, length=None, point_a=None, point_b=None):
         super().__init__(name, a, b)
@@ -70,82 +219,27 @@ class SpringDamper(_DampedBatches, PairElement):
 
     @classmethod
     def pack(cls, elements):
-        sa = np.array([e.sa for e in elements])
-        sb = np.array([e.sb for e in elements])
-        G0 = np.zeros((len(elements), 2, 6))   # constant part of ∂D/∂q
-        G0[:, 0, 0] = G0[:, 1, 1] = -1.0
-        G0[:, 0, 3] = G0[:, 1, 4] = 1.0
-        return {"sa": sa, "sb": sb, "s_c": np.stack((sa[:, 0] + 1j * sa[:, 1], sb[:, 0] + 1j * sb[:, 1]), axis=1),
-                "k": np.array([e.k for e in elements]), "c": np.array([e.c for e in elements]),
-                "l0": np.array([e.l0 for e in elements]), "G0": G0,
-                "damped": any(e.c != 0.0 for e in elements)}
-
-    @classmethod
-    def _kin(cls, p, qe):
-        """Attachment offsets d_a, d_b, separation D = r_b − r_a, length l, direction e, ∂l/∂q."""
-        d = (np.exp(1j * qe[:, 2::3]) * p["s_c"]).view(np.float64)   # [d_a, d_b] in one product
-        da = d[:, 0:2]
-        db = d[:, 2:4]
-        D = qe[:, 3:5] - qe[:, 0:2]
-        D += db
-        D -= da
-        l = np.hypot(D[:, 0], D[:, 1])
-        if l.min() <= 0.0:
-            raise FloatingPointError("SpringDamper: zero length (the two points coincide)")
-        e = D / l[:, None]
-        ge = np.empty((qe.shape[0], 6))            # ∂l/∂q = Gᵀe, G = ∂D/∂q = [−I, −J d_a, I, J d_b]
-        ge[:, 3:5] = e
-        ge[:, 0:2] = -e
-        ge[:, 2] = da[:, 1] * e[:, 0] - da[:, 0] * e[:, 1]
-        ge[:, 5] = db[:, 0] * e[:, 1] - db[:, 1] * e[:, 0]
-        return da, db, D, l, e, ge
-
-    @classmethod
-    def _G(cls, p, da, db):
-        G = p["G0"].copy()
-        G[:, 0, 2] = da[:, 1]
-        G[:, 1, 2] = -da[:, 0]
-        G[:, 0, 5] = -db[:, 1]
-        G[:, 1, 5] = db[:, 0]
-        return G
-
-    @classmethod
-    def force(cls, p, t, qe, qde, jac):
-        da, db, D, l, e, ge = cls._kin(p, qe)
-        N = p["k"] * (l - p["l0"])
-        damped = p["damped"]
-        if damped:
-            N = N + p["c"] * np.einsum("ij,ij->i", ge, qde)
-        f = ge * (-N)[:, None]
-        if not jac:
-            return f, None, None
-        # f_q = −ge ⊗ ∂N/∂q − N ∂(Gᵀe)/∂q, ∂(Gᵀe)/∂q = (GᵀG − ge geᵀ)/l + Σ e_i ∂G_i/∂q
-        G = cls._G(p, da, db)
-        Nl = N / l
-        gg = ge[:, :, None] * ge[:, None, :]
-        f_q = np.einsum("iak,iam->ikm", G, G)
-        f_q *= -Nl[:, None, None]
-        f_q -= (p["k"] - Nl)[:, None, None] * gg
-        # Σ e_i ∂G_i/∂q: [θa,θa] = e·d_a, [θb,θb] = −e·d_b
-        f_q[:, 2, 2] -= N * (e * da).sum(1)
-        f_q[:, 5, 5] += N * (e * db).sum(1)
-        f_qd = None
-        if damped:
-            # ∂l̇/∂q = (G q̇)ᵀ ∂e/∂q + eᵀ ∂(G q̇)/∂q, contributing −c ge ⊗ ∂l̇/∂q
-            Gv = np.einsum("iak,ik->ia", G, qde)
-            dldot = (np.einsum("ia,iak->ik", Gv, G) - (Gv * e).sum(1)[:, None] * ge) / l[:, None]
-            dldot[:, 2] += qde[:, 2] * (e * da).sum(1)
-            dldot[:, 5] -= qde[:, 5] * (e * db).sum(1)
-            f_q -= p["c"][:, None, None] * ge[:, :, None] * dldot[:, None, :]
-            f_qd = -p["c"][:, None, None] * gg
-        return f, f_q, f_qd
+        sa = np.array([e.sa for e in elements], dtype=float).reshape(-1, 2)
+        sb = np.array([e.sb for e in elements], dtype=float).reshape(-1, 2)
+        k = np.array([e.k for e in elements], dtype=float)
+        c = np.array([e.c for e in elements], dtype=float)
+        l0 = np.array([e.l0 for e in elements], dtype=float)
+        P = np.ascontiguousarray(np.column_stack((sa, sb, k, c, l0)))
+        return {"P": P, "sa": sa, "sb": sb, "k": k, "c": c, "l0": l0}
 
     @classmethod
     def geometry(cls, p, t, qe, qde, lame, names, n_zig=12):
-        da, db, D, l, e, ge = cls._kin(p, qe)
-        ra = qe[:, 0:2] + da
+        qe = np.ascontiguousarray(qe, dtype=float)
+        qde = np.ascontiguousarray(qde, dtype=float)
         n = qe.shape[0]
-        N = p["k"] * (l - p["l0"]) + p["c"] * np.einsum("ij,ij->i", ge, qde)
+        ra = qe[:, 0:2] + rot(qe[:, 2], p["sa"])
+        D = qe[:, 3:5] + rot(qe[:, 5], p["sb"]) - ra
+        l = np.hypot(D[:, 0], D[:, 1])
+        e = D / np.where(l > 0.0, l, np.nan)[:, None]
+        fe = np.zeros((n, 6))
+        spring_damper_force(p["P"], float(t), np.zeros((n, 0, 3)), qe, qde, False, fe,
+                            np.zeros((n, 6, 6)), np.zeros((n, 6, 6)))
+        N = -np.einsum("ij,ij->i", fe[:, 3:5], e)       # the force on P_b is −N e
         m = n_zig + 2
         s = np.linspace(0.0, 1.0, m)
         amp = np.zeros(m)
@@ -164,6 +258,34 @@ class SpringDamper(_DampedBatches, PairElement):
                                          "elongation": [np.repeat(l - p["l0"], rep)]})]
 
 
+# ---------------------------------------------------------------------------
+# RotationalSpringDamper
+# ---------------------------------------------------------------------------
+@kernel
+def rotational_spring_force(P, t, tf, xe, ve, jac, fe, fq, fv):
+    """Torsional spring–dampers; P = (k, c, θ_0).
+
+    M = k (θ_b − θ_a − θ_0) + c (θ̇_b − θ̇_a); f_θa = M, f_θb = −M;
+    f_q = −k g gᵀ and f_q̇ = −c g gᵀ (damped elements only) with g = ∂(θ_b − θ_a)/∂q.
+    """
+    for e in range(xe.shape[0]):
+        k = P[e, 0]
+        c = P[e, 1]
+        Mz = k * (xe[e, 5] - xe[e, 2] - P[e, 2]) + c * (ve[e, 5] - ve[e, 2])
+        fe[e, 2] = Mz
+        fe[e, 5] = -Mz
+        if jac:
+            fq[e, 2, 2] = -k
+            fq[e, 5, 5] = -k
+            fq[e, 2, 5] = k
+            fq[e, 5, 2] = k
+            if c != 0.0:
+                fv[e, 2, 2] = -c
+                fv[e, 5, 5] = -c
+                fv[e, 2, 5] = c
+                fv[e, 5, 2] = c
+
+
 class RotationalSpringDamper(_DampedBatches, PairElement):
     """Torsional spring–damper between the rotations of bodies a and b.
 
@@ -177,9 +299,14 @@ class RotationalSpringDamper(_DampedBatches, PairElement):
     damping : float ≥ 0
     angle : float, optional
         Unstretched relative angle θ_0 (default: the initial one).
+
+    Notes
+    -----
+    Kernel: :func:`rotational_spring_force`; ``P = (k, c, θ_0)``.
     """
 
     has_force = True
+    kernels = {"force": rotational_spring_force}
 
     def __init__(self, name, a, b, stiffness, damping=0.0, angle=None):
         super().__init__(name, a, b)
@@ -194,27 +321,15 @@ class RotationalSpringDamper(_DampedBatches, PairElement):
 
     @classmethod
     def pack(cls, elements):
-        return {"k": np.array([e.k for e in elements]), "c": np.array([e.c for e in elements]),
-                "phi0": np.array([e.phi0 for e in elements]),
-                "damped": any(e.c != 0.0 for e in elements)}
-
-    @classmethod
-    def force(cls, p, t, qe, qde, jac):
-        n = qe.shape[0]
-        Mz = p["k"] * (qe[:, 5] - qe[:, 2] - p["phi0"]) + p["c"] * (qde[:, 5] - qde[:, 2])
-        f = np.zeros((n, 6))
-        f[:, 2] = Mz
-        f[:, 5] = -Mz
-        if not jac:
-            return f, None, None
-        g = np.zeros(6)
-        g[2], g[5] = -1.0, 1.0
-        gg = np.outer(g, g)
-        f_q = -p["k"][:, None, None] * gg[None]
-        f_qd = -p["c"][:, None, None] * gg[None] if p["damped"] else None
-        return f, f_q, f_qd
+        k = np.array([e.k for e in elements], dtype=float)
+        c = np.array([e.c for e in elements], dtype=float)
+        phi0 = np.array([e.phi0 for e in elements], dtype=float)
+        return {"P": np.ascontiguousarray(np.column_stack((k, c, phi0))), "k": k, "c": c, "phi0": phi0}
 
 
+# ---------------------------------------------------------------------------
+# loads
+# ---------------------------------------------------------------------------
 class _BodyLoad(Element):
     """A load on one body."""
 
@@ -231,6 +346,13 @@ class _BodyLoad(Element):
         return [self.body.node]
 
 
+@kernel
+def torque_force(P, t, tf, xe, ve, jac, fe, fq, fv):
+    """Applied torques T(t) = tf[e, 0, 0] on θ; P unused (one dummy column); f_q = 0."""
+    for e in range(xe.shape[0]):
+        fe[e, 2] = tf[e, 0, 0]
+
+
 class Torque(_BodyLoad):
     """Applied torque T(t) on a body (positive counter-clockwise).
 
@@ -239,7 +361,14 @@ class Torque(_BodyLoad):
     name : str
     body : Body or str
     torque : float, TimeFunction or (f, df, ddf)
+
+    Notes
+    -----
+    Kernel: :func:`torque_force`; one time function per element (T). Constant
+    torques form their own batch, evaluated once (``constant_force``).
     """
+
+    kernels = {"force": torque_force}
 
     def __init__(self, name, body, torque):
         super().__init__(name, body)
@@ -255,19 +384,45 @@ class Torque(_BodyLoad):
         return tr
 
     @classmethod
-    def pack(cls, elements):
-        return {"fn": [e.fn for e in elements]}
+    def time_functions(cls, element):
+        return [element.fn]
 
     @classmethod
-    def force(cls, p, t, qe, qde, jac):
-        f = np.zeros((qe.shape[0], 3))
-        f[:, 2] = evaluate(p["fn"], t, 0)
-        return f, (np.zeros((qe.shape[0], 3, 3)) if jac else None), None
+    def pack(cls, elements):
+        return {"P": np.zeros((len(elements), 1)), "fn": [e.fn for e in elements]}
 
     @classmethod
     def geometry(cls, p, t, qe, qde, lame, names):
         T = evaluate(p["fn"], t, 0)
         return _load_geometry("Torque", qe[:, 0:2], np.zeros((qe.shape[0], 2)), {"torque": T})
+
+
+@kernel
+def point_force(P, t, tf, xe, ve, jac, fe, fq, fv):
+    """Applied forces at a body point; P = (s, body_frame), F_body/global = (tf[e,0,0], tf[e,1,0]).
+
+    F = R(θ) F̄ for follower forces (body_frame = 1), else F̄; d = R(θ) s;
+    f = (F, (J d)·F). f_q: ∂F/∂θ = J F (followers), ∂((J d)·F)/∂θ = −d·F for a
+    fixed direction and 0 for a follower (its moment arm and direction turn together).
+    """
+    for e in range(xe.shape[0]):
+        c, s = math.cos(xe[e, 2]), math.sin(xe[e, 2])
+        Fx = tf[e, 0, 0]
+        Fy = tf[e, 1, 0]
+        follower = P[e, 2] != 0.0
+        if follower:
+            Fx, Fy = c * Fx - s * Fy, s * Fx + c * Fy
+        dx = c * P[e, 0] - s * P[e, 1]
+        dy = s * P[e, 0] + c * P[e, 1]
+        fe[e, 0] = Fx
+        fe[e, 1] = Fy
+        fe[e, 2] = dx * Fy - dy * Fx
+        if jac:
+            if follower:
+                fq[e, 0, 2] = -Fy
+                fq[e, 1, 2] = Fx
+            else:
+                fq[e, 2, 2] = -(dx * Fx + dy * Fy)
 
 
 class Force(_BodyLoad):
@@ -283,7 +438,14 @@ class Force(_BodyLoad):
     frame : {"global", "body"}
         Components in the inertial frame (default) or in the body frame
         (a follower force that turns with the body).
+
+    Notes
+    -----
+    Kernel: :func:`point_force`; ``P = (s, body_frame)``; two time functions per
+    element (F_x, F_y).
     """
+
+    kernels = {"force": point_force}
 
     def __init__(self, name, body, force, point=None, frame="global"):
         super().__init__(name, body)
@@ -303,31 +465,16 @@ class Force(_BodyLoad):
         self.s = self.body.local((0.0, 0.0) if self._point is None else self._point, "point")
 
     @classmethod
-    def pack(cls, elements):
-        return {"fx": [e.fns[0] for e in elements], "fy": [e.fns[1] for e in elements],
-                "s": np.array([e.s for e in elements]),
-                "body_frame": np.array([e.frame == "body" for e in elements])}
+    def time_functions(cls, element):
+        return list(element.fns)
 
     @classmethod
-    def force(cls, p, t, qe, qde, jac):
-        n = qe.shape[0]
-        Fb = np.stack((evaluate(p["fx"], t, 0), evaluate(p["fy"], t, 0)), axis=1)
-        th = qe[:, 2]
-        bf = p["body_frame"]
-        F = np.where(bf[:, None], rot(th, Fb), Fb)
-        d = rot(th, p["s"])
-        f = np.zeros((n, 3))
-        f[:, 0:2] = F
-        f[:, 2] = np.einsum("ij,ij->i", perp(d), F)
-        if not jac:
-            return f, None, None
-        f_q = np.zeros((n, 3, 3))
-        # ∂F/∂θ = J F for follower forces
-        JF = perp(F)
-        f_q[:, 0:2, 2] = np.where(bf[:, None], JF, 0.0)
-        # ∂((J d)·F)/∂θ = (J J d)·F + (J d)·∂F/∂θ = −d·F + bf (J d)·(J F)
-        f_q[:, 2, 2] = -np.einsum("ij,ij->i", d, F) + np.where(bf, np.einsum("ij,ij->i", d, F), 0.0)
-        return f, f_q, None
+    def pack(cls, elements):
+        s = np.array([e.s for e in elements], dtype=float).reshape(-1, 2)
+        body_frame = np.array([e.frame == "body" for e in elements])
+        return {"P": np.ascontiguousarray(np.column_stack((s, body_frame.astype(float)))),
+                "fx": [e.fns[0] for e in elements], "fy": [e.fns[1] for e in elements],
+                "s": s, "body_frame": body_frame}
 
     @classmethod
     def geometry(cls, p, t, qe, qde, lame, names):
