@@ -1,0 +1,67 @@
+"""The compiled time loop against the numpy engine it replaced, and its linear algebra."""
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import femb
+from femb.benchmarks import andrews
+
+REF = json.loads((Path(__file__).parent / "data" / "andrews_numpy_d1a00cd.json").read_text())
+#: the seed reproduction's settings: residual Newton test, the seed's start, no step-size check
+LEGACY = dict(newton_test="residual", start="seed", check_every=0)
+
+
+@pytest.fixture(scope="module")
+def andrews_model():
+    return andrews.build().compile()
+
+
+@pytest.mark.parametrize("linear_solver", ["band", "dense"])
+def test_andrews_1000_steps_equal_the_numpy_engine(andrews_model, linear_solver):
+    """q after 1000 steps to 1e-12 relative, and identical Newton iteration counts."""
+    r = femb.simulate(andrews_model, 0.03, 3e-5, rho_inf=0.7, linear_solver=linear_solver, **LEGACY)
+    q_ref = np.array(REF["q_1000"])
+    assert np.abs(r.q[-1] - q_ref).max() <= 1e-12 * np.abs(q_ref).max()
+    np.testing.assert_array_equal(r.newton_iterations, REF["newton_iterations"])
+    # λ carries the index-3 amplification of round-off (~1/(βh²) times ε): same to 1e-7
+    lam_ref = np.array(REF["lam_1000"])
+    assert np.abs(r.lam[-1] - lam_ref).max() <= 1e-7 * np.abs(lam_ref).max()
+
+
+def test_band_lu_matches_dense_solve_and_flags_singularity():
+    """The compiled band LU with partial pivoting solves random band systems and sees singular ones."""
+    from femb.codegen import compiled
+    model = andrews.build().compile()
+    mod = compiled(model).mod
+    rng = np.random.default_rng(5)
+    for N, kl, ku in [(7, 2, 1), (30, 4, 6), (41, 40, 40), (60, 3, 3)]:
+        A = np.zeros((N, N))
+        for i in range(N):
+            for j in range(max(0, i - kl), min(N, i + ku + 1)):
+                A[i, j] = rng.standard_normal()
+        A[np.arange(N), np.arange(N)] *= 1e-3      # small diagonal: pivoting must act
+        ldab = 2 * kl + ku + 1
+        AB = np.zeros((N, ldab))
+        for j in range(N):
+            for i in range(max(0, j - ku), min(N, j + kl + 1)):
+                AB[j, kl + ku + i - j] = A[i, j]
+        ABf = AB.reshape(-1).copy()
+        piv = np.zeros(N, dtype=np.int64)
+        assert mod.band_lu(ABf, N, kl, ku, piv, 1e-13) == 0
+        b = rng.standard_normal(N)
+        x = b.copy()
+        mod.band_solve(ABf, N, kl, ku, piv, x)
+        np.testing.assert_allclose(A @ x, b, rtol=1e-9, atol=1e-9 * np.abs(b).max())
+        # two equal rows make it singular (row N-2 kept inside row N-1's band)
+        A2 = A.copy()
+        if N - 2 - kl >= 0:
+            A2[N - 2, N - 2 - kl] = 0.0
+        A2[N - 1] = A2[N - 2]
+        AB2 = np.zeros((N, ldab))
+        for j in range(N):
+            for i in range(max(0, j - ku), min(N, j + kl + 1)):
+                AB2[j, kl + ku + i - j] = A2[i, j]
+        ABf2 = AB2.reshape(-1).copy()
+        assert mod.band_lu(ABf2, N, kl, ku, piv, 1e-13) == 1
