@@ -3,7 +3,8 @@
 Times each kernel alone (no gather, no scatter) on one batch of ``n`` elements
 at a perturbed state: the beam's force kernel with and without Jacobians,
 undamped and damped, its mass kernel, and the spring–damper force kernel.
-Prints the median over ``--runs`` samples of µs per call and ns per element.
+Prints the median over ``--runs`` samples of µs per call and ns per element
+(and the fastest sample, a hint of the cost on a machine shared with other work).
 With ``--numpy COMMIT`` it also times the numpy kernels these replaced, loaded
 from the git history (``git show COMMIT:elements/beam.py``), in the same run.
 
@@ -53,7 +54,8 @@ def _state(elements, rng):
     return np.ascontiguousarray(xe), np.ascontiguousarray(ve)
 
 
-def _median_us(fn, runs, inner):
+def _times_us(fn, runs, inner):
+    """µs per call of ``runs`` samples of ``inner`` calls each (after one warm-up call)."""
     fn()                                   # compile / warm up
     out = []
     for _ in range(runs):
@@ -61,7 +63,7 @@ def _median_us(fn, runs, inner):
         for _ in range(inner):
             fn()
         out.append(1e6 * (time.perf_counter() - t0) / inner)
-    return statistics.median(out)
+    return out
 
 
 def _old_module(commit, path, name):
@@ -78,7 +80,7 @@ def _old_module(commit, path, name):
 
 
 def measure(n=10_000, runs=7, numpy_commit=None):
-    """Rows (kernel, case, µs/call, ns/element[, numpy µs/call]) of medians."""
+    """Rows (kernel, case, median µs/call, ns/element, min µs/call[, numpy median µs/call])."""
     from femb.elements.beam import beam_force, beam_mass
     from femb.elements.forces import spring_damper_force
 
@@ -99,23 +101,26 @@ def measure(n=10_000, runs=7, numpy_commit=None):
             tf = np.zeros((n, 0, 3))
             fe, fq, fv = np.zeros((n, 6)), np.zeros((n, 6, 6)), np.zeros((n, 6, 6))
             for jac in (True, False):
-                us = _median_us(lambda: kern(P, 0.0, tf, xe, ve, jac, fe, fq, fv), runs, inner)
-                row = [f"{kind}.force", f"{label}, jac={jac}", us, 1e3 * us / n]
+                ts = _times_us(lambda: kern(P, 0.0, tf, xe, ve, jac, fe, fq, fv), runs, inner)
+                us = statistics.median(ts)
+                row = [f"{kind}.force", f"{label}, jac={jac}", us, 1e3 * us / n, min(ts)]
                 if old is not None:
                     ocls = getattr(old["beam" if kind == "ReissnerBeam" else "forces"], kind)
                     p = ocls.pack(els)
-                    row.append(_median_us(lambda: ocls.force(p, 0.0, xe, ve, jac), runs, max(1, inner // 10)))
+                    row.append(statistics.median(_times_us(lambda: ocls.force(p, 0.0, xe, ve, jac), runs,
+                                                           max(1, inner // 10))))
                 rows.append(row)
         if damping == 0.0:
             P = type(beams[0]).pack(beams)["P"]
             xe, _ = _state(beams, rng)
             Me = np.zeros((n, 6, 6))
-            us = _median_us(lambda: beam_mass(P, xe, Me), runs, inner)
-            row = ["ReissnerBeam.mass", "consistent", us, 1e3 * us / n]
+            ts = _times_us(lambda: beam_mass(P, xe, Me), runs, inner)
+            us = statistics.median(ts)
+            row = ["ReissnerBeam.mass", "consistent", us, 1e3 * us / n, min(ts)]
             if old is not None:
                 ocls = old["beam"].ReissnerBeam
                 p = ocls.pack(beams)
-                row.append(_median_us(lambda: ocls.mass(p, xe), runs, max(1, inner // 10)))
+                row.append(statistics.median(_times_us(lambda: ocls.mass(p, xe), runs, max(1, inner // 10))))
             rows.append(row)
     return rows
 
@@ -128,15 +133,15 @@ def main(argv=None):
                     help="also time the numpy kernels of this commit (needs the git history)")
     a = ap.parse_args(argv)
     rows = measure(a.n, a.runs, a.numpy)
-    head = f"{'kernel':20s} {'case':24s} {'us/call':>10s} {'ns/elem':>9s}"
+    head = f"{'kernel':20s} {'case':24s} {'us/call':>10s} {'ns/elem':>9s} {'min us':>9s}"
     if a.numpy:
         head += f" {'numpy us/call':>14s} {'ratio':>7s}"
     print(f"n = {a.n} elements per batch, median of {a.runs} samples")
     print(head)
     for r in rows:
-        line = f"{r[0]:20s} {r[1]:24s} {r[2]:10.1f} {r[3]:9.1f}"
+        line = f"{r[0]:20s} {r[1]:24s} {r[2]:10.1f} {r[3]:9.1f} {r[4]:9.1f}"
         if a.numpy:
-            line += f" {r[4]:14.1f} {r[4] / r[2]:7.1f}"
+            line += f" {r[5]:14.1f} {r[5] / r[2]:7.1f}"
         print(line)
 
 
