@@ -38,14 +38,21 @@ def mass(group, xe):
 
 
 def force(group, t, xe, ve, jac=True):
-    """Element forces ``fe (nel, ndv)`` and, with ``jac``, ``fq, fv (nel, ndv, ndv)``."""
+    """Element forces ``fe (nel, ndv)`` and, with ``jac``, ``fq, fv (nel, ndv, ndv)``.
+
+    ``fv`` is None for batches whose forces do not depend on q̇.
+    """
     xe, ve = _f(xe), _f(ve)
     nel, ndv = xe.shape[0], group.ndv
     fe = np.zeros((nel, ndv))
     fq = np.zeros((nel, ndv, ndv))
     fv = np.zeros((nel, ndv, ndv))
     group.cls.kernels["force"](group.P, float(t), time_values(group, t), xe, ve, bool(jac), fe, fq, fv)
-    return (fe, fq, fv) if jac else (fe, None, None)
+    if not jac:
+        return fe, None, None
+    traits = getattr(group, "traits", None)
+    damped = True if traits is None else bool(traits.get("force_depends_on_qd", True))
+    return fe, fq, (fv if damped else None)
 
 
 def constraint(group, t, xe, le=None, jac=True):

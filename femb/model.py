@@ -265,6 +265,10 @@ def compile_model(mech, *, length_scale=None):
         for e, row in zip(els, lam):
             lam_index[e.name] = row.copy()
         params = cls.pack(els)
+        if not isinstance(params, dict):
+            raise ModelError(f"{cls.__name__}.pack must return a dict, got {type(params).__name__}")
+        if "P" not in params and not _kernel_roles(tr):
+            params = dict(params, P=np.zeros((len(els), 1)))   # a batch without kernels (nodes)
         _check_kernels(cls, tr, params, len(els))
         fns = [list(cls.time_functions(e)) for e in els]
         ntf = {len(f) for f in fns}
@@ -386,12 +390,17 @@ def _index_group(g, nq):
 _ROLES = (("has_mass", "mass"), ("has_force", "force"))
 
 
-def _check_kernels(cls, tr, params, nel):
-    """The batch provides the compiled kernels its metadata declares, and a parameter array."""
-    ks = getattr(cls, "kernels", None) or {}
+def _kernel_roles(tr):
     need = [role for flag, role in _ROLES if tr[flag]]
     if int(tr["n_constraints"]):
         need += ["constraint", "rates"]
+    return need
+
+
+def _check_kernels(cls, tr, params, nel):
+    """The batch provides the compiled kernels its metadata declares, and a parameter array."""
+    ks = getattr(cls, "kernels", None) or {}
+    need = _kernel_roles(tr)
     missing = [r for r in need if r not in ks]
     if missing:
         raise ModelError(f"{cls.__name__}: its metadata declares {', '.join(missing)} but "

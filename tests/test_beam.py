@@ -10,6 +10,8 @@ import math
 
 import meshio
 import numpy as np
+
+from femb import kernels
 import pytest
 
 from femb import Mechanism, assembly
@@ -60,11 +62,11 @@ def test_force_jacobians_match_finite_differences(section, seed):
     g = _group(model, ReissnerBeam)
     assert g.traits["force_depends_on_qd"] == (section.damping != 0.0)
     qe, qde = _random_state(model, g, np.random.default_rng(seed))
-    f, f_q, f_qd = g.cls.force(g.params, 0.0, qe, qde, True)
-    f2, _, _ = g.cls.force(g.params, 0.0, qe, qde, False)
+    f, f_q, f_qd = kernels.force(g, 0.0, qe, qde, True)
+    f2, _, _ = kernels.force(g, 0.0, qe, qde, False)
     np.testing.assert_array_equal(f, f2)
-    Jq = _fd(lambda x: g.cls.force(g.params, 0.0, x, qde, False)[0], qe)
-    Jv = _fd(lambda v: g.cls.force(g.params, 0.0, qe, v, False)[0], qde)
+    Jq = _fd(lambda x: kernels.force(g, 0.0, x, qde, False)[0], qe)
+    Jv = _fd(lambda v: kernels.force(g, 0.0, qe, v, False)[0], qde)
     np.testing.assert_allclose(f_q, Jq, rtol=0, atol=1e-7 * np.abs(Jq).max())
     if section.damping:
         np.testing.assert_allclose(f_qd, Jv, rtol=0, atol=1e-7 * np.abs(Jv).max())
@@ -76,7 +78,7 @@ def test_internal_force_is_minus_the_energy_gradient_and_stiffness_symmetric():
     model = _beam_model()
     g = _group(model, ReissnerBeam)
     qe, qde = _random_state(model, g, np.random.default_rng(5), scale=0.5)
-    f, f_q, _ = g.cls.force(g.params, 0.0, qe, qde, True)
+    f, f_q, _ = kernels.force(g, 0.0, qe, qde, True)
     dW = _fd(lambda x: g.cls.strain_energy(g.params, x), qe)
     np.testing.assert_allclose(f, -dW, rtol=0, atol=1e-7 * np.abs(dW).max())
     np.testing.assert_allclose(f_q, np.swapaxes(f_q, 1, 2), rtol=0, atol=1e-9 * np.abs(f_q).max())
@@ -125,8 +127,8 @@ def test_rigid_motion_is_strain_free_and_forces_rotate():
         qd[:, k + 1] = v0[1] + w * qe[:, k]
         qd[:, k + 2] = w
     np.testing.assert_allclose(g.cls.strain_rates(g.params, qe, qd), 0.0, atol=1e-13)
-    f0 = g.cls.force(g.params, 0.0, qe, np.zeros_like(qe), False)[0]
-    fr = g.cls.force(g.params, 0.0, qr, np.zeros_like(qe), False)[0]
+    f0 = kernels.force(g, 0.0, qe, np.zeros_like(qe), False)[0]
+    fr = kernels.force(g, 0.0, qr, np.zeros_like(qe), False)[0]
     for k in (0, 3):
         np.testing.assert_allclose(fr[:, k:k + 2], f0[:, k:k + 2] @ R.T, atol=1e-10)
         np.testing.assert_allclose(fr[:, k + 2], f0[:, k + 2], atol=1e-10)
@@ -175,17 +177,17 @@ def test_clamp_constraint_derivatives():
     rng = np.random.default_rng(2)
     qe, qde = _random_state(model, g, rng, scale=0.5)
     lame = rng.standard_normal((g.nel, 3))
-    Phi, Phi_q, H = g.cls.constraint_all(g.params, 0.0, qe, lame, True)
-    P2, Pq2 = g.cls.constraint(g.params, 0.0, qe)
+    Phi, Phi_q, H = kernels.constraint(g, 0.0, qe, lame, jac=True)
+    P2, Pq2, _ = kernels.constraint(g, 0.0, qe, jac=False)
     np.testing.assert_array_equal(Phi, P2)
     np.testing.assert_array_equal(Phi_q, Pq2)
-    np.testing.assert_allclose(Phi_q, _fd(lambda x: g.cls.constraint(g.params, 0.0, x)[0], qe), atol=1e-9)
-    Hfd = _fd(lambda x: np.einsum("ecd,ec->ed", g.cls.constraint(g.params, 0.0, x)[1], lame), qe)
+    np.testing.assert_allclose(Phi_q, _fd(lambda x: kernels.constraint(g, 0.0, x, jac=False)[0], qe), atol=1e-9)
+    Hfd = _fd(lambda x: np.einsum("ecd,ec->ed", kernels.constraint(g, 0.0, x, jac=False)[1], lame), qe)
     np.testing.assert_allclose(H, Hfd, atol=1e-9)
-    np.testing.assert_allclose(g.cls.constraint_hessian(g.params, 0.0, qe, lame), H)
-    Phi_t, gam = g.cls.constraint_rates(g.params, 0.0, qe, qde)
+    np.testing.assert_allclose(kernels.constraint(g, 0.0, qe, lame, jac=True)[2], H)
+    Phi_t, gam = kernels.rates(g, 0.0, qe, qde)
     # γ = (Φ_q q̇)_q q̇
-    Pqv = _fd(lambda x: np.einsum("ecd,ed->ec", g.cls.constraint(g.params, 0.0, x)[1], qde), qe)
+    Pqv = _fd(lambda x: np.einsum("ecd,ed->ec", kernels.constraint(g, 0.0, x, jac=False)[1], qde), qe)
     np.testing.assert_allclose(gam, np.einsum("ecd,ed->ec", Pqv, qde), atol=1e-8)
     assert np.all(Phi_t == 0.0)
     # the initial configuration satisfies the clamps (at=None: points as given, so not here)
