@@ -128,9 +128,9 @@ def test_one_mass_hanging_from_one_spring():
     assert res.strategy == "direct" and res.load_factor.tolist() == [1.0]
     np.testing.assert_allclose(res.body("m0")[-1, :2], [0.0, -(1.0 + m * G / k)], atol=1e-14)
     assert res.path[0]["converged"] and res.path[0]["residuals"][-1][0] < 1e-10
-    # the old route (zero load first) is singular and cannot be the default
-    with pytest.raises(SingularMatrixError):
-        solve_static(model, load_steps=1, max_iter=2, min_step=1.0)
+    # no zero-load solve: the first (and only) Newton solve is at full load, from the given start,
+    # and its first matrix is singular (a slack spring has no lateral stiffness): a regularized step
+    assert [(p["mu"], p["start"]) for p in res.path] == [(1.0, "given")] and res.path[0]["damped"] >= 1
 
 
 def test_hanging_chain_of_masses_and_springs():
