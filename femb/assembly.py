@@ -90,26 +90,40 @@ def force_jacobians(model, t, q, qd):
     return _coo(model.force_groups, "nn", fq, shape), _coo(model.force_groups, "nn", fqd, shape)
 
 
+def _removed(model):
+    """Indices of equations removed by ``compile(redundant="eliminate")`` (empty if none)."""
+    act = getattr(model, "active_constraints", None)
+    return np.zeros(0, dtype=np.int64) if act is None else np.nonzero(~np.asarray(act, dtype=bool))[0]
+
+
 def constraint_vector(model, t, q):
-    """Φ(q, t), shape (nc,)."""
+    """Φ(q, t), shape (nc,); 0 on equations removed as redundant (``model.active_constraints``)."""
     qx, _ = _ext(model, q)
     Phi = np.zeros(model.nc)
     for g in model.constraint_groups:
         P, _ = g.cls.constraint(g.params, t, qx[g.dofs])
         Phi[g.lam.ravel()] = P.ravel()
+    Phi[_removed(model)] = 0.0
     return Phi
 
 
 def constraint_jacobian(model, t, q):
-    """Φ_q(q, t), csr matrix of shape (nc, nq)."""
+    """Φ_q(q, t), csr matrix of shape (nc, nq); zero rows for equations removed as redundant."""
     qx, _ = _ext(model, q)
-    return _coo(model.constraint_groups, "cq",
-                [g.cls.constraint(g.params, t, qx[g.dofs])[1] for g in model.constraint_groups],
-                (model.nc, model.nq))
+    B = _coo(model.constraint_groups, "cq",
+             [g.cls.constraint(g.params, t, qx[g.dofs])[1] for g in model.constraint_groups],
+             (model.nc, model.nq))
+    rem = _removed(model)
+    if rem.size:
+        keep = np.ones(model.nc)
+        keep[rem] = 0.0
+        B = (sp.diags(keep) @ B).tocsr()
+        B.eliminate_zeros()
+    return B
 
 
 def constraint_rates(model, t, q, qd):
-    """(Φ_t, γ) with Φ_q q̈ = −γ, γ = (Φ_q q̇)_q q̇ + 2Φ_qt q̇ + Φ_tt; each shape (nc,)."""
+    """(Φ_t, γ) with Φ_q q̈ = −γ, γ = (Φ_q q̇)_q q̇ + 2Φ_qt q̇ + Φ_tt; each shape (nc,) (0 on removed equations)."""
     qx, qdx = _ext(model, q, qd)
     Phi_t = np.zeros(model.nc)
     gam = np.zeros(model.nc)
@@ -117,6 +131,9 @@ def constraint_rates(model, t, q, qd):
         a, b = g.cls.constraint_rates(g.params, t, qx[g.dofs], qdx[g.dofs])
         Phi_t[g.lam.ravel()] = a.ravel()
         gam[g.lam.ravel()] = b.ravel()
+    rem = _removed(model)
+    Phi_t[rem] = 0.0
+    gam[rem] = 0.0
     return Phi_t, gam
 
 
@@ -167,6 +184,9 @@ def iteration_matrix(model, state, h, alpha, scaled=True):
         If True return D_L S_t D_R with D_L = diag(βh² I, I), D_R = diag(I, I/(βh²))
         (Bottasso, Dopico & Trainelli 2006).
 
+    Equations removed as redundant (``model.active_constraints``) have a zero
+    row and column and a 1 on the diagonal (the equation λ_i = 0).
+
     Returns
     -------
     scipy.sparse.csc_matrix, shape (nq + nc, nq + nc)
@@ -176,7 +196,13 @@ def iteration_matrix(model, state, h, alpha, scaled=True):
     top = c * (bp * mass_matrix(model, state.q) + gp * tangent_damping(model, state)
                + tangent_stiffness(model, state))
     B = constraint_jacobian(model, state.t, state.q)
-    return sp.bmat([[top, B.T], [B, None]], format="csc")
+    S = sp.bmat([[top, B.T], [B, None]], format="csc")
+    rem = _removed(model)
+    if rem.size:            # a removed equation is the trivial λ_i = 0
+        d = np.zeros(model.nq + model.nc)
+        d[model.nq + rem] = 1.0
+        S = (S + sp.diags(d)).tocsc()
+    return S
 
 
 # --------------------------------------------------------------------------
@@ -274,6 +300,12 @@ class Assembler:
         self.weight = model.force_weight                  # moments → forces (1/L on rotation rows)
         self.w_weight = model.force_weight_ext[self.w_idx]
         self.f_const_max = float(np.abs(model.f_const * self.weight).max(initial=0.0))
+        # equations removed as redundant (compile(redundant="eliminate")): Φ_i = 0, λ_i = 0
+        self.removed = _removed(model)
+        self.keep = None
+        if self.removed.size:
+            self.keep = np.ones(N)
+            self.keep[nq + self.removed] = 0.0
 
     def mass_times(self, qx, qdd):
         """M q̈."""
@@ -338,6 +370,8 @@ class Assembler:
                 vals.append(b)
                 vals.append(b)
                 vals.append(cK * H.reshape(-1)[nn_sel] if H is not None else np.zeros(nsel))
+        if self.keep is not None:
+            Phi[self.removed] = 0.0
         r_q = Mqdd - m.f_const
         scale = max(np.abs(Mqdd * self.weight).max(), self.f_const_max)
         if w:
@@ -366,4 +400,11 @@ class Assembler:
             S = data.reshape(self.N, self.N).T     # Fortran-ordered view, no copy for LAPACK
         else:
             S = sp.csc_matrix((data, self.indices, self.indptr), shape=(self.N, self.N))
+        if self.keep is not None:                  # removed equations: the trivial λ_i = 0
+            if self.dense:
+                S *= self.keep[:, None]
+                S *= self.keep[None, :]
+                S[nq + self.removed, nq + self.removed] = 1.0
+            else:
+                S = (sp.diags(self.keep) @ S @ sp.diags(self.keep) + sp.diags(1.0 - self.keep)).tocsc()
         return r_q, Phi, scale, S

@@ -302,7 +302,7 @@ class _Newton:
 
     def run(self, mu, q, lam, start, globalize):
         """One Newton solve: full steps (regularized only where K_t is singular) or globalized."""
-        nq, L = self.nq, self.model.length_scale
+        L = self.model.length_scale
         q = q.copy()
         lam = self.multiplier_guess(mu, q, lam.copy())
         rec = {"mu": float(mu), "start": start, "converged": False, "iterations": 0, "residuals": [],
