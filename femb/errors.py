@@ -69,3 +69,15 @@ SINGULAR_HINT = (
     "that has neither mass nor a constraint, or a mechanism locked in a singular "
     "(dead-centre) position"
 )
+
+SINGULAR_HINT_DIVERGED = (
+    "hint: the Newton iteration was diverging when the matrix became singular; this is the step "
+    "size, not the model (a stiff element or a fast motion that h does not resolve): reduce h"
+)
+
+SINGULAR_HINT_INDEPENDENT = (
+    "hint: the constraints are independent here (Φ_q has full rank), so this is not a redundant "
+    "joint: a coordinate has neither mass nor stiffness nor a constraint (a body with zero inertia "
+    "and no joint fixing its rotation), or h is so large that the stiffness swamps the mass in a "
+    "direction without stiffness; check masses and inertias, or reduce h"
+)

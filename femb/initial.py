@@ -31,7 +31,8 @@ import scipy.linalg as sla
 import scipy.sparse as sp
 
 from femb import assembly
-from femb.errors import SINGULAR_HINT, InitializationError, ModelError
+from femb.errors import (SINGULAR_HINT, SINGULAR_HINT_DIVERGED, SINGULAR_HINT_INDEPENDENT, InitializationError,
+                         ModelError)
 
 #: systems with at most this many unknowns are solved with dense LU
 DENSE_LIMIT = 200
@@ -200,6 +201,30 @@ def eliminate_redundant(model, t=0.0):
     active = np.ones(model.nc, dtype=bool)
     active[an.dependent] = False
     return active, [an.labels[j] for j in an.dependent], an
+
+
+def singular_hint(model, q, t=0.0, diverged=False):
+    """The hint that fits a singular iteration matrix at configuration ``q``.
+
+    After a diverging Newton iteration: the step size. Otherwise a rank test
+    of Φ_q (:func:`redundancy`): dependent equations are named (redundant
+    joints or a singular position); with independent constraints the cause is
+    a coordinate without mass and stiffness, or the step size.
+
+    Returns
+    -------
+    str
+    """
+    if diverged:
+        return SINGULAR_HINT_DIVERGED
+    try:
+        an = redundancy(model, q, t)
+    except Exception:                      # the hint must never hide the error it explains
+        return SINGULAR_HINT
+    if an.dependent:
+        return (f"hint: redundant constraints or a singular (dead-centre) position: {an.message(model)}; "
+                "remove the dependent joints or compile with redundant=\"eliminate\"")
+    return SINGULAR_HINT_INDEPENDENT
 
 
 # --------------------------------------------------------------------------

@@ -23,8 +23,8 @@ import scipy.sparse.linalg as spla
 
 from femb.alpha import GeneralizedAlpha
 from femb.assembly import Assembler
-from femb.errors import (SINGULAR_HINT, ConvergenceError, ParameterError, SingularMatrixError)
-from femb.initial import consistent_initial_state  # noqa: F401  (re-exported: femb.solver.consistent_initial_state)
+from femb.errors import SINGULAR_HINT_DIVERGED, ConvergenceError, ParameterError, SingularMatrixError
+from femb.initial import consistent_initial_state, singular_hint  # noqa: F401  (re-exported)
 from femb.model import State
 from femb.result import Result
 
@@ -337,11 +337,11 @@ class GeneralizedAlphaSolver:
                         raise ConvergenceError(
                             f"Newton diverged at t = {t1:.6g} s (step {self.step_index + 1}): the iteration "
                             f"matrix became singular at iteration {k} with ‖r_q‖∞ = {err_f:.3e} N, "
-                            f"‖Φ‖∞ = {err_phi:.3e} m; try a smaller h", t=t1, step=self.step_index + 1,
+                            f"‖Φ‖∞ = {err_phi:.3e} m; {SINGULAR_HINT_DIVERGED}", t=t1, step=self.step_index + 1,
                             residuals={"r_q": err_f, "Phi": err_phi}) from None
                     raise SingularMatrixError(
                         f"singular iteration matrix at t = {t1:.6g} s (step {self.step_index + 1}); "
-                        f"{SINGULAR_HINT}", t=t1, step=self.step_index + 1,
+                        f"{singular_hint(m, q, t1)}", t=t1, step=self.step_index + 1,
                         residuals={"r_q": err_f, "Phi": err_phi}) from None
                 self._lu_h = h
                 self.stats["factorizations"] += 1

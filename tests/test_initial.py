@@ -109,3 +109,19 @@ def test_initial_moves_reported_and_limited():
         pendulum().compile(max_initial_move=-1.0)
     with pytest.raises(ModelError, match="redundant"):
         pendulum().compile(redundant="ignore")
+
+
+def test_singular_matrix_hint_fits_the_cause():
+    """Redundant joints are named; a singular matrix with independent constraints is not called redundancy."""
+    from femb.elements import PointMass, SpringDamper
+    from femb.errors import SingularMatrixError
+    with pytest.raises(SingularMatrixError, match=r"step 1.*hinge 'h2' equations x, y are dependent on hinge 'h1'"):
+        femb.simulate(pendulum(("h1", "h2")).compile(), 0.1, 1e-2, initialize=False)
+    # a rotation with (almost) no inertia, no stiffness and no joint: nothing redundant about it
+    m = Mechanism("spinner")
+    b = m.add(RigidBody("b", 1.0, 1e-20, position=(1.0, 0.0)))
+    p = m.add(PointMass("p", 1.0, position=(0.0, 1.0)))
+    m.add(SpringDamper("s", "ground", b, 100.0, length=0.5), Hinge("h", "ground", p, at=(0.0, 1.0)))
+    with pytest.raises(SingularMatrixError, match="constraints are independent") as err:
+        femb.simulate(m.compile(), 0.1, 1e-2, initialize=False)
+    assert "redundant constraints or" not in str(err.value)
