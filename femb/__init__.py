@@ -10,7 +10,8 @@ from femb.errors import (ConvergenceError, FembError, InitializationError, Model
 from femb.mechanism import Mechanism
 from femb.model import Model, State
 from femb.result import Result
-from femb.solver import GeneralizedAlphaSolver, consistent_initial_state, simulate
+from femb.initial import consistent_initial_state
+from femb.solver import GeneralizedAlphaSolver, simulate
 
 __version__ = "0.1.0"
 
