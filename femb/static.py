@@ -23,8 +23,10 @@ Strategy (default)
    constraint (geometric) stiffness ∂(Φ_qᵀλ)/∂q is present from the first
    iteration. Newton first takes full steps (the fastest route when it
    converges: a residual-decrease test would reject the good full steps of
-   stiff geometrically nonlinear beams); where K_t is singular it takes the
-   least regularized step (K_t + ν K_d, below). If full steps fail, the level
+   stiff geometrically nonlinear beams), shortened only where they would move
+   a coordinate by more than the length scale L (a rotation by more than
+   1 rad); where K_t is singular it takes the least regularized step
+   (K_t + ν K_d, below) within that radius. If full steps fail, the level
    is solved again from its start with Newton globalized by a backtracking line search on the merit
    function ½‖D R‖² (R = [r; Φ], D scales forces by the force scale and
    lengths by the length scale; the Newton direction is a descent direction of
@@ -342,7 +344,7 @@ class _Newton:
             x = _solve(K, B, rhs)
             singular = x is None
             if not globalize:
-                step = (*self._split(x), False) if x is not None else \
+                step = self._limited(*self._split(x)) if x is not None else \
                     self._levenberg_marquardt(mu, q, lam, K, B, rhs, m0, None)
             else:
                 step = self._line_search(mu, q, lam, x, m0, merit) if x is not None else None
@@ -359,6 +361,13 @@ class _Newton:
             lam = lam + dlam
             last = np.abs(dq).max(initial=0.0)
         return None, rec, singular
+
+    def _limited(self, dq, dl):
+        """A full step, shortened to the trust radius: no coordinate moves more than L (rotations 1 rad)."""
+        big = np.abs(dq / self.w).max(initial=0.0) / self.model.length_scale
+        if big > 1.0:
+            return dq / big, dl / big, True
+        return dq, dl, False
 
     def _split(self, x):
         dl = np.zeros(self.model.nc)
@@ -382,7 +391,10 @@ class _Newton:
     def _levenberg_marquardt(self, mu, q, lam, K, B, rhs, m0, merit):
         """Steps with K + ν K_d for growing ν; None if none reduces the merit.
 
-        With ``merit`` None, the first solvable one is returned (full-step mode).
+        With ``merit`` None (full-step mode), the first solvable step that
+        moves no coordinate by more than the length scale L (rotations: 1 rad)
+        is returned: a trust radius, without which an almost singular K_t
+        gives an enormous step.
 
         K_d = diag(1 for translations, L² for rotations) × κ, κ the largest
         diagonal stiffness in N/m (or the force scale over L if K is zero): a
@@ -400,8 +412,11 @@ class _Newton:
             x = _solve((K + nu * Kd).tocsr(), B, rhs)
             if x is not None:
                 dq, dl = self._split(x)
-                if merit is None:                 # full-step mode: the least regularized solvable step
-                    return dq, dl, True
+                if merit is None:                 # full-step mode: the least regularized step within the
+                    if np.abs(dq / w).max(initial=0.0) <= self.model.length_scale:   # trust radius L
+                        return dq, dl, True
+                    nu *= 10.0
+                    continue
                 r, Phi, _ = self.residual(mu, q + dq, lam + dl)
                 mt = merit(r, Phi)
                 if np.isfinite(mt) and mt < m0:
@@ -499,9 +514,11 @@ def solve_static(model, *, load_steps=None, load_factors=None, t=0.0, state=None
         When neither the direct attempt nor load stepping (down to an
         increment of ``min_step``) converges; ``err.path`` holds the attempts.
     SingularMatrixError
-        When it fails at a configuration whose constrained stiffness matrix is
-        singular (a free body or an unloaded mechanism degree of freedom
-        without stiffness: statics is undefined there).
+        When a Newton solve fails at a configuration whose constrained
+        stiffness matrix is singular (a free body or a mechanism degree of
+        freedom without stiffness against the loads, or a limit point: statics
+        is undefined there, and neither load stepping nor cut-backs help);
+        raised at once, ``err.path`` holds the attempts.
 
     Examples
     --------
@@ -594,6 +611,11 @@ def solve_static(model, *, load_steps=None, load_factors=None, t=0.0, state=None
                         sol, rec = attempt(trial, q, lam, "previous" if mus else "given")
                     if sol is not None:
                         break
+                    if last_singular[0]:
+                        # a singular tangent where Newton stalls (no stiffness against the loads, or a
+                        # limit point): smaller increments do not remove it
+                        raise fail(f"static Newton failed at load factor {trial:.6g} (last converged {mu:.6g}) "
+                                   f"on a singular stiffness matrix: {rec['reason']}", trial)
                     if abs(dmu) <= min_step:
                         raise fail(f"static Newton failed at load factor {trial:.6g} with increment "
                                    f"{dmu:.3g} (last converged {mu:.6g}): {rec['reason']}", trial)
@@ -634,6 +656,9 @@ def solve_static(model, *, load_steps=None, load_factors=None, t=0.0, state=None
                 warnings.warn(f"model '{model.name}': the static equilibrium found is unstable (the reduced "
                               "stiffness has a negative eigenvalue); load stepping found no stable one",
                               stacklevel=2)
+        elif last_singular[0]:
+            raise fail(f"static Newton failed at full load from the given configuration on a singular "
+                       f"stiffness matrix: {rec['reason']}", 1.0)
         else:
             strategy = "continuation"
             n = int(fallback_steps)
