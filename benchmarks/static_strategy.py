@@ -58,7 +58,7 @@ def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--runs", type=int, default=5)
     a = ap.parse_args(argv)
-    print(f"| system | strategy | median ms | levels | Newton iterations | max |Δq| between strategies |")
+    print("| system | strategy | median ms | levels | Newton iterations | max |Δq| between strategies |")
     print("|---|---|---|---|---|---|")
     for name, model in systems():
         t_d, r_d = measure(model, a.runs)

@@ -63,6 +63,14 @@ class ParameterWarning(UserWarning):
     """Method parameters that violate an order or stability condition."""
 
 
+class InitialMoveWarning(UserWarning):
+    """Initialization moved bodies onto the constraints by more than a tolerance (lists them)."""
+
+
+class RedundantConstraintWarning(UserWarning):
+    """Dependent constraint equations were eliminated; their joints' reactions are not unique."""
+
+
 SINGULAR_HINT = (
     "hint: look for redundant constraints (two joints that remove the same motion, "
     "e.g. a duplicated hinge, or a Slider where a PointOnLine suffices), a coordinate "

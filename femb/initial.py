@@ -32,7 +32,7 @@ import scipy.sparse as sp
 
 from femb import assembly
 from femb.errors import (SINGULAR_HINT, SINGULAR_HINT_DIVERGED, SINGULAR_HINT_INDEPENDENT, InitializationError,
-                         ModelError)
+                         InitialMoveWarning, ModelError, RedundantConstraintWarning)  # noqa: F401 (re-exported)
 
 #: systems with at most this many unknowns are solved with dense LU
 DENSE_LIMIT = 200
@@ -45,14 +45,6 @@ MAX_INITIAL_MOVE = 0.01
 
 #: bodies moved by more than this fraction of the length scale (or this many rad) are reported
 REPORT_MOVE = 1e-6
-
-
-class InitialMoveWarning(UserWarning):
-    """The initial configuration was moved onto the constraints by more than a tolerance."""
-
-
-class RedundantConstraintWarning(UserWarning):
-    """Dependent constraint equations were eliminated; their joints' reactions are not unique."""
 
 
 # --------------------------------------------------------------------------
