@@ -44,6 +44,11 @@ def test_two_identical_hinges_eliminated_run_like_one():
     one = femb.simulate(pendulum().compile(), 0.5, 1e-2)
     two = femb.simulate(model, 0.5, 1e-2)
     np.testing.assert_allclose(two.q, one.q, atol=1e-12)
+    sparse = femb.simulate(model, 0.5, 1e-2, linear_solver="sparse")
+    np.testing.assert_allclose(sparse.q, one.q, atol=1e-12)
+    # the user-level iteration matrix is regular: a removed equation is the trivial λ_i = 0
+    S = femb.assembly.iteration_matrix(model, two.at(0.25), 1e-2, femb.GeneralizedAlpha.from_rho_inf(0.7))
+    assert np.linalg.matrix_rank(S.toarray()) == model.nq + model.nc
     np.testing.assert_allclose(two.reaction("h1"), one.reaction("h1"), atol=1e-9)
     with pytest.warns(RedundantConstraintWarning, match="not unique"):
         assert np.all(two.reaction("h2") == 0.0)
