@@ -77,7 +77,7 @@ def _describe(model, pairs):
     for el, eqs in by.items():
         word = "equation" if len(eqs) == 1 else "equations"
         parts.append(f"{_kind(model, el)} '{el}' {word} {', '.join(eqs)}")
-    return "; ".join(parts)
+    return " and ".join(parts)
 
 
 def active_mask(model):
