@@ -785,7 +785,7 @@ def dead_centre(ctx):
                 "isosceles slider–crank started exactly at θ = π/2 (slider on the pivot, rank-deficient Φ_q) with "
                 "ω₀ = 2π rad/s: integrates and follows the reference (θ error ≤ 1e-3 rad at h = 1e-3 s, on the branch)",
                 False, f"refused before the first step: {type(exc).__name__}: {first_line(exc)}",
-                finding=("femb cannot start at a singular configuration: femb/solver.py, consistent_initial_state "
+                finding=("femb cannot start at a singular configuration: femb/initial.py, consistent_initial_state "
                          "projects the initial velocities (and computes q̈₀, λ₀) with the augmented matrix "
                          "[[I, Φ_qᵀ], [Φ_q, 0]], which is singular when Φ_q loses rank, and raises. The refusal is "
                          "loud and its hint names dead-centre positions, so no wrong motion is produced; a "

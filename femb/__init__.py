@@ -5,13 +5,14 @@ into a frozen :class:`~femb.model.Model`, and integrate it with the index-3
 generalized-α scheme of Arnold & Brüls (2007) via :func:`simulate`.
 """
 from femb.alpha import GeneralizedAlpha
-from femb.errors import (ConvergenceError, FembError, InitializationError, ModelError, OutputError,
-                         ParameterError, ParameterWarning, SingularMatrixError, SolverError,
-                         AccuracyWarning)
+from femb.errors import (AccuracyWarning, ConvergenceError, FembError, InitializationError, InitialMoveWarning,
+                         ModelError, OutputError, ParameterError, ParameterWarning, RedundantConstraintWarning,
+                         SingularMatrixError, SolverError)
 from femb.mechanism import Mechanism
 from femb.model import Model, State
 from femb.result import Result
-from femb.solver import GeneralizedAlphaSolver, consistent_initial_state, simulate
+from femb.initial import consistent_initial_state
+from femb.solver import GeneralizedAlphaSolver, simulate
 
 __version__ = "0.1.0"
 
@@ -19,5 +20,5 @@ __all__ = [
     "GeneralizedAlpha", "Mechanism", "Model", "State", "Result", "GeneralizedAlphaSolver",
     "simulate", "consistent_initial_state", "FembError", "ModelError", "ParameterError",
     "InitializationError", "SolverError", "ConvergenceError", "SingularMatrixError", "OutputError",
-    "ParameterWarning", "AccuracyWarning",
+    "ParameterWarning", "AccuracyWarning", "InitialMoveWarning", "RedundantConstraintWarning",
 ]

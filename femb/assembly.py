@@ -105,8 +105,14 @@ def force_jacobians(model, t, q, qd):
     return _coo(model.force_groups, "nn", fq, shape), _coo(model.force_groups, "nn", fqd, shape)
 
 
+def _removed(model):
+    """Indices of equations removed by ``compile(redundant="eliminate")`` (empty if none)."""
+    act = getattr(model, "active_constraints", None)
+    return np.zeros(0, dtype=np.int64) if act is None else np.nonzero(~np.asarray(act, dtype=bool))[0]
+
+
 def constraint_vector(model, t, q):
-    """Φ(q, t), shape (nc,)."""
+    """Φ(q, t), shape (nc,); 0 on equations removed as redundant (``model.active_constraints``)."""
     qx, _ = _ext(model, q)
     Phi = np.zeros(model.nc)
     for g in model.constraint_groups:
@@ -116,7 +122,7 @@ def constraint_vector(model, t, q):
 
 
 def constraint_jacobian(model, t, q):
-    """Φ_q(q, t), csr matrix of shape (nc, nq)."""
+    """Φ_q(q, t), csr matrix of shape (nc, nq); zero rows for equations removed as redundant."""
     qx, _ = _ext(model, q)
     return _coo(model.constraint_groups, "cq",
                 [_masked_rows(model, g, kernels.constraint(g, t, qx[g.dofs], jac=False)[1])
@@ -125,7 +131,7 @@ def constraint_jacobian(model, t, q):
 
 
 def constraint_rates(model, t, q, qd):
-    """(Φ_t, γ) with Φ_q q̈ = −γ, γ = (Φ_q q̇)_q q̇ + 2Φ_qt q̇ + Φ_tt; each shape (nc,)."""
+    """(Φ_t, γ) with Φ_q q̈ = −γ, γ = (Φ_q q̇)_q q̇ + 2Φ_qt q̇ + Φ_tt; each shape (nc,) (0 on removed equations)."""
     qx, qdx = _ext(model, q, qd)
     Phi_t = np.zeros(model.nc)
     gam = np.zeros(model.nc)
@@ -183,6 +189,9 @@ def iteration_matrix(model, state, h, alpha, scaled=True):
         If True return D_L S_t D_R with D_L = diag(βh² I, I), D_R = diag(I, I/(βh²))
         (Bottasso, Dopico & Trainelli 2006).
 
+    Equations removed as redundant (``model.active_constraints``) have a zero
+    row and column and a 1 on the diagonal (the equation λ_i = 0).
+
     Returns
     -------
     scipy.sparse.csc_matrix, shape (nq + nc, nq + nc)
@@ -192,4 +201,10 @@ def iteration_matrix(model, state, h, alpha, scaled=True):
     top = c * (bp * mass_matrix(model, state.q) + gp * tangent_damping(model, state)
                + tangent_stiffness(model, state))
     B = constraint_jacobian(model, state.t, state.q)
-    return sp.bmat([[top, B.T], [B, None]], format="csc")
+    S = sp.bmat([[top, B.T], [B, None]], format="csc")
+    rem = _removed(model)
+    if rem.size:            # a removed equation is the trivial λ_i = 0
+        d = np.zeros(model.nq + model.nc)
+        d[model.nq + rem] = 1.0
+        S = (S + sp.diags(d)).tocsc()
+    return S

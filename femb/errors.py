@@ -63,6 +63,14 @@ class ParameterWarning(UserWarning):
     """Method parameters that violate an order or stability condition."""
 
 
+class InitialMoveWarning(UserWarning):
+    """Initialization moved bodies onto the constraints by more than a tolerance (lists them)."""
+
+
+class RedundantConstraintWarning(UserWarning):
+    """Dependent constraint equations were eliminated; their joints' reactions are not unique."""
+
+
 SINGULAR_HINT = (
     "hint: look for redundant constraints (two joints that remove the same motion, "
     "e.g. a duplicated hinge, or a Slider where a PointOnLine suffices), a coordinate "
@@ -70,6 +78,17 @@ SINGULAR_HINT = (
     "(dead-centre) position"
 )
 
+SINGULAR_HINT_DIVERGED = (
+    "hint: the Newton iteration was diverging when the matrix became singular; this is the step "
+    "size, not the model (a stiff element or a fast motion that h does not resolve): reduce h"
+)
+
+SINGULAR_HINT_INDEPENDENT = (
+    "hint: the constraints are independent here (Φ_q has full rank), so this is not a redundant "
+    "joint: a coordinate has neither mass nor stiffness nor a constraint (a body with zero inertia "
+    "and no joint fixing its rotation), or h is so large that the stiffness swamps the mass in a "
+    "direction without stiffness; check masses and inertias, or reduce h"
+)
 
 class AccuracyWarning(UserWarning):
     """A fixed-step run whose local error estimate says the steps are far too large."""

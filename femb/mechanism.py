@@ -57,7 +57,7 @@ class Mechanism:
         """The elements, in the order they were added (list)."""
         return list(self._elements)
 
-    def compile(self, *, length_scale=None):
+    def compile(self, *, length_scale=None, redundant="error", max_initial_move=None):
         """Freeze the mechanism into a :class:`~femb.model.Model`.
 
         Parameters
@@ -65,7 +65,59 @@ class Mechanism:
         length_scale : float, optional
             Characteristic length (m) used to scale the constraint tolerance;
             default: the size of the initial configuration.
+        redundant : {"error", "eliminate"}
+            What to do with constraint equations that depend on others at the
+            initial configuration (two identical hinges, a parallelogram with a
+            fifth bar). "error" (default): initialization raises an
+            :class:`~femb.errors.InitializationError` naming the joints and
+            equations. "eliminate": the dependent equations are found now
+            (rank-revealing QR, :func:`femb.initial.redundancy`) and dropped,
+            with a :class:`~femb.initial.RedundantConstraintWarning`; they keep
+            their place in λ with λ_i = 0, so the reactions of the joints
+            involved are one admissible distribution, not *the* reactions
+            (they are not unique).
+        max_initial_move : float, optional
+            Largest move (m) of a body when the initial positions are
+            projected onto the constraints (see
+            :func:`femb.initial.consistent_initial_state`; default 1 % of the
+            length scale).
+
+        Returns
+        -------
+        Model
+            With ``active_constraints`` (bool array, shape (nc,)),
+            ``removed_constraints`` (list of (element, equation)) and
+            ``max_initial_move`` (float or None).
         """
+        import warnings
+
+        import numpy as np
+
+        from femb.initial import RedundantConstraintWarning, eliminate_redundant
         from femb.model import compile_model
 
-        return compile_model(self, length_scale=length_scale)
+        if redundant not in ("error", "eliminate"):
+            raise ModelError(f"Mechanism.compile: redundant must be 'error' or 'eliminate', got {redundant!r}")
+        if max_initial_move is not None:
+            try:
+                max_initial_move = float(max_initial_move)
+            except (TypeError, ValueError):
+                max_initial_move = -1.0
+            if not max_initial_move > 0.0:
+                raise ModelError("Mechanism.compile: max_initial_move must be a positive length (m)")
+        model = compile_model(self, length_scale=length_scale)
+        # attributes of the frozen model set once here, before anyone sees it
+        extra = {"active_constraints": np.ones(model.nc, dtype=bool), "removed_constraints": [],
+                 "max_initial_move": max_initial_move}
+        model.__dict__.update(extra)
+        if redundant == "eliminate" and model.nc:
+            active, removed, an = eliminate_redundant(model)
+            if removed:
+                active.flags.writeable = False
+                model.__dict__.update(active_constraints=active, removed_constraints=removed)
+                warnings.warn(
+                    f"mechanism '{self.name}': removed {len(removed)} dependent constraint equation(s): "
+                    f"{an.message(model)}. The reactions of these joints are not unique (the removed "
+                    "equations carry λ = 0; the others carry the whole load)",
+                    RedundantConstraintWarning, stacklevel=2)
+        return model

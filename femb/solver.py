@@ -25,14 +25,11 @@ import time
 import warnings
 
 import numpy as np
-import scipy.linalg as sla
-import scipy.sparse as sp
-import scipy.sparse.linalg as spla
 
-from femb import assembly
 from femb.alpha import GeneralizedAlpha
-from femb.errors import (SINGULAR_HINT, ConvergenceError, InitializationError, ParameterError,
-                         SingularMatrixError)
+from femb.errors import (SINGULAR_HINT, SINGULAR_HINT_DIVERGED, ConvergenceError, InitializationError,
+                         ParameterError, SingularMatrixError)
+from femb.initial import consistent_initial_state, singular_hint  # noqa: F401  (re-exported)
 from femb.model import State
 from femb.result import Result
 
@@ -64,154 +61,6 @@ def _constraint_owner(model):
 # --------------------------------------------------------------------------
 # linear solves
 # --------------------------------------------------------------------------
-class _LU:
-    """One factorization of a dense array or a CSC matrix.
-
-    A pivot below ``rel_tol`` times the largest one is taken as singularity.
-    That test is only meaningful for a well-scaled matrix (the scaled Newton
-    system); the unscaled one has pivots of order h⁴ relative to the largest
-    by design, so there only exact singularity (a zero pivot) is reported.
-    """
-
-    def __init__(self, S, dense, rel_tol=1e-13):
-        self.dense = dense
-        if dense:
-            # LAPACK getrf/getrs directly: the wrappers' checks cost more than a 40x40 LU
-            lu, piv, info = _getrf(S, overwrite_a=True)
-            d = np.abs(np.diag(lu))
-            if info > 0 or not np.all(np.isfinite(d)) or d.min() <= rel_tol * d.max():
-                raise _Singular()
-            self.lu = (lu, piv)
-        else:
-            try:
-                self.lu = spla.splu(S)
-            except RuntimeError:
-                raise _Singular() from None
-            d = np.abs(self.lu.U.diagonal())
-            if not np.all(np.isfinite(d)) or d.min() <= rel_tol * d.max():
-                raise _Singular()
-
-    def solve(self, b):
-        if self.dense:
-            x, info = _getrs(self.lu[0], self.lu[1], b)
-            return x
-        return self.lu.solve(b)
-
-
-class _Singular(Exception):
-    pass
-
-
-def _solve_augmented(A, B, rhs_top, rhs_bottom, what):
-    """Solve [[A, Bᵀ], [B, 0]] [x; y] = [rhs_top; rhs_bottom] (sparse, once)."""
-    K = sp.bmat([[A, B.T], [B, None]], format="csc") if B.shape[0] else sp.csc_matrix(A)
-    rhs = np.concatenate((rhs_top, rhs_bottom))
-    n = A.shape[0]
-    try:
-        if K.shape[0] <= DENSE_LIMIT:
-            x = _LU(K.toarray(), True).solve(rhs)
-        else:
-            x = _LU(K, False).solve(rhs)
-    except _Singular:
-        raise InitializationError(f"{what}: the matrix [[A, Φ_qᵀ], [Φ_q, 0]] is singular; {SINGULAR_HINT}") from None
-    return x[:n], x[n:]
-
-
-# --------------------------------------------------------------------------
-# consistent initial values (method.md §5)
-# --------------------------------------------------------------------------
-def consistent_initial_state(model, state=None, *, t0=0.0, phi_tol=1e-12, max_iter=50):
-    """Project an initial state onto the constraints at all levels.
-
-    1. positions: least change q = argmin ‖q − q_0‖ subject to Φ(q, t_0) = 0
-       (Gauss–Newton);
-    2. velocities: q̇ = argmin ‖q̇ − q̇_0‖ subject to Φ_q q̇ = −Φ_t;
-    3. accelerations and multipliers from
-       [[M, Φ_qᵀ], [Φ_q, 0]] [q̈; λ] = [f; −γ].
-
-    Parameters
-    ----------
-    model : Model
-    state : State, optional
-        Starting guess (default: the model's initial state).
-    t0 : float
-    phi_tol : float
-        Relative tolerance: ‖Φ‖∞ ≤ phi_tol × model.length_scale.
-    max_iter : int
-
-    Returns
-    -------
-    State
-
-    Raises
-    ------
-    InitializationError
-        If the positions cannot be projected (names the constraint with the
-        largest residual), or a matrix is singular (redundant constraints).
-    """
-    st = (state or model.initial_state(t0)).copy()
-    t = st.t
-    nq, nc = model.nq, model.nc
-    I = sp.identity(nq, format="csr")
-    owner = _constraint_owner(model)
-    tol = phi_tol * model.length_scale
-    if nc:
-        q0 = st.q.copy()
-        q = st.q.copy()
-        for k in range(max_iter + 1):
-            Phi = assembly.constraint_vector(model, t, q)
-            err = np.abs(Phi).max()
-            if not np.isfinite(err):
-                raise InitializationError("initial positions give non-finite constraint values")
-            if err <= tol:
-                break
-            if k == max_iter:
-                i = int(np.argmax(np.abs(Phi)))
-                raise InitializationError(
-                    f"cannot project the initial configuration onto the constraints: ‖Φ‖ = {err:.3e} "
-                    f"after {max_iter} Gauss–Newton iterations; largest residual in element "
-                    f"'{owner[i]}' ({Phi[i]:.3e}). The joints cannot all be closed from these positions: "
-                    "check the bodies' positions and the joints' points")
-            B = assembly.constraint_jacobian(model, t, q)
-            _zero_rows(B, owner)
-            try:
-                dq, _ = _solve_augmented(I, B, q0 - q, -Phi, "position projection")
-            except InitializationError:
-                i = int(np.argmax(np.abs(Phi)))
-                raise InitializationError(
-                    f"cannot project the initial configuration onto the constraints: ‖Φ‖ = {err:.3e} "
-                    f"(largest residual in element '{owner[i]}', {Phi[i]:.3e}) and the constraint "
-                    f"Jacobian is rank-deficient at Gauss–Newton iteration {k}: the joints cannot all be "
-                    f"closed from these positions, or some are redundant; {SINGULAR_HINT}") from None
-            q += dq
-        st.q = q
-        B = assembly.constraint_jacobian(model, t, st.q)
-        _zero_rows(B, owner)
-        Phi_t, _ = assembly.constraint_rates(model, t, st.q, st.qd)
-        st.qd, _ = _solve_augmented(I, B, st.qd, -Phi_t, "velocity projection")
-        _, gam = assembly.constraint_rates(model, t, st.q, st.qd)
-    else:
-        B = sp.csr_matrix((0, nq))
-        gam = np.zeros(0)
-    M = assembly.mass_matrix(model, st.q)
-    f = assembly.force_vector(model, t, st.q, st.qd)
-    st.qdd, st.lam = _solve_augmented(M, B, f, -gam, "initial accelerations")
-    if not (np.all(np.isfinite(st.qdd)) and np.all(np.isfinite(st.lam))):
-        raise InitializationError("initial accelerations are not finite")
-    return st
-
-
-def _zero_rows(B, owner):
-    absmax = np.zeros(B.shape[0])
-    Bc = B.tocoo()
-    np.maximum.at(absmax, Bc.row, np.abs(Bc.data))
-    bad = np.nonzero(absmax == 0.0)[0]
-    if bad.size:
-        raise InitializationError(
-            f"constraint {int(bad[0])} of element '{owner[bad[0]]}' does not depend on any free "
-            "coordinate (it acts only on fixed coordinates): remove it or free a coordinate")
-
-
 # --------------------------------------------------------------------------
 # the integrator
 # --------------------------------------------------------------------------
@@ -591,13 +440,15 @@ class GeneralizedAlphaSolver:
             msg = (f"step size fell below h_min = {self.h_min:.3g} s at t = {t1:.6g} s (step {n}) after "
                    f"{int(self.si[5])} Newton failures and {int(self.si[4])} rejected steps; last failure: {what}")
             if last == -4:
-                raise SingularMatrixError(f"{msg}; {SINGULAR_HINT}", t=t1, step=n, residuals=res)
+                raise SingularMatrixError(f"{msg}; {singular_hint(self.model, self.q, t1)}", t=t1, step=n,
+                                          residuals=res)
             raise ConvergenceError(msg + "; the motion may be singular here, or tighten phi_tol/rtol",
                                    t=t1, step=n, residuals=res)
         if status == -6:
             raise SingularMatrixError(
                 f"the matrix [[M, Φ_qᵀ], [Φ_q, 0]] of the constrained accelerations is singular at "
-                f"t = {t1:.6g} s (step {n}); {SINGULAR_HINT}", t=t1, step=n, residuals=res)
+                f"t = {t1:.6g} s (step {n}); {singular_hint(self.model, self.q, t1)}", t=t1, step=n,
+                residuals=res)
         if status == -1:
             raise ConvergenceError(
                 f"non-finite residual at t = {t1:.6g} s (step {n}, iteration {k}): the step diverged; "
@@ -616,12 +467,12 @@ class GeneralizedAlphaSolver:
         if status == -3:
             raise ConvergenceError(
                 f"Newton diverged at t = {t1:.6g} s (step {n}): the iteration matrix became singular at "
-                f"iteration {k} with ‖r_q‖∞ = {err_f:.3e} N, ‖Φ‖∞ = {err_phi:.3e} m; try a smaller h",
+                f"iteration {k} with ‖r_q‖∞ = {err_f:.3e} N, ‖Φ‖∞ = {err_phi:.3e} m; {SINGULAR_HINT_DIVERGED}",
                 t=t1, step=n, residuals=res)
         if status == -4:
             raise SingularMatrixError(
-                f"singular iteration matrix at t = {t1:.6g} s (step {n}); {SINGULAR_HINT}",
-                t=t1, step=n, residuals=res)
+                f"singular iteration matrix at t = {t1:.6g} s (step {n}); "
+                f"{singular_hint(self.model, self.q, t1)}", t=t1, step=n, residuals=res)
         raise RuntimeError(f"femb: unknown status {status} from the compiled loop")
 
     # ------------------------------------------------------------------ public

@@ -132,7 +132,8 @@ def test_redundant_constraints_are_reported():
     m = pendulum()
     m.add(Hinge("pivot_again", "ground", "bar", point_b="O"))
     model = m.compile()
-    with pytest.raises(InitializationError, match="singular.*redundant"):
+    with pytest.raises(InitializationError, match="redundant constraints.*hinge 'pivot_again' equations x, y "
+                                                  "are dependent on hinge 'pivot' equations x, y"):
         femb.simulate(model, 0.1, 1e-3)
     # without initialization the solver's own check reports it, with time and step
     with pytest.raises(SingularMatrixError, match=r"t = 0.001 s \(step 1\).*redundant") as err:
