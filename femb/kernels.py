@@ -37,10 +37,11 @@ def mass(group, xe):
     return Me
 
 
-def force(group, t, xe, ve, jac=True):
+def force(group, t, xe, ve, jac=True, raw=False):
     """Element forces ``fe (nel, ndv)`` and, with ``jac``, ``fq, fv (nel, ndv, ndv)``.
 
-    ``fv`` is None for batches whose forces do not depend on q̇.
+    ``fv`` is None for batches whose forces do not depend on q̇, unless ``raw``
+    (then it is the array the kernel wrote, for checks).
     """
     xe, ve = _f(xe), _f(ve)
     nel, ndv = xe.shape[0], group.ndv
@@ -51,7 +52,7 @@ def force(group, t, xe, ve, jac=True):
     if not jac:
         return fe, None, None
     traits = getattr(group, "traits", None)
-    damped = True if traits is None else bool(traits.get("force_depends_on_qd", True))
+    damped = raw or traits is None or bool(traits.get("force_depends_on_qd", True))
     return fe, fq, (fv if damped else None)
 
 

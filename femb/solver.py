@@ -38,7 +38,6 @@ DENSE_LIMIT = 200
 #: steps per call of the compiled loop when nothing needs Python between steps
 CHUNK = 4096
 
-_getrf, _getrs = sla.get_lapack_funcs(("getrf", "getrs"), dtype=np.float64)
 
 
 def _check_positive(name, value):
@@ -121,6 +120,8 @@ class GeneralizedAlphaSolver:
         matched to the scheme's O(h²) offset (stepsize.md §2), so that λ and
         driving forces are second order from the first step; "seed": a_0 = q̈_0
         and the exact q̇_0 (the seed paper's start, with an O(h) transient in λ).
+        Fixed steps with ``initialize=False`` use the seed's start (the given
+        state need not be consistent).
     newton_test : {"correction", "residual"}
         Newton stopping rule: "correction" (default; weighted correction in q
         and acceleration units, contraction-rate test; stepsize.md §5) or
@@ -242,6 +243,7 @@ class GeneralizedAlphaSolver:
         else:
             st = (state or model.initial_state(t0)).copy()
         self.init_time = time.perf_counter() - t_init
+        self._initialized = bool(initialize)
         self.initial_state = st.copy()
         self.t0 = st.t
         if t_end is None:
@@ -322,8 +324,9 @@ class GeneralizedAlphaSolver:
         out = np.zeros(self.model.nq)
         if cp.mod.kkt_accelerations(cp.G, cp.C, self.ip, float(t), q, qd, KB, kpiv, W[15], np.zeros(self.model.nc),
                                     W[16], W[17], W[18], W[19], W[20], out) != 0:
-            raise InitializationError(f"the matrix [[M, Φ_qᵀ], [Φ_q, 0]] is singular at t = {t:.6g} s; "
-                                      f"{SINGULAR_HINT}")
+            raise SingularMatrixError(f"the matrix [[M, Φ_qᵀ], [Φ_q, 0]] of the constrained accelerations is "
+                                      f"singular at t = {t:.6g} s (start); {singular_hint(self.model, q, t)}",
+                                      t=float(t), step=0)
         return out
 
     def _start(self):
@@ -334,7 +337,8 @@ class GeneralizedAlphaSolver:
         self._tf_at(t0)
         self.sf[0] = cp.mod.evaluate(cp.G, cp.C, t0, self.q, self.qd, self.qdd, self.lam, False,
                                      0.0, 0.0, 0.0, self.AB, self.r, self.Phi)
-        need_j = self.adaptive or self.start == "consistent"
+        # the consistent start needs consistent initial values; initialize=False keeps the seed's start
+        need_j = self.adaptive or (self.start == "consistent" and self._initialized)
         h0 = self.h
         if need_j:
             dl = min(1e-4, 1e-3 * (self.t_end - t0))

@@ -21,6 +21,14 @@ C. L. Bottasso, D. Dopico, L. Trainelli, Multibody Syst. Dyn. 19 (2008) 3–20 (
 E. Anderson et al., LAPACK Users' Guide, 3rd ed., SIAM 1999 (band LU with partial pivoting, ``dgbtf2``).
 """
 
+import math
+
+from numba import njit
+
+from femb.jit import OPTIONS
+
+# ``evaluate``, ``rates`` and ``jacobian_times`` are defined by the generated module this text is appended to.
+
 # ---- status codes returned to Python (femb/solver.py raises femb's errors) -------------
 ST_CHUNK = 0          # requested number of steps done
 ST_DONE = 1           # t_end reached

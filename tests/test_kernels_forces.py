@@ -89,7 +89,7 @@ def test_kernels_equal_the_old_numpy_kernels(label):
         if g.traits["has_mass"]:
             out["Me"] = K.mass(g, xe)
         if g.traits["has_force"]:
-            out["fe"], out["fq"], out["fv"] = K.force(g, t, xe, ve)
+            out["fe"], out["fq"], out["fv"] = K.force(g, t, xe, ve, raw=True)
         if g.nc:
             out["Phi"], out["B"], out["H"] = K.constraint(g, t, xe, le)
             out["Phi_t"], out["gam"] = K.rates(g, t, xe, ve)
@@ -103,7 +103,7 @@ def test_kernels_equal_the_old_numpy_kernels(label):
 def test_force_jacobians_against_finite_differences(label, seed):
     g = GROUPS[label]
     t, xe, ve, _ = S.random_state(g, np.random.default_rng(seed))
-    f, fq, fv = K.force(g, t, xe, ve, jac=True)
+    f, fq, fv = K.force(g, t, xe, ve, jac=True, raw=True)
     f2, _, _ = K.force(g, t, xe, ve, jac=False)
     np.testing.assert_array_equal(f, f2)
     assert np.all(np.isfinite(f)) and np.abs(f).max() > 0.0
