@@ -45,6 +45,23 @@ H = 5e-3
 #: Run settings of the benchmark (scene protocol, :mod:`femb.benchmarks.registry`).
 DEFAULTS = {"t_end": DATA["t_end"], "h": H, "rho_inf": 0.7}
 
+#: Parameters of :func:`build`: name -> (meaning, unit), shown by ``femb list``.
+PARAMETERS = {
+    "n_elements": ("beam elements", "-"),
+    "omega_s": ("final hub angular velocity", "rad/s"),
+    "T_s": ("spin-up time (smooth ramp of the hub rate)", "s"),
+    "damping": ("stiffness-proportional material damping eta of the beam", "s"),
+    "mass": ("beam mass matrix, 'consistent' or 'lumped'", "-"),
+}
+
+#: Outputs of :func:`outputs`: name -> (meaning, unit), shown by ``femb list``.
+OUTPUTS = {
+    "tip_deflection": ("transverse tip displacement in the hub frame", "m"),
+    "tip_axial": ("axial tip displacement in the hub frame", "m"),
+    "root_moment": ("torque of the hub on the beam root (counter-clockwise positive)", "N m"),
+    "hub_torque": ("torque the driver applies to the hub", "N m"),
+}
+
 #: h-convergence study: 2 s into the spin-up, outputs of :func:`outputs`.
 CONVERGENCE = {"t_end": 2.0, "h": [0.04, 0.02, 0.01, 0.005],
                "q": ["tip_deflection", "tip_axial"], "lambda": ["root_moment", "hub_torque"]}
