@@ -81,7 +81,7 @@ def newton_options(n_elements):
 
     In absolute coordinates an element's strain is computed from the
     difference of two node positions, so the internal forces carry a
-    round-off error of about ε·EA·|x|/L_e, which grows with the number of
+    round-off error of about ε·EA·‖x‖/L_e, which grows with the number of
     elements; the force residual stalls there (observed: ≈ 3e-9 N per element
     here), above the solver's relative test while the scene is nearly at
     rest. atol = 1e-7 N per element sits well above that floor and far below
@@ -197,7 +197,7 @@ def time_convergence(n_elements=4, t_end=0.01, hs=(8e-5, 4e-5, 2e-5, 1e-5), h_re
 def mesh_convergence(ns=(2, 4, 8, 16), t_end=DATA["t_end"], h=H, rho_inf=0.7, **kw):
     """Midspan deflection at t_end for each mesh and the observed orders.
 
-    Returns a dict with ``n``, ``midspan_deflection``, ``diff`` (|w_{k+1} − w_k|)
+    Returns a dict with ``n``, ``midspan_deflection``, ``diff`` (``|w_{k+1} − w_k|``)
     and ``orders`` log₂(diff_k / diff_{k+1}) for meshes refined by 2.
     """
     res = studies.mesh_convergence(build, newton_options, lambda r: final_outputs(r)["midspan_deflection"],

@@ -151,7 +151,7 @@ def reference(t, length=PARAMS["length"], mass=PARAMS["mass"], g=PARAMS["g"], ps
 def energy(result, length=PARAMS["length"], mass=PARAMS["mass"], g=PARAMS["g"]):
     """Total energy T + V (J) at every stored step, from the absolute coordinates.
 
-    V = m g y_c with the pivot at y = 0; T = ½ m |v_c|² + ½ J ω².
+    V = m g y_c with the pivot at y = 0; T = ½ m ‖v_c‖² + ½ J ω².
     """
     q = result.body("bar")
     v = result.body("bar", "qd")

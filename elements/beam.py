@@ -58,7 +58,7 @@ strain rates, objective): σ = D (ε + η ε̇), which adds C = L η Bᵀ D B to
 damping tangent and a (non-symmetric) term to the stiffness tangent.
 
 Inertia: the node sits at the section centroid, so the kinetic energy
-T = ½∫(ρA |ẋ|² + ρI θ̇²) ds has a constant mass matrix in these absolute
+T = ½∫(ρA ‖ẋ‖² + ρI θ̇²) ds has a constant mass matrix in these absolute
 coordinates (Simo & Vu-Quoc 1986, Part I, Sect. 3; no gyroscopic term in
 the plane). Consistent (linear shape functions, exact integration) or lumped.
 
