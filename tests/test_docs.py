@@ -45,3 +45,12 @@ def test_readme_example_is_found():
     src = examples.readme_example(ROOT / "README.md")
     assert 'femb.Mechanism("pendulum")' in src and "femb.simulate(" in src
     compile(src, "README.md", "exec")
+
+
+def test_a_failing_example_fails_the_build(tmp_path):
+    from sphinx.errors import ExtensionError
+
+    examples = importlib.import_module("femb_examples")
+    assert examples.run("ok", "print('fine')", tmp_path / "ok") == "fine\n"
+    with pytest.raises(ExtensionError, match=r"(?s)example .bad. failed .exit status 1.*ZeroDivisionError"):
+        examples.run("bad", "print('before')\n1 / 0\n", tmp_path / "bad")
