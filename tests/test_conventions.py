@@ -137,3 +137,15 @@ def test_every_constraint_type_is_covered():
     types = {n for n in el.__all__ if isinstance(getattr(el, n), type) and issubclass(getattr(el, n), Element)
              and getattr(el, n).n_constraints > 0}
     assert types == {"Hinge", "Slider", "PointOnLine", "DrivenAngle", "DrivenDisplacement", "Clamp"}
+
+
+def test_conventions_page_names_every_type_and_existing_tests():
+    """docs/conventions.md has a row per constraint type, and the tests it cites exist."""
+    import re
+    from pathlib import Path
+
+    text = (Path(__file__).resolve().parents[1] / "docs" / "conventions.md").read_text(encoding="utf-8")
+    rows = {m.group(1) for m in re.finditer(r"^\| `(\w+)` \|", text, re.M)}
+    assert rows == {"Hinge", "Slider", "PointOnLine", "DrivenAngle", "DrivenDisplacement", "Clamp"}
+    cited = set(re.findall(r"`(test_\w+)`", text))
+    assert cited and cited <= set(globals()), sorted(cited - set(globals()))
