@@ -290,7 +290,7 @@ def cmd_list(args):
     _print_parameters(scene, "  ")
     print("default run settings:")
     _print_settings(scene, "  ")
-    print(f"outputs (printed by femb run at t_end; --json FILE writes them):")
+    print("outputs (printed by femb run at t_end; --json FILE writes them):")
     _print_outputs(scene, "  ", detail=True)
     if scene.has_reference:
         print("reference: an independent solution (femb bench convergence compares against it)")
