@@ -61,6 +61,29 @@ E_HINGES = ("E23", "E24", "E26")
 #: Run settings of the seed's plots: t ∈ [0, 0.03] s, h = 3e-4 s, ρ∞ = 0.7 (Sect. 5.2, Figs. 5–7).
 DEFAULTS = {"t_end": 0.03, "h": 3e-4, "rho_inf": 0.7}
 
+#: Parameters of :func:`build`: name -> (meaning, unit), shown by ``femb list``.
+PARAMETERS = {
+    "mom": ("constant driving torque on body 1 (the crank b1)", "N m"),
+    "c0": ("stiffness of the spring between body 3 and the ground point C", "N/m"),
+    "l0": ("unstretched length of that spring", "m"),
+}
+
+_ANGLE_MEANING = {"beta": "crank b1", "Theta": "b2 relative to b1", "gamma": "b3", "Phi": "b4 relative to b5",
+                  "delta": "b5", "Omega": "b6 relative to b7", "epsilon": "b7"}
+
+#: Outputs of :func:`outputs`: name -> (meaning, unit), shown by ``femb list``.
+OUTPUTS = {
+    **{a: (f"Hairer's angle {a} ({_ANGLE_MEANING[a]})", "rad") for a in ANGLE_NAMES},
+    **{a + "_d": (f"rate of {a}", "rad/s") for a in ANGLE_NAMES},
+    **{a + "_dd": (f"acceleration of {a}", "rad/s^2") for a in ANGLE_NAMES},
+    "xP": ("x of the crank-rod hinge P", "m"),
+    "yP": ("y of the crank-rod hinge P", "m"),
+    "xP_dd": ("x acceleration of P", "m/s^2"),
+    "yP_dd": ("y acceleration of P", "m/s^2"),
+    **{f"lambda_{2 * k + 1 + j}": (f"{'xy'[j]} force of the rod b2 on body {body} at E (hinge {hinge})", "N")
+       for k, (hinge, body) in enumerate((("E23", "b3"), ("E24", "b4"), ("E26", "b6"))) for j in (0, 1)},
+}
+
 #: The h-convergence study (Fig. 9 of the seed): all seven angles and the six
 #: multipliers at E at t = 0.03 s.
 CONVERGENCE = {

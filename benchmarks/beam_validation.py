@@ -92,7 +92,7 @@ def elastica(alphas):
 
 
 def elastica_table(alphas=(1.0, 3.0, 10.0), ns=(8, 16, 32, 64)):
-    """Max tip error |(x, y, θ) − elastica| for each load and mesh; also the FE shapes."""
+    """Max tip error ``|(x, y, θ) − elastica|`` for each load and mesh; also the FE shapes."""
     from femb.static import solve_static
 
     ref = elastica(alphas)

@@ -53,6 +53,25 @@ H = 2e-5
 #: Run settings of the benchmark (scene protocol, :mod:`femb.benchmarks.registry`).
 DEFAULTS = {"t_end": DATA["t_end"], "h": H, "rho_inf": 0.7}
 
+#: Parameters of :func:`build`: name -> (meaning, unit), shown by ``femb list``.
+PARAMETERS = {
+    "n_elements": ("beam elements of the connecting rod", "-"),
+    "omega": ("prescribed crank angular velocity", "rad/s"),
+    "damping": ("stiffness-proportional material damping eta of the rod", "s"),
+    "mass": ("beam mass matrix, 'consistent' or 'lumped'", "-"),
+}
+
+#: Outputs of :func:`outputs`: name -> (meaning, unit), shown by ``femb list``.
+OUTPUTS = {
+    "midspan_deflection": ("deflection of the rod midpoint from the chord of its ends (left positive)", "m"),
+    "tip_deflection": ("same as midspan_deflection (name shared with the other beam scenes)", "m"),
+    "slider_x": ("slider position", "m"),
+    "crank_angle": ("crank angle", "rad"),
+    "drive_torque": ("torque the driver applies to the crank", "N m"),
+    "R_slider_x": ("x force of the rod on the slider pin", "N"),
+    "R_slider_y": ("y force of the rod on the slider pin", "N"),
+}
+
 #: h-convergence study: outputs of :func:`outputs` at t = 0.01 s.
 CONVERGENCE = {"t_end": 0.01, "h": [8e-5, 4e-5, 2e-5, 1e-5],
                "q": ["midspan_deflection", "slider_x"], "lambda": ["drive_torque", "R_slider_x", "R_slider_y"]}
@@ -175,7 +194,7 @@ def time_convergence(n_elements=4, t_end=0.01, hs=(8e-5, 4e-5, 2e-5, 1e-5), h_re
 def mesh_convergence(ns=(2, 4, 8, 16), t_end=DATA["t_end"], h=H, rho_inf=0.7, **kw):
     """Midspan deflection at t_end for each mesh and the observed orders.
 
-    Returns a dict with ``n``, ``midspan_deflection``, ``diff`` (|w_{k+1} − w_k|)
+    Returns a dict with ``n``, ``midspan_deflection``, ``diff`` (``|w_{k+1} − w_k|``)
     and ``orders`` log₂(diff_k / diff_{k+1}) for meshes refined by 2.
     """
     res = studies.mesh_convergence(build, newton_options, lambda r: final_outputs(r)["midspan_deflection"],

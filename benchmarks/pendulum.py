@@ -37,6 +37,22 @@ PARAMS = {"length": 1.0, "mass": 1.0, "g": 9.81, "psi0": 2.0}
 #: One period of the default pendulum (4K/ω₀ = 2.5255 s) at h = 1e-3 s, ρ∞ = 0.7.
 DEFAULTS = {"t_end": 2.5, "h": 1e-3, "rho_inf": 0.7}
 
+#: Parameters of :func:`build`: name -> (meaning, unit), shown by ``femb list``.
+PARAMETERS = {
+    "length": ("bar length (uniform bar)", "m"),
+    "mass": ("bar mass", "kg"),
+    "g": ("gravity along -y", "m/s^2"),
+    "psi0": ("initial angle from the downward vertical (released at rest)", "rad"),
+}
+
+#: Outputs of :func:`outputs`: name -> (meaning, unit), shown by ``femb list``.
+OUTPUTS = {
+    "psi": ("angle from the downward vertical", "rad"),
+    "psi_d": ("angular velocity", "rad/s"),
+    "R_pivot_x": ("x force of the ground on the bar at the pivot", "N"),
+    "R_pivot_y": ("y force of the ground on the bar at the pivot", "N"),
+}
+
 #: The h-convergence names: the angle and the pivot reaction.
 CONVERGENCE = {"t_end": 2.5, "h": [4e-3, 2e-3, 1e-3, 5e-4], "q": ["psi"],
                "lambda": ["R_pivot_x", "R_pivot_y"]}
@@ -135,7 +151,7 @@ def reference(t, length=PARAMS["length"], mass=PARAMS["mass"], g=PARAMS["g"], ps
 def energy(result, length=PARAMS["length"], mass=PARAMS["mass"], g=PARAMS["g"]):
     """Total energy T + V (J) at every stored step, from the absolute coordinates.
 
-    V = m g y_c with the pivot at y = 0; T = ½ m |v_c|² + ½ J ω².
+    V = m g y_c with the pivot at y = 0; T = ½ m ‖v_c‖² + ½ J ω².
     """
     q = result.body("bar")
     v = result.body("bar", "qd")

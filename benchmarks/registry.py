@@ -16,6 +16,14 @@ this protocol:
     The run settings of the published plots. A scene file without it needs
     ``--t-end`` and ``--h`` on the command line (ρ∞ defaults to 0.7).
 
+``PARAMETERS = {name: (meaning, unit)}``  (required for built-in scenes)
+    What each keyword of ``build`` means and its unit (``"-"`` when it has
+    none), printed by ``femb list``. Every parameter of ``build`` must be
+    described.
+
+``OUTPUTS = {name: (meaning, unit)}``  (required for built-in scenes)
+    The same for the names returned by ``outputs``.
+
 ``outputs(result) -> dict[str, ndarray (nt,)]``  (required for built-in scenes)
     Named physical outputs over the stored time steps of a
     :class:`~femb.result.Result`. Without it the outputs are the free
@@ -108,6 +116,36 @@ class Scene:
         sig = inspect.signature(self.module.build)
         return any(p.kind == p.VAR_KEYWORD for p in sig.parameters.values())
 
+    def parameter_info(self):
+        """Parameters of ``build`` with default, meaning and unit.
+
+        Returns
+        -------
+        dict
+            ``{name: (default, meaning, unit)}`` in the order of ``build``'s
+            signature; ``default`` is ``inspect.Parameter.empty`` for a required
+            parameter, ``meaning`` and ``unit`` are ``""`` when the scene's
+            ``PARAMETERS`` does not describe the name.
+        """
+        info = dict(getattr(self.module, "PARAMETERS", {}) or {})
+        out = {}
+        for name, default in self.parameters().items():
+            meaning, unit = _pair(info.get(name), self, "PARAMETERS", name)
+            out[name] = (default, meaning, unit)
+        return out
+
+    def output_info(self):
+        """Described outputs ``{name: (meaning, unit)}`` (the scene's ``OUTPUTS``; empty if none)."""
+        info = dict(getattr(self.module, "OUTPUTS", {}) or {})
+        return {name: _pair(v, self, "OUTPUTS", name) for name, v in info.items()}
+
+    def undocumented(self):
+        """Names of ``build`` parameters that ``PARAMETERS`` does not describe, and names in
+        ``PARAMETERS`` that ``build`` does not accept (each a sorted list)."""
+        info = set(getattr(self.module, "PARAMETERS", {}) or {})
+        known = set(self.parameters())
+        return sorted(known - info), sorted(info - known)
+
     @property
     def has_reference(self):
         return callable(getattr(self.module, "reference", None))
@@ -165,6 +203,20 @@ class Scene:
             q = coord if q is None else q
             lam = mult if lam is None else lam
         return {"t_end": t_end, "h": list(h) if h is not None else None, "q": list(q), "lambda": list(lam)}
+
+
+def _pair(value, scene, what, name):
+    """(meaning, unit) of one PARAMETERS/OUTPUTS entry; ("", "") when absent."""
+    if value is None:
+        return "", ""
+    if isinstance(value, str):
+        return value, ""
+    try:
+        meaning, unit = value
+    except (TypeError, ValueError):
+        raise SceneError(f"scene '{scene.name}': {what}[{name!r}] must be (meaning, unit), "
+                         f"got {value!r}") from None
+    return str(meaning), str(unit)
 
 
 def names():

@@ -43,6 +43,25 @@ PARAMS = {"l": 0.3, "m1": 0.36, "m2": 0.36, "m3": 0.1, "theta0": 0.0, "omega0": 
 #: One second from θ = 0 at 1 rev/s: the crank passes the singular position θ = π/2 once.
 DEFAULTS = {"t_end": 1.0, "h": 1e-3, "rho_inf": 0.7}
 
+#: Parameters of :func:`build`: name -> (meaning, unit), shown by ``femb list``.
+PARAMETERS = {
+    "l": ("crank and rod length", "m"),
+    "m1": ("crank mass (uniform bar)", "kg"),
+    "m2": ("rod mass (uniform bar)", "kg"),
+    "m3": ("slider mass", "kg"),
+    "theta0": ("initial crank angle (pi/2 is the singular position)", "rad"),
+    "omega0": ("initial crank rate", "rad/s"),
+}
+
+#: Outputs of :func:`outputs`: name -> (meaning, unit), shown by ``femb list``.
+OUTPUTS = {
+    "theta": ("crank angle", "rad"),
+    "theta_d": ("crank rate", "rad/s"),
+    "x3": ("slider position", "m"),
+    "x3_d": ("slider velocity", "m/s"),
+    "branch": ("x3 - 2 l cos(theta), zero on the physical branch", "m"),
+}
+
 CONVERGENCE = {"t_end": 1.0, "h": [4e-3, 2e-3, 1e-3, 5e-4], "q": ["theta"], "lambda": []}
 
 

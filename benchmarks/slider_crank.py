@@ -45,6 +45,32 @@ from femb.elements import Hinge, PointMass, PointOnLine, RigidBody, SpringDamper
 #: Run settings of the seed's plots: t ∈ [0, 1] s, h = 5e-3 s, ρ∞ = 0.7 (Sect. 5.1, Fig. 2).
 DEFAULTS = {"t_end": 1.0, "h": 5e-3, "rho_inf": 0.7}
 
+#: Parameters of :func:`build`: name -> (meaning, unit), shown by ``femb list``.
+PARAMETERS = {
+    "l1": ("crank length", "m"),
+    "m1": ("crank mass (uniform bar)", "kg"),
+    "l2": ("connecting-rod length (> l1)", "m"),
+    "m2": ("connecting-rod mass (uniform bar)", "kg"),
+    "m3": ("slider mass", "kg"),
+    "m4": ("mass of the extra body on the spring", "kg"),
+    "k": ("spring stiffness between slider and extra mass", "N/m"),
+    "L0": ("spring length, undeformed at t = 0", "m"),
+    "T": ("constant torque on the crank", "N m"),
+    "theta0": ("initial crank angle (start at rest)", "rad"),
+}
+
+#: Outputs of :func:`outputs`: name -> (meaning, unit), shown by ``femb list``.
+OUTPUTS = {
+    "theta": ("crank angle", "rad"),
+    "x3": ("slider position", "m"),
+    "x4": ("position of the extra mass", "m"),
+    "theta_d": ("crank rate", "rad/s"),
+    "x3_d": ("slider velocity", "m/s"),
+    "x4_d": ("velocity of the extra mass", "m/s"),
+    "R_pivot_x": ("x force of the ground on the crank at the pivot", "N"),
+    "R_pivot_y": ("y force of the ground on the crank at the pivot", "N"),
+}
+
 #: The h-convergence study (Fig. 3 of the seed): θ and the pivot reaction at t = 1 s.
 CONVERGENCE = {
     "t_end": 1.0,

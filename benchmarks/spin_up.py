@@ -45,6 +45,23 @@ H = 5e-3
 #: Run settings of the benchmark (scene protocol, :mod:`femb.benchmarks.registry`).
 DEFAULTS = {"t_end": DATA["t_end"], "h": H, "rho_inf": 0.7}
 
+#: Parameters of :func:`build`: name -> (meaning, unit), shown by ``femb list``.
+PARAMETERS = {
+    "n_elements": ("beam elements", "-"),
+    "omega_s": ("final hub angular velocity", "rad/s"),
+    "T_s": ("spin-up time (smooth ramp of the hub rate)", "s"),
+    "damping": ("stiffness-proportional material damping eta of the beam", "s"),
+    "mass": ("beam mass matrix, 'consistent' or 'lumped'", "-"),
+}
+
+#: Outputs of :func:`outputs`: name -> (meaning, unit), shown by ``femb list``.
+OUTPUTS = {
+    "tip_deflection": ("transverse tip displacement in the hub frame", "m"),
+    "tip_axial": ("axial tip displacement in the hub frame", "m"),
+    "root_moment": ("torque of the hub on the beam root (counter-clockwise positive)", "N m"),
+    "hub_torque": ("torque the driver applies to the hub", "N m"),
+}
+
 #: h-convergence study: 2 s into the spin-up, outputs of :func:`outputs`.
 CONVERGENCE = {"t_end": 2.0, "h": [0.04, 0.02, 0.01, 0.005],
                "q": ["tip_deflection", "tip_axial"], "lambda": ["root_moment", "hub_torque"]}
@@ -178,7 +195,7 @@ def time_convergence(n_elements=4, t_end=2.0, hs=(0.04, 0.02, 0.01, 0.005), h_re
 def mesh_convergence(ns=(4, 8, 16, 32), t_end=5.0, h=H, rho_inf=0.7, **kw):
     """Tip deflection at t_end for each mesh and the observed orders.
 
-    Returns a dict with ``n``, ``tip_deflection``, ``diff`` (|w_{k+1} − w_k|)
+    Returns a dict with ``n``, ``tip_deflection``, ``diff`` (``|w_{k+1} − w_k|``)
     and ``orders`` log₂(diff_k / diff_{k+1}) for meshes refined by 2.
     """
     res = studies.mesh_convergence(build, newton_options, lambda r: final_outputs(r)["tip_deflection"],

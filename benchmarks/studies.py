@@ -44,7 +44,7 @@ def mesh_convergence(build, newton_options, final_value, ns, t_end, h, rho_inf=0
     Returns
     -------
     dict
-        ``n``, ``value``, ``diff`` (|w_{k+1} − w_k|) and ``orders``
+        ``n``, ``value``, ``diff`` (``|w_{k+1} − w_k|``) and ``orders``
         log(diff_k / diff_{k+1}) / log(n_{k+1} / n_k).
     """
     import femb

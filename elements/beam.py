@@ -58,7 +58,7 @@ strain rates, objective): σ = D (ε + η ε̇), which adds C = L η Bᵀ D B to
 damping tangent and a (non-symmetric) term to the stiffness tangent.
 
 Inertia: the node sits at the section centroid, so the kinetic energy
-T = ½∫(ρA |ẋ|² + ρI θ̇²) ds has a constant mass matrix in these absolute
+T = ½∫(ρA ‖ẋ‖² + ρI θ̇²) ds has a constant mass matrix in these absolute
 coordinates (Simo & Vu-Quoc 1986, Part I, Sect. 3; no gyroscopic term in
 the plane). Consistent (linear shape functions, exact integration) or lumped.
 
@@ -578,8 +578,12 @@ class Clamp(PairElement):
     """Rigid connection: point P_a of body a coincides with P_b of body b, no relative rotation.
 
     Φ = [r_a(P_a) − r_b(P_b); θ_b − θ_a − θ₀] (3 equations; θ₀ the initial
-    relative angle). λ = (F_x, F_y, T): the force the clamp exerts on body b
-    (−F on a) and the reaction torque (the clamp applies −T to b, +T to a).
+    relative angle). λ = (F_x, F_y, T): (F_x, F_y) is the force the clamp
+    exerts on body b at P_b, in inertial components (N), and −F on body a at
+    P_a; T is a torque (N m) with the sign flipped: the clamp applies the
+    moment −T to body b about P_b and +T to body a about P_a. A cantilever
+    bar of mass m and length L clamped at its left end under gravity has
+    λ = (0, m g, −m g L/2) (see ``docs/conventions.md``).
 
     Parameters
     ----------

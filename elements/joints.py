@@ -1,8 +1,12 @@
 """Planar joints and driven (rheonomic) constraints between two bodies.
 
 Every joint connects body ``a`` to body ``b`` (either may be the ground or a
-point mass). Sign convention: M q̈ = f − Φ_qᵀ λ, so for a hinge with
-Φ = r_a − r_b the joint pushes body b with the force +λ and body a with −λ.
+point mass). Sign convention: M q̈ = f − Φ_qᵀ λ, so the generalized force of
+a joint on the coordinates is −Φ_qᵀ λ; for a hinge with Φ = r_a − r_b the
+joint pushes body b with the force +λ and body a with −λ. What λ is for
+every joint type (force or moment, on which body, in which frame, units) is
+collected in ``docs/conventions.md`` and checked by
+``tests/test_conventions.py``.
 
 Each type's equations are written once, as compiled kernels (``docs/kernels.md``),
 over a batch of ``nel`` joints with element coordinates ``xe (nel, 6)`` =
@@ -109,8 +113,9 @@ def hinge_rates(P, t, tf, xe, ve, Phi_t, gam):
 class Hinge(PairElement):
     """Revolute joint: point P_a of body a coincides with point P_b of body b.
 
-    Φ = r_a(P_a) − r_b(P_b) (2 equations); λ is the force the joint exerts on
-    body b (and −λ on body a).
+    Φ = r_a(P_a) − r_b(P_b) (2 equations); λ = (F_x, F_y) is the force the
+    joint exerts on body b at P_b, in inertial components (N), and −λ on body
+    a at P_a. The joint transmits no moment.
 
     Parameters
     ----------
@@ -326,8 +331,12 @@ class _LineJoint(PairElement):
 class PointOnLine(_LineJoint):
     """Point P_b of body b stays on the line through P_a of body a along ``axis``.
 
-    Φ = n_a · (r_b(P_b) − r_a(P_a)), n_a = R(θ_a) J ū (1 equation); the joint
-    pushes point P_b with the force −λ n_a.
+    Φ = n_a · (r_b(P_b) − r_a(P_a)), n_a = R(θ_a) J ū (1 equation; J the
+    rotation by +90°, so n_a is the line's left normal, turning with body a).
+    λ is a force (N): the joint pushes point P_b of body b with −λ n_a and
+    body a with +λ n_a at the point of a that coincides with P_b (the force
+    on a also has a moment about a's node). A mass resting on top of a
+    horizontal line (ū = (1, 0), n_a = (0, 1)) has λ = −m g.
 
     Parameters
     ----------
@@ -355,6 +364,12 @@ class Slider(_LineJoint):
     (no relative rotation; θ_0 from the initial configuration). Between a
     point mass and anything, use :class:`PointOnLine` (a point mass has no
     rotation to lock, so Φ_2 would be redundant).
+
+    λ = (λ_1, λ_2): λ_1 is a force (N) as for :class:`PointOnLine` — the
+    slider pushes P_b of body b with −λ_1 n_a, n_a = R(θ_a) J ū the line's
+    left normal in body a's current orientation; λ_2 is a torque (N m): the
+    slider applies −λ_2 to body b and +λ_2 to body a (counter-clockwise
+    positive). The total moment on b about P_b is −λ_2.
 
     Parameters
     ----------
@@ -390,7 +405,10 @@ class DrivenDisplacement(_LineJoint):
 
     Φ = u_a · (r_b(P_b) − r_a(P_a)) − d_0 − d(t), u_a = R(θ_a) ū, where d_0 is
     the initial value and d(t) the prescribed displacement (d(t_0) is
-    normally 0). λ is the actuator force.
+    normally 0). λ is the actuator force (N): the driver pushes P_b of body
+    b with −λ u_a and body a with +λ u_a, so λ > 0 pulls b back towards
+    −u_a (for b ahead of a along u_a: tension) and λ < 0 pushes it along
+    +u_a.
 
     Parameters
     ----------
@@ -456,7 +474,9 @@ class DrivenAngle(PairElement):
     """Driven relative rotation (use with a :class:`Hinge`).
 
     Φ = θ_b − θ_a − θ_0 − φ(t), with θ_0 the initial relative angle; λ is the
-    actuator torque (the joint applies −λ to body b).
+    actuator torque (N m) with the sign flipped: the driver applies the
+    torque −λ to body b and +λ to body a (counter-clockwise positive). The
+    torque a motor delivers to b is therefore −λ.
 
     Parameters
     ----------

@@ -2,7 +2,7 @@
 
 Subcommands (one function each, ``cmd_*``)::
 
-    femb list                                   built-in scenes and their parameters
+    femb list [SCENE]                           scenes: parameters (meaning, unit), settings, outputs
     femb run SCENE [options]                    run one scene, print/write its outputs at t_end
     femb bench convergence SCENE [options]      h-convergence study (seed Figs. 3, 9)
     femb bench figures SCENE --out DIR          the seed's figures as PNG files
@@ -32,6 +32,7 @@ import ast
 import json
 import math
 import sys
+import textwrap
 import time
 import warnings
 from pathlib import Path
@@ -189,21 +190,110 @@ class _NullContext:
 # --------------------------------------------------------------------------
 # subcommands
 # --------------------------------------------------------------------------
-def cmd_list(args):
-    """femb list: the built-in scenes, their build() parameters and default run settings."""
+def _fmt_default(v):
     import inspect
 
+    return "(required)" if v is inspect.Parameter.empty else repr(v)
+
+
+def _unit(u):
+    return f"[{u}]" if u else ""
+
+
+def _print_parameters(scene, indent):
+    rows = [(f"{k}={_fmt_default(d)}", _unit(u), m) for k, (d, m, u) in scene.parameter_info().items()]
+    if not rows:
+        print(f"{indent}(none)")
+        return
+    w0 = max(len(r[0]) for r in rows)
+    w1 = max(len(r[1]) for r in rows)
+    for a, b, c in rows:
+        print(f"{indent}{a:<{w0}}  {b:<{w1}}  {c}".rstrip())
+
+
+def _print_outputs(scene, indent, *, detail):
+    info = scene.output_info()
+    if not info:
+        if detail:
+            try:
+                labels = scene.model().coord_labels
+            except Exception as exc:  # a user's scene file: say why, do not crash
+                print(f"{indent}(not described; building the model failed: {type(exc).__name__}: {exc})")
+                return
+            print(f"{indent}(the scene has no OUTPUTS; its outputs are the free coordinates)")
+            for label in labels:
+                print(f"{indent}{label}")
+        else:
+            print(f"{indent}(not described; see 'femb list {scene.name}')")
+        return
+    if not detail:
+        items = [f"{k} {_unit(u)}".rstrip() for k, (_, u) in info.items()]
+        line = indent
+        for i, item in enumerate(items):
+            item += "," if i < len(items) - 1 else ""
+            if line.strip() and len(line) + 1 + len(item) > 100:
+                print(line)
+                line = indent
+            line += ("" if not line.strip() else " ") + item
+        print(line)
+        return
+    w0 = max(len(k) for k in info)
+    w1 = max(len(_unit(u)) for _, u in info.values())
+    for k, (m, u) in info.items():
+        print(f"{indent}{k:<{w0}}  {_unit(u):<{w1}}  {m}".rstrip())
+
+
+def _print_settings(scene, indent):
+    d = scene.defaults
+    t_end = "(give --t-end)" if d["t_end"] is None else f"{d['t_end']!r} [s]"
+    h = "(give --h)" if d["h"] is None else f"{d['h']!r} [s]"
+    print(f"{indent}t_end={t_end}  h={h}  rho_inf={d['rho_inf']!r}")
+
+
+def _doc_body(doc):
+    """A scene docstring without its title line, up to its first numpydoc section."""
+    lines = textwrap.dedent("\n".join((doc or "").strip().splitlines()[1:])).splitlines()
+    for i in range(len(lines) - 1):
+        under = lines[i + 1].strip()
+        if lines[i].strip() and under and set(under) == {"-"} and len(under) >= len(lines[i].strip()):
+            lines = lines[:i]
+            break
+    return "\n".join(lines).strip()
+
+
+def cmd_list(args):
+    """femb list [SCENE]: the scenes, their parameters (meaning, unit), run settings and outputs."""
     from femb.benchmarks import registry
 
-    for name in registry.names():
-        scene = registry.load(name)
-        print(f"{name}: {scene.description}")
-        params = ", ".join(f"{k}={v!r}" if v is not inspect.Parameter.empty else k
-                           for k, v in scene.parameters().items())
-        print(f"    parameters: {params or '(none)'}")
-        d = scene.defaults
-        print(f"    defaults:   t_end={d['t_end']!r} h={d['h']!r} rho_inf={d['rho_inf']!r}"
-              f"{'   reference: yes' if scene.has_reference else ''}")
+    if args.scene is None:
+        for name in registry.names():
+            scene = registry.load(name)
+            print(f"{name}: {scene.description}")
+            print("  parameters:")
+            _print_parameters(scene, "    ")
+            print("  defaults:")
+            _print_settings(scene, "    ")
+            print(f"  outputs{' (independent reference: yes)' if scene.has_reference else ''}:")
+            _print_outputs(scene, "    ", detail=False)
+            print()
+        print("'femb list SCENE' describes one scene and its outputs in detail.")
+        return 0
+    scene = _load_scene(args.scene)
+    print(f"{scene.name}: {scene.description}")
+    print(f"source: {scene.source}")
+    body = _doc_body(scene.module.__doc__)
+    if body:
+        print()
+        print(body)
+    print()
+    print(f"parameters (femb run {scene.name} --set NAME=VALUE):")
+    _print_parameters(scene, "  ")
+    print("default run settings:")
+    _print_settings(scene, "  ")
+    print("outputs (printed by femb run at t_end; --json FILE writes them):")
+    _print_outputs(scene, "  ", detail=True)
+    if scene.has_reference:
+        print("reference: an independent solution (femb bench convergence compares against it)")
     return 0
 
 
@@ -433,9 +523,13 @@ def build_parser():
     p.add_argument("--debug", action="store_true", help="show full tracebacks on errors")
     sub = p.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
 
-    sp = sub.add_parser("list", help="list the built-in scenes and their parameters",
-                        description="List the built-in scenes, the parameters of their build() "
-                        "functions (settable with 'femb run --set') and their default run settings.")
+    sp = sub.add_parser("list", help="list the built-in scenes, their parameters and outputs",
+                        description="List the built-in scenes: the parameters of their build() "
+                        "functions (settable with 'femb run --set') with meaning and unit, their "
+                        "default run settings and their named outputs. With SCENE, describe that "
+                        "scene (a built-in name or a scene file) in detail.")
+    sp.add_argument("scene", metavar="SCENE", nargs="?", default=None,
+                    help="describe only this scene (" + SCENE_HELP + ")")
     sp.set_defaults(func=cmd_list)
 
     sp = sub.add_parser("run", help="run one scene and report its outputs at the final time",

@@ -34,8 +34,8 @@ def _finite_vector(value, n, what):
 class Node:
     """Base class of nodes.
 
-    Class attributes
-    ----------------
+    Attributes
+    ----------
     kind : str
         Node family name (``"planar"``).
     coord_names : tuple of str

@@ -1,4 +1,5 @@
 """The ``femb`` command line (femb.cli): subcommands, JSON contract, errors."""
+import importlib
 import json
 import shutil
 import subprocess
@@ -7,7 +8,9 @@ import textwrap
 
 import pytest
 
+import femb
 from femb import cli
+from femb.benchmarks import registry
 
 SCENE_FILE = textwrap.dedent('''
     """Pendulum from a file (test scene)."""
@@ -55,6 +58,52 @@ def test_list_names_scenes_and_parameters(capsys):
     out = capsys.readouterr().out
     assert "slider_crank:" in out and "andrews:" in out
     assert "mom=0.033" in out and "T=1.0" in out and "t_end=0.03" in out
+    # every parameter with its unit and meaning, every scene with its outputs and units
+    assert "[N m]  constant driving torque on body 1" in out
+    assert "omega_s=6.0        [rad/s]  final hub angular velocity" in out
+    assert "R_pivot_x [N]," in out and "root_moment [N m]," in out and "lambda_6 [N]" in out
+    assert out.count("  outputs") == len(registry.names())
+
+
+def test_list_one_scene_in_detail(capsys):
+    assert cli.main(["list", "slider_crank"]) == 0
+    out = capsys.readouterr().out
+    assert out.startswith("slider_crank: Slider–crank")
+    assert "femb run slider_crank --set NAME=VALUE" in out
+    assert "theta0=1.5707963267948966  [rad]  initial crank angle" in out
+    assert "R_pivot_y  [N]      y force of the ground on the crank at the pivot" in out
+    assert "andrews" not in out and "References" not in out     # one scene, docstring up to its sections
+    assert cli.main(["list", "nosuch"]) == 2
+    assert "unknown scene 'nosuch'" in _err_line(capsys)
+
+
+def test_list_scene_file_without_descriptions(tmp_path, capsys):
+    p = tmp_path / "pend.py"
+    p.write_text(SCENE_FILE)
+    assert cli.main(["list", str(p)]) == 0
+    out = capsys.readouterr().out
+    assert "pend: Pendulum from a file (test scene)." in out
+    assert "length=0.5" in out and "mass=1.0" in out
+    assert "t_end=(give --t-end)" in out
+    assert "outputs are the free coordinates" in out and "bar.theta" in out
+
+
+ALL_SCENES = ["andrews", "slider_crank", "flexible_slider_crank", "spin_up", "pendulum", "singular_slider_crank"]
+
+
+@pytest.mark.parametrize("name", ALL_SCENES)
+def test_scene_parameters_and_outputs_are_all_described(name):
+    """PARAMETERS describes exactly build()'s parameters, OUTPUTS exactly outputs()'s names."""
+    mod = importlib.import_module(f"femb.benchmarks.{name}")
+    scene = registry.Scene(name, mod, mod.__name__)
+    assert scene.undocumented() == ([], [])
+    for table in (mod.PARAMETERS, mod.OUTPUTS):
+        for key, (meaning, unit) in table.items():
+            assert meaning.strip() and unit.strip(), (name, key)
+    kw = {"n_elements": 2} if "n_elements" in scene.parameters() else {}
+    h = mod.DEFAULTS["h"]
+    res = femb.simulate(scene.model(**kw), t_end=2 * h, h=h, rho_inf=0.7)
+    assert list(scene.outputs(res)) == list(mod.OUTPUTS)
 
 
 @pytest.mark.parametrize("argv", [["--help"], ["run", "--help"], ["list", "--help"],

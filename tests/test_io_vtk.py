@@ -14,6 +14,7 @@ from femb.io.vtk import (
     OutputError,
     TimeSeriesWriter,
     merge_blocks,
+    pvd_time,
     read_frame,
     read_pvd,
     write_vtu,
@@ -190,7 +191,7 @@ def test_time_series_round_trip(tmp_path):
         assert w.frames == NFRAMES
     assert w.path == tmp_path / "mech.pvd"
     entries = read_pvd(w.path)
-    assert [t for t, _ in entries] == ts  # exact
+    assert [t for t, _ in entries] == [float(f"{t:.15g}") for t in ts]  # 15 significant digits
     for i, (_, path) in enumerate(entries):
         assert path == tmp_path / f"mech_{i:06d}.vtu"
         got = meshio.read(path)
@@ -200,17 +201,30 @@ def test_time_series_round_trip(tmp_path):
     assert files == sorted([f"mech_{i:06d}.vtu" for i in range(NFRAMES)] + ["mech.pvd"])
 
 
-def test_pvd_is_a_vtk_collection_with_exact_times(tmp_path):
-    ts = [0.1, 0.2, 0.30000000000000004, 1e-300, 12345.678901234567]
+def test_pvd_is_a_vtk_collection_with_readable_times(tmp_path):
+    ts = [0.1, 0.2, 0.30000000000000004, 5 * 3e-4, 1e-300, 12345.678901234567, 0.0]
     with TimeSeriesWriter(tmp_path) as w:
         for t in ts:
             w.write(t, scene(0.0))
     root = ET.parse(tmp_path / "frame.pvd").getroot()
     assert root.tag == "VTKFile" and root.get("type") == "Collection"
     sets = root.find("Collection").findall("DataSet")
-    assert [float(d.get("timestep")) for d in sets] == ts
-    assert [d.get("timestep") for d in sets] == [repr(t) for t in ts]
+    assert [d.get("timestep") for d in sets] == ["0.1", "0.2", "0.3", "0.0015", "1e-300",
+                                                 "12345.6789012346", "0.0"]
     assert [d.get("file") for d in sets] == [f"frame_{i:06d}.vtu" for i in range(len(ts))]
+    # the exact times stay in the frames
+    for d, t in zip(sets, ts):
+        assert meshio.read(tmp_path / d.get("file")).field_data["TimeValue"][0] == t
+
+
+def test_pvd_time_rounds_accumulated_steps():
+    assert 5 * 3e-4 == 0.0014999999999999998           # the round-off this guards against
+    assert pvd_time(5 * 3e-4) == "0.0015"
+    for h in (1e-5, 3e-4, 2.5e-3, 7e-6):              # the solver's times t0 + k h
+        for k in range(1, 3001):
+            assert pvd_time(k * h) == repr(round(k * h, 12)), (h, k)
+    assert pvd_time(-2.5e-7) == "-2.5e-07"
+    assert float(pvd_time(1.0 / 3.0)) == float(f"{1.0 / 3.0:.15g}")
 
 
 def test_exception_inside_with_leaves_valid_pvd(tmp_path):
@@ -224,8 +238,8 @@ def test_exception_inside_with_leaves_valid_pvd(tmp_path):
                     raise Boom("solver diverged")
                 w.write(t, scene(t))
     entries = read_pvd(tmp_path / "run.pvd")
-    assert [t for t, _ in entries] == times()[:5]
-    for t, path in entries:
+    assert [t for t, _ in entries] == [float(pvd_time(t)) for t in times()[:5]]
+    for t, (_, path) in zip(times(), entries):
         assert_same_mesh(read_frame(path), merge_blocks(scene(t)))
     assert sorted(os.listdir(tmp_path)) == ["run.pvd"] + [f"run_{i:06d}.vtu" for i in range(5)]
 

@@ -223,7 +223,7 @@ def mass_matrix(q, p=PARAMS) -> np.ndarray:
 
 
 def spring_length(q, p=PARAMS) -> float:
-    """Length |D - C| of the spring [m] for angles ``q`` (shape (7,))."""
+    """Length ``|D - C|`` of the spring [m] for angles ``q`` (shape (7,))."""
     ga = q[2]
     xd = p["sd"] * np.cos(ga) + p["sc"] * np.sin(ga) + p["xb"]
     yd = p["sd"] * np.sin(ga) - p["sc"] * np.cos(ga) + p["yb"]

@@ -32,13 +32,13 @@ right of the crank tip)::
 
 so every quantity of bodies 1-3 is a function of ``theta`` alone; with
 ``p' = dp/dtheta`` the velocities are ``p' theta_d`` and the accelerations
-``p' theta_dd + p'' theta_d**2``.  The kinetic energy is
+``p' theta_dd + p'' theta_d**2``.  The kinetic energy is::
 
     T_kin = 1/2 m(theta) theta_d**2 + 1/2 m4 x4_d**2,
     m(theta) = J1 + m1 l1**2/4 + m2 (x2'**2 + y2'**2) + J2 phi2'**2 + m3 x3'**2,
 
 the potential ``V = 1/2 k (x4 - x3 - L0)**2 + g (m1 y1 + m2 y2)`` and the torque
-does the work ``T theta``.  Lagrange's equations give
+does the work ``T theta``.  Lagrange's equations give::
 
     m(theta) theta_dd + 1/2 m'(theta) theta_d**2 = T - k (x4 - x3 - L0)(-x3')
                                                    - g (m1 + m2) l1 c / 2

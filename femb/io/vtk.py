@@ -33,6 +33,7 @@ __all__ = [
     "TimeSeriesWriter",
     "read_pvd",
     "read_frame",
+    "pvd_time",
 ]
 
 #: Minimum wall time in seconds between two rewrites of the ``.pvd`` file.
@@ -414,6 +415,29 @@ def _insert_after_grid_tag(src, dst, payload, chunk=1 << 20):
 # ---------------------------------------------------------------------------
 
 
+def pvd_time(t):
+    """The text of a time in a ``.pvd`` collection: ``t`` rounded to 15 significant digits.
+
+    Times accumulated as ``k * h`` carry round-off in their last digits
+    (``5 * 3e-4`` is ``0.0014999999999999998``); ParaView shows the
+    attribute as written. Rounding to 15 significant digits (the precision a
+    float64 holds for any decimal) and printing the shortest ``repr`` of the
+    rounded float gives ``"0.0015"``. The exact time stays in each frame's
+    ``TimeValue`` field data.
+
+    Parameters
+    ----------
+    t : float
+        Finite time in s.
+
+    Returns
+    -------
+    str
+        E.g. ``pvd_time(5 * 3e-4) == "0.0015"``, ``pvd_time(1e-300) == "1e-300"``.
+    """
+    return repr(float(format(float(t), ".15g")))
+
+
 def _pvd_text(entries):
     lines = [
         '<?xml version="1.0"?>',
@@ -422,7 +446,7 @@ def _pvd_text(entries):
     ]
     for t, fname in entries:
         lines.append(
-            f'    <DataSet timestep="{t!r}" group="" part="0" file={quoteattr(fname)}/>'
+            f'    <DataSet timestep="{pvd_time(t)}" group="" part="0" file={quoteattr(fname)}/>'
         )
     lines.append("  </Collection>")
     lines.append("</VTKFile>")
@@ -519,8 +543,9 @@ class TimeSeriesWriter:
         Parameters
         ----------
         t : float
-            Time of the frame in s; written exactly (``repr``) into the
-            collection and as field data ``TimeValue``.
+            Time of the frame in s; written to 15 significant digits into
+            the collection (:func:`pvd_time`) and exactly as field data
+            ``TimeValue``.
         blocks_or_mesh : sequence of GeometryBlock or meshio.Mesh
             The geometry at ``t``; blocks are joined with :func:`merge_blocks`.
         field_data : dict, optional
