@@ -165,7 +165,7 @@ def solve(chain, t_eval, phi0, phid0, rtol=1e-12, atol=1e-12, method="DOP853", f
     Y = np.empty((t_eval.size, 2 * n))
     Y[t_eval == 0.0] = y0
     y, nfev = y0, 0
-    for a, b, hmax in cuts:
+    for a, b, hmax in (c for c in cuts if c[1] > c[0]):
         inside = (t_eval > a) & (t_eval <= b)
         te = t_eval[inside]
         extra = te.size == 0 or te[-1] < b
