@@ -51,7 +51,7 @@ def test_ground_reaction_is_the_momentum_balance(case):
         chain, phi0, phid0 = _double(), [-1.2, -1.6], [3.0, 0.0]
     elif case == "spring":
         chain = Chain([2.0], [2.0 * 0.64 / 12], [0.8], [0.4], g=(0.0, -G),
-                      loads=lambda t, p, w: (np.zeros((1, 2)), -10.0 * p))
+                      loads=lambda t, p, w: (np.zeros((1, 2)), -30.0 * p))
         phi0, phid0 = [0.0], [0.0]
     else:
         P = np.array([1.05, 0.0])

@@ -21,7 +21,7 @@ from femb.benchmarks import registry
 CASES = {
     "double_pendulum": (0.3, ["phi1", "phi2"], ["R_pivot_x", "R_pivot_y"], 1e-5, 0.2),
     "two_bar_pendulum": (0.5, ["phi1", "phi2"], ["R_pivot_x", "R_pivot_y"], 5e-6, 6e-4),
-    "spring_pendulum": (0.5, ["phi1"], ["R_pivot_x", "R_pivot_y"], 8e-6, 4e-4),
+    "spring_pendulum": (0.5, ["phi1"], ["R_pivot_x", "R_pivot_y"], 1.1e-5, 6.5e-4),
     "force_pulse": (1.1, ["phi1"], ["R_pivot_x", "R_pivot_y"], 6e-5, 2.3e-2),
     "bead_attractor": (1.5, ["phi1"], ["R_pivot_x", "R_pivot_y"], 4e-5, 0.3),
     "fourbar_driven": (0.3, ["theta3_d"], ["T_drive", "R_O_x", "R_O_y"], 5e-6, 8e-2),
