@@ -55,6 +55,7 @@ from __future__ import annotations
 import argparse
 import inspect
 import math
+import statistics
 import sys
 import time
 import warnings
@@ -278,8 +279,11 @@ def large_step_runs(scenes=("two_bar_pendulum", "spring_pendulum"), rho_infs=(0.
     return rows
 
 
-def fixed_to_target(scene, targets, names, hs, rho_inf=None, t_end=None, params=None, at="max", run=run):
+def fixed_to_target(scene, targets, names, hs, rho_inf=None, t_end=None, params=None, at="max", repeats=1,
+                    run=run):
     """Steps and wall time of fixed-step runs to reach each target error (log–log interpolation).
+
+    The wall time is the median of ``repeats`` runs.
 
     Returns
     -------
@@ -291,7 +295,9 @@ def fixed_to_target(scene, targets, names, hs, rho_inf=None, t_end=None, params=
     for h in hs:
         try:
             r = run(scene, t_end=t_end, h=h, rho_inf=rho_inf, params=params)
-            pts.append({"h": h, "steps": r.steps, "wall": r.wall, "err": max_error(r, names, at)})
+            walls = [r.wall] + [run(scene, t_end=t_end, h=h, rho_inf=rho_inf, params=params).wall
+                                for _ in range(repeats - 1)]
+            pts.append({"h": h, "steps": r.steps, "wall": statistics.median(walls), "err": max_error(r, names, at)})
         except SolverError as exc:
             pts.append({"h": h, "steps": None, "wall": None, "err": float("nan"),
                         "failed": str(exc).splitlines()[0]})
@@ -299,7 +305,7 @@ def fixed_to_target(scene, targets, names, hs, rho_inf=None, t_end=None, params=
 
 
 def adaptive_to_target(scene, targets, names, rtols, atol_factor=1.0, rho_inf=None, t_end=None, params=None,
-                       h_max=None, at="max", run=run):
+                       h_max=None, at="max", repeats=1, run=run):
     """As :func:`fixed_to_target` along a ladder of tolerances (atol = atol_factor·rtol).
 
     Raises
@@ -312,8 +318,10 @@ def adaptive_to_target(scene, targets, names, rtols, atol_factor=1.0, rho_inf=No
     for tol in rtols:
         extra = {"h_max": h_max} if h_max is not None else {}
         try:
-            r = run(scene, t_end=t_end, rho_inf=rho_inf, params=params, rtol=tol, atol=atol_factor * tol, **extra)
-            pts.append({"rtol": tol, "steps": r.steps, "wall": r.wall, "err": max_error(r, names, at),
+            kw = dict(t_end=t_end, rho_inf=rho_inf, params=params, rtol=tol, atol=atol_factor * tol, **extra)
+            r = run(scene, **kw)
+            walls = [r.wall] + [run(scene, **kw).wall for _ in range(repeats - 1)]
+            pts.append({"rtol": tol, "steps": r.steps, "wall": statistics.median(walls), "err": max_error(r, names, at),
                         "rejected": int(getattr(r.result, "n_rejected", 0))})
         except SolverError as exc:
             pts.append({"rtol": tol, "steps": None, "wall": None, "err": float("nan"),
@@ -447,7 +455,7 @@ def format_target(res, targets):
     key = "h" if res["mode"] == "fixed" else "rtol"
     body = [(_g(p[key]), p.get("steps") if p.get("steps") is not None else "–", _g(p.get("wall")),
              _g(p["err"]), p.get("failed", "")[:80]) for p in pts]
-    s = table([key, "steps", "wall (s)", "max err", "failure"], body)
+    s = table([key, "steps", "wall (s, median)", "max err", "failure"], body)
     s += "\n\n" + table(["target", "steps (interp.)", "wall (s, interp.)"],
                         [(_g(t), _g(res["at_target"][t]["steps"], ".0f"), _g(res["at_target"][t]["wall"]))
                          for t in targets])
@@ -479,6 +487,7 @@ def main(argv=None):
                     help="parts to run: order large target lambda proportionality (default: all)")
     args = ap.parse_args(argv)
     parts = set(args.only or ["order", "large", "target", "lambda", "proportionality"])
+    repeats = 1 if args.quick else 3
     out = sys.stdout
     unavailable = []
 
@@ -517,13 +526,13 @@ def main(argv=None):
                 hs = [1.6e-2, 8e-3, 4e-3, 2e-3, 1e-3, 5e-4]
             where = "max over the run" if at == "max" else "at t_end"
             print(f"## {label}: fixed steps to target ({', '.join(names)}, {where})\n", file=out)
-            fx = fixed_to_target(scene, targets, names, hs, t_end=t_end, params=params, at=at)
+            fx = fixed_to_target(scene, targets, names, hs, t_end=t_end, params=params, at=at, repeats=repeats)
             print(format_target(fx, targets) + "\n", file=out)
             rt = [1e-3, 1e-4, 1e-5, 1e-6, 1e-7, 1e-8]
             h_max = getattr(sc.module, "H_MAX", None)
             res = adaptive(f"{label}: adaptive to target",
                            lambda: adaptive_to_target(scene, targets, names, rt, t_end=t_end, params=params,
-                                                      h_max=h_max, at=at))
+                                                      h_max=h_max, at=at, repeats=repeats))
             if res:
                 print(format_target(res, targets) + "\n", file=out)
     if "lambda" in parts:
