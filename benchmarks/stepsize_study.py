@@ -280,10 +280,14 @@ def large_step_runs(scenes=("two_bar_pendulum", "spring_pendulum"), rho_infs=(0.
 
 
 def fixed_to_target(scene, targets, names, hs, rho_inf=None, t_end=None, params=None, at="max", repeats=1,
-                    run=run):
+                    extrapolate=False, run=run):
     """Steps and wall time of fixed-step runs to reach each target error (log–log interpolation).
 
-    The wall time is the median of ``repeats`` runs.
+    The wall time is the median of ``repeats`` runs. With ``extrapolate``, a
+    target below the whole ladder is reached along the power law of its two
+    finest runs (fixed steps converge with a known order, so this is how the
+    cost of very small steps is predicted without running them); the result
+    says so (``"extrapolated"``).
 
     Returns
     -------
@@ -301,7 +305,8 @@ def fixed_to_target(scene, targets, names, hs, rho_inf=None, t_end=None, params=
         except SolverError as exc:
             pts.append({"h": h, "steps": None, "wall": None, "err": float("nan"),
                         "failed": str(exc).splitlines()[0]})
-    return {"scene": scene, "mode": "fixed", "at": at, "points": pts, "at_target": _at_targets(pts, targets)}
+    return {"scene": scene, "mode": "fixed", "at": at, "points": pts,
+            "at_target": _at_targets(pts, targets, extrapolate)}
 
 
 def adaptive_to_target(scene, targets, names, rtols, atol_factor=1.0, rho_inf=None, t_end=None, params=None,
@@ -329,16 +334,32 @@ def adaptive_to_target(scene, targets, names, rtols, atol_factor=1.0, rho_inf=No
     return {"scene": scene, "mode": "adaptive", "at": at, "points": pts, "at_target": _at_targets(pts, targets)}
 
 
-def _at_targets(pts, targets):
+def loglog_extrapolate(x, y, target):
+    """x at which the power law through the two points of largest x reaches y = target (float)."""
+    x, y = np.asarray(x, dtype=float), np.asarray(y, dtype=float)
+    i = np.argsort(x)[-2:]
+    p = fit_order(x[i], y[i])
+    if not (np.isfinite(p) and p < 0):
+        return float("nan")
+    return float(x[i[-1]] * (target / y[i[-1]]) ** (1.0 / p))
+
+
+def _at_targets(pts, targets, extrapolate=False):
     ok = [p for p in pts if p.get("steps") is not None and np.isfinite(p["err"])]
     out = {}
     for tgt in targets:
-        out[tgt] = {"steps": loglog_interpolate([p["steps"] for p in ok], [p["err"] for p in ok], tgt),
-                    "wall": loglog_interpolate([p["wall"] for p in ok], [p["err"] for p in ok], tgt)}
+        row = {"extrapolated": False}
+        for key in ("steps", "wall"):
+            xs, ys = [p[key] for p in ok], [p["err"] for p in ok]
+            v = loglog_interpolate(xs, ys, tgt)
+            if extrapolate and not np.isfinite(v) and len(ok) >= 2 and tgt < min(ys):
+                v, row["extrapolated"] = loglog_extrapolate(xs, ys, tgt), True
+            row[key] = v
+        out[tgt] = row
     return out
 
 
-def compare_to_target(scene, targets, names, hs, rtols, **kw):
+def compare_to_target(scene, targets, names, hs, rtols, extrapolate=False, **kw):
     """Fixed against adaptive: steps and wall time to each target and the gain (fixed/adaptive).
 
     Raises
@@ -350,7 +371,7 @@ def compare_to_target(scene, targets, names, hs, rtols, **kw):
     require("rtol", "atol")
     run_ = kw.pop("run", run)
     h_max = kw.pop("h_max", None)
-    fx = fixed_to_target(scene, targets, names, hs, run=run_, **kw)
+    fx = fixed_to_target(scene, targets, names, hs, run=run_, extrapolate=extrapolate, **kw)
     ad = adaptive_to_target(scene, targets, names, rtols, h_max=h_max, run=run_, **kw)
     gain = {t: {k: fx["at_target"][t][k] / ad["at_target"][t][k] for k in ("steps", "wall")} for t in targets}
     return {"fixed": fx, "adaptive": ad, "gain": gain}
@@ -456,9 +477,9 @@ def format_target(res, targets):
     body = [(_g(p[key]), p.get("steps") if p.get("steps") is not None else "–", _g(p.get("wall")),
              _g(p["err"]), p.get("failed", "")[:80]) for p in pts]
     s = table([key, "steps", "wall (s, median)", "max err", "failure"], body)
-    s += "\n\n" + table(["target", "steps (interp.)", "wall (s, interp.)"],
-                        [(_g(t), _g(res["at_target"][t]["steps"], ".0f"), _g(res["at_target"][t]["wall"]))
-                         for t in targets])
+    s += "\n\n" + table(["target", "steps (interp.)", "wall (s, interp.)", "extrapolated"],
+                        [(_g(t), _g(res["at_target"][t]["steps"], ".0f"), _g(res["at_target"][t]["wall"]),
+                          "yes" if res["at_target"][t].get("extrapolated") else "no") for t in targets])
     return s
 
 
@@ -526,7 +547,8 @@ def main(argv=None):
                 hs = [1.6e-2, 8e-3, 4e-3, 2e-3, 1e-3, 5e-4]
             where = "max over the run" if at == "max" else "at t_end"
             print(f"## {label}: fixed steps to target ({', '.join(names)}, {where})\n", file=out)
-            fx = fixed_to_target(scene, targets, names, hs, t_end=t_end, params=params, at=at, repeats=repeats)
+            fx = fixed_to_target(scene, targets, names, hs, t_end=t_end, params=params, at=at, repeats=repeats,
+                                 extrapolate=True)
             print(format_target(fx, targets) + "\n", file=out)
             rt = [1e-3, 1e-4, 1e-5, 1e-6, 1e-7, 1e-8]
             h_max = getattr(sc.module, "H_MAX", None)

@@ -125,9 +125,13 @@ def test_tolerance_proportionality(name):
 
 
 def test_andrews_adaptive_needs_at_most_half_the_steps_of_the_best_fixed_step():
-    """Angles to 1e-6 rad at t = 0.03 s (issue 11: at most half the steps of fixed)."""
-    res = S.compare_to_target("andrews", [1e-6], list(A.ANGLE_NAMES), hs=[2e-5, 1e-5, 5e-6, 2.5e-6],
-                              rtols=[1e-5, 1e-6, 1e-7, 1e-8], t_end=0.03, at="end")
+    """Angles to 1e-6 rad at t = 0.03 s (issue 11: at most half the steps of fixed).
+
+    The fixed-step cost is predicted from the h² law of two runs (h = 5e-6, 2.5e-6 s; the
+    prediction is 3.3e4 steps, h ≈ 9e-7 s, as the benchmark suite's search finds).
+    """
+    res = S.compare_to_target("andrews", [1e-6], list(A.ANGLE_NAMES), hs=[5e-6, 2.5e-6],
+                              rtols=[1e-5, 1e-6, 1e-7, 1e-8], t_end=0.03, at="end", extrapolate=True)
     assert res["gain"][1e-6]["steps"] >= 2.0, res
 
 

@@ -76,3 +76,13 @@ def test_format_helpers_produce_markdown_tables():
     res = S.reaction_order("double_pendulum", hs=(4e-3, 2e-3), t_end=0.02, run=fake_run(1.0))
     text = S.format_reaction_order(res)
     assert "order 1.00" in text and text.count("\n|") >= 4
+
+
+def test_fixed_cost_below_the_ladder_is_extrapolated_along_the_power_law():
+    res = S.fixed_to_target("spring_pendulum", [1e-6], ["phi1"], hs=[4e-2, 2e-2], t_end=0.2,
+                            run=fake_run(2.0, transient=False), extrapolate=True)
+    row = res["at_target"][1e-6]
+    assert row["extrapolated"] and row["steps"] == pytest.approx(200.0, rel=1e-9)   # h = 1e-3
+    plain = S.fixed_to_target("spring_pendulum", [1e-6], ["phi1"], hs=[4e-2, 2e-2], t_end=0.2,
+                              run=fake_run(2.0, transient=False))
+    assert math.isnan(plain["at_target"][1e-6]["steps"])
