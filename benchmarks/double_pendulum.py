@@ -4,7 +4,7 @@ Two uniform bars (1 m, 1 kg each) hang from a ground hinge, the first at
 0.3 rad from the downward vertical, the second straight down; the first bar is
 given ω₁ = 3 rad/s, the second none. Gravity 9.81 m/s² along −y. The motion
 starts with a velocity, which is what exposes the O(h) start-up transient of
-λ with an inexact normal velocity (docs: stepsize.md §2, issue 11): the peak
+λ with an inexact normal velocity (stepsize.md §2): the peak
 ground-hinge reaction error over [0, 0.3] s is the measured quantity.
 
 Angles are absolute, from the x axis (hanging straight down is −π/2).

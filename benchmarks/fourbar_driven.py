@@ -4,7 +4,7 @@ Crank (0.4 m, 1 kg), coupler (1.0 m, 2 kg), rocker (0.8 m, 1.5 kg), ground
 pivots 0.9 m apart, uniform bars, gravity 9.81 m/s² along −y. A
 :class:`~femb.elements.DrivenAngle` turns the crank at 3 rad/s from 70°, so the
 motion starts with velocity: the driving torque (a multiplier) shows the same
-O(h) start-up transient as the double pendulum's reactions (issue 11).
+O(h) start-up transient as the double pendulum's reactions (stepsize.md §2).
 
 Outputs (:func:`outputs`)
 -------------------------

@@ -3,10 +3,10 @@
 A uniform bar (0.8 m, 2 kg) hinged at one end to the ground and held there by
 a torsional spring (30 N m/rad, unstressed with the bar horizontal), released
 at rest from the horizontal under gravity (9.81 m/s², −y), t ∈ [0, 5] s. Too
-large fixed steps (h = 0.5 s) return wrong angles as "success" today
-(issue 11; the issue's own data were not recorded, these are this scene's,
-chosen so that h = 0.5 s at ρ∞ = 0.8 returns "success" with φ(5) = −0.42 rad
-where the answer is −0.063 rad).
+large fixed steps (h = 0.5 s) without an error estimate return wrong angles as
+"success" (measured before step-size control: φ(5) = −0.42 rad at ρ∞ = 0.8
+where the answer is −0.063 rad). The data of the first report of this case
+were not recorded; these are this scene's own.
 
 Outputs (:func:`outputs`)
 -------------------------

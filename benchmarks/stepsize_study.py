@@ -1,6 +1,6 @@
 """Step-size studies: start-up order of the reactions, tolerance proportionality, cost to a target error.
 
-The measurements of issue 11 (step-size control for generalized-α), written
+The measurements for step-size control of generalized-α, written
 against femb's public API, so that the same code measures today's fixed-step
 engine and, once it exists, the adaptive one::
 
@@ -68,12 +68,12 @@ from femb.errors import SolverError
 
 from .registry import Scene, load
 
-#: Keywords of the adaptive ``femb.simulate`` (issue 11).
+#: Keywords of the adaptive ``femb.simulate`` (step-size control).
 ADAPTIVE_KEYWORDS = ("rtol", "atol", "h0", "h_max", "t_eval", "start", "formulation")
 
 
 class StepControlUnavailable(RuntimeError):
-    """The installed femb has no step-size control API yet (issue 11)."""
+    """The installed femb has no step-size control API yet."""
 
 
 def simulate_keywords():
@@ -97,7 +97,7 @@ def require(*names):
     if missing:
         raise StepControlUnavailable(
             "femb.simulate has no step-size control yet: it does not declare "
-            + ", ".join(missing) + " (issue 11: simulate(model, t_end, h=None, *, rtol, atol, h0, h_max, "
+            + ", ".join(missing) + " (expected: simulate(model, t_end, h=None, *, rtol, atol, h0, h_max, "
             "t_eval, start, formulation)). This part of the study needs it and is not emulated with fixed steps.")
 
 
@@ -490,7 +490,7 @@ def format_lambda(res):
             + table(["h (s)", "steps", "wall (s)", "rel. λ err", "angle err (rad)", "failure"], body))
 
 
-#: Work–precision problems of stepsize.md §8 and issue 11: scene, build parameters, t_end, outputs
+#: Work–precision problems of stepsize.md §8 and Andrews' mechanism: scene, build parameters, t_end, outputs
 #: (None: the scene's CONVERGENCE["q"]), targets, where the error is taken ("max" over the run or at "end").
 WORK_PRECISION = {
     "W1 pendulum near the top": ("pendulum", {"psi0": math.pi - 0.01}, 7.0, ["psi"], [1e-2], "max"),

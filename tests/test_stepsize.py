@@ -1,4 +1,4 @@
-"""Targets of issue 11 (step-size control for generalized-α), written against the adaptive API.
+"""Targets of step-size control for generalized-α), written against the adaptive API.
 
 These tests hold what the step-size control must deliver::
 
@@ -125,7 +125,7 @@ def test_tolerance_proportionality(name):
 
 
 def test_andrews_adaptive_needs_at_most_half_the_steps_of_the_best_fixed_step():
-    """Angles to 1e-6 rad at t = 0.03 s (issue 11: at most half the steps of fixed).
+    """Angles to 1e-6 rad at t = 0.03 s (goal: at most half the steps of fixed).
 
     The fixed-step cost is predicted from the h² law of two runs (h = 5e-6, 2.5e-6 s; the
     prediction is 3.3e4 steps, h ≈ 9e-7 s, as the benchmark suite's search finds).
