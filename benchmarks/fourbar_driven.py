@@ -61,7 +61,6 @@ def build(l1=PARAMS["l1"], l2=PARAMS["l2"], l3=PARAMS["l3"], l4=PARAMS["l4"], m1
     kw = dict(l1=l1, l2=l2, l3=l3, l4=l4, m1=m1, m2=m2, m3=m3, g=g, theta1=theta1, omega=omega)
     s = state(0.0, **kw)              # consistent angles and rates at t = 0 (closed form)
     th, w, c = s["theta"], s["omega"], s["centres"]
-    A = l1 * np.array([math.cos(th[0]), math.sin(th[0])])
     vA = l1 * w[0] * np.array([-math.sin(th[0]), math.cos(th[0])])
     n2 = np.array([-math.sin(th[1]), math.cos(th[1])])
     n3 = np.array([-math.sin(th[2]), math.cos(th[2])])
