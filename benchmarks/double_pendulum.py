@@ -25,7 +25,6 @@ from __future__ import annotations
 
 import math
 
-
 from femb import Mechanism
 from femb.elements import Gravity
 
