@@ -1,9 +1,9 @@
 """Bead on a unit circle attracted by a point just outside it (W3 of the step-size study): fast passages.
 
-A bead (1 kg; a small rigid body with J = 1e-4 kg m² so that it can carry the
-hinge of its massless-free arm) moves on the unit circle: it is a
-:class:`~femb.elements.RigidBody` whose centre of mass lies 1 m from a ground
-hinge at the origin. It is attracted by the point P = (1.05, 0) with the
+A bead (1 kg) moves on the unit circle. femb has no distance constraint, so
+the bead is a :class:`~femb.elements.RigidBody` (J = 1e-4 kg m², a sphere of
+radius 1.6 cm) whose centre of mass lies 1 m from a ground hinge at the
+origin: the rigid arm is part of the body and carries no mass. It is attracted by the point P = (1.05, 0) with the
 potential U = −μ/|x − P| (μ = 1 N m²), no gravity, and starts at (−1, 0) with
 speed 2 m/s counter-clockwise; t ∈ [0, 10] s. Each turn has one short, fast
 passage near P (speed about 6.6 m/s against 2 m/s far away): stepsize.md §8, W3,
