@@ -377,12 +377,32 @@ def compare_to_target(scene, targets, names, hs, rtols, extrapolate=False, **kw)
     return {"fixed": fx, "adaptive": ad, "gain": gain}
 
 
+def femb_reference(scene, t_end, params=None, n_samples=200, run=run):
+    """A fine fixed-step femb run as the yardstick of a scene without ``reference()``.
+
+    The step is a quarter of the smallest step of the scene's ``CONVERGENCE``
+    ladder (or of its default step). Returns the sample times (about
+    ``n_samples`` of the stored steps), the outputs there, and a description.
+    """
+    sc = load(scene)
+    cs = sc.convergence_setup()
+    h_ref = min(cs["h"] or [sc.defaults["h"]]) / 4.0
+    fine = run(scene, t_end=t_end, h=h_ref, params=params)
+    stride = max(1, (len(fine.result.t) - 1) // n_samples)
+    idx = np.unique(np.append(np.arange(0, len(fine.result.t), stride), len(fine.result.t) - 1))
+    return (fine.result.t[idx], {k: np.asarray(v)[idx] for k, v in fine.outputs.items()},
+            f"femb itself, fixed h = {h_ref:g} s")
+
+
 def tolerance_proportionality(scenes=("andrews", "slider_crank", "spin_up"), rtols=(1e-3, 1e-4, 1e-5, 1e-6, 1e-7),
                               atol_factor=1.0, t_end=None, run=run):
     """Slope of the max-over-run position error (and of the step count) against rtol, per scene.
 
     Positions are the scene's ``CONVERGENCE["q"]`` outputs; ``t_end`` defaults
-    to the scene's ``CONVERGENCE["t_end"]``.
+    to the scene's ``CONVERGENCE["t_end"]``. The error is taken against the
+    scene's ``reference()`` at the accepted steps; a scene without one (spin-up)
+    is compared at about 200 output times (``t_eval``, so interpolation is
+    included) with a fine fixed-step femb run (:func:`femb_reference`).
 
     Raises
     ------
@@ -395,14 +415,60 @@ def tolerance_proportionality(scenes=("andrews", "slider_crank", "spin_up"), rto
         sc = load(name)
         cs = sc.convergence_setup()
         te = cs["t_end"] if t_end is None else t_end
+        yardstick = None if sc.has_reference else femb_reference(name, te, run=run)
         rows = []
         for tol in rtols:
-            r = run(name, t_end=te, rtol=tol, atol=atol_factor * tol)
-            rows.append({"rtol": tol, "err": max_error(r, cs["q"]), "steps": r.steps,
+            if yardstick is None:
+                r = run(name, t_end=te, rtol=tol, atol=atol_factor * tol)
+                err = max_error(r, cs["q"])
+            else:
+                require("t_eval")
+                t_s, ref, _ = yardstick
+                r = run(name, t_end=te, rtol=tol, atol=atol_factor * tol, t_eval=t_s)
+                err = float(max(np.max(np.abs(np.asarray(r.outputs[n]) - ref[n])) for n in cs["q"]))
+            rows.append({"rtol": tol, "err": err, "steps": r.steps,
                          "rejected": int(getattr(r.result, "n_rejected", 0)), "wall": r.wall})
         tl = [r["rtol"] for r in rows]
         out[name] = {"rows": rows, "slope_err": fit_order(tl, [r["err"] for r in rows]),
-                     "slope_steps": fit_order(tl, [r["steps"] for r in rows])}
+                     "slope_steps": fit_order(tl, [r["steps"] for r in rows]),
+                     "reference": "the scene's reference()" if yardstick is None else yardstick[2]}
+    return out
+
+
+def scene_orders(scenes=None, start=None, run=run):
+    """Fitted orders of the max-over-run errors in q and λ, fixed steps, for every scene with a reference.
+
+    Steps and outputs follow each scene's ``CONVERGENCE`` (its ``t_end``, its
+    ladder of h, its q and λ names); scenes without ``reference()`` are listed
+    as skipped. ``start`` is passed to ``simulate`` (new API) when given.
+
+    Returns
+    -------
+    dict
+        scene -> {"h", "err_q", "err_lambda", "order_q", "order_lambda"} or {"skipped": reason}.
+    """
+    from .registry import names as all_names
+
+    extra = {} if start is None else {"start": start}
+    out = {}
+    for name in scenes or all_names():
+        sc = load(name)
+        if not sc.has_reference:
+            out[name] = {"skipped": "no independent reference()"}
+            continue
+        cs = sc.convergence_setup()
+        eq, el, hs = [], [], []
+        for h in cs["h"]:
+            try:
+                r = run(name, t_end=cs["t_end"], h=h, **extra)
+            except SolverError as exc:
+                out.setdefault(name, {}).setdefault("failed", []).append(f"h = {h:g}: {str(exc).splitlines()[0]}")
+                continue
+            hs.append(h)
+            eq.append(max_error(r, cs["q"]))
+            el.append(max_error(r, cs["lambda"]) if cs["lambda"] else float("nan"))
+        out[name] = dict(out.get(name, {}), h=hs, err_q=eq, err_lambda=el, order_q=fit_order(hs, eq),
+                         order_lambda=fit_order(hs, el), q=cs["q"], **{"lambda": cs["lambda"]})
     return out
 
 
@@ -490,6 +556,19 @@ def format_lambda(res):
             + table(["h (s)", "steps", "wall (s)", "rel. λ err", "angle err (rad)", "failure"], body))
 
 
+def format_scene_orders(res):
+    body = []
+    for name, r in res.items():
+        if "skipped" in r:
+            body.append((name, "–", "–", "–", "–", "skipped: " + r["skipped"]))
+            continue
+        hs = r["h"]
+        body.append((name, f"{_g(max(hs))} … {_g(min(hs))}" if hs else "–", _g(r["order_q"], ".2f"),
+                     _g(r["order_lambda"], ".2f"), _g(r["err_lambda"][-1]) if hs else "–",
+                     "; ".join(r.get("failed", []))[:80]))
+    return table(["scene", "h (s)", "order q", "order λ", "λ err at finest h", "notes"], body)
+
+
 #: Work–precision problems of stepsize.md §8 and Andrews' mechanism: scene, build parameters, t_end, outputs
 #: (None: the scene's CONVERGENCE["q"]), targets, where the error is taken ("max" over the run or at "end").
 WORK_PRECISION = {
@@ -505,9 +584,9 @@ def main(argv=None):
     ap = argparse.ArgumentParser(prog="python -m femb.benchmarks.stepsize_study", description=__doc__.splitlines()[0])
     ap.add_argument("--quick", action="store_true", help="fewer step sizes")
     ap.add_argument("--only", nargs="*", default=None,
-                    help="parts to run: order large target lambda proportionality (default: all)")
+                    help="parts to run: order large target lambda proportionality scenes (default: all)")
     args = ap.parse_args(argv)
-    parts = set(args.only or ["order", "large", "target", "lambda", "proportionality"])
+    parts = set(args.only or ["order", "large", "target", "lambda", "proportionality", "scenes"])
     repeats = 1 if args.quick else 3
     out = sys.stdout
     unavailable = []
@@ -570,6 +649,12 @@ def main(argv=None):
             for name, r in res.items():
                 print(f"{name}: slope of error against rtol {r['slope_err']:.2f}, of steps {r['slope_steps']:.2f}",
                       file=out)
+    if "scenes" in parts:
+        print("\n## Fitted orders of the max-over-run errors, fixed steps, every scene with a reference\n", file=out)
+        print(format_scene_orders(scene_orders()) + "\n", file=out)
+        res = adaptive("scene orders with the consistent start", lambda: scene_orders(start="consistent"))
+        if res:
+            print(format_scene_orders(res) + "\n", file=out)
     if unavailable:
         print(f"\nAdaptive parts not run ({len(unavailable)}): " + "; ".join(unavailable), file=out)
     return 0
