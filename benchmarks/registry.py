@@ -65,6 +65,13 @@ SCENES = {
     "andrews": "femb.benchmarks.andrews",
     "flexible_slider_crank": "femb.benchmarks.flexible_slider_crank",
     "spin_up": "femb.benchmarks.spin_up",
+    "pendulum": "femb.benchmarks.pendulum",
+    "double_pendulum": "femb.benchmarks.double_pendulum",
+    "two_bar_pendulum": "femb.benchmarks.two_bar_pendulum",
+    "spring_pendulum": "femb.benchmarks.spring_pendulum",
+    "force_pulse": "femb.benchmarks.force_pulse",
+    "bead_attractor": "femb.benchmarks.bead_attractor",
+    "fourbar_driven": "femb.benchmarks.fourbar_driven",
 }
 
 #: Run settings used for a scene file without DEFAULTS (only ρ∞; t_end and h must be given).
