@@ -164,3 +164,141 @@ def test_bad_joint_input_is_rejected():
     j = sj.SphericalJoint("s", "ground", a)
     j.resolve(_lookup(mech))
     assert j.a is spatial_ground(mech)
+
+
+# ---------------------------------------------------------------------------
+# forces
+# ---------------------------------------------------------------------------
+from femb.elements import spatial_forces as sf  # noqa: E402
+from femb.elements.spatial_bodies import SpatialPointMass, rigid_body_force, rigid_body_mass  # noqa: E402
+
+
+def _forces(rng, a, b):
+    at = rng.standard_normal(3)
+    ax = rng.standard_normal(3)
+    return [
+        sf.PointSpringDamper("spring", a, b, stiffness=30.0, damping=2.0, length=0.7,
+                             point_a=rng.standard_normal(3), point_b=rng.standard_normal(3)),
+        sf.Bushing("bush", a, b, stiffness=(10.0, 20.0, 30.0), rotational_stiffness=(4.0, 5.0, 6.0),
+                   damping=(1.0, 2.0, 3.0), rotational_damping=(0.1, 0.2, 0.3), at=at, axis=ax),
+        sf.RotationalSpringDamper("torsion", a, b, stiffness=7.0, damping=0.5, angle0=0.3, at=at, axis=ax),
+        sf.SpatialForce("dead", a, (1.0, -2.0, 0.5), point=rng.standard_normal(3), function=Harmonic(1.0, 2.0, offset=0.5)),
+        sf.SpatialForce("follower", b, (0.3, 2.0, -1.0), point=rng.standard_normal(3), follower=True),
+        sf.SpatialTorque("dead_torque", a, (1.0, 0.5, -0.7)),
+        sf.SpatialTorque("follower_torque", b, (1.0, 0.5, -0.7), follower=True),
+    ]
+
+
+def _fcall(el, P, t, x, v, jac=True):
+    nel, ndv = x.shape[0], v.shape[1]
+    fe = np.zeros((nel, ndv))
+    fq = np.zeros((nel, ndv, ndv))
+    fv = np.zeros((nel, ndv, ndv))
+    fns = type(el).time_functions(el) if hasattr(type(el), "time_functions") else []
+    tf = np.array([[[fn.f(t), fn.df(t), fn.ddf(t)] for fn in fns]] * nel).reshape(nel, len(fns), 3)
+    el.kernels["force"](P, t, tf, np.ascontiguousarray(x), np.ascontiguousarray(v), jac, fe, fq, fv)
+    return fe, fq, fv
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_force_kernels_against_finite_differences(seed):
+    rng = np.random.default_rng(50 + seed)
+    mech = Mechanism("forces")
+    a, b = _bodies(rng, mech)
+    t = 0.2 + seed
+    for el in _forces(rng, a, b):
+        el.resolve(_lookup(mech))
+        el.validate()
+        P = type(el).pack([el, el])["P"]
+        nn = len(el.nodes())
+        xe, ve = random_frame_state(rng, nn, 2)
+        fe, fq, fv = _fcall(el, P, t, xe, ve)
+        fe2, fq2, fv2 = _fcall(el, P, t, xe, ve, jac=False)
+        np.testing.assert_array_equal(fe, fe2)
+        assert not fq2.any() and not fv2.any()
+        J = tangent_jacobian(lambda x: _fcall(el, P, t, x, ve)[0], xe)
+        np.testing.assert_allclose(fq, J, rtol=0, atol=1e-7 * max(1, np.abs(J).max()), err_msg=f"{el.name} fq")
+        eps = 1e-6
+        Jv = np.zeros_like(fv)
+        for j in range(ve.shape[1]):
+            dv = np.zeros_like(ve)
+            dv[:, j] = eps
+            Jv[..., j] = (_fcall(el, P, t, xe, ve + dv)[0] - _fcall(el, P, t, xe, ve - dv)[0]) / (2 * eps)
+        np.testing.assert_allclose(fv, Jv, rtol=0, atol=1e-7 * max(1, np.abs(Jv).max()), err_msg=f"{el.name} fv")
+        if not type(el).traits([el])["force_depends_on_qd"]:
+            assert not Jv.any()
+
+
+def _potential(el, x):
+    """Independent potential of an undamped spring element (numpy, from its definition)."""
+    from femb import rotations as rt
+    Ra = rt.quat_to_matrix(np.ascontiguousarray(x[3:7]))
+    Rb = rt.quat_to_matrix(np.ascontiguousarray(x[10:14]))
+    pa = x[0:3] + Ra @ el.Xa
+    pb = x[7:10] + Rb @ el.Xb
+    d = pb - pa
+    if isinstance(el, sf.PointSpringDamper):
+        return 0.5 * el.k * (np.linalg.norm(d) - el.L0) ** 2
+    u = [Ra @ e for e in el.Ea]
+    w = [Rb @ e for e in el.Eb]
+    if isinstance(el, sf.Bushing):
+        m = np.array([u[0] @ d, u[1] @ d, u[2] @ d, u[2] @ w[1], u[0] @ w[2], u[1] @ w[0]]) - el.m0
+        return 0.5 * np.sum(el.K * m * m)
+    th = math.atan2(u[1] @ w[0], u[0] @ w[0]) - el.angle0
+    th = math.remainder(th, 2 * math.pi)
+    return 0.5 * el.k * th * th
+
+
+def test_undamped_springs_derive_from_their_potential():
+    """f = −∂V/∂(δr, δθ) along x ⊕ δ, and f(x0) = 0 when relaxed at t0."""
+    rng = np.random.default_rng(9)
+    mech = Mechanism("cons")
+    a, b = _bodies(rng, mech)
+    for el in _forces(rng, a, b)[:3]:
+        el.resolve(_lookup(mech))
+        if isinstance(el, sf.PointSpringDamper):
+            el.L0 = None
+        el.validate()
+        if isinstance(el, sf.Bushing):
+            el.C[:] = 0.0
+        else:
+            el.c = 0.0
+        x0 = np.concatenate((a.node.q0, b.node.q0))[None]
+        v0 = np.zeros((1, 12))
+        if isinstance(el, sf.RotationalSpringDamper):
+            el.angle0 = 0.0
+        P = type(el).pack([el])["P"]
+        np.testing.assert_allclose(_fcall(el, P, 0.0, x0, v0)[0], 0.0, atol=1e-12, err_msg=el.name)
+        if isinstance(el, sf.RotationalSpringDamper):
+            el.angle0 = 0.3
+            P = type(el).pack([el])["P"]
+        for trial in range(3):
+            xe = oplus(x0, 0.3 * rng.standard_normal((1, 12)))
+            f = _fcall(el, P, 0.0, xe, v0)[0][0]
+            gradV = tangent_jacobian(lambda x: np.array([[_potential(el, x[0])]]), xe)[0, 0]
+            np.testing.assert_allclose(f, -gradV, atol=1e-7 * max(1, np.abs(gradV).max()), err_msg=el.name)
+
+
+def test_rigid_body_kernels():
+    rng = np.random.default_rng(2)
+    J = np.array([[2.0, 0.1, -0.2], [0.1, 3.0, 0.3], [-0.2, 0.3, 2.5]])
+    body = SpatialRigidBody("b", 1.5, J, rotation=random_quat(rng))
+    P = SpatialRigidBody.pack([body, body])["P"]
+    xe, ve = random_frame_state(rng, 1, 2)
+    Me = np.zeros((2, 6, 6))
+    rigid_body_mass(P, xe, Me)
+    np.testing.assert_allclose(Me[0], np.block([[1.5 * np.eye(3), np.zeros((3, 3))], [np.zeros((3, 3)), J]]))
+    fe = np.zeros((2, 6)); fq = np.zeros((2, 6, 6)); fv = np.zeros((2, 6, 6))
+    rigid_body_force(P, 0.0, np.zeros((2, 0, 3)), xe, ve, True, fe, fq, fv)
+    np.testing.assert_allclose(fe[:, 3:], -np.cross(ve[:, 3:], ve[:, 3:] @ J.T), atol=1e-14)
+    assert not fe[:, :3].any() and not fq.any()
+    eps = 1e-6
+    for j in range(6):
+        dv = np.zeros_like(ve)
+        dv[:, j] = eps
+        fp = np.zeros((2, 6)); fm = np.zeros((2, 6)); z = np.zeros((2, 6, 6))
+        rigid_body_force(P, 0.0, np.zeros((2, 0, 3)), xe, ve + dv, False, fp, z, z)
+        rigid_body_force(P, 0.0, np.zeros((2, 0, 3)), xe, ve - dv, False, fm, z, z)
+        np.testing.assert_allclose(fv[:, :, j], (fp - fm) / (2 * eps), atol=1e-8)
+    pm = SpatialPointMass("pm", 2.0)
+    assert list(pm.node.fixed) == [False] * 3 + [True] * 4 and list(pm.node.fixed_v) == [False] * 3 + [True] * 3
