@@ -127,3 +127,131 @@ def redundancy(B, tol=1e-9):
     r = int(np.sum(d > tol * d[0]))
     gap = d[r] / d[0] if r < d.size else 0.0
     return r, sorted(piv[r:].tolist()), gap
+
+
+class Index1Check:
+    """A slow, dense index-1 evaluation of a spatial mechanism from its kernels (a check, not a solver).
+
+    State y = (x of every node that is not fully fixed (7 each), free v). The
+    right-hand side assembles M, f (+ gravity M ĝ), Φ, B, γ from the element
+    kernels, solves [M Bᵀ; B 0][v̇; λ] = [f; −γ] (least squares: redundant rows
+    allowed, λ then minimum-norm) and returns (ṙ, ½ p ⊗ (0, Ω), v̇). Integrated
+    tightly with scipy it reproduces the references, which validates the kernels'
+    conventions (signs, λ meaning, gyroscopic term, γ) independently of any time
+    integration scheme.
+    """
+
+    def __init__(self, mech):
+        self.els = resolve(mech)
+        grav = [e for e in mech.elements if isinstance(e, Gravity)]
+        self.g = grav[0].g if grav else np.zeros(3)
+        self.nodes, self.vindex, self.nv = _numbering(self.els)
+        self.moving = [nd for nd in self.nodes if not np.all(nd.fixed)]
+        self.xslot = {id(nd): 7 * k for k, nd in enumerate(self.moving)}
+        self.nx = 7 * len(self.moving)
+        self.groups = []
+        for e in self.els:
+            cls = type(e)
+            fns = cls.time_functions(e) if hasattr(cls, "time_functions") else []
+            self.groups.append((e, cls.pack([e])["P"], fns))
+        self.nc = sum(e.n_constraints for e in self.els)
+
+    def y0(self):
+        x = np.concatenate([nd.q0 for nd in self.moving])
+        v = np.zeros(self.nv)
+        for nd in self.nodes:
+            idx = self.vindex[id(nd)]
+            v[idx[idx >= 0]] = nd.qd0[idx >= 0]
+        return np.concatenate((x, v))
+
+    def _gather(self, e, y):
+        x, v = [], []
+        for nd in e.nodes():
+            if id(nd) in self.xslot:
+                s = self.xslot[id(nd)]
+                x.append(y[s:s + 7])
+            else:
+                x.append(nd.q0)
+            idx = self.vindex[id(nd)]
+            ve = np.zeros(6)
+            ve[idx >= 0] = y[self.nx + idx[idx >= 0]]
+            v.append(ve)
+        return np.concatenate(x)[None], np.concatenate(v)[None]
+
+    def _cols(self, e):
+        return np.concatenate([self.vindex[id(nd)] for nd in e.nodes()])
+
+    def solve(self, t, y):
+        """(v̇ (nv,), λ (nc,), dict of per-element λ) at (t, y)."""
+        nv, nc = self.nv, self.nc
+        M = np.zeros((nv, nv))
+        f = np.zeros(nv)
+        B = np.zeros((nc, nv))
+        gam = np.zeros(nc)
+        rows = {}
+        r = 0
+        for e, P, fns in self.groups:
+            x, v = self._gather(e, y)
+            cols = self._cols(e)
+            ok = cols >= 0
+            ndv = v.shape[1]
+            tf = np.array([[[fn.f(t), fn.df(t), fn.ddf(t)] for fn in fns]]).reshape(1, len(fns), 3)
+            k = e.kernels
+            if "mass" in k:
+                Me = np.zeros((1, ndv, ndv))
+                k["mass"](P, x, Me)
+                M[np.ix_(cols[ok], cols[ok])] += Me[0][np.ix_(ok, ok)]
+                gh = np.zeros(ndv)
+                for j in range(len(e.nodes())):
+                    gh[6 * j:6 * j + 3] = self.g
+                f[cols[ok]] += (Me[0] @ gh)[ok]
+            if "force" in k:
+                fe = np.zeros((1, ndv))
+                z = np.zeros((1, ndv, ndv))
+                k["force"](P, float(t), tf, x, v, False, fe, z, z.copy())
+                f[cols[ok]] += fe[0][ok]
+            if e.n_constraints:
+                n = e.n_constraints
+                ph = np.zeros((1, n))
+                Be = np.zeros((1, n, ndv))
+                k["constraint"](P, float(t), tf, x, np.zeros((1, n)), False, ph, Be, np.zeros((1, ndv, ndv)))
+                pt = np.zeros((1, n))
+                ge = np.zeros((1, n))
+                k["rates"](P, float(t), tf, x, v, pt, ge)
+                B[r:r + n, cols[ok]] += Be[0][:, ok]
+                gam[r:r + n] = ge[0]
+                rows[e.name] = slice(r, r + n)
+                r += n
+        K = np.block([[M, B.T], [B, np.zeros((nc, nc))]])
+        sol = np.linalg.lstsq(K, np.concatenate((f, -gam)), rcond=1e-13)[0]
+        lam = sol[nv:]
+        return sol[:nv], lam, {name: lam[s] for name, s in rows.items()}
+
+    def rhs(self, t, y):
+        vd, _, _ = self.solve(t, y)
+        out = np.empty_like(y)
+        for nd in self.moving:
+            s = self.xslot[id(nd)]
+            idx = self.vindex[id(nd)]
+            ve = np.zeros(6)
+            ve[idx >= 0] = y[self.nx + idx[idx >= 0]]
+            p = y[s + 3:s + 7]
+            W = ve[3:6]
+            out[s:s + 3] = ve[:3]
+            out[s + 3:s + 7] = 0.5 * np.array([-p[1] * W[0] - p[2] * W[1] - p[3] * W[2],
+                                               p[0] * W[0] + p[2] * W[2] - p[3] * W[1],
+                                               p[0] * W[1] + p[3] * W[0] - p[1] * W[2],
+                                               p[0] * W[2] + p[1] * W[1] - p[2] * W[0]])
+        out[self.nx:] = vd
+        return out
+
+    def node_state(self, y, name):
+        """(x (7,), v (6,)) of the node of body ``name``."""
+        for nd in self.moving:
+            if nd.name == name:
+                s = self.xslot[id(nd)]
+                idx = self.vindex[id(nd)]
+                v = np.zeros(6)
+                v[idx >= 0] = y[self.nx + idx[idx >= 0]]
+                return y[s:s + 7], v
+        raise KeyError(name)
