@@ -255,3 +255,38 @@ class Index1Check:
                 v[idx >= 0] = y[self.nx + idx[idx >= 0]]
                 return y[s:s + 7], v
         raise KeyError(name)
+
+    def trajectory(self, t, Y):
+        """A result-like view of states Y (n, nt) at times t (nt,) for the scenes' ``outputs``.
+
+        Offers ``t``, ``body(name, what)`` with what in {"q", "qd", "qdd"} and
+        ``reaction(name)``, as the scenes expect from femb's ``Result``.
+        """
+        return _Trajectory(self, np.asarray(t, dtype=float), np.asarray(Y, dtype=float))
+
+
+class _Trajectory:
+    def __init__(self, chk, t, Y):
+        self.chk, self.t, self.Y = chk, t, Y
+        sols = [chk.solve(tk, Y[:, k]) for k, tk in enumerate(t)]
+        self._vd = np.array([s[0] for s in sols])
+        self._lam = [s[2] for s in sols]
+
+    def body(self, name, what="q"):
+        rows = []
+        for k in range(self.t.size):
+            x, v = self.chk.node_state(self.Y[:, k], name)
+            if what == "q":
+                rows.append(x / np.concatenate((np.ones(3), [np.linalg.norm(x[3:7])] * 4)))
+            elif what == "qd":
+                rows.append(v)
+            else:
+                nd = next(nd for nd in self.chk.moving if nd.name == name)
+                idx = self.chk.vindex[id(nd)]
+                a = np.zeros(6)
+                a[idx >= 0] = self._vd[k][idx[idx >= 0]]
+                rows.append(a)
+        return np.array(rows)
+
+    def reaction(self, name):
+        return np.array([lam[name] for lam in self._lam])

@@ -230,7 +230,6 @@ def prim_dot2(r, x, abar, offset, lam, jac, Phi, B, H, W, V):
         B[r, 9 + i] = -t[i]
     if jac:
         l = lam[r]
-        I3 = W[W_I]
         M = W[W_M]
         add_skew_block(H, 0, 3, u, Ra, l, True)
         add_skew_block(H, 6, 3, u, Ra, -l, True)
@@ -243,7 +242,6 @@ def prim_dot2(r, x, abar, offset, lam, jac, Phi, B, H, W, V):
         skskw(rb, u, M)
         add_RtMR(H, 9, 3, Rb, M, Ra, -l)
         add_RtMR(H, 9, 9, Rb, M, Rb, l)
-        _ = I3
 
 
 @kernel
