@@ -347,6 +347,10 @@ class SpatialRigidBody(SpatialBody, Element):
         Named directions in body axes (normalised).
     shape : dict, optional
         Drawing shape (see :class:`SpatialBody`).
+    inertia_at : str or (3,), optional
+        The point (name or body-axes coordinates relative to the centre of
+        mass) about which ``inertia`` is given; it is moved to the centre of
+        mass by the parallel-axis theorem, J_C = J_P − m(|d|²I − ddᵀ).
 
     Notes
     -----
@@ -362,11 +366,23 @@ class SpatialRigidBody(SpatialBody, Element):
 
     def __init__(self, name, mass, inertia, position=(0.0, 0.0, 0.0), rotation=None,
                  velocity=(0.0, 0.0, 0.0), omega=None, omega_space=None, points=None, axes=None,
-                 shape=None):
+                 shape=None, inertia_at=None):
         Element.__init__(self, name)
         owner = f"SpatialRigidBody '{name}'"
         self.m = _check_scalar(owner, "mass", mass, positive=True)
-        self.J = inertia_tensor(owner, inertia)
+        if inertia_at is None:
+            self.J = inertia_tensor(owner, inertia)
+        else:
+            pts = {str(k): vector3(owner, f"point '{k}'", v) for k, v in (points or {}).items()}
+            if isinstance(inertia_at, str):
+                if inertia_at not in pts:
+                    raise ModelError(f"{owner}: inertia_at names no point ('{inertia_at}'; known: {sorted(pts)})")
+                d = pts[inertia_at]
+            else:
+                d = vector3(owner, "inertia_at", inertia_at)
+            Jp = np.asarray(inertia, dtype=float)
+            Jp = np.diag(Jp) if Jp.shape == (3,) else Jp
+            self.J = inertia_tensor(owner, Jp - self.m * (d @ d * np.eye(3) - np.outer(d, d)))
         p = rotation_input(owner, "rotation", rotation)
         if omega is not None and omega_space is not None:
             raise ModelError(f"{owner}: give omega (body axes) or omega_space, not both")

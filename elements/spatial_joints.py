@@ -112,7 +112,8 @@ class SpatialPairElement(Element):
         The joint point on each body (name or body-axes coordinates), used
         when ``at`` is not given (default: the nodes).
     axis, axis1, frame : optional
-        Joint axes, see :func:`joint_frame` (space axes at t0).
+        Joint axes, see :func:`joint_frame` (space axes at t0); ``axis`` and
+        ``axis1`` may also name axes of body a.
     """
 
     def __init__(self, name, a, b, at=None, point_a=None, point_b=None, axis=None, axis1=None,
@@ -120,7 +121,18 @@ class SpatialPairElement(Element):
         super().__init__(name)
         self.a, self.b = a, b
         self._spec = (at, point_a, point_b)
-        self.E = joint_frame(f"{type(self).__name__} '{name}'", axis, axis1, frame)
+        self._axes = (axis, axis1, frame)
+        if not isinstance(axis, str) and not isinstance(axis1, str):
+            self.E = joint_frame(f"{type(self).__name__} '{name}'", axis, axis1, frame)   # early errors
+
+    def _frame(self):
+        """Joint axes in space at t0; named axes (strings) are axes of body a."""
+        axis, axis1, frame = self._axes
+        if isinstance(axis, str):
+            axis = self.a.axis_global(axis, "axis")
+        if isinstance(axis1, str):
+            axis1 = self.a.axis_global(axis1, "axis1")
+        return joint_frame(f"{type(self).__name__} '{self.name}'", axis, axis1, frame)
 
     def resolve(self, lookup):
         self.a = _resolve_spatial(self, self.a, lookup, "a")
@@ -132,6 +144,7 @@ class SpatialPairElement(Element):
         return [self.a.node, self.b.node]
 
     def validate(self):
+        self.E = self._frame()
         at, pa, pb = self._spec
         if at is not None:
             if pa is not None or pb is not None:
@@ -349,8 +362,9 @@ class UniversalJoint(SpatialPairElement):
     Parameters
     ----------
     name, a, b, at, point_a, point_b : see :class:`SpatialPairElement`
-    axis_a, axis_b : (3,)
-        The two free axes in space at t0 (perpendicular).
+    axis_a, axis_b : (3,) or str
+        The two free axes in space at t0 (perpendicular), or names of axes of
+        body a and body b.
     """
 
     n_constraints = 4
@@ -358,13 +372,19 @@ class UniversalJoint(SpatialPairElement):
     kernels = JOINT_KERNELS
 
     def __init__(self, name, a, b, axis_a, axis_b, at=None, point_a=None, point_b=None):
-        owner = f"UniversalJoint '{name}'"
-        e2 = unit3(owner, "axis_a", axis_a)
-        e1 = unit3(owner, "axis_b", axis_b)
+        super().__init__(name, a, b, at, point_a, point_b)
+        self._pins = (axis_a, axis_b)
+        if not isinstance(axis_a, str) and not isinstance(axis_b, str):
+            self.E = self._frame()           # early errors
+
+    def _frame(self):
+        owner = f"UniversalJoint '{self.name}'"
+        axis_a, axis_b = self._pins
+        e2 = self.a.axis_global(axis_a, "axis_a") if isinstance(axis_a, str) else unit3(owner, "axis_a", axis_a)
+        e1 = self.b.axis_global(axis_b, "axis_b") if isinstance(axis_b, str) else unit3(owner, "axis_b", axis_b)
         if abs(e1 @ e2) > 1e-9:
             raise ModelError(f"{owner}: axis_a and axis_b must be perpendicular (cos = {e1 @ e2:.3g})")
-        E = np.column_stack((e1, e2, np.cross(e1, e2)))
-        super().__init__(name, a, b, at, point_a, point_b, frame=E)
+        return np.column_stack((e1, e2, np.cross(e1, e2)))
 
     def program(self):
         return [(POINT, 0, 0, 0, 0.0, -1), (DOT1, 3, A2, B1, 0.0, -1)]

@@ -302,3 +302,33 @@ def test_rigid_body_kernels():
         np.testing.assert_allclose(fv[:, :, j], (fp - fm) / (2 * eps), atol=1e-8)
     pm = SpatialPointMass("pm", 2.0)
     assert list(pm.node.fixed) == [False] * 3 + [True] * 4 and list(pm.node.fixed_v) == [False] * 3 + [True] * 3
+
+
+def test_named_axes_and_inertia_about_a_point():
+    mech = Mechanism("named")
+    R0 = random_quat(np.random.default_rng(4))
+    a = mech.add(SpatialRigidBody("A", 15.0, (15.234375, 0.46875, 15.234375), rotation=R0,
+                                  points={"O": (0.0, -1.0, 0.0)}, axes={"spin": (0, 1, 0), "side": (1, 0, 0)},
+                                  inertia_at="O"))
+    np.testing.assert_allclose(a.J, np.diag([0.234375, 0.46875, 0.234375]), atol=1e-13)
+    j = sj.RevoluteJoint("r", a, "ground", point_a="O", axis="spin", axis1="side")
+    j.resolve(_lookup(mech))
+    j.validate()
+    np.testing.assert_allclose(j.E[:, 2], a.node.rotation0 @ [0, 1, 0], atol=1e-15)
+    np.testing.assert_allclose(j.E[:, 0], a.node.rotation0 @ [1, 0, 0], atol=1e-15)
+    np.testing.assert_allclose(j.Ea[2], [0, 1, 0], atol=1e-15)
+    # universal: axis_a names an axis of a, axis_b one of b
+    b = mech.add(SpatialRigidBody("B", 1.0, (1, 1, 1), rotation=R0, axes={"pin": (1, 0, 0)}))
+    u = sj.UniversalJoint("u", a, b, axis_a="spin", axis_b="pin", at=(0, 0, 0))
+    u.resolve(_lookup(mech))
+    u.validate()
+    np.testing.assert_allclose(u.Ea[1], [0, 1, 0], atol=1e-15)
+    np.testing.assert_allclose(u.Eb[0], [1, 0, 0], atol=1e-15)
+    w = sj.UniversalJoint("w", a, b, axis_a="spin", axis_b=a.node.rotation0 @ [0, 1, 0], at=(0, 0, 0))
+    w.resolve(_lookup(mech))
+    with pytest.raises(ModelError, match="perpendicular"):
+        w.validate()
+    k = sj.RevoluteJoint("k", a, "ground", axis="nope")
+    k.resolve(_lookup(mech))
+    with pytest.raises(ModelError, match="no axis named 'nope'"):
+        k.validate()
