@@ -1,0 +1,481 @@
+"""Spatial force elements: springs, dampers, bushings, loads and gravity (compiled kernels).
+
+Sign convention M v̇ = f − Bᵀλ: a kernel returns the generalized force f on the
+tangent coordinates (δr in space axes, δθ in body axes) of its nodes, and
+``fq = ∂f/∂(δr, δθ)`` (right perturbation R ← R exp(δθ~)), ``fv = ∂f/∂v``.
+
+Spring–damper elements are written through *measures* m_k(x) (a length, a
+relative displacement component, a rotation component, an angle) with gradient
+g_k = ∂m_k/∂(δr, δθ) and Hessian H_k = ∂g_k/∂(δr, δθ): with the internal force
+F_k = K_k (m_k − m0_k) + C_k ṁ_k, ṁ_k = g_k·v,
+
+    f = −Σ F_k g_k,   fq = −Σ (F_k H_k + g_k (K_k g_k + C_k Hₖᵀv)ᵀ),   fv = −Σ C_k g_k g_kᵀ.
+
+With C = 0 the element derives from the potential ½ Σ K_k (m_k − m0_k)²: it is
+conservative.
+
+References
+----------
+M. Géradin, A. Cardona, Flexible Multibody Dynamics, Wiley, 2001, Ch. 5 and 8.
+O. Brüls, A. Cardona, On the use of Lie group time integrators in multibody
+dynamics, J. Comput. Nonlinear Dynam. 5(3):031002, 2010 (loads on R³ × SO(3)).
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from femb.element import Element
+from femb.errors import ModelError
+from femb.functions import Constant, as_time_function
+from femb.jit import kernel
+
+from . import _spatial as sp
+from ._spatial import NV, NW, frames, prim_dot1, prim_dot2
+from .bodies import _check_scalar
+from .forces import Gravity
+from .spatial_bodies import vector3
+from .spatial_joints import A1, A2, A3, B1, B2, B3, SpatialPairElement, _resolve_spatial
+
+
+# ---------------------------------------------------------------------------
+# measure forces
+# ---------------------------------------------------------------------------
+@kernel
+def _add_measure(k, m, g, Hm, P_K, P_C, P_m0, v, jac, fe, fq, fv):
+    """Add measure k's force: F = K (m − m0) + C g·v to fe, fq, fv (one element)."""
+    md = 0.0
+    for i in range(12):
+        md += g[i] * v[i]
+    F = P_K * (m - P_m0) + P_C * md
+    for i in range(12):
+        fe[i] -= F * g[i]
+    if jac:
+        for j in range(12):
+            hv = 0.0
+            for i in range(12):
+                hv += v[i] * Hm[i, j]
+            s = P_K * g[j] + P_C * hv
+            for i in range(12):
+                fq[i, j] -= F * Hm[i, j] + g[i] * s
+        if P_C != 0.0:
+            for i in range(12):
+                for j in range(12):
+                    fv[i, j] -= P_C * g[i] * g[j]
+
+
+@kernel
+def point_spring_force(P, t, tf, xe, ve, jac, fe, fq, fv):
+    """Point-to-point spring–damper: measure ℓ = |p_b − p_a|; P = (frame (24), k, c, ℓ0).
+
+    g = nᵀG, H = Gᵀ(I − nnᵀ)G/ℓ + blockdiag(0, −X_a~(R_aᵀn)~, 0, X_b~(R_bᵀn)~),
+    n = d/ℓ, δd = G δq. ℓ = 0 gives NaN (direction undefined).
+    """
+    W = np.empty((NW, 3, 3))
+    V = np.empty((NV, 3))
+    G = np.empty((3, 12))
+    g = np.empty(12)
+    Hm = np.empty((12, 12))
+    for e in range(xe.shape[0]):
+        Pe = P[e]
+        frames(Pe, xe[e], W, V)
+        d = V[sp.V_D]
+        L = math.sqrt(sp.dot3(d, d))
+        n = V[15]
+        for i in range(3):
+            n[i] = d[i] / L if L > 0.0 else math.nan
+        sp.gmat(Pe, W, V, G)
+        for j in range(12):
+            g[j] = n[0] * G[0, j] + n[1] * G[1, j] + n[2] * G[2, j]
+        if jac:
+            for i in range(12):
+                for j in range(12):
+                    Hm[i, j] = (G[0, i] * G[0, j] + G[1, i] * G[1, j] + G[2, i] * G[2, j] - g[i] * g[j]) / L
+            sp.add_arm_blocks(Pe, Hm, n, 1.0, W, V)
+        _add_measure(0, L, g, Hm, Pe[24], Pe[25], Pe[26], ve[e], jac, fe[e], fq[e], fv[e])
+
+
+@kernel
+def bushing_force(P, t, tf, xe, ve, jac, fe, fq, fv):
+    """Six-component bushing; P = (frame (24), K (6), C (6), m0 (6)).
+
+    Measures in the joint frame of a: Δ_k = u_k·d − Δ0_k (k = 1, 2, 3; dot-2) and
+    ψ = (u3·w2, u1·w3, u2·w1) (dot-1; the small relative rotation about ē1, ē2, ē3).
+    """
+    W = np.empty((NW, 3, 3))
+    V = np.empty((NV, 3))
+    Phi = np.zeros(6)
+    B = np.zeros((6, 12))
+    Hm = np.zeros((12, 12))
+    lam = np.zeros(6)
+    for e in range(xe.shape[0]):
+        Pe = P[e]
+        x = xe[e]
+        frames(Pe, x, W, V)
+        for k in range(6):
+            for i in range(6):
+                lam[i] = 0.0
+            lam[k] = 1.0
+            Hm[:, :] = 0.0
+            if k == 0:
+                prim_dot2(0, x, Pe[A1:A1 + 3], 0.0, lam, jac, Phi, B, Hm, W, V)
+            elif k == 1:
+                prim_dot2(1, x, Pe[A2:A2 + 3], 0.0, lam, jac, Phi, B, Hm, W, V)
+            elif k == 2:
+                prim_dot2(2, x, Pe[A3:A3 + 3], 0.0, lam, jac, Phi, B, Hm, W, V)
+            elif k == 3:
+                prim_dot1(3, Pe[A3:A3 + 3], Pe[B2:B2 + 3], lam, jac, Phi, B, Hm, W, V)
+            elif k == 4:
+                prim_dot1(4, Pe[A1:A1 + 3], Pe[B3:B3 + 3], lam, jac, Phi, B, Hm, W, V)
+            else:
+                prim_dot1(5, Pe[A2:A2 + 3], Pe[B1:B1 + 3], lam, jac, Phi, B, Hm, W, V)
+            _add_measure(k, Phi[k], B[k], Hm, Pe[24 + k], Pe[30 + k], Pe[36 + k], ve[e], jac,
+                         fe[e], fq[e], fv[e])
+
+
+@kernel
+def rotational_spring_force(P, t, tf, xe, ve, jac, fe, fq, fv):
+    """Rotational spring–damper about ē3: measure θ = atan2(s, c) ∈ (−π, π].
+
+    s = (R_a ā2)·w1, c = (R_a ā1)·w1 with ā1 = cos θ0 ē_a1 + sin θ0 ē_a2,
+    ā2 = −sin θ0 ē_a1 + cos θ0 ē_a2 (θ0 the unstretched angle), w1 = R_b ē_b1;
+    g = (c g_s − s g_c)/ρ, ρ = s² + c²,
+    H = (g_s g_cᵀ − g_c g_sᵀ + c H_s − s H_c)/ρ − (c g_s − s g_c)(2 s g_s + 2 c g_c)ᵀ/ρ².
+    P = (frame (24), k, c, θ0).
+    """
+    W = np.empty((NW, 3, 3))
+    V = np.empty((NV, 3))
+    Phi = np.zeros(2)
+    B = np.zeros((2, 12))
+    Hs = np.zeros((12, 12))
+    Hc = np.zeros((12, 12))
+    Hm = np.zeros((12, 12))
+    g = np.zeros(12)
+    one = np.zeros(2)
+    a1 = np.empty(3)
+    a2 = np.empty(3)
+    for e in range(xe.shape[0]):
+        Pe = P[e]
+        frames(Pe, xe[e], W, V)
+        th0 = Pe[26]
+        ct, st = math.cos(th0), math.sin(th0)
+        for i in range(3):
+            a1[i] = ct * Pe[A1 + i] + st * Pe[A2 + i]
+            a2[i] = -st * Pe[A1 + i] + ct * Pe[A2 + i]
+        Hs[:, :] = 0.0
+        Hc[:, :] = 0.0
+        one[0] = 1.0
+        one[1] = 1.0
+        prim_dot1(0, a2, Pe[B1:B1 + 3], one, jac, Phi, B, Hs, W, V)     # s, g_s, H_s
+        prim_dot1(1, a1, Pe[B1:B1 + 3], one, jac, Phi, B, Hc, W, V)     # c, g_c, H_c
+        s, c = Phi[0], Phi[1]
+        rho = s * s + c * c
+        for i in range(12):
+            g[i] = (c * B[0, i] - s * B[1, i]) / rho
+        if jac:
+            for i in range(12):
+                for j in range(12):
+                    Hm[i, j] = ((B[0, i] * B[1, j] - B[1, i] * B[0, j] + c * Hs[i, j] - s * Hc[i, j]) / rho
+                                - g[i] * (2.0 * s * B[0, j] + 2.0 * c * B[1, j]) / rho)
+        _add_measure(0, math.atan2(s, c), g, Hm, Pe[24], Pe[25], 0.0, ve[e], jac, fe[e], fq[e], fv[e])
+
+
+class PointSpringDamper(SpatialPairElement):
+    """Linear spring–damper between point p_a of a and p_b of b.
+
+    Tension N = k (ℓ − ℓ0) + c ℓ̇, ℓ = |p_b − p_a|, pulls the points together:
+    force −N n on b at p_b and +N n on a at p_a (n = (p_b − p_a)/ℓ).
+
+    Parameters
+    ----------
+    name, a, b : see :class:`~femb.elements.spatial_joints.SpatialPairElement`
+    stiffness : float ≥ 0 (N/m)
+    damping : float ≥ 0 (N s/m)
+    length : float ≥ 0, optional
+        Unstretched length ℓ0 (default: the distance at t0).
+    point_a, point_b : str or (3,)
+    """
+
+    has_force = True
+    force_depends_on_qd = True
+    kernels = {"force": point_spring_force}
+
+    def __init__(self, name, a, b, stiffness, damping=0.0, length=None, point_a=None, point_b=None):
+        super().__init__(name, a, b, None, point_a, point_b)
+        owner = f"PointSpringDamper '{name}'"
+        self.k = _check_scalar(owner, "stiffness", stiffness, nonneg=True)
+        self.c = _check_scalar(owner, "damping", damping, nonneg=True)
+        self.L0 = None if length is None else _check_scalar(owner, "length", length, nonneg=True)
+
+    def validate(self):
+        super().validate()
+        if self.L0 is None:
+            self.L0 = float(np.linalg.norm(self.b.global_point(self.Xb) - self.a.global_point(self.Xa)))
+
+    @classmethod
+    def traits(cls, elements):
+        tr = super().traits(elements)
+        tr["force_depends_on_qd"] = any(e.c != 0.0 for e in elements)
+        return tr
+
+    @classmethod
+    def pack(cls, elements):
+        p = _frame_pack(elements)
+        p["P"] = np.ascontiguousarray(np.hstack((p["P"], [[e.k, e.c, e.L0] for e in elements])))
+        return p
+
+
+class Bushing(SpatialPairElement):
+    """Six-component linear bushing between a and b in a joint frame.
+
+    Measures (joint frame of a, relaxed at t0): relative displacement
+    Δ_k = u_k·(p_b − p_a) − Δ0_k (k = 1, 2, 3) and relative rotation
+    ψ = (u3·w2, u1·w3, u2·w1) ≈ the rotation vector of b relative to a for small
+    rotations (ψ_k = sin of the angle for a rotation about one axis). Forces
+    F_k = K_k Δ_k + C_k Δ̇_k, moments M_k = K_r,k ψ_k + C_r,k ψ̇_k act against the
+    deflection. The element derives from the potential ½ΣK_kΔ_k² + ½ΣK_r,kψ_k²
+    (conservative without damping); like the bushings of commercial codes it is
+    meant for small relative rotations.
+
+    Parameters
+    ----------
+    name, a, b, at, point_a, point_b, axis, axis1, frame : see
+        :class:`~femb.elements.spatial_joints.SpatialPairElement`
+    stiffness : (3,)  translational stiffness along ē1, ē2, ē3 (N/m)
+    damping : (3,)    translational damping (N s/m)
+    rotational_stiffness : (3,)  (N m/rad)
+    rotational_damping : (3,)    (N m s/rad)
+    """
+
+    has_force = True
+    force_depends_on_qd = True
+    kernels = {"force": bushing_force}
+
+    def __init__(self, name, a, b, stiffness, rotational_stiffness, damping=(0.0, 0.0, 0.0),
+                 rotational_damping=(0.0, 0.0, 0.0), at=None, point_a=None, point_b=None, axis=None,
+                 axis1=None, frame=None):
+        super().__init__(name, a, b, at, point_a, point_b, axis, axis1, frame)
+        owner = f"Bushing '{name}'"
+        vals = []
+        for what, v in (("stiffness", stiffness), ("rotational_stiffness", rotational_stiffness),
+                        ("damping", damping), ("rotational_damping", rotational_damping)):
+            a3 = vector3(owner, what, v)
+            if np.any(a3 < 0):
+                raise ModelError(f"{owner}: {what} must not be negative, got {a3.tolist()}")
+            vals.append(a3)
+        self.K = np.concatenate((vals[0], vals[1]))
+        self.C = np.concatenate((vals[2], vals[3]))
+
+    def validate(self):
+        super().validate()
+        d = self.b.global_point(self.Xb) - self.a.global_point(self.Xa)
+        self.m0 = np.concatenate((self.E.T @ d, np.zeros(3)))
+
+    @classmethod
+    def traits(cls, elements):
+        tr = super().traits(elements)
+        tr["force_depends_on_qd"] = any(np.any(e.C != 0.0) for e in elements)
+        return tr
+
+    @classmethod
+    def pack(cls, elements):
+        p = _frame_pack(elements)
+        p["P"] = np.ascontiguousarray(np.hstack((p["P"], [np.concatenate((e.K, e.C, e.m0)) for e in elements])))
+        return p
+
+
+class RotationalSpringDamper(SpatialPairElement):
+    """Torsion spring–damper about ē3 = ``axis`` (use with a revolute joint on the same axis).
+
+    Moment −(k (θ − θ0) + c θ̇) ē3 on b (and the opposite on a), θ the angle of
+    ē_b1 in a's (ē1, ē2) plane, zero at t0; θ − θ0 is taken in (−π, π] (a spring
+    wound beyond half a turn from θ0 is outside this element's range).
+
+    Parameters
+    ----------
+    name, a, b, at, point_a, point_b, axis, axis1, frame : see
+        :class:`~femb.elements.spatial_joints.SpatialPairElement`
+    stiffness : float ≥ 0 (N m/rad)
+    damping : float ≥ 0 (N m s/rad)
+    angle0 : float
+        Unstretched angle θ0 (rad), default 0 (relaxed at t0).
+    """
+
+    has_force = True
+    force_depends_on_qd = True
+    kernels = {"force": rotational_spring_force}
+
+    def __init__(self, name, a, b, stiffness, damping=0.0, angle0=0.0, at=None, point_a=None,
+                 point_b=None, axis=None, axis1=None, frame=None):
+        super().__init__(name, a, b, at, point_a, point_b, axis, axis1, frame)
+        owner = f"RotationalSpringDamper '{name}'"
+        self.k = _check_scalar(owner, "stiffness", stiffness, nonneg=True)
+        self.c = _check_scalar(owner, "damping", damping, nonneg=True)
+        self.angle0 = _check_scalar(owner, "angle0", angle0)
+
+    @classmethod
+    def traits(cls, elements):
+        tr = super().traits(elements)
+        tr["force_depends_on_qd"] = any(e.c != 0.0 for e in elements)
+        return tr
+
+    @classmethod
+    def pack(cls, elements):
+        p = _frame_pack(elements)
+        p["P"] = np.ascontiguousarray(np.hstack((p["P"], [[e.k, e.c, e.angle0] for e in elements])))
+        return p
+
+
+def _frame_pack(elements):
+    P = np.array([np.concatenate((e.Xa, e.Ea.reshape(-1), e.Xb, e.Eb.reshape(-1))) for e in elements])
+    return {"P": P, "Xa": P[:, 0:3].copy(), "Xb": P[:, 12:15].copy(),
+            "Ea": P[:, 3:12].reshape(-1, 3, 3).copy(), "Eb": P[:, 15:24].reshape(-1, 3, 3).copy()}
+
+
+# ---------------------------------------------------------------------------
+# loads on one body
+# ---------------------------------------------------------------------------
+@kernel
+def load_force(P, t, tf, xe, ve, jac, fe, fq, fv):
+    """Force or torque on one frame node, scaled by f(t); P = (X (3), V (3), follower, torque).
+
+    dead force F at X:      f_r = F,   f_θ = X × RᵀF,  fq(θ,θ) = X~(RᵀF)~
+    follower force F_b:     f_r = RF_b, f_θ = X × F_b, fq(r,θ) = −R F_b~
+    dead torque M:          f_θ = RᵀM, fq(θ,θ) = (RᵀM)~
+    follower torque M_b:    f_θ = M_b
+    """
+    R = np.empty((3, 3))
+    a = np.empty(3)
+    for e in range(xe.shape[0]):
+        s = tf[e, 0, 0]
+        X = P[e, 0:3]
+        F0, F1, F2 = s * P[e, 3], s * P[e, 4], s * P[e, 5]
+        follower = P[e, 6] != 0.0
+        torque = P[e, 7] != 0.0
+        sp.rt.quat_to_matrix_into(xe[e, 3:7], R)
+        if not follower:
+            for i in range(3):
+                a[i] = R[0, i] * F0 + R[1, i] * F1 + R[2, i] * F2      # Rᵀ V
+        else:
+            a[0], a[1], a[2] = F0, F1, F2
+        if torque:
+            for i in range(3):
+                fe[e, 3 + i] = a[i]
+            if jac and not follower:
+                fq[e, 3, 4] = -a[2]
+                fq[e, 3, 5] = a[1]
+                fq[e, 4, 3] = a[2]
+                fq[e, 4, 5] = -a[0]
+                fq[e, 5, 3] = -a[1]
+                fq[e, 5, 4] = a[0]
+            continue
+        fe[e, 3] = X[1] * a[2] - X[2] * a[1]
+        fe[e, 4] = X[2] * a[0] - X[0] * a[2]
+        fe[e, 5] = X[0] * a[1] - X[1] * a[0]
+        if not follower:
+            fe[e, 0], fe[e, 1], fe[e, 2] = F0, F1, F2
+            if jac:
+                # X~ a~ = a Xᵀ − (X·a) I
+                xa = X[0] * a[0] + X[1] * a[1] + X[2] * a[2]
+                for i in range(3):
+                    for j in range(3):
+                        fq[e, 3 + i, 3 + j] = a[i] * X[j] - (xa if i == j else 0.0)
+        else:
+            for i in range(3):
+                fe[e, i] = R[i, 0] * F0 + R[i, 1] * F1 + R[i, 2] * F2
+            if jac:
+                # −R F_b~ : column j = −R (e_j × F_b)... (F~)[k, j] = −ε_kjm F_m
+                for i in range(3):
+                    fq[e, i, 3] = -(R[i, 1] * F2 - R[i, 2] * F1)
+                    fq[e, i, 4] = -(R[i, 2] * F0 - R[i, 0] * F2)
+                    fq[e, i, 5] = -(R[i, 0] * F1 - R[i, 1] * F0)
+
+
+class _Load(Element):
+    has_force = True
+    kernels = {"force": load_force}
+    _torque = False
+
+    def __init__(self, name, body, value, point=None, follower=False, function=None):
+        super().__init__(name)
+        owner = f"{type(self).__name__} '{name}'"
+        self.body = body
+        self.value = vector3(owner, "torque" if self._torque else "force", value)
+        self._point = point
+        self.follower = bool(follower)
+        self.fn = Constant(1.0) if function is None else as_time_function(function, owner, "function")
+
+    def resolve(self, lookup):
+        self.body = _resolve_spatial(self, self.body, lookup, "body")
+
+    def nodes(self):
+        return [self.body.node]
+
+    def validate(self):
+        self.X = (np.zeros(3) if self._point is None or self._torque
+                  else self.body.local(self._point, "point"))
+
+    @classmethod
+    def time_functions(cls, element):
+        return [element.fn]
+
+    @classmethod
+    def pack(cls, elements):
+        P = np.array([[*e.X, *e.value, float(e.follower), float(e._torque)] for e in elements])
+        return {"P": np.ascontiguousarray(P)}
+
+
+class SpatialForce(_Load):
+    """A force on a body point, dead (space axes) or follower (body axes), scaled by f(t).
+
+    Parameters
+    ----------
+    name : str
+    body : SpatialBody or str
+    force : (3,)
+        F (N): space axes (dead) or body axes (``follower=True``).
+    point : str or (3,), optional
+        Point of application in body axes (default: the node).
+    follower : bool
+    function : float or TimeFunction, optional
+        Scale factor f(t) (default 1).
+    """
+
+    def __init__(self, name, body, force, point=None, follower=False, function=None):
+        super().__init__(name, body, force, point, follower, function)
+
+
+class SpatialTorque(_Load):
+    """A torque on a body, dead (space axes) or follower (body axes), scaled by f(t).
+
+    Parameters
+    ----------
+    name : str
+    body : SpatialBody or str
+    torque : (3,)
+        M (N m): space axes (dead) or body axes (``follower=True``).
+    follower : bool
+    function : float or TimeFunction, optional
+    """
+
+    _torque = True
+
+    def __init__(self, name, body, torque, follower=False, function=None):
+        super().__init__(name, body, torque, None, follower, function)
+
+
+class SpatialGravity(Gravity):
+    """Uniform gravity g (3,) on every mass, through the mass matrix (as planar :class:`Gravity`).
+
+    The generalized force is M ĝ, ĝ holding g at the translational coordinates
+    of every node: exact for rigid bodies with their node at the centre of mass.
+    """
+
+    def __init__(self, g=(0.0, 0.0, -9.81), name="gravity"):
+        Element.__init__(self, name)
+        self.g = vector3(f"SpatialGravity '{name}'", "g", g)
+
+
+__all__ = ["PointSpringDamper", "Bushing", "RotationalSpringDamper", "SpatialForce", "SpatialTorque",
+           "SpatialGravity", "point_spring_force", "bushing_force", "rotational_spring_force", "load_force"]

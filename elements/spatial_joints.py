@@ -1,0 +1,574 @@
+"""Spatial joints between two frame nodes, as compiled kernels.
+
+Every joint connects body ``a`` to body ``b`` (either may be the ground). The
+user gives a joint frame — a point and axes (ē1, ē2, ē3; ē3 the joint axis) in
+space at t0 — and the joint stores it in both bodies' axes: X_a, ē_a1..3 and
+X_b, ē_b1..3, coincident at t0. At any time r_a = R_a X_a, p_a = x_a + r_a
+(same for b), d = p_b − p_a, u_i = R_a ē_ai, w_i = R_b ē_bi.
+
+Sign convention: M v̇ = f − Bᵀλ, Φ = 0 (Arnold & Brüls 2007). What each λ is:
+
+* point rows (spherical, revolute, universal, fixed): Φ = p_a − p_b, λ (3) is
+  the **force on body b** at the joint point, space axes, N (−λ on a);
+* rotation-lock rows u3·w2, u1·w3, u2·w1 (≈ ψ1, ψ2, ψ3, the small rotation of b
+  relative to a in joint axes): λ_k ≈ −(moment on b about joint axis k), N m;
+  exactly, the row Φ = u·w acts on b with the moment λ (u × w) (space axes);
+* line rows u_k·d (cylindrical, prismatic): the joint acts on b at p_b with the
+  force −λ u_k (space), N;
+* distance: λ is the tension (N; positive pulls the points together);
+* driven revolute angle: λ is the driving torque, the moment on b is −λ ē3
+  (space), N m; driven prismatic displacement: the force on b is −λ u3, N.
+
+Rotation-lock rows (dot products) hold only near the reference orientation
+(they also vanish at a relative half turn): enough for joints, whose relative
+rotation about the locked axes stays near zero.
+
+References
+----------
+M. Géradin, A. Cardona, Flexible Multibody Dynamics, Wiley, 2001, Ch. 5.
+O. Brüls, A. Cardona, M. Arnold, Lie group generalized-α time integration of
+constrained flexible multibody systems, Mech. Mach. Theory 48:121–137, 2012.
+P. E. Nikravesh, Computer-Aided Analysis of Mechanical Systems, 1988, Ch. 11
+(spatial joints from dot-1 and dot-2 constraints).
+M. Arnold, O. Brüls, Convergence of the generalized-α scheme for constrained
+mechanical systems, Multibody Syst. Dyn. 18:185–202, 2007.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from femb.element import Element
+from femb.errors import ModelError
+from femb.functions import as_time_function
+from femb.jit import kernel
+
+from . import _spatial as sp
+from ._spatial import EA, EB, NPAR_FRAME, NV, NW, frames, prim_distance, prim_dot1, prim_dot2, prim_point
+from .bodies import Ground
+from .spatial_bodies import SpatialBody, SpatialGround, spatial_ground, unit3, vector3
+
+A1, A2, A3 = EA, EA + 3, EA + 6
+B1, B2, B3 = EB, EB + 3, EB + 6
+
+
+# ---------------------------------------------------------------------------
+# joint frame
+# ---------------------------------------------------------------------------
+def joint_frame(owner, axis=None, axis1=None, frame=None):
+    """Orthonormal joint axes (3, 3), columns (ē1, ē2, ē3), in space at t0.
+
+    ``frame``: a rotation matrix whose columns are the axes; else ē3 = ``axis``
+    (default z) and ē1 = ``axis1`` made orthogonal to ē3 (default: the
+    coordinate axis least aligned with ē3), ē2 = ē3 × ē1.
+    """
+    if frame is not None:
+        E = np.asarray(frame, dtype=float)
+        if E.shape != (3, 3) or not np.all(np.isfinite(E)):
+            raise ModelError(f"{owner}: frame must be a finite 3×3 matrix, got {frame!r}")
+        if not (np.allclose(E.T @ E, np.eye(3), atol=1e-9) and np.linalg.det(E) > 0):
+            raise ModelError(f"{owner}: frame must be a rotation matrix (orthonormal columns, det 1)")
+        if axis is not None or axis1 is not None:
+            raise ModelError(f"{owner}: give frame or axis/axis1, not both")
+        return E.copy()
+    e3 = unit3(owner, "axis", (0.0, 0.0, 1.0) if axis is None else axis)
+    if axis1 is None:
+        k = int(np.argmin(np.abs(e3)))
+        h = np.zeros(3)
+        h[k] = 1.0
+    else:
+        h = unit3(owner, "axis1", axis1)
+    e1 = h - (h @ e3) * e3
+    n = np.linalg.norm(e1)
+    if n < 1e-8:
+        raise ModelError(f"{owner}: axis1 is parallel to axis")
+    e1 /= n
+    return np.column_stack((e1, np.cross(e3, e1), e3))
+
+
+def _resolve_spatial(owner, ref, lookup, role):
+    if isinstance(ref, SpatialGround):
+        return ref
+    body = lookup(ref, role)
+    if isinstance(body, Ground):
+        return spatial_ground(body)
+    if not isinstance(body, SpatialBody):
+        raise ModelError(f"{type(owner).__name__} '{owner.name}': {role} = '{body.name}' is not a "
+                         "spatial body (planar and spatial elements cannot be joined)")
+    return body
+
+
+class SpatialPairElement(Element):
+    """An element between two spatial bodies ``a`` and ``b`` with a joint frame.
+
+    Parameters
+    ----------
+    name : str
+    a, b : SpatialBody, str, or the mechanism's ground (``"ground"``)
+    at : (3,), optional
+        The joint point in space at t0 (the same material point on a and b).
+    point_a, point_b : str or (3,), optional
+        The joint point on each body (name or body-axes coordinates), used
+        when ``at`` is not given (default: the nodes).
+    axis, axis1, frame : optional
+        Joint axes, see :func:`joint_frame` (space axes at t0); ``axis`` and
+        ``axis1`` may also name axes of body a.
+    """
+
+    def __init__(self, name, a, b, at=None, point_a=None, point_b=None, axis=None, axis1=None,
+                 frame=None):
+        super().__init__(name)
+        self.a, self.b = a, b
+        self._spec = (at, point_a, point_b)
+        self._axes = (axis, axis1, frame)
+        if not isinstance(axis, str) and not isinstance(axis1, str):
+            self.E = joint_frame(f"{type(self).__name__} '{name}'", axis, axis1, frame)   # early errors
+
+    def _frame(self):
+        """Joint axes in space at t0; named axes (strings) are axes of body a."""
+        axis, axis1, frame = self._axes
+        if isinstance(axis, str):
+            axis = self.a.axis_global(axis, "axis")
+        if isinstance(axis1, str):
+            axis1 = self.a.axis_global(axis1, "axis1")
+        return joint_frame(f"{type(self).__name__} '{self.name}'", axis, axis1, frame)
+
+    def resolve(self, lookup):
+        self.a = _resolve_spatial(self, self.a, lookup, "a")
+        self.b = _resolve_spatial(self, self.b, lookup, "b")
+        if self.a is self.b:
+            raise ModelError(f"{type(self).__name__} '{self.name}': bodies a and b are the same ('{self.a.name}')")
+
+    def nodes(self):
+        return [self.a.node, self.b.node]
+
+    def validate(self):
+        self.E = self._frame()
+        at, pa, pb = self._spec
+        if at is not None:
+            if pa is not None or pb is not None:
+                raise ModelError(f"{type(self).__name__} '{self.name}': give either at= or point_a/point_b, not both")
+            at = vector3(f"{type(self).__name__} '{self.name}'", "at", at)
+            self.Xa, self.Xb = self.a.local_from_global(at), self.b.local_from_global(at)
+        else:
+            self.Xa = self.a.local((0.0, 0.0, 0.0) if pa is None else pa, "point_a")
+            self.Xb = self.b.local((0.0, 0.0, 0.0) if pb is None else pb, "point_b")
+        self.Ea = (self.a.node.rotation0.T @ self.E).T     # rows ē_a1..3 in body a axes
+        self.Eb = (self.b.node.rotation0.T @ self.E).T
+
+    def program(self):
+        """The row program: list of (kind, first row, ā offset, b̄ offset, value, time-function index)."""
+        raise NotImplementedError
+
+    @classmethod
+    def pack(cls, elements):
+        rows = []
+        for e in elements:
+            prog = np.asarray(e.program(), dtype=float).reshape(-1, SPEC)
+            rows.append(np.concatenate((e.Xa, e.Ea.reshape(-1), e.Xb, e.Eb.reshape(-1),
+                                        [len(prog)], prog.reshape(-1))))
+        P = np.ascontiguousarray(np.array(rows, dtype=float))
+        return {"P": P, "Xa": P[:, 0:3].copy(), "Xb": P[:, 12:15].copy(),
+                "Ea": P[:, 3:12].reshape(-1, 3, 3).copy(), "Eb": P[:, 15:24].reshape(-1, 3, 3).copy()}
+
+    @classmethod
+    def time_functions(cls, element):
+        return []
+
+
+# ---------------------------------------------------------------------------
+# one compiled kernel pair for all joint types: a row program in P
+# ---------------------------------------------------------------------------
+#: row kinds of a joint program
+POINT, DOT1, DOT2, DISTANCE, DRIVEN_DOT1 = 0, 1, 2, 3, 4
+#: floats per program entry: (kind, first row, ā offset in P, b̄ offset in P, value, time-function index)
+SPEC = 6
+PROGRAM = NPAR_FRAME + 1
+
+
+@kernel
+def _driven_axis(P, tf, base, value, k, V):
+    """ā(t) into V[10], t̄ into V[11] (body a axes), θ* = value + φ(t); returns (φ', φ'')."""
+    th = value + tf[k, 0]
+    c, s = math.cos(th), math.sin(th)
+    for i in range(3):
+        V[10, i] = -s * P[base + i] + c * P[base + 3 + i]
+        V[11, i] = c * P[base + i] + s * P[base + 3 + i]
+    return tf[k, 1], tf[k, 2]
+
+
+@kernel
+def joint_ev(P, t, tf, x, lam, jac, Phi, B, H, W, V, G):
+    """One element's Φ (nc), B (nc, 12) and H += ∂(Bᵀλ)/∂(δr, δθ) from its row program.
+
+    P = (frame (24), n, entries (n × 6)); entry = (kind, row, ia, ib, value, k):
+    POINT: 3 rows Φ = p_a − p_b; DOT1: Φ = (R_a P[ia:ia+3])·(R_b P[ib:ib+3]);
+    DOT2: Φ = (R_a P[ia:ia+3])·d − value (− φ_k(t) if k ≥ 0); DISTANCE: L = value;
+    DRIVEN_DOT1: ā(t) = −sin θ* ē_a1 + cos θ* ē_a2 with ē_a1 = P[ia:ia+3],
+    ē_a2 = P[ia+3:ia+6], θ* = value + φ_k(t), b̄ = P[ib:ib+3].
+    """
+    frames(P, x, W, V)
+    n = int(P[NPAR_FRAME])
+    for s in range(n):
+        o = PROGRAM + SPEC * s
+        kind = int(P[o])
+        r = int(P[o + 1])
+        ia = int(P[o + 2])
+        ib = int(P[o + 3])
+        val = P[o + 4]
+        k = int(P[o + 5])
+        if kind == POINT:
+            prim_point(r, P, x, lam, jac, Phi, B, H, W, V)
+        elif kind == DOT1:
+            prim_dot1(r, P[ia:ia + 3], P[ib:ib + 3], lam, jac, Phi, B, H, W, V)
+        elif kind == DOT2:
+            off = val + (tf[k, 0] if k >= 0 else 0.0)
+            prim_dot2(r, x, P[ia:ia + 3], off, lam, jac, Phi, B, H, W, V)
+        elif kind == DISTANCE:
+            prim_distance(r, P, val, lam, jac, Phi, B, H, W, V, G)
+        else:
+            _driven_axis(P, tf, ia, val, k, V)
+            prim_dot1(r, V[10], P[ib:ib + 3], lam, jac, Phi, B, H, W, V)
+
+
+@kernel
+def joint_time(P, t, tf, x, v, Phi_t, gam, W, V, G):
+    """Φ_t and the explicit-time part 2 B_t v + Φ_tt (added to gam) of the rheonomic rows.
+
+    DOT2 with a time function: Φ_t = −s′, Φ_tt = −s″, B_t = 0. DRIVEN_DOT1:
+    Φ_t = (R_a ā̇)·w, Φ_tt = (R_a ā̈)·w, B_t = dot-1 B with c = (R_a ā̇) × w, where
+    ā̇ = −φ′ t̄, ā̈ = −φ″ t̄ − φ′² ā (docs/spatial.md §4).
+    """
+    n = int(P[NPAR_FRAME])
+    framed = False
+    for s in range(n):
+        o = PROGRAM + SPEC * s
+        kind = int(P[o])
+        r = int(P[o + 1])
+        k = int(P[o + 5])
+        if k < 0:
+            continue
+        if kind == DOT2:
+            Phi_t[r] = -tf[k, 1]
+            gam[r] += -tf[k, 2]
+        elif kind == DRIVEN_DOT1:
+            if not framed:
+                frames(P, x, W, V)
+                framed = True
+            ia = int(P[o + 2])
+            ib = int(P[o + 3])
+            d1, d2 = _driven_axis(P, tf, ia, P[o + 4], k, V)
+            Ra, Rb = W[sp.W_RA], W[sp.W_RB]
+            w, ad, c, tmp = V[sp.V_W], V[12], V[13], V[14]
+            sp.rot_vec(Rb, P[ib:ib + 3], w)
+            for i in range(3):
+                tmp[i] = -d1 * V[11, i]
+            sp.rot_vec(Ra, tmp, ad)                  # R_a ā̇
+            Phi_t[r] = sp.dot3(ad, w)
+            for i in range(3):
+                tmp[i] = -d2 * V[11, i] - d1 * d1 * V[10, i]
+            sp.rot_vec(Ra, tmp, c)                   # R_a ā̈
+            phitt = sp.dot3(c, w)
+            sp.cross_into(ad, w, c)                  # c_t; B_t = [0, c_tᵀR_a, 0, −c_tᵀR_b]
+            sp.rotT_vec(Ra, c, tmp)
+            btv = tmp[0] * v[3] + tmp[1] * v[4] + tmp[2] * v[5]
+            sp.rotT_vec(Rb, c, tmp)
+            btv -= tmp[0] * v[9] + tmp[1] * v[10] + tmp[2] * v[11]
+            gam[r] += 2.0 * btv + phitt
+
+
+@kernel
+def joint_constraint(P, t, tf, xe, le, jac, Phi, B, H):
+    """Batch constraint kernel of every spatial joint type (Φ, B, H; docs/kernels.md)."""
+    W = np.empty((NW, 3, 3))
+    V = np.empty((NV, 3))
+    G = np.empty((3, 12))
+    for e in range(xe.shape[0]):
+        joint_ev(P[e], t, tf[e], xe[e], le[e], jac, Phi[e], B[e], H[e], W, V, G)
+
+
+@kernel
+def joint_rates(P, t, tf, xe, ve, Phi_t, gam):
+    """Batch rates kernel of every spatial joint type: Φ_t and γ = (Bv)_x v + 2 B_t v + Φ_tt.
+
+    The convective term of row k is vᵀ H_k v, H_k the Hessian kernel at λ = e_k
+    (exact; docs/spatial.md §2).
+    """
+    nc = Phi_t.shape[1]
+    W = np.empty((NW, 3, 3))
+    V = np.empty((NV, 3))
+    G = np.empty((3, 12))
+    lam = np.zeros(nc)
+    ph = np.zeros(nc)
+    Bs = np.zeros((nc, 12))
+    Hs = np.zeros((12, 12))
+    for e in range(xe.shape[0]):
+        for k in range(nc):
+            for i in range(nc):
+                lam[i] = 0.0
+            lam[k] = 1.0
+            Bs[:, :] = 0.0
+            Hs[:, :] = 0.0
+            joint_ev(P[e], t, tf[e], xe[e], lam, True, ph, Bs, Hs, W, V, G)
+            gam[e, k] = sp.quadratic_form(ve[e], Hs)
+        joint_time(P[e], t, tf[e], xe[e], ve[e], Phi_t[e], gam[e], W, V, G)
+
+
+JOINT_KERNELS = {"constraint": joint_constraint, "rates": joint_rates}
+
+
+# ---------------------------------------------------------------------------
+# element classes
+# ---------------------------------------------------------------------------
+class SphericalJoint(SpatialPairElement):
+    """Ball joint: point p_a of a coincides with p_b of b (3 rows, Φ = p_a − p_b).
+
+    λ (3): force on body b at the joint point, space axes (N). Give ``at``
+    (space point at t0) or ``point_a``/``point_b``; axes are not used.
+    """
+
+    n_constraints = 3
+    constraint_names = ("x", "y", "z")
+    kernels = JOINT_KERNELS
+
+    def program(self):
+        return [(POINT, 0, 0, 0, 0.0, -1)]
+
+
+class RevoluteJoint(SpatialPairElement):
+    """Revolute (hinge) joint about ē3 = ``axis`` (5 rows: point; u3·w2; u1·w3).
+
+    λ[0:3]: force on b (space axes, N); λ[3], λ[4]: the rotation locks about
+    ē1 and ē2 (≈ −moment on b about them, N m).
+    """
+
+    n_constraints = 5
+    constraint_names = ("x", "y", "z", "lock_1", "lock_2")
+    kernels = JOINT_KERNELS
+
+    def program(self):
+        return [(POINT, 0, 0, 0, 0.0, -1), (DOT1, 3, A3, B2, 0.0, -1), (DOT1, 4, A1, B3, 0.0, -1)]
+
+
+class UniversalJoint(SpatialPairElement):
+    """Universal (Hooke) joint: point, and ē_a2 · ē_b1 = 0 (4 rows).
+
+    Free rotations about ``axis_a`` (fixed in a) and ``axis_b`` (fixed in b),
+    perpendicular at t0; the joint frame is ē1 = axis_b, ē2 = axis_a,
+    ē3 = ē1 × ē2. λ[0:3]: force on b (space axes, N); λ[3]: the cross-lock
+    (≈ −moment on b about ē3, N m).
+
+    Parameters
+    ----------
+    name, a, b, at, point_a, point_b : see :class:`SpatialPairElement`
+    axis_a, axis_b : (3,) or str
+        The two free axes in space at t0 (perpendicular), or names of axes of
+        body a and body b.
+    """
+
+    n_constraints = 4
+    constraint_names = ("x", "y", "z", "cross")
+    kernels = JOINT_KERNELS
+
+    def __init__(self, name, a, b, axis_a, axis_b, at=None, point_a=None, point_b=None):
+        super().__init__(name, a, b, at, point_a, point_b)
+        self._pins = (axis_a, axis_b)
+        if not isinstance(axis_a, str) and not isinstance(axis_b, str):
+            self.E = self._frame()           # early errors
+
+    def _frame(self):
+        owner = f"UniversalJoint '{self.name}'"
+        axis_a, axis_b = self._pins
+        e2 = self.a.axis_global(axis_a, "axis_a") if isinstance(axis_a, str) else unit3(owner, "axis_a", axis_a)
+        e1 = self.b.axis_global(axis_b, "axis_b") if isinstance(axis_b, str) else unit3(owner, "axis_b", axis_b)
+        if abs(e1 @ e2) > 1e-9:
+            raise ModelError(f"{owner}: axis_a and axis_b must be perpendicular (cos = {e1 @ e2:.3g})")
+        return np.column_stack((e1, e2, np.cross(e1, e2)))
+
+    def program(self):
+        return [(POINT, 0, 0, 0, 0.0, -1), (DOT1, 3, A2, B1, 0.0, -1)]
+
+
+class _LineJoint(SpatialPairElement):
+    def validate(self):
+        super().validate()
+        # offsets of the line rows: u_k·d at t0 (zero when the points coincide)
+        d = self.b.global_point(self.Xb) - self.a.global_point(self.Xa)
+        self.offsets = [float(self.E[:, k] @ d) for k in range(3)]
+
+
+class CylindricalJoint(_LineJoint):
+    """Cylindrical joint: b slides along and turns about ē3 = ``axis`` of a (4 rows).
+
+    Rows u1·d, u2·d (λ: force −λu_k on b at p_b, N), u3·w2, u1·w3 (rotation
+    locks, ≈ −moment on b about ē1, ē2, N m).
+    """
+
+    n_constraints = 4
+    constraint_names = ("line_1", "line_2", "lock_1", "lock_2")
+    kernels = JOINT_KERNELS
+
+    def program(self):
+        return [(DOT2, 0, A1, 0, self.offsets[0], -1), (DOT2, 1, A2, 0, self.offsets[1], -1),
+                (DOT1, 2, A3, B2, 0.0, -1), (DOT1, 3, A1, B3, 0.0, -1)]
+
+
+class PrismaticJoint(_LineJoint):
+    """Prismatic (slider) joint along ē3 = ``axis`` of a (5 rows: cylindrical + u2·w1).
+
+    λ[0:2]: line rows (force −λu_k on b, N); λ[2:5] ≈ −moment on b about ē1, ē2,
+    ē3 (N m).
+    """
+
+    n_constraints = 5
+    constraint_names = ("line_1", "line_2", "lock_1", "lock_2", "lock_3")
+    kernels = JOINT_KERNELS
+
+    def program(self):
+        return [(DOT2, 0, A1, 0, self.offsets[0], -1), (DOT2, 1, A2, 0, self.offsets[1], -1),
+                (DOT1, 2, A3, B2, 0.0, -1), (DOT1, 3, A1, B3, 0.0, -1), (DOT1, 4, A2, B1, 0.0, -1)]
+
+
+class FixedJoint(SpatialPairElement):
+    """Weld: point and three rotation locks (6 rows).
+
+    λ[0:3]: force on b (space axes, N); λ[3:6] ≈ −moment on b about ē1, ē2, ē3
+    (N m; the rows are u3·w2, u1·w3, u2·w1).
+    """
+
+    n_constraints = 6
+    constraint_names = ("x", "y", "z", "lock_1", "lock_2", "lock_3")
+    kernels = JOINT_KERNELS
+
+    def program(self):
+        return [(POINT, 0, 0, 0, 0.0, -1), (DOT1, 3, A3, B2, 0.0, -1), (DOT1, 4, A1, B3, 0.0, -1),
+                (DOT1, 5, A2, B1, 0.0, -1)]
+
+
+class DistanceJoint(SpatialPairElement):
+    """Massless link: |p_b − p_a| = L (1 row, Φ = (d·d − L²)/(2L)).
+
+    λ is the tension (N). ``length`` defaults to the distance at t0.
+
+    Parameters
+    ----------
+    name, a, b : see :class:`SpatialPairElement`
+    point_a, point_b : str or (3,)
+        The two end points on the bodies.
+    length : float > 0, optional
+    """
+
+    n_constraints = 1
+    constraint_names = ("length",)
+    kernels = JOINT_KERNELS
+
+    def __init__(self, name, a, b, point_a=None, point_b=None, length=None):
+        super().__init__(name, a, b, None, point_a, point_b)
+        self.L = length
+
+    def validate(self):
+        super().validate()
+        d = self.b.global_point(self.Xb) - self.a.global_point(self.Xa)
+        if self.L is None:
+            self.L = float(np.linalg.norm(d))
+        try:
+            self.L = float(self.L)
+        except (TypeError, ValueError):
+            raise ModelError(f"DistanceJoint '{self.name}': length must be a number, got {self.L!r}") from None
+        if not (self.L > 0.0 and math.isfinite(self.L)):
+            raise ModelError(f"DistanceJoint '{self.name}': length must be positive and finite, got {self.L!r} "
+                             "(points that coincide need a SphericalJoint)")
+
+    def program(self):
+        return [(DISTANCE, 0, 0, 0, self.L, -1)]
+
+
+class DrivenRevoluteAngle(SpatialPairElement):
+    """Prescribed rotation angle θ(t) of b relative to a about ē3 = ``axis`` (1 row).
+
+    Φ = u·w with ā(t) = −sin θ* ē_a1 + cos θ* ē_a2, b̄ = ē_b1, θ* = θ0 + φ(t):
+    Φ = sin(θ − θ*), θ the angle of ē_b1 in a's (ē1, ē2) plane, zero at t0. Use
+    with a :class:`RevoluteJoint` with the same point and axis. λ is the
+    driving torque: the moment on b is −λ ē3 (space axes), N m. Multi-turn drives
+    need no unwrapping.
+
+    Parameters
+    ----------
+    name, a, b, at, point_a, point_b, axis, axis1, frame : see :class:`SpatialPairElement`
+    angle : float or TimeFunction
+        φ(t) (rad), e.g. ``femb.functions.Linear(6.0)``.
+    angle0 : float
+        θ0 (rad), default 0: the angle at t0 is 0 by construction.
+    """
+
+    n_constraints = 1
+    rheonomic = True
+    constraint_names = ("angle",)
+    kernels = JOINT_KERNELS
+
+    def __init__(self, name, a, b, angle, at=None, point_a=None, point_b=None, axis=None, axis1=None,
+                 frame=None, angle0=0.0):
+        super().__init__(name, a, b, at, point_a, point_b, axis, axis1, frame)
+        self.fn = as_time_function(angle, f"DrivenRevoluteAngle '{name}'", "angle")
+        self.angle0 = float(angle0)
+
+    def program(self):
+        return [(DRIVEN_DOT1, 0, A1, B1, self.angle0, 0)]
+
+    @classmethod
+    def time_functions(cls, element):
+        return [element.fn]
+
+
+class DrivenPrismaticDisplacement(_LineJoint):
+    """Prescribed displacement of p_b along ē3 = ``axis`` of a (1 row).
+
+    Φ = u3·d − d0 − s(t), d0 = u3·d at t0. λ: the force on b at p_b is −λ u3
+    (space axes), N. Use with a :class:`PrismaticJoint` or a :class:`CylindricalJoint`.
+
+    Parameters
+    ----------
+    name, a, b, at, point_a, point_b, axis, axis1, frame : see :class:`SpatialPairElement`
+    displacement : float or TimeFunction
+        s(t) (m).
+    """
+
+    n_constraints = 1
+    rheonomic = True
+    constraint_names = ("displacement",)
+    kernels = JOINT_KERNELS
+
+    def __init__(self, name, a, b, displacement, at=None, point_a=None, point_b=None, axis=None,
+                 axis1=None, frame=None):
+        super().__init__(name, a, b, at, point_a, point_b, axis, axis1, frame)
+        self.fn = as_time_function(displacement, f"DrivenPrismaticDisplacement '{name}'", "displacement")
+
+    def program(self):
+        return [(DOT2, 0, A3, 0, self.offsets[2], 0)]
+
+    @classmethod
+    def time_functions(cls, element):
+        return [element.fn]
+
+
+def relative_angle(Ea, Eb, xa, xb):
+    """Angle of b relative to a about the joint axis: atan2(u2·w1, u1·w1) (not unwrapped).
+
+    Ea, Eb : (3, 3) rows ē_a1..3, ē_b1..3 (body axes); xa, xb : (..., 7) node coordinates.
+    """
+    from femb import rotations as rt
+    xa = np.atleast_2d(xa)
+    xb = np.atleast_2d(xb)
+    out = np.empty(xa.shape[0])
+    for k in range(xa.shape[0]):
+        Ra = rt.quat_to_matrix(np.ascontiguousarray(xa[k, 3:7]))
+        Rb = rt.quat_to_matrix(np.ascontiguousarray(xb[k, 3:7]))
+        w1 = Rb @ Eb[0]
+        out[k] = math.atan2((Ra @ Ea[1]) @ w1, (Ra @ Ea[0]) @ w1)
+    return out
+
+
+__all__ = ["SpatialPairElement", "joint_frame", "SphericalJoint", "RevoluteJoint", "UniversalJoint",
+           "CylindricalJoint", "PrismaticJoint", "FixedJoint", "DistanceJoint", "DrivenRevoluteAngle",
+           "DrivenPrismaticDisplacement", "relative_angle", "joint_constraint", "joint_rates", "JOINT_KERNELS"]
