@@ -86,7 +86,8 @@ import numpy as np
 from femb.errors import FembError, ParameterError
 
 __all__ = ["sweep", "read_results", "make_design", "full_factorial", "sample_design",
-           "parse_grid_spec", "parse_range_spec", "run_batch", "RUN_KEYS", "SOLVER_KEYS"]
+           "parse_grid_spec", "parse_range_spec", "run_batch", "plot_results", "output_columns",
+           "RUN_KEYS", "SOLVER_KEYS"]
 
 #: Run settings a case may set; they go to :func:`femb.simulate`, not to ``build()``.
 RUN_KEYS = ("t_end", "h", "rtol", "atol", "rho_inf")
@@ -943,7 +944,7 @@ def sweep(scene, *, grid=None, cases=None, samples=None, ranges=None, sampling="
             raise ParameterError(f"out: {out} exists and is not a directory (sweep output is a directory of Parquet files)")
         existing = _part_files(out) if out.is_dir() else []
         if existing and not resume:
-            raise ParameterError(f"out: {out} already holds sweep results; resume them or choose another directory")
+            raise ParameterError(f"out: {out} already holds sweep results: resume them (resume=True, --resume) or choose another directory")
         if existing:
             prev = read_results(out)
             want = set(ids)
@@ -976,7 +977,7 @@ def sweep(scene, *, grid=None, cases=None, samples=None, ranges=None, sampling="
     rows = done_rows + writer.rows
     df = _frame(rows, pd) if rows else pd.DataFrame(columns=["case", "case_id"])
     df = df.drop_duplicates("case_id", keep="first").sort_values("case", kind="stable").reset_index(drop=True)
-    df.attrs.update(parameters=varied, outputs=outputs, seed=seed, out=str(out) if out else None,
+    df.attrs.update(parameters=varied, fixed=list(params), outputs=outputs, seed=seed, out=str(out) if out else None,
                     n_new=len(writer.rows))
     return df
 
@@ -1070,6 +1071,174 @@ def _lost_row(case, job, exc):
                message=f"the worker running this case was lost ({_first_line(exc) if exc else 'cancelled'})",
                warning="", worker="", trajectory="")
     return row
+
+
+# ==========================================================================
+# one-page plot
+# ==========================================================================
+def output_columns(df, parameters=()):
+    """Names of the output columns at t_end of a sweep table (numeric, not parameters or bookkeeping)."""
+    if df.attrs.get("outputs"):
+        return [c for c in df.attrs["outputs"] if c in df.columns]
+    skip = set(RESERVED) | set(RUN_KEYS) | set(SOLVER_KEYS) | set(parameters) | set(df.attrs.get("fixed") or ())
+    fixed = set()
+    for col in df.columns:
+        if col in skip or "@" in col:
+            continue
+        if df[col].dtype.kind != "f":
+            continue
+        fixed.add(col)
+    return [c for c in df.columns if c in fixed]
+
+
+def _log_axis(values):
+    v = np.asarray([x for x in values if _is_number(x)], dtype=float)
+    return v.size == len(values) and v.size > 1 and np.all(v > 0) and v.max() / v.min() >= 100.0
+
+
+def _fmt(v):
+    return format(v, ".4g") if _is_number(v) else str(v)
+
+
+def plot_results(df, path, parameters=None, outputs=None, title=None, max_outputs=6):
+    """One-page PNG of a sweep: outputs against one parameter, heat maps over two.
+
+    Parameters
+    ----------
+    df : pandas.DataFrame
+        A table of :func:`sweep` (or :func:`read_results`).
+    path : str or Path
+        PNG file to write.
+    parameters : list of str, optional
+        The varied parameters (default ``df.attrs["parameters"]``); those with
+        a single value are ignored.
+    outputs : list of str, optional
+        Outputs to plot (default: the output columns, at most ``max_outputs``).
+    title : str, optional
+
+    Returns
+    -------
+    Path
+
+    Notes
+    -----
+    One varied parameter: one panel per output, the output against the
+    parameter, failed cases as red crosses on the axis. Two parameters on a
+    full grid: one heat map per output (failed cells blank, marked "×"). Two
+    sampled parameters: the samples in the parameter plane coloured by the
+    output. More parameters: each output against each parameter (scatter).
+    """
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    params = list(parameters if parameters is not None else df.attrs.get("parameters") or [])
+    varied = [p for p in params if p in df.columns and df[p].nunique(dropna=False) > 1]
+    outs = list(outputs) if outputs is not None else output_columns(df, params)[:max_outputs]
+    if not outs:
+        raise ParameterError("plot: the table has no output columns to plot")
+    ok = (df["status"] == "success").to_numpy() if "status" in df else np.ones(len(df), bool)
+    n_fail = int((~ok).sum())
+    heading = title or (f"{len(df)} cases, {n_fail} failed" if n_fail else f"{len(df)} cases")
+
+    if len(varied) <= 1:
+        nc = min(3, len(outs))
+        nr = math.ceil(len(outs) / nc)
+        fig = Figure(figsize=(4.0 * nc, 3.0 * nr + 0.4), layout="constrained")
+        FigureCanvasAgg(fig)
+        p = varied[0] if varied else None
+        for k, name in enumerate(outs):
+            ax = fig.add_subplot(nr, nc, k + 1)
+            ax.grid(True, lw=0.4, alpha=0.6)
+            if p is None:
+                ax.plot(np.arange(len(df))[ok], df[name].to_numpy()[ok], "o")
+                ax.set_xlabel("case")
+            else:
+                x = df[p].tolist()
+                numeric = all(_is_number(v) for v in x)
+                xs = np.asarray(x, dtype=float) if numeric else np.arange(len(x), dtype=float)
+                order = np.argsort(xs, kind="stable")
+                y = df[name].to_numpy(dtype=float)
+                good = order[ok[order]]
+                ax.plot(xs[good], y[good], "o-", ms=4)
+                bad = order[~ok[order]]
+                if bad.size:
+                    lo = ax.get_ylim()[0]
+                    ax.plot(xs[bad], np.full(bad.size, lo), "x", color="tab:red", ms=7, label="failed")
+                    ax.legend(fontsize=8)
+                if numeric and _log_axis(x):
+                    ax.set_xscale("log")
+                if not numeric:
+                    ax.set_xticks(xs, [str(v) for v in x])
+                ax.set_xlabel(p)
+            ax.set_ylabel(name)
+    elif len(varied) == 2 and len(df) == df[varied[0]].nunique() * df[varied[1]].nunique() \
+            and not df.duplicated(varied).any():
+        a, b = varied
+        va = sorted(df[a].unique(), key=lambda v: (not _is_number(v), v if _is_number(v) else str(v)))
+        vb = sorted(df[b].unique(), key=lambda v: (not _is_number(v), v if _is_number(v) else str(v)))
+        ia = {v: i for i, v in enumerate(va)}
+        ib = {v: i for i, v in enumerate(vb)}
+        nc = min(3, len(outs))
+        nr = math.ceil(len(outs) / nc)
+        fig = Figure(figsize=(4.3 * nc, 3.4 * nr + 0.4), layout="constrained")
+        FigureCanvasAgg(fig)
+        rows_a, rows_b = df[a].map(ia).to_numpy(), df[b].map(ib).to_numpy()
+        for k, name in enumerate(outs):
+            ax = fig.add_subplot(nr, nc, k + 1)
+            grid = np.full((len(va), len(vb)), np.nan)
+            vals = df[name].to_numpy(dtype=float)
+            grid[rows_a[ok], rows_b[ok]] = vals[ok]
+            im = ax.imshow(grid, origin="lower", aspect="auto", cmap="viridis")
+            fig.colorbar(im, ax=ax, shrink=0.9)
+            for i, j in zip(rows_a[~ok], rows_b[~ok]):
+                ax.text(j, i, "×", ha="center", va="center", color="tab:red", fontsize=12)
+            ax.set_yticks(range(len(va)), [_fmt(v) for v in va])
+            ax.set_xticks(range(len(vb)), [_fmt(v) for v in vb], rotation=45 if len(vb) > 6 else 0)
+            ax.set_ylabel(a)
+            ax.set_xlabel(b)
+            ax.set_title(name, fontsize=10)
+    elif len(varied) == 2:
+        a, b = varied
+        nc = min(3, len(outs))
+        nr = math.ceil(len(outs) / nc)
+        fig = Figure(figsize=(4.3 * nc, 3.4 * nr + 0.4), layout="constrained")
+        FigureCanvasAgg(fig)
+        xa, xb = df[a].to_numpy(dtype=float), df[b].to_numpy(dtype=float)
+        for k, name in enumerate(outs):
+            ax = fig.add_subplot(nr, nc, k + 1)
+            sc = ax.scatter(xa[ok], xb[ok], c=df[name].to_numpy(dtype=float)[ok], s=18, cmap="viridis")
+            fig.colorbar(sc, ax=ax, shrink=0.9)
+            if (~ok).any():
+                ax.plot(xa[~ok], xb[~ok], "x", color="tab:red", label="failed")
+                ax.legend(fontsize=8)
+            if _log_axis(list(xa)):
+                ax.set_xscale("log")
+            if _log_axis(list(xb)):
+                ax.set_yscale("log")
+            ax.set_xlabel(a)
+            ax.set_ylabel(b)
+            ax.set_title(name, fontsize=10)
+    else:
+        ps, os_ = varied[:4], outs[:4]
+        fig = Figure(figsize=(3.2 * len(ps), 2.6 * len(os_) + 0.4), layout="constrained")
+        FigureCanvasAgg(fig)
+        for i, name in enumerate(os_):
+            for j, p in enumerate(ps):
+                ax = fig.add_subplot(len(os_), len(ps), i * len(ps) + j + 1)
+                ax.grid(True, lw=0.4, alpha=0.6)
+                x = df[p].to_numpy(dtype=float)
+                ax.plot(x[ok], df[name].to_numpy(dtype=float)[ok], ".", ms=4)
+                if _log_axis(list(x)):
+                    ax.set_xscale("log")
+                if i == len(os_) - 1:
+                    ax.set_xlabel(p)
+                if j == 0:
+                    ax.set_ylabel(name)
+    fig.suptitle(heading, fontsize=11)
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=90)
+    return path
 
 
 class _CallableModule(types.ModuleType):
