@@ -752,7 +752,7 @@ def _open_client(client, n_workers, cache_dir):
         n = n_workers or os.cpu_count() or 1
         env = {"FEMB_CACHE_DIR": cache_dir} if cache_dir else {}
         cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, host="127.0.0.1",
-                               dashboard_address=None, silence_logs=logging.ERROR, env=env)
+                               dashboard_address=":0", silence_logs=logging.ERROR, env=env)
         return Client(cluster), True
     if isinstance(client, str):
         try:
