@@ -1,7 +1,9 @@
 """Benchmarks of :func:`femb.sweep`: per-case overhead, speed-up with workers, scheduler memory.
 
 Run ``python -m femb.benchmarks.sweep_bench [--part overhead|speedup|memory|all]``. Prints
-tables; every time is a median over ``--repeat`` repetitions (time.perf_counter).
+tables; every time is a median over ``--repeat`` repetitions (time.perf_counter), the
+variants of a part interleaved. The serial loops run with single-threaded BLAS, as Dask's
+worker processes do (the script restarts itself with OMP/MKL/OPENBLAS_NUM_THREADS = 1).
 
 * **overhead**: a sweep of ``--n-overhead`` (1 000) one-step slider–crank cases
   (a new ``k`` per case, so every case rebuilds its model) on a one-worker
@@ -91,11 +93,13 @@ def part_overhead(args):
     n, reps = args.n_overhead, args.repeat
     grid = _cases(n)
     print(f"\n## Per-case overhead: {n} one-step {SCENE} cases (t_end = h = {H}), medians of {reps}")
-    serial = [serial_loop(grid, H) for _ in range(reps)]
     client, cluster, startup = local_client(1)
+    serial, auto, one = [], [], []
     try:
-        auto = [timed_sweep(client, grid, H) for _ in range(reps)]
-        one = [timed_sweep(client, grid, H, batch_size=1) for _ in range(reps)]
+        for _ in range(reps):           # interleaved, so that a change of the machine's load hits all alike
+            serial.append(serial_loop(grid, H))
+            auto.append(timed_sweep(client, grid, H))
+            one.append(timed_sweep(client, grid, H, batch_size=1))
     finally:
         client.close()
         cluster.close()
@@ -117,17 +121,21 @@ def part_speedup(args):
     n, reps, t_end = args.n_speedup, args.repeat_speedup, args.t_end
     grid = _cases(n)
     print(f"\n## Speed-up: {n} {SCENE} runs to t_end = {t_end} s (h = {H}), medians of {reps}")
-    serial = [serial_loop(grid, t_end)[0] for _ in range(reps)]
-    rows = [("serial loop in one process", med(serial), None)]
-    for nw in (1, 2):
-        client, cluster, startup = local_client(nw)
-        try:
-            walls = [timed_sweep(client, grid, t_end)[0] for _ in range(reps)]
-        finally:
+    clusters = {nw: local_client(nw) for nw in (1, 2)}     # idle workers cost next to nothing
+    serial, walls = [], {1: [], 2: []}
+    try:
+        for _ in range(reps):           # interleaved, as above
+            serial.append(serial_loop(grid, t_end)[0])
+            for nw, (client, _, _) in clusters.items():
+                walls[nw].append(timed_sweep(client, grid, t_end)[0])
+    finally:
+        for client, cluster, _ in clusters.values():
             client.close()
             cluster.close()
+    rows = [("serial loop in one process", med(serial), None)]
+    for nw, (_, _, startup) in clusters.items():
         rows.append((f"sweep, LocalCluster {nw} worker{'s' if nw > 1 else ''} (start {startup:.1f} s, not counted)",
-                     med(walls), nw))
+                     med(walls[nw]), nw))
     base = rows[0][1]
     print("| run | wall s | s per run | speed-up vs serial |")
     print("|---|---|---|---|")
@@ -220,15 +228,27 @@ def main(argv=None):
     p.add_argument("--n-memory", type=int, default=10_000)
     p.add_argument("--tcp-workers", type=int, default=3)
     args = p.parse_args(argv)
-    print(f"# femb.sweep benchmark ({os.cpu_count()} cores, Python {sys.version.split()[0]})")
+    print(f"# femb.sweep benchmark ({os.cpu_count()} cores, Python {sys.version.split()[0]}, "
+          f"single-threaded BLAS as in Dask's workers; load average at start "
+          f"{' '.join(f'{x:.1f}' for x in os.getloadavg())})")
     if args.part in ("overhead", "all"):
         part_overhead(args)
     if args.part in ("speedup", "all"):
         part_speedup(args)
     if args.part in ("memory", "all"):
         part_memory(args)
+    print(f"\n(load average at the end {' '.join(f'{x:.1f}' for x in os.getloadavg())})")
     return 0
 
 
+#: Set by Dask's nanny in every worker process (distributed.nanny.pre-spawn-environ); the serial
+#: loop of this benchmark runs under the same settings.
+THREAD_ENV = {"OMP_NUM_THREADS": "1", "MKL_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1"}
+
+
 if __name__ == "__main__":
+    if any(os.environ.get(k) != v for k, v in THREAD_ENV.items()):
+        # BLAS reads these when numpy is first imported: start again with them set
+        os.execve(sys.executable, [sys.executable, "-m", "femb.benchmarks.sweep_bench"] + sys.argv[1:],
+                  {**os.environ, **THREAD_ENV})
     sys.exit(main())

@@ -853,8 +853,10 @@ def sweep(scene, *, grid=None, cases=None, samples=None, ranges=None, sampling="
     max_attempts : int
         Runs of a batch whose worker died before its cases become failed rows.
     cache_dir : str, optional
-        ``FEMB_CACHE_DIR`` for the workers (default: this process's value,
-        passed to a local cluster's workers).
+        ``FEMB_CACHE_DIR`` of the workers. A local cluster (``client=None``)
+        passes this, or else this process's ``FEMB_CACHE_DIR``, to its
+        workers; with a user's cluster it is set in each task only when given
+        (a path of this machine may not exist on the workers).
 
     Returns
     -------
@@ -922,7 +924,9 @@ def sweep(scene, *, grid=None, cases=None, samples=None, ranges=None, sampling="
         teval = [(t, "%s@" + format(t, ".10g")) for t in times]
         if len({c for _, c in teval}) != len(teval):
             raise ParameterError("t_eval: two times give the same column name")
-    cache_dir = cache_dir or os.environ.get("FEMB_CACHE_DIR") or None
+    # a local cluster's workers get this process's FEMB_CACHE_DIR (or cache_dir) in their
+    # environment; a user's cluster keeps its workers' own unless cache_dir is given
+    local_cache = cache_dir or os.environ.get("FEMB_CACHE_DIR") or None
     job = {"run": run, "outputs": outputs, "t_eval": teval,
            "trajectories": str(Path(trajectories).resolve()) if trajectories is not None else None,
            "cache_dir": cache_dir if client is not None else None}
@@ -971,7 +975,7 @@ def sweep(scene, *, grid=None, cases=None, samples=None, ranges=None, sampling="
             bar.update(len(done_rows))
     if todo:
         _run_on_dask(ref, job, todo, client, n_workers, batch_size, writer, bar, callback,
-                     len(done_rows), total, max_attempts, cache_dir)
+                     len(done_rows), total, max_attempts, local_cache)
     if bar is not None:
         bar.close()
     rows = done_rows + writer.rows

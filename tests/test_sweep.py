@@ -252,6 +252,15 @@ def test_interrupt_then_resume(client, tmp_path):
     assert df2.attrs["n_new"] == 1 and len(df2) == 7
 
 
+def test_scene_file_travels_as_source(client, tmp_path):
+    scene = tmp_path / "my_crank.py"
+    scene.write_text('"""A scene file of a user."""\n'
+                     "from femb.benchmarks.slider_crank import DEFAULTS, build, outputs  # noqa: F401\n")
+    df = femb.sweep(str(scene), grid={"k": [1e3, 1e4]}, t_end=T_END, outputs=["theta"], client=client)
+    assert (df["status"] == "success").all()
+    assert df.iloc[1]["theta"] == serial({"k": 1e4})[1]["theta"][-1]
+
+
 def test_trajectories_stay_in_files(client, tmp_path):
     df = femb.sweep("slider_crank", grid={"k": [1e3, 1e4]}, t_end=T_END, outputs=["theta"],
                     client=client, trajectories=tmp_path / "traj")
