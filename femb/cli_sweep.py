@@ -105,13 +105,12 @@ def cmd_sweep(args):
     """femb sweep: run the design, stream the rows to --out, print a summary, plot."""
     from femb.cli import _load_scene, parse_sets
 
-    try:
-        import dask.distributed  # noqa: F401
-        import pandas  # noqa: F401
-        import pyarrow  # noqa: F401
-    except ImportError as exc:
-        raise _usage(f"femb sweep needs Dask, pandas and pyarrow ({exc.name} is missing): "
-                     "pip install 'femb[sweep]'") from None
+    import importlib.util
+
+    missing = [m for m in ("distributed", "pandas", "pyarrow") if importlib.util.find_spec(m) is None]
+    if missing:
+        raise _usage(f"femb sweep needs Dask distributed, pandas and pyarrow ({', '.join(missing)} "
+                     "missing): pip install 'femb[sweep]'")
     from femb.sweep import plot_results, sweep
 
     scene = _load_scene(args.scene)

@@ -1097,7 +1097,7 @@ def output_columns(df, parameters=()):
 
 def _log_axis(values):
     v = np.asarray([x for x in values if _is_number(x)], dtype=float)
-    return v.size == len(values) and v.size > 1 and np.all(v > 0) and v.max() / v.min() >= 100.0
+    return v.size == len(values) and v.size > 1 and np.all(v > 0) and v.max() / v.min() >= 20.0
 
 
 def _fmt(v):
