@@ -742,6 +742,28 @@ def _frame(rows, pd):
     return df
 
 
+def _ignore_sigint_plugin():
+    """Worker plugin of a local cluster: Ctrl-C in the terminal interrupts the client only.
+
+    The client saves the finished rows and closes the cluster; without this every
+    worker process of the same terminal would print its own KeyboardInterrupt.
+    Re-applied by Dask to workers that restart.
+    """
+    from dask.distributed import WorkerPlugin
+
+    class IgnoreSigint(WorkerPlugin):
+        idempotent = True
+
+        def setup(self, worker):
+            import signal
+            import threading
+
+            if threading.current_thread() is threading.main_thread():
+                signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+    return IgnoreSigint()
+
+
 def _open_client(client, n_workers, cache_dir):
     """(client, owned): a Client for ``client`` (None: a new LocalCluster)."""
     from dask.distributed import Client, LocalCluster
@@ -753,7 +775,9 @@ def _open_client(client, n_workers, cache_dir):
         env = {"FEMB_CACHE_DIR": cache_dir} if cache_dir else {}
         cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, host="127.0.0.1",
                                dashboard_address=":0", silence_logs=logging.ERROR, env=env)
-        return Client(cluster), True
+        client = Client(cluster)
+        client.register_plugin(_ignore_sigint_plugin(), name="femb-sweep-ignore-sigint")
+        return client, True
     if isinstance(client, str):
         try:
             return Client(client, timeout="20s"), True
