@@ -975,8 +975,10 @@ def sweep(scene, *, grid=None, cases=None, samples=None, ranges=None, sampling="
             raise ParameterError(f"out: {out} already holds sweep results: resume them (resume=True, --resume) or choose another directory")
         if existing:
             prev = read_results(out)
-            want = set(ids)
-            done_rows = [r for r in prev.to_dict("records") if r["case_id"] in want]
+            position = {cid: i for i, cid in enumerate(ids)}
+            done_rows = [r for r in prev.to_dict("records") if r["case_id"] in position]
+            for r in done_rows:             # the case's position in this design (a grid may have grown)
+                r["case"] = position[r["case_id"]]
             done = {r["case_id"] for r in done_rows}
             todo = [c for c in todo if c["case_id"] not in done]
         out.mkdir(parents=True, exist_ok=True)

@@ -244,11 +244,12 @@ def test_interrupt_then_resume(client, tmp_path):
     # kept rows are those of the first run, not recomputed
     merged = on_disk.set_index("case_id").loc[kept["case_id"], "wall_time"]
     assert np.array_equal(merged.to_numpy(), kept["wall_time"].to_numpy())
-    # a larger grid resumes too: only the new values run
-    grid["k"].append(7e3)
+    # a larger grid resumes too: only the new value runs, rows take their place in the new design
+    grid["k"].insert(0, 500.0)
     df2 = femb.sweep("slider_crank", grid=grid, t_end=T_END, outputs=["theta"], client=client,
                      out=out, resume=True)
     assert df2.attrs["n_new"] == 1 and len(df2) == 7
+    assert list(df2["case"]) == list(range(7)) and list(df2["k"]) == grid["k"]
 
 
 def test_scene_file_travels_as_source(client, tmp_path):
