@@ -1096,10 +1096,12 @@ def _lost_row(case, job, exc):
             row[k] = job["run"][k]
     row.update(_nan_outputs(job))
     name = type(exc).__name__ if exc is not None else "Cancelled"
+    if exc is None or name in ("KilledWorker", "CancelledError", "FutureCancelledError", "CommClosedError"):
+        message = f"the worker running this case was lost ({_first_line(exc) if exc else 'cancelled'})"
+    else:
+        message = f"the batch of this case failed on the worker: {name}: {_first_line(exc)}"
     row.update(steps=0, newton_iterations=0, wall_time=float("nan"), sim_time=float("nan"),
-               status="failed", error=name,
-               message=f"the worker running this case was lost ({_first_line(exc) if exc else 'cancelled'})",
-               warning="", worker="", trajectory="")
+               status="failed", error=name, message=message, warning="", worker="", trajectory="")
     return row
 
 
