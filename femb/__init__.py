@@ -20,5 +20,16 @@ __all__ = [
     "GeneralizedAlpha", "Mechanism", "Model", "State", "Result", "GeneralizedAlphaSolver",
     "simulate", "consistent_initial_state", "FembError", "ModelError", "ParameterError",
     "InitializationError", "SolverError", "ConvergenceError", "SingularMatrixError", "OutputError",
-    "ParameterWarning", "AccuracyWarning", "InitialMoveWarning", "RedundantConstraintWarning",
+    "ParameterWarning", "AccuracyWarning", "InitialMoveWarning", "RedundantConstraintWarning", "sweep",
 ]
+
+
+def __getattr__(name):
+    """Lazy attributes: ``femb.sweep`` (imports Dask and pandas only when used)."""
+    if name == "sweep":
+        import importlib
+
+        fn = importlib.import_module("femb.sweep").sweep
+        globals()["sweep"] = fn
+        return fn
+    raise AttributeError(f"module 'femb' has no attribute {name!r}")

@@ -6,6 +6,7 @@ Subcommands (one function each, ``cmd_*``)::
     femb run SCENE [options]                    run one scene, print/write its outputs at t_end
     femb bench convergence SCENE [options]      h-convergence study (seed Figs. 3, 9)
     femb bench figures SCENE --out DIR          the seed's figures as PNG files
+    femb sweep SCENE --grid NAME=VALUES ...     parameter study on Dask (femb.cli_sweep)
 
 ``SCENE`` is a built-in scene name (``femb list``) or a path to a Python file
 that defines ``build()`` (see :mod:`femb.benchmarks.registry` for the scene
@@ -609,6 +610,10 @@ def build_parser():
     fp.add_argument("--h", type=_positive("h"), nargs="+", metavar="H",
                     help="step sizes of the convergence study (default: the scene's)")
     fp.set_defaults(func=cmd_bench_figures)
+
+    from femb.cli_sweep import add_parser as add_sweep_parser
+
+    add_sweep_parser(sub)
     return p
 
 
