@@ -32,6 +32,7 @@ import numpy as np
 
 from femb import Mechanism
 from femb.element import Element
+from femb.jit import kernel
 from femb.errors import ModelError
 
 from .chains import add_chain, chain_outputs, reference_outputs
@@ -43,6 +44,26 @@ DEFAULTS = {"t_end": 10.0, "h": 1e-3, "rho_inf": 0.9}
 
 CONVERGENCE = {"t_end": 10.0, "h": [2e-3, 1e-3, 5e-4, 2.5e-4], "q": ["phi1"],
                "lambda": ["R_pivot_x", "R_pivot_y"]}
+
+
+@kernel
+def point_attractor_force(P, t, tf, xe, ve, jac, fe, fq, fv):
+    """F = −μ (x − P)/d³ and ∂F/∂x = −μ (I/d³ − 3 (x − P)(x − P)ᵀ/d⁵); P = (P_x, P_y, μ)."""
+    for e in range(xe.shape[0]):
+        Dx = xe[e, 0] - P[e, 0]
+        Dy = xe[e, 1] - P[e, 1]
+        mu = P[e, 2]
+        d2 = Dx * Dx + Dy * Dy
+        d = math.sqrt(d2)
+        a = mu / (d2 * d)
+        fe[e, 0] = -a * Dx
+        fe[e, 1] = -a * Dy
+        if jac:
+            b = 3.0 / d2
+            fq[e, 0, 0] = -a * (1.0 - b * Dx * Dx)
+            fq[e, 0, 1] = a * b * Dx * Dy
+            fq[e, 1, 0] = a * b * Dx * Dy
+            fq[e, 1, 1] = -a * (1.0 - b * Dy * Dy)
 
 
 class PointAttractor(Element):
@@ -88,23 +109,11 @@ class PointAttractor(Element):
         if float(np.hypot(*(self.body.node.q0[:2] - self.P))) == 0.0:
             raise ModelError(f"PointAttractor '{self.name}': the body starts on the attracting point")
 
-    @classmethod
-    def pack(cls, elements):
-        return {"P": np.array([e.P for e in elements]), "mu": np.array([e.mu for e in elements])}
+    kernels = {"force": point_attractor_force}
 
     @classmethod
-    def force(cls, p, t, qe, qde, jac):
-        n = qe.shape[0]
-        D = qe[:, 0:2] - p["P"]
-        d = np.hypot(D[:, 0], D[:, 1])
-        f = np.zeros((n, 3))
-        f[:, 0:2] = -(p["mu"] / d ** 3)[:, None] * D
-        if not jac:
-            return f, None, None
-        f_q = np.zeros((n, 3, 3))
-        f_q[:, 0:2, 0:2] = -(p["mu"] / d ** 3)[:, None, None] * (
-            np.eye(2)[None] - 3.0 * D[:, :, None] * D[:, None, :] / (d ** 2)[:, None, None])
-        return f, f_q, None
+    def pack(cls, elements):
+        return {"P": np.array([[e.P[0], e.P[1], e.mu] for e in elements], dtype=float).reshape(-1, 3)}
 
 
 def _data(mass, inertia, radius, speed):

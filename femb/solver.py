@@ -111,10 +111,12 @@ class GeneralizedAlphaSolver:
         1e-3 both).
     h0, h_max : float, optional
         First and largest adaptive step.
-    error_per : {"unit_step", "step"}
-        Adaptive error test per unit step (err/h ≤ 1, controller exponent 2:
-        global error roughly proportional to the tolerance; default) or per
-        step (err ≤ 1, exponent 3: global error ∝ tol^(2/3)).
+    error_per : {"step", "unit_step"}
+        Adaptive error test per step (err ≤ 1, controller exponent 3; default:
+        independent of the time unit) or per unit step (err/h ≤ 1, exponent 2,
+        h in seconds: closer to tolerance proportionality on long runs, but
+        far stricter on short ones, and limited by the round-off of q̈ᵖᵖ at
+        tight tolerances).
     start : {"consistent", "seed"}
         "consistent" (default): a_0 = q̈_0 + Δ h_0 j_0 and the normal velocity
         matched to the scheme's O(h²) offset (stepsize.md §2), so that λ and
@@ -161,7 +163,7 @@ class GeneralizedAlphaSolver:
     """
 
     def __init__(self, model, h=None, *, rho_inf=None, alpha=None, scaling=True, rtol=None, atol=None,
-                 h0=None, h_max=None, error_per="unit_step", start="consistent", newton_test="correction",
+                 h0=None, h_max=None, error_per="step", start="consistent", newton_test="correction",
                  newton_rtol=1e-10, newton_atol=0.0, phi_tol=1e-12, max_iter=25, min_iter=1, newton="full",
                  linear_solver="auto", predictor="extrapolate", check_every=8, warn_factor=10.0,
                  state=None, t0=0.0, t_end=None, initialize=True, n_steps=None):
@@ -529,8 +531,8 @@ class GeneralizedAlphaSolver:
 
 # --------------------------------------------------------------------------
 def simulate(model, t_end, h=None, *, rtol=None, atol=None, h0=None, h_max=None, t_eval=None,
-             rho_inf=None, alpha=None, scaling=True, t0=0.0, state=None, stride=1, store=True,
-             observer=None, initialize=True, progress=False, **options):
+             start="consistent", formulation="index3", rho_inf=None, alpha=None, scaling=True, t0=0.0,
+             state=None, stride=1, store=True, observer=None, initialize=True, progress=False, **options):
     """Integrate a model from t0 to t_end, with fixed steps (``h``) or adaptive steps (``rtol``).
 
     Parameters
@@ -555,9 +557,15 @@ def simulate(model, t_end, h=None, *, rtol=None, atol=None, h0=None, h_max=None,
         solution there, interpolated between accepted steps (cubic Hermite in
         q from q and q̇, cubic Hermite in q̇ from q̇ and q̈, linear in q̈ and λ).
         Steps are not forced onto these times.
+    start : {"consistent", "seed"}
+        Starting values (see :class:`GeneralizedAlphaSolver`): "consistent"
+        makes λ and driving forces second order from the first step; "seed" is
+        the seed paper's start.
+    formulation : {"index3"}
+        The index-3 generalized-α scheme of Arnold & Brüls (2007).
     rho_inf, alpha, scaling, initialize, **options
-        See :class:`GeneralizedAlphaSolver` (start, error_per, newton_test,
-        phi_tol, max_iter, newton, linear_solver, predictor, check_every, ...).
+        See :class:`GeneralizedAlphaSolver` (error_per, newton_test, phi_tol,
+        max_iter, newton, linear_solver, predictor, check_every, ...).
     t0 : float
     state : State, optional
     stride : int
@@ -623,9 +631,12 @@ def simulate(model, t_end, h=None, *, rtol=None, atol=None, h0=None, h_max=None,
                 or t_eval[0] < t0 - 1e-12 * max(1.0, abs(t0)) or t_eval[-1] > t_end * (1 + 1e-12) + 1e-300:
             raise ParameterError(f"t_eval must be sorted finite times within [{t0}, {t_end}]")
         stride, store = 1, True
+    if formulation != "index3":
+        raise ParameterError(f"formulation must be 'index3' (the stabilized index-2 form is not implemented), "
+                             f"got {formulation!r}")
     solver = GeneralizedAlphaSolver(model, h_fixed, rho_inf=rho_inf, alpha=alpha, scaling=scaling,
                                     rtol=rtol, atol=atol, h0=h0, h_max=h_max, state=state, t0=t0, t_end=t_end,
-                                    initialize=initialize, n_steps=n_steps, **options)
+                                    initialize=initialize, n_steps=n_steps, start=start, **options)
     solver.ip[11] = stride
     solver.ip[12] = 1 if store else 0
     st = solver.initial_state
