@@ -34,6 +34,8 @@ from scipy.sparse.csgraph import reverse_cuthill_mckee
 from femb.jit import cache_dir, jit_disabled
 
 _STEP_SOURCE = Path(__file__).with_name("step.py")
+#: largest system stored densely (its LU skips zeros); larger ones always use the band storage
+DENSE_MAX = 400
 _JIT_SOURCE = Path(__file__).with_name("jit.py")
 _loaded = {}
 
@@ -84,8 +86,8 @@ def generate_source(model):
             lines += [f"    P, dofs, tfi, tnn, xe, ve, tf, fe, fq, fv = {GF}[{gi}]",
                       "    gather_xv(q, qd, qfix, dofs, xe, ve, nv)",
                       "    gather_tf(tfv, tfi, tf)",
-                      "    fe[:] = 0.0",
-                      "    if jac:", "        fq[:] = 0.0", "        fv[:] = 0.0",
+                      "    zero2(fe)",
+                      "    if jac:", "        zero3(fq)", "        zero3(fv)",
                       f"    {k}(P, t, tf, xe, ve, jac, fe, fq, fv)",
                       "    scale = scatter_force(fe, dofs, r, nv, wext, scale)",
                       "    if jac:", "        scatter_matrix(fq, tnn, ABf, -cK)"]
@@ -96,8 +98,8 @@ def generate_source(model):
                       "    gather_xv(q, qd, qfix, dofs, xe, ve, nv)",
                       "    gather_lam(lam, lamidx, le)",
                       "    gather_tf(tfv, tfi, tf)",
-                      "    Phe[:] = 0.0", "    Be[:] = 0.0",
-                      "    if jac:", "        He[:] = 0.0",
+                      "    zero2(Phe)", "    zero3(Be)",
+                      "    if jac:", "        zero3(He)",
                       f"    {k}(P, t, tf, xe, le, jac, Phe, Be, He)",
                       "    scale = scatter_constraint(Phe, Be, le, dofs, lamidx, active, Phi, r, nv, wext, scale)",
                       "    if jac:", "        scatter_B(Be, tB, tBt, ABf)", "        scatter_matrix(He, tnn, ABf, cK)"]
@@ -106,14 +108,14 @@ def generate_source(model):
     lines += ["", "", "@njit(cache=True, **OPTIONS)",
               "def rates(G, C, t, q, qd, Phi_t, gam):",
               '    """Φ_t and γ (B q̈ = −γ) of all constraints at (t, q, q̇)."""',
-              "    nv = q.shape[0]", "    qfix = C[5]", "    tfv = C[13]", "    Phi_t[:] = 0.0", "    gam[:] = 0.0"]
+              "    nv = q.shape[0]", "    qfix = C[5]", "    tfv = C[13]", "    zero1(Phi_t)", "    zero1(gam)"]
     for role, gi, fn, _ in roles:
         if role == "rates":
             k = imports[_kernel_ref(fn)[:2]]
             lines += [f"    P, dofs, lamidx, tfi, tnn, tB, tBt, xe, ve, le, tf, Phe, Be, He, Pt, gm = {GC}[{gi}]",
                       "    gather_xv(q, qd, qfix, dofs, xe, ve, nv)",
                       "    gather_tf(tfv, tfi, tf)",
-                      "    Pt[:] = 0.0", "    gm[:] = 0.0",
+                      "    zero2(Pt)", "    zero2(gm)",
                       f"    {k}(P, t, tf, xe, ve, Pt, gm)",
                       "    for e in range(lamidx.shape[0]):",
                       "        for j in range(lamidx.shape[1]):",
@@ -126,14 +128,14 @@ def generate_source(model):
     lines += ["", "", "@njit(cache=True, **OPTIONS)",
               "def jacobian_times(G, C, t, q, v, out):",
               '    """out = B(q, t) v for all constraints."""',
-              "    nv = q.shape[0]", "    qfix = C[5]", "    tfv = C[13]", "    out[:] = 0.0"]
+              "    nv = q.shape[0]", "    qfix = C[5]", "    tfv = C[13]", "    zero1(out)"]
     for role, gi, fn, _ in roles:
         if role == "constraint":
             k = imports[_kernel_ref(fn)[:2]]
             lines += [f"    P, dofs, lamidx, tfi, tnn, tB, tBt, xe, ve, le, tf, Phe, Be, He, Pt, gm = {GC}[{gi}]",
                       "    gather_xv(q, v, qfix, dofs, xe, ve, nv)",
                       "    gather_tf(tfv, tfi, tf)",
-                      "    Phe[:] = 0.0", "    Be[:] = 0.0",
+                      "    zero2(Phe)", "    zero3(Be)",
                       f"    {k}(P, t, tf, xe, le, nv < 0, Phe, Be, He)",
                       "    for e in range(lamidx.shape[0]):",
                       "        for j in range(lamidx.shape[1]):",
@@ -240,13 +242,27 @@ class Compiled:
         else:
             self.kl = kl = self.ku = ku = N - 1
         self.ordering = ordering
-        self.ldab = ldab = 2 * kl + ku + 1
-        d = kl + ku
+        # storage: band (LAPACK gbtrf layout, transposed) when the band is narrow, else a dense
+        # row-major array whose LU skips zeros (small mechanisms with closed loops)
+        band_flops = N * kl * (kl + ku)
+        self.dense = bool(N <= DENSE_MAX and (ordering != "rcm" or band_flops > 4 * N * N))
+        if self.dense:
+            self.ldab = ldab = N
+            self.storage_size = N * N
 
-        def target(r_, c_):
-            r_ = np.asarray(r_, dtype=np.int64)
-            c_ = np.asarray(c_, dtype=np.int64)
-            return iperm[c_] * ldab + d + iperm[r_] - iperm[c_]
+            def target(r_, c_):
+                r_ = np.asarray(r_, dtype=np.int64)
+                c_ = np.asarray(c_, dtype=np.int64)
+                return iperm[r_] * N + iperm[c_]
+        else:
+            self.ldab = ldab = 2 * kl + ku + 1
+            self.storage_size = N * ldab
+            d = kl + ku
+
+            def target(r_, c_):
+                r_ = np.asarray(r_, dtype=np.int64)
+                c_ = np.asarray(c_, dtype=np.int64)
+                return iperm[c_] * ldab + d + iperm[r_] - iperm[c_]
 
         def nn_targets(g):
             dofs = g.dofs
@@ -328,15 +344,18 @@ def evaluate_dense(model, state, h, alpha, scaled=True, ordering="rcm"):
     cp.mod.eval_time_functions(float(state.t), cp.C[8], cp.C[9], cp.C[10], cp.tfv)
     bp, gp = alpha.newton_factors(h)
     c = alpha.beta * h * h if scaled else 1.0
-    AB = np.zeros(N * cp.ldab)
+    AB = np.zeros(cp.storage_size)
     r = np.zeros(nv)
     Phi = np.zeros(model.nc)
     scale = cp.mod.evaluate(cp.G, cp.C, float(state.t), _f64(state.q), _f64(state.qd), _f64(state.qdd),
                             _f64(state.lam), True, c * bp, c * gp, c, AB, r, Phi)
+    perm = cp.C[1]
+    S = np.zeros((N, N))
+    if cp.dense:
+        S[np.ix_(perm, perm)] = AB.reshape(N, N)
+        return r, Phi, scale, S
     A = AB.reshape(N, cp.ldab)
     d = cp.kl + cp.ku
-    S = np.zeros((N, N))
-    perm = cp.C[1]
     for jp in range(N):
         for ip_ in range(max(0, jp - cp.ku), min(N, jp + cp.kl + 1)):
             S[perm[ip_], perm[jp]] = A[jp, d + ip_ - jp]

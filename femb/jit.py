@@ -16,7 +16,7 @@ from pathlib import Path
 import numba
 
 #: numba options shared by every compiled function of femb
-OPTIONS = dict(nogil=True, error_model="numpy", boundscheck=False)
+OPTIONS = dict(nogil=True, error_model="numpy", boundscheck=False, _nrt=False)
 
 
 def kernel(fn=None, **kw):

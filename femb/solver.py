@@ -267,11 +267,12 @@ class GeneralizedAlphaSolver:
         span = self.t_end - self.t0
         self.h_max = math.inf if h_max is None else _check_positive("h_max", h_max)
         self.h_min = 1e-10 * max(abs(self.t_end), span)
-        self.ip = np.zeros(17, dtype=np.int64)
+        self.ip = np.zeros(cp.mod.NIP, dtype=np.int64)
         self.ip[:] = [nv, nc, model.nfix, N, cp.kl, cp.ku, self.max_iter, self.min_iter,
                       1 if newton == "full" else 0, {"zero": 0, "previous": 1, "extrapolate": 2}[predictor],
                       self.n_steps, 1, 1, 1 if cp.python_tf else 0, 1 if self.adaptive else 0,
-                      1 if newton_test == "correction" else 0, 0 if self.adaptive else check_every]
+                      1 if newton_test == "correction" else 0, 0 if self.adaptive else check_every,
+                      1 if cp.dense else 0]
         self.fp = np.zeros(NFP)
         self.fp[:] = [self.h or 0.0, self.t0, al.alpha_m, al.alpha_f, al.beta, al.gamma, self.newton_rtol,
                       self.newton_atol, self.phi_tol, model.length_scale, 64.0 * np.finfo(float).eps,
@@ -289,8 +290,8 @@ class GeneralizedAlphaSolver:
         self.a = st.qdd.copy()
         self.pqdd = np.zeros(nv)
         self.plam = np.zeros(nc)
-        self.AB = np.zeros(N * cp.ldab)
-        self.ipiv = np.zeros(N, dtype=np.int64)
+        self.AB = np.zeros(cp.storage_size)
+        self.ipiv = np.zeros(2 * N, dtype=np.int64)
         self.r = np.zeros(nv)
         self.Phi = np.zeros(nc)
         self.rhs = np.zeros(N)
@@ -298,7 +299,7 @@ class GeneralizedAlphaSolver:
         self.info = np.zeros(8)
         z = np.zeros
         self.W = (z(nv), z(nv), z(nv), z(nc), z(nv), z(nv), z(nc), z(nv), z(nv), z(nv), z(nv),
-                  z(N * cp.ldab), z(N * cp.ldab), z(N, dtype=np.int64), z(N, dtype=np.int64),
+                  z(cp.storage_size), z(cp.storage_size), z(2 * N, dtype=np.int64), z(2 * N, dtype=np.int64),
                   z(nv), z(N), z(nc), z(nc), z(nv), z(nc), z(nc), z(nc), z(nv), z(nv), self.atol.copy(), z(nv))
         self._bufs = None
         self._compile()
@@ -526,7 +527,8 @@ class GeneralizedAlphaSolver:
                 "error_per": self.error_per, "newton_test": self.newton_test, "newton_rtol": self.newton_rtol,
                 "newton_atol": self.newton_atol, "phi_tol": self.phi_tol, "max_iter": self.max_iter,
                 "min_iter": self.min_iter, "newton": self.newton, "linear_solver": self.linear_solver,
-                "predictor": self.predictor, "band": (self.cp.kl, self.cp.ku)}
+                "predictor": self.predictor, "band": (self.cp.kl, self.cp.ku),
+                "storage": "dense" if self.cp.dense else "band"}
 
 
 # --------------------------------------------------------------------------

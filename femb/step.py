@@ -43,7 +43,8 @@ ST_KKT_SINGULAR = -6  # the matrix [[M, Bᵀ], [B, 0]] of the error estimate is 
 # ---- indices of the integer parameters ip[...] ------------------------------------------
 IP_NV, IP_NC, IP_NFIX, IP_N, IP_KL, IP_KU = 0, 1, 2, 3, 4, 5
 IP_MAXIT, IP_MINIT, IP_FULL, IP_PRED, IP_NSTEPS, IP_STRIDE, IP_STORE, IP_PYTF = 6, 7, 8, 9, 10, 11, 12, 13
-IP_MODE, IP_NTEST, IP_CHECK = 14, 15, 16
+IP_MODE, IP_NTEST, IP_CHECK, IP_DENSE = 14, 15, 16, 17
+NIP = 18
 # ---- indices of the float parameters fp[...] ---------------------------------------------
 FP_H, FP_T0, FP_AM, FP_AF, FP_BETA, FP_GAMMA, FP_RTOL, FP_ATOL = 0, 1, 2, 3, 4, 5, 6, 7
 FP_PHITOL, FP_L, FP_XTOL, FP_SCALED, FP_SINGTOL, FP_TEND, FP_FCONST = 8, 9, 10, 11, 12, 13, 14
@@ -133,6 +134,97 @@ def band_solve(ABf, N, kl, ku, ipiv, b):
         if bj != 0.0:
             for i in range(max(0, j - d), j):
                 b[i] -= AB[j, d + i - j] * bj
+
+
+@njit(cache=True, **OPTIONS)
+def dense_lu(Af, N, ipiv, rel_tol):
+    """LU with partial pivoting of a dense row-major matrix in place, skipping zeros.
+
+    The iteration matrices of mechanisms are sparse: only the nonzero entries of
+    each pivot row and column enter the update, so the cost follows the fill of
+    the factors rather than N³. ``ipiv`` has 2N entries (the second half is
+    work space). Returns 0, or 1 when singular in the sense of :func:`band_lu`.
+    """
+    A = Af.reshape((N, N))
+    cols = ipiv[N:]
+    pmax = 0.0
+    pmin = 1e308
+    for k in range(N):
+        p = k
+        amax = abs(A[k, k])
+        for i in range(k + 1, N):
+            v = abs(A[i, k])
+            if v > amax:
+                amax = v
+                p = i
+        ipiv[k] = p
+        if not (amax > 0.0) or amax > 1e300:
+            return 1
+        if p != k:
+            # swap the unfactored part only: the solve applies the interchanges as it goes (as LAPACK's gbtrs)
+            for j in range(k, N):
+                tmp = A[k, j]
+                A[k, j] = A[p, j]
+                A[p, j] = tmp
+        if amax > pmax:
+            pmax = amax
+        if amax < pmin:
+            pmin = amax
+        m = 0
+        for j in range(k + 1, N):
+            if A[k, j] != 0.0:
+                cols[m] = j
+                m += 1
+        inv = 1.0 / A[k, k]
+        for i in range(k + 1, N):
+            a = A[i, k]
+            if a != 0.0:
+                l = a * inv
+                A[i, k] = l
+                for c in range(m):
+                    j = cols[c]
+                    A[i, j] -= l * A[k, j]
+    if pmin <= rel_tol * pmax:
+        return 1
+    return 0
+
+
+@njit(cache=True, **OPTIONS)
+def dense_solve(Af, N, ipiv, b):
+    """Solve with the factors of :func:`dense_lu`, in place on ``b`` (permuted order)."""
+    A = Af.reshape((N, N))
+    for k in range(N):
+        p = ipiv[k]
+        if p != k:
+            tmp = b[k]
+            b[k] = b[p]
+            b[p] = tmp
+        bk = b[k]
+        if bk != 0.0:
+            for i in range(k + 1, N):
+                b[i] -= A[i, k] * bk
+    for k in range(N - 1, -1, -1):
+        s = b[k]
+        for j in range(k + 1, N):
+            s -= A[k, j] * b[j]
+        b[k] = s / A[k, k]
+
+
+@njit(cache=True, **OPTIONS)
+def factor(Af, ip, ipiv, rel_tol):
+    """Factorize the iteration matrix in its storage (dense or band, fixed per model)."""
+    if ip[IP_DENSE] != 0:
+        return dense_lu(Af, ip[IP_N], ipiv, rel_tol)
+    return band_lu(Af, ip[IP_N], ip[IP_KL], ip[IP_KU], ipiv, rel_tol)
+
+
+@njit(cache=True, **OPTIONS)
+def solve(Af, ip, ipiv, b):
+    """Solve with the factors of :func:`factor`, in place on ``b`` (permuted order)."""
+    if ip[IP_DENSE] != 0:
+        dense_solve(Af, ip[IP_N], ipiv, b)
+    else:
+        band_solve(Af, ip[IP_N], ip[IP_KL], ip[IP_KU], ipiv, b)
 
 
 @njit(cache=True, **OPTIONS)
@@ -296,7 +388,7 @@ def newton_step(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam, t1,
                         continue
         redo = False
         if jac:
-            if band_lu(AB, N, kl, ku, ipiv, fp[FP_SINGTOL]) != 0:
+            if factor(AB, ip, ipiv, fp[FP_SINGTOL]) != 0:
                 si[SI_LUVALID] = 0
                 return ST_DIVERGED_SINGULAR if k > 0 else ST_SINGULAR
             si[SI_LUVALID] = 1
@@ -308,7 +400,7 @@ def newton_step(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam, t1,
             rhs[iperm[i]] = -c * r[i]
         for j in range(nc):
             rhs[iperm[nv + j]] = -Phi[j]
-        band_solve(AB, N, kl, ku, ipiv, rhs)
+        solve(AB, ip, ipiv, rhs)
         stats[NS_SOLVE] += 1
         dqmax = 0.0
         qmax = 0.0
@@ -383,14 +475,14 @@ def kkt_accelerations(G, C, ip, t, q, qd, KB, kpiv, kr, Phi, kx, gam, Pt, zq, zl
     iperm = C[2]
     yes = nv >= 0
     evaluate(G, C, t, q, qd, zq, zl, yes, 1.0, 0.0, 0.0, KB, kr, Phi)
-    if band_lu(KB, N, kl, ku, kpiv, 1e-13) != 0:
+    if factor(KB, ip, kpiv, 1e-13) != 0:
         return 1
     rates(G, C, t, q, qd, Pt, gam)
     for i in range(nv):
         kx[iperm[i]] = -kr[i]                 # r = −f with q̈ = λ = 0
     for j in range(nc):
         kx[iperm[nv + j]] = -gam[j]
-    band_solve(KB, N, kl, ku, kpiv, kx)
+    solve(KB, ip, kpiv, kx)
     for i in range(nv):
         out[i] = kx[iperm[i]]
     return 0
@@ -411,7 +503,7 @@ def project_normal_velocity(G, C, ip, t, q, qd, target, KB, kpiv, kx, Bv):
         kx[iperm[i]] = 0.0
     for j in range(nc):
         kx[iperm[nv + j]] = target[j] - Bv[j] if C[15][j] != 0 else 0.0
-    band_solve(KB, ip[IP_N], ip[IP_KL], ip[IP_KU], kpiv, kx)
+    solve(KB, ip, kpiv, kx)
     for i in range(nv):
         qd[i] += kx[iperm[i]]
 
@@ -769,3 +861,24 @@ def copy_into(dst, src):
     """dst[...] = src for 1-D arrays of equal length."""
     for i in range(src.shape[0]):
         dst[i] = src[i]
+
+
+@njit(cache=True, **OPTIONS)
+def zero1(a):
+    for i in range(a.shape[0]):
+        a[i] = 0.0
+
+
+@njit(cache=True, **OPTIONS)
+def zero2(a):
+    for i in range(a.shape[0]):
+        for j in range(a.shape[1]):
+            a[i, j] = 0.0
+
+
+@njit(cache=True, **OPTIONS)
+def zero3(a):
+    for i in range(a.shape[0]):
+        for j in range(a.shape[1]):
+            for k in range(a.shape[2]):
+                a[i, j, k] = 0.0

@@ -1,0 +1,149 @@
+"""Figures of the compiled time loop: cost per step, beam scaling, process start-up.
+
+Every figure is a median over ``--runs`` runs in this process (``time.perf_counter``);
+ratios are taken against a reference run in the same process.
+
+* ``steps``: µs per step of the pendulum and of Andrews' mechanism (h = 3e-5 s,
+  ρ∞ = 0.7), with the defaults and with the seed reproduction's settings
+  (residual Newton test, the seed's start, no step-size check), and Exudyn's
+  µs per step on the same Andrews model when it is installed (``femb[peers]``).
+* ``beam``: ms per step of the spin-up beam for n elements (h = 5 ms) and the
+  fitted exponent of cost against n for n ≥ 10³.
+* ``process``: whole-process wall time of ``femb run andrews`` with an empty
+  compile cache and of ``femb run andrews --t-end 0.003`` with a warm one.
+
+Usage::
+
+    python -m femb.benchmarks.compiled_loop [--part steps|beam|process|all] [--runs 5]
+"""
+from __future__ import annotations
+
+import argparse
+import os
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+
+import numpy as np
+
+LEGACY = dict(newton_test="residual", start="seed", check_every=0)
+
+
+def _loop_us(model, t_end, h, runs, **options):
+    """Median µs per step of the time loop (initialization excluded) and the last result."""
+    import femb
+    femb.simulate(model, min(t_end, 20 * h), h, store=False, **options)      # compile / warm up
+    per, res = [], None
+    for _ in range(runs):
+        res = femb.simulate(model, t_end, h, store=False, **options)
+        per.append(1e6 * res.wall_time / res.steps)
+    return statistics.median(per), min(per), max(per), res
+
+
+def pendulum_model():
+    import femb
+    from femb.elements import Gravity, Hinge, RigidBody
+    mech = femb.Mechanism("pendulum")
+    bar = mech.add(RigidBody("bar", mass=1.0, inertia=1 / 12, position=(0.5, 0.0), points={"O": (-0.5, 0.0)}))
+    mech.add(Hinge("pivot", "ground", bar, point_b="O"))
+    mech.add(Gravity((0.0, -9.81)))
+    return mech.compile()
+
+
+def steps(runs=5):
+    from femb.benchmarks import andrews, peers
+    rows = []
+    pend = pendulum_model()
+    for label, opts in (("defaults", {}), ("seed settings", LEGACY)):
+        med, lo, hi, res = _loop_us(pend, 2.0, 1e-3, runs, **opts)
+        rows.append(("pendulum, h = 1e-3", label, med, lo, hi, float(res.newton_iterations.mean()),
+                     res.stats["factorizations"] / res.steps))
+    model = andrews.build().compile()
+    for label, opts in (("defaults", {}), ("seed settings", LEGACY)):
+        med, lo, hi, res = _loop_us(model, 0.03, 3e-5, runs, **opts)
+        rows.append(("Andrews, h = 3e-5", label, med, lo, hi, float(res.newton_iterations.mean()),
+                     res.stats["factorizations"] / res.steps))
+    print(f"{'model':22s} {'settings':14s} {'us/step med':>11s} {'min':>7s} {'max':>7s} {'Newton/step':>11s} "
+          f"{'LU/step':>8s}")
+    for r in rows:
+        print(f"{r[0]:22s} {r[1]:14s} {r[2]:11.2f} {r[3]:7.2f} {r[4]:7.2f} {r[5]:11.2f} {r[6]:8.2f}")
+    ex = peers.exudyn_solve("andrews", 0.03, 1000, 0.7, 10)
+    if ex["ok"]:
+        walls = [peers.exudyn_solve("andrews", 0.03, 1000, 0.7, 10)["wall_s"] for _ in range(runs)]
+        ex_us = 1e6 * statistics.median(walls) / 1000
+        femb_us = rows[2][2]
+        print(f"Exudyn {peers.status()['exudyn']['version']}, same Andrews model and scheme, h = 3e-5: "
+              f"{ex_us:.2f} us/step (median of {runs}); femb defaults / Exudyn = {femb_us / ex_us:.3f}, "
+              f"femb seed settings / Exudyn = {rows[3][2] / ex_us:.3f}")
+    else:
+        print(f"Exudyn: {ex['message']} (pip install femb[peers] to compare)")
+    return rows
+
+
+def beam(runs=3, ns=(10, 100, 1000, 3000, 10000)):
+    import femb
+    from femb.benchmarks import spin_up
+    rows = []
+    for n in ns:
+        model = spin_up.build(n).compile()
+        st = femb.simulate(model, 1.0, 5e-3, store=False)       # compile, and a state in motion
+        per = []
+        for _ in range(runs):
+            r = femb.simulate(model, 1.1, 5e-3, t0=1.0, state=_last_state(st), store=False)
+            per.append(1e3 * r.wall_time / r.steps)
+        rows.append((n, statistics.median(per), model.nq + model.nc, float(r.newton_iterations.mean()),
+                     r.settings["band"]))
+    print(f"{'n':>6s} {'unknowns':>9s} {'ms/step':>9s} {'Newton/step':>11s} {'band (kl, ku)':>14s}")
+    for n, ms, N, it, band in rows:
+        print(f"{n:6d} {N:9d} {ms:9.3f} {it:11.2f} {str(band):>14s}")
+    big = [(n, ms) for n, ms, *_ in rows if n >= 1000]
+    if len(big) >= 2:
+        slope = np.polyfit(np.log([b[0] for b in big]), np.log([b[1] for b in big]), 1)[0]
+        print(f"fitted exponent of ms/step against n for n >= 1000: {slope:.3f}")
+    return rows
+
+
+def _last_state(res):
+    from femb.model import State
+    return State(res.t[-1], res.q[-1].copy(), res.qd[-1].copy(), res.qdd[-1].copy(), res.lam[-1].copy())
+
+
+def process(runs=3):
+    exe = [sys.executable, "-m", "femb.cli"]
+    cold = []
+    for _ in range(runs):
+        with tempfile.TemporaryDirectory() as d:
+            env = dict(os.environ, FEMB_CACHE_DIR=d)
+            t = time.perf_counter()
+            subprocess.run(exe + ["run", "andrews"], env=env, check=True, capture_output=True)
+            cold.append(time.perf_counter() - t)
+    subprocess.run(exe + ["run", "andrews", "--t-end", "0.003"], check=True, capture_output=True)
+    warm = []
+    for _ in range(runs):
+        t = time.perf_counter()
+        subprocess.run(exe + ["run", "andrews", "--t-end", "0.003"], check=True, capture_output=True)
+        warm.append(time.perf_counter() - t)
+    print(f"femb run andrews, empty cache: {statistics.median(cold):.1f} s (median of {runs}; "
+          f"{', '.join(f'{x:.1f}' for x in cold)})")
+    print(f"femb run andrews --t-end 0.003, warm cache: {statistics.median(warm):.2f} s (median of {runs}; "
+          f"{', '.join(f'{x:.2f}' for x in warm)})")
+    return cold, warm
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--part", default="all", choices=("steps", "beam", "process", "all"))
+    ap.add_argument("--runs", type=int, default=5)
+    a = ap.parse_args(argv)
+    if a.part in ("steps", "all"):
+        steps(a.runs)
+    if a.part in ("beam", "all"):
+        beam(max(1, a.runs // 2))
+    if a.part in ("process", "all"):
+        process(max(1, a.runs // 2))
+
+
+if __name__ == "__main__":
+    main()
