@@ -63,7 +63,8 @@ def generate_source(model):
     """(module name, source text) of the generated module for ``model``'s kind."""
     roles = _roles(model)
     imports, files = {}, {str(_STEP_SOURCE), str(_JIT_SOURCE)}
-    for role, gi, fn, _ in roles:
+    wrapped = [g.cls.kernels["mass"] for g in model.mass_groups] + [fn for _, _, fn, _ in roles]
+    for fn in wrapped:
         mod, name, path = _kernel_ref(fn)
         if (mod, name) not in imports:
             imports[(mod, name)] = f"k_{len(imports)}"
@@ -73,6 +74,7 @@ def generate_source(model):
              "from femb.jit import OPTIONS"]
     for (mod, name), alias in imports.items():
         lines.append(f"from {mod} import {name} as {alias}")
+    lines.append(f"KERNEL_ALIASES = {[((m, n), a) for (m, n), a in imports.items()]!r}")
     lines += ["", "", "@njit(cache=True, **OPTIONS)",
               "def evaluate(G, C, t, q, qd, qdd, lam, jac, cM, cC, cK, ABf, r, Phi):",
               '    """Residual r = M q̈ − f + Bᵀλ, Φ, and (jac) the iteration matrix into ABf; returns the force scale."""',
@@ -144,6 +146,10 @@ def generate_source(model):
                       "                s += Be[e, j, i] * ve[e, i]",
                       "            out[lamidx[e, j]] = s"]
     lines.append("    return 0")
+    # cached entry points of every kernel, for Python-side evaluations (femb.kernels)
+    for (mod, name), alias in imports.items():
+        lines += ["", "", "@njit(cache=True, **OPTIONS)", f"def w_{alias}(*args):",
+                  f'    """Cached entry point of {mod}.{name}."""', f"    return {alias}(*args)"]
     body = "\n".join(lines) + "\n\n\n" + _STEP_SOURCE.read_text()
     h = hashlib.sha256(body.encode())
     for f in sorted(files):
@@ -170,6 +176,13 @@ def load_kind(model, verbose=True):
     mod = importlib.util.module_from_spec(spec)
     sys.modules[name] = mod
     spec.loader.exec_module(mod)
+    mod.FRESH = fresh
+    mod.LOADED_AT = time.perf_counter()
+    mod.ANNOUNCED = False
+    if fresh:
+        kinds = ", ".join(sorted({g.name for g in model.groups}))
+        print(f"femb: compiling the time loop for a new combination of elements ({kinds}); "
+              f"first run only, cached in {d}", file=sys.stderr, flush=True)
     _loaded[name] = mod
     return mod, fresh, str(path)
 
@@ -230,7 +243,7 @@ class Compiled:
         cols = np.concatenate(Cc).astype(np.int64)
         pat = sp.csr_matrix((np.ones(rows.size), (rows, cols)), shape=(N, N))
         if ordering == "rcm":
-            perm = np.asarray(reverse_cuthill_mckee((pat + pat.T).tocsr(), symmetric_mode=True), dtype=np.int64)
+            perm = _band_ordering(pat, nv)
         else:
             perm = np.arange(N, dtype=np.int64)
         iperm = np.empty(N, dtype=np.int64)
@@ -244,7 +257,8 @@ class Compiled:
         self.ordering = ordering
         # storage: band (LAPACK gbtrf layout, transposed) when the band is narrow, else a dense
         # row-major array whose LU skips zeros (small mechanisms with closed loops)
-        band_flops = N * kl * (kl + ku)
+        self.env = _envelope(pr, pc, N, kl, ku)
+        band_flops = int(((self.env[0] - np.arange(N)) * (self.env[1] - np.arange(N))).sum())
         self.dense = bool(N <= DENSE_MAX and (ordering != "rcm" or band_flops > 4 * N * N))
         if self.dense:
             self.ldab = ldab = N
@@ -305,13 +319,97 @@ class Compiled:
                   _i64(tf["kind"]), _i64(tf["off"]), _f64(tf["coef"]), _f64(Mc.data),
                   _i64(target(Mcoo.row, Mcoo.col)), self.tfv,
                   np.array([float(np.abs(model.f_const * model.force_weight).max(initial=0.0))]),
-                  active, _i64(target(nv + inactive, nv + inactive)))
+                  active, _i64(target(nv + inactive, nv + inactive)), self.env)
         self.python_tf = tf["python"]
         self.mod, fresh, self.cache_path = load_kind(model)
+        _attach_entry_points(model, self.mod)
         self.fresh = fresh
         self.announced = False
         self.kind_summary = ", ".join(sorted({g.name for g in model.groups}))
         self.setup_time = time.perf_counter() - t0
+
+
+def _attach_entry_points(model, mod):
+    """Give every batch the cached entry points of its kernels (used by :mod:`femb.kernels`)."""
+    for g in model.groups:
+        ks = getattr(g.cls, "kernels", None) or {}
+        eps = {}
+        for role, fn in ks.items():
+            m, n, _ = _kernel_ref(fn)
+            for alias in _aliases(mod):
+                if alias[0] == (m, n):
+                    eps[role] = getattr(mod, "w_" + alias[1])
+        g.compiled_kernels = eps
+
+
+def _aliases(mod):
+    return mod.KERNEL_ALIASES
+
+
+def _envelope(pr, pc, N, kl, ku):
+    """Per-column bounds of the band LU work, (3, N) int64 (see ``band_lu`` in femb/step.py).
+
+    env[0, j]: lowest row that can be nonzero below the diagonal of column j
+    (cumulative over columns ≤ j, so partial pivoting stays inside); env[1, j]:
+    last column the pivot row and the fill can reach (cumulative over the rows
+    ≤ env[0, j]); env[2, j]: first row whose U part reaches column j.
+    """
+    maxrow = np.arange(N, dtype=np.int64)
+    np.maximum.at(maxrow, pc, pr)
+    low = np.maximum.accumulate(maxrow)
+    lastcol = np.arange(N, dtype=np.int64)
+    np.maximum.at(lastcol, pr, pc)
+    cum = np.maximum.accumulate(lastcol)
+    up = np.maximum(cum[low], np.arange(N))
+    low = np.minimum(low, np.arange(N) + kl)
+    up = np.minimum(up, np.minimum(np.arange(N) + kl + ku, N - 1))
+    first = np.searchsorted(up, np.arange(N), side="left").astype(np.int64)
+    return np.ascontiguousarray(np.stack((low, up, first)).astype(np.int64))
+
+
+def _band_cost(pat, perm):
+    """(kl, ku, N·kl·(kl + ku)) of the pattern under a symmetric permutation."""
+    N = pat.shape[0]
+    iperm = np.empty(N, dtype=np.int64)
+    iperm[perm] = np.arange(N)
+    coo = pat.tocoo()
+    pr, pc = iperm[coo.row], iperm[coo.col]
+    kl = int(max(0, (pr - pc).max()))
+    ku = int(max(0, (pc - pr).max()))
+    return kl, ku, N * kl * (kl + ku)
+
+
+def _constraints_after_coordinates(pat, nv, coord_order):
+    """Coordinates in ``coord_order``, each constraint row right after the last coordinate it touches."""
+    N = pat.shape[0]
+    pos = np.empty(nv, dtype=np.int64)
+    pos[coord_order] = np.arange(nv)
+    B = pat[nv:, :nv].tocsr()
+    key = np.concatenate((2 * pos.astype(float), np.empty(N - nv)))
+    for j in range(N - nv):
+        cols = B.indices[B.indptr[j]:B.indptr[j + 1]]
+        key[nv + j] = 2 * pos[cols].max() + 1 if cols.size else 2 * nv
+    return np.argsort(key, kind="stable").astype(np.int64)
+
+
+def _band_ordering(pat, nv):
+    """A bandwidth-reducing symmetric ordering of the iteration matrix, the best of three.
+
+    Candidates: reverse Cuthill–McKee of the whole KKT pattern; the model's own
+    coordinate numbering (nodes in the order they were added: chains such as
+    beams are already banded) and reverse Cuthill–McKee of the coordinates'
+    pattern (M, K and BᵀB), each with every constraint row placed right after
+    the last coordinate it acts on. The one with the least band LU work wins.
+    """
+    sym = (pat + pat.T).tocsr()
+    cands = [np.asarray(reverse_cuthill_mckee(sym, symmetric_mode=True), dtype=np.int64)]
+    if pat.shape[0] > nv:
+        Pq = (pat[:nv, :nv] + pat[:nv, nv:] @ pat[nv:, :nv]).tocsr()
+        Pq = (Pq + Pq.T).tocsr()
+        cands.append(_constraints_after_coordinates(pat, nv, np.arange(nv)))
+        cands.append(_constraints_after_coordinates(
+            pat, nv, np.asarray(reverse_cuthill_mckee(Pq, symmetric_mode=True), dtype=np.int64)))
+    return min(cands, key=lambda p: _band_cost(pat, p)[2])
 
 
 def compiled(model, ordering="rcm"):

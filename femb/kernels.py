@@ -15,6 +15,15 @@ def _f(a):
     return np.ascontiguousarray(a, dtype=np.float64)
 
 
+def _kernel(group, role):
+    """The batch's compiled kernel for ``role``: the cached entry point of its model kind's
+    generated module when the model has been compiled for simulation, else the kernel itself."""
+    eps = getattr(group, "compiled_kernels", None)
+    if eps and role in eps:
+        return eps[role]
+    return group.cls.kernels[role]
+
+
 def time_values(group, t):
     """Time-function values of a batch at t: ``tf (nel, ntf, 3)`` = (f, f', f'')."""
     fns = group.time_functions
@@ -33,7 +42,7 @@ def mass(group, xe):
     """Element mass matrices ``Me (nel, ndv, ndv)``."""
     xe = _f(xe)
     Me = np.zeros((xe.shape[0], group.ndv, group.ndv))
-    group.cls.kernels["mass"](group.P, xe, Me)
+    _kernel(group, "mass")(group.P, xe, Me)
     return Me
 
 
@@ -48,7 +57,7 @@ def force(group, t, xe, ve, jac=True, raw=False):
     fe = np.zeros((nel, ndv))
     fq = np.zeros((nel, ndv, ndv))
     fv = np.zeros((nel, ndv, ndv))
-    group.cls.kernels["force"](group.P, float(t), time_values(group, t), xe, ve, bool(jac), fe, fq, fv)
+    _kernel(group, "force")(group.P, float(t), time_values(group, t), xe, ve, bool(jac), fe, fq, fv)
     if not jac:
         return fe, None, None
     traits = getattr(group, "traits", None)
@@ -64,7 +73,7 @@ def constraint(group, t, xe, le=None, jac=True):
     Phi = np.zeros((nel, nc))
     B = np.zeros((nel, nc, ndv))
     H = np.zeros((nel, ndv, ndv))
-    group.cls.kernels["constraint"](group.P, float(t), time_values(group, t), xe, le, bool(jac), Phi, B, H)
+    _kernel(group, "constraint")(group.P, float(t), time_values(group, t), xe, le, bool(jac), Phi, B, H)
     return Phi, B, (H if jac else None)
 
 
@@ -74,5 +83,5 @@ def rates(group, t, xe, ve):
     nel, nc = xe.shape[0], group.nc
     Phi_t = np.zeros((nel, nc))
     gam = np.zeros((nel, nc))
-    group.cls.kernels["rates"](group.P, float(t), time_values(group, t), xe, ve, Phi_t, gam)
+    _kernel(group, "rates")(group.P, float(t), time_values(group, t), xe, ve, Phi_t, gam)
     return Phi_t, gam

@@ -300,6 +300,16 @@ def compile_model(mech, *, length_scale=None):
             raise ModelError(f"{g.name}: a configuration-dependent mass matrix is not supported by the "
                              "compiled time loop (every femb element has constant mass)")
 
+    # ---- the generated module of this combination of element types: its cached entry points
+    # serve every Python-side kernel call (constant mass and forces below, assembly functions,
+    # initialization), so a warm start compiles nothing
+    from types import SimpleNamespace
+    from femb import codegen
+    kind = SimpleNamespace(groups=groups, mass_groups=mass_groups, force_groups=force_groups,
+                           constraint_groups=constraint_groups)
+    kind_mod, _, _ = codegen.load_kind(kind)
+    codegen._attach_entry_points(kind, kind_mod)
+
     # ---- residual weights: moments (rows of non-translational coordinates) are
     # divided by the length scale so the force-residual test mixes N with N, not
     # N with N·m (unit-invariant Newton stopping); computed after the length scale.

@@ -165,7 +165,7 @@ class GeneralizedAlphaSolver:
     def __init__(self, model, h=None, *, rho_inf=None, alpha=None, scaling=True, rtol=None, atol=None,
                  h0=None, h_max=None, error_per="step", start="consistent", newton_test="correction",
                  newton_rtol=1e-10, newton_atol=0.0, phi_tol=1e-12, max_iter=25, min_iter=1, newton="full",
-                 linear_solver="auto", predictor="extrapolate", check_every=8, warn_factor=10.0,
+                 linear_solver="auto", predictor="extrapolate", check_every=16, warn_factor=10.0,
                  state=None, t0=0.0, t_end=None, initialize=True, n_steps=None):
         from femb.model import Model
         if not isinstance(model, Model):
@@ -395,15 +395,11 @@ class GeneralizedAlphaSolver:
         return b
 
     def _compile(self):
-        cp = self.cp
-        if not cp.announced:
-            cp.announced = True
-            if cp.fresh:
-                print(f"femb: compiling the time loop for this combination of elements "
-                      f"({cp.kind_summary}); cached for later runs in {cp.cache_path}", file=sys.stderr, flush=True)
-                t = time.perf_counter()
-                self.advance(0)
-                print(f"femb: compiled in {time.perf_counter() - t:.1f} s", file=sys.stderr, flush=True)
+        mod = self.cp.mod
+        if getattr(mod, "FRESH", False) and not mod.ANNOUNCED:
+            mod.ANNOUNCED = True
+            self.advance(0)
+            print(f"femb: compiled in {time.perf_counter() - mod.LOADED_AT:.1f} s", file=sys.stderr, flush=True)
 
     def advance(self, n_chunk):
         """Run the compiled loop for up to ``n_chunk`` accepted steps.

@@ -64,23 +64,29 @@ NNS = 6
 
 
 @njit(cache=True, **OPTIONS)
-def band_lu(ABf, N, kl, ku, ipiv, rel_tol):
-    """LU with partial pivoting of a band matrix in place (LAPACK ``dgbtf2`` logic).
+def band_lu(ABf, N, kl, ku, env, ipiv, rel_tol):
+    """LU with partial pivoting of a band matrix in place (LAPACK ``dgbtf2`` logic, variable band).
 
-    ``ABf`` is the flat storage of ``AB (N, 2 kl + ku + 1)``. Returns 0, or 1 if a
-    pivot is zero, non-finite, or below ``rel_tol`` times the largest pivot
-    (singular for the purpose of the Newton iteration).
+    ``ABf`` is the flat storage of ``AB (N, 2 kl + ku + 1)``. ``env`` (3, N)
+    bounds the work per column j from the matrix's structure, computed once
+    per model (:mod:`femb.codegen`): rows j+1 … env[0, j] can hold nonzeros
+    below the diagonal (the cumulative lowest row, so row interchanges stay
+    inside it) and columns up to env[1, j] can be reached by the pivot row
+    and the fill of partial pivoting. A chain with a few wide spots (a beam
+    clamped to a hub) then costs the work of its local band, not of its widest
+    one. Returns 0, or 1 if a pivot is zero, non-finite, or below ``rel_tol``
+    times the largest pivot (singular for the purpose of the Newton iteration).
     """
     d = kl + ku
     AB = ABf.reshape((N, 2 * kl + ku + 1))
-    ju = 0
     pmax = 0.0
     pmin = 1e308
     for j in range(N):
-        km = min(kl, N - 1 - j)
+        low = env[0, j]
+        ju = env[1, j]
         p = j
         amax = abs(AB[j, d])
-        for i in range(j + 1, j + km + 1):
+        for i in range(j + 1, low + 1):
             v = abs(AB[j, d + i - j])
             if v > amax:
                 amax = v
@@ -88,7 +94,6 @@ def band_lu(ABf, N, kl, ku, ipiv, rel_tol):
         ipiv[j] = p
         if not (amax > 0.0) or amax > 1e300:
             return 1
-        ju = max(ju, min(p + ku, N - 1))
         if p != j:
             for c in range(j, ju + 1):
                 tmp = AB[c, d + j - c]
@@ -100,13 +105,13 @@ def band_lu(ABf, N, kl, ku, ipiv, rel_tol):
         if amax < pmin:
             pmin = amax
         inv = 1.0 / piv
-        for i in range(j + 1, j + km + 1):
+        for i in range(j + 1, low + 1):
             AB[j, d + i - j] *= inv
         for c in range(j + 1, ju + 1):
             a = AB[c, d + j - c]
             if a != 0.0:
                 off = d - c
-                for i in range(j + 1, j + km + 1):
+                for i in range(j + 1, low + 1):
                     AB[c, off + i] -= AB[j, d + i - j] * a
     if pmin <= rel_tol * pmax:
         return 1
@@ -114,7 +119,7 @@ def band_lu(ABf, N, kl, ku, ipiv, rel_tol):
 
 
 @njit(cache=True, **OPTIONS)
-def band_solve(ABf, N, kl, ku, ipiv, b):
+def band_solve(ABf, N, kl, ku, env, ipiv, b):
     """Solve with the factors of :func:`band_lu`, in place on ``b`` (permuted order)."""
     d = kl + ku
     AB = ABf.reshape((N, 2 * kl + ku + 1))
@@ -126,13 +131,13 @@ def band_solve(ABf, N, kl, ku, ipiv, b):
             b[p] = tmp
         bj = b[j]
         if bj != 0.0:
-            for i in range(j + 1, min(N - 1, j + kl) + 1):
+            for i in range(j + 1, env[0, j] + 1):
                 b[i] -= AB[j, d + i - j] * bj
     for j in range(N - 1, -1, -1):
         b[j] /= AB[j, d]
         bj = b[j]
         if bj != 0.0:
-            for i in range(max(0, j - d), j):
+            for i in range(env[2, j], j):
                 b[i] -= AB[j, d + i - j] * bj
 
 
@@ -211,20 +216,20 @@ def dense_solve(Af, N, ipiv, b):
 
 
 @njit(cache=True, **OPTIONS)
-def factor(Af, ip, ipiv, rel_tol):
+def factor(Af, ip, env, ipiv, rel_tol):
     """Factorize the iteration matrix in its storage (dense or band, fixed per model)."""
     if ip[IP_DENSE] != 0:
         return dense_lu(Af, ip[IP_N], ipiv, rel_tol)
-    return band_lu(Af, ip[IP_N], ip[IP_KL], ip[IP_KU], ipiv, rel_tol)
+    return band_lu(Af, ip[IP_N], ip[IP_KL], ip[IP_KU], env, ipiv, rel_tol)
 
 
 @njit(cache=True, **OPTIONS)
-def solve(Af, ip, ipiv, b):
+def solve(Af, ip, env, ipiv, b):
     """Solve with the factors of :func:`factor`, in place on ``b`` (permuted order)."""
     if ip[IP_DENSE] != 0:
         dense_solve(Af, ip[IP_N], ipiv, b)
     else:
-        band_solve(Af, ip[IP_N], ip[IP_KL], ip[IP_KU], ipiv, b)
+        band_solve(Af, ip[IP_N], ip[IP_KL], ip[IP_KU], env, ipiv, b)
 
 
 @njit(cache=True, **OPTIONS)
@@ -388,7 +393,7 @@ def newton_step(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam, t1,
                         continue
         redo = False
         if jac:
-            if factor(AB, ip, ipiv, fp[FP_SINGTOL]) != 0:
+            if factor(AB, ip, C[17], ipiv, fp[FP_SINGTOL]) != 0:
                 si[SI_LUVALID] = 0
                 return ST_DIVERGED_SINGULAR if k > 0 else ST_SINGULAR
             si[SI_LUVALID] = 1
@@ -400,7 +405,7 @@ def newton_step(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam, t1,
             rhs[iperm[i]] = -c * r[i]
         for j in range(nc):
             rhs[iperm[nv + j]] = -Phi[j]
-        solve(AB, ip, ipiv, rhs)
+        solve(AB, ip, C[17], ipiv, rhs)
         stats[NS_SOLVE] += 1
         dqmax = 0.0
         qmax = 0.0
@@ -475,14 +480,14 @@ def kkt_accelerations(G, C, ip, t, q, qd, KB, kpiv, kr, Phi, kx, gam, Pt, zq, zl
     iperm = C[2]
     yes = nv >= 0
     evaluate(G, C, t, q, qd, zq, zl, yes, 1.0, 0.0, 0.0, KB, kr, Phi)
-    if factor(KB, ip, kpiv, 1e-13) != 0:
+    if factor(KB, ip, C[17], kpiv, 1e-13) != 0:
         return 1
     rates(G, C, t, q, qd, Pt, gam)
     for i in range(nv):
         kx[iperm[i]] = -kr[i]                 # r = −f with q̈ = λ = 0
     for j in range(nc):
         kx[iperm[nv + j]] = -gam[j]
-    solve(KB, ip, kpiv, kx)
+    solve(KB, ip, C[17], kpiv, kx)
     for i in range(nv):
         out[i] = kx[iperm[i]]
     return 0
@@ -503,7 +508,7 @@ def project_normal_velocity(G, C, ip, t, q, qd, target, KB, kpiv, kx, Bv):
         kx[iperm[i]] = 0.0
     for j in range(nc):
         kx[iperm[nv + j]] = target[j] - Bv[j] if C[15][j] != 0 else 0.0
-    solve(KB, ip, kpiv, kx)
+    solve(KB, ip, C[17], kpiv, kx)
     for i in range(nv):
         qd[i] += kx[iperm[i]]
 

@@ -32,7 +32,7 @@ def test_andrews_1000_steps_equal_the_numpy_engine(andrews_model, linear_solver)
 
 def test_band_lu_matches_dense_solve_and_flags_singularity():
     """The compiled band LU with partial pivoting solves random band systems and sees singular ones."""
-    from femb.codegen import compiled
+    from femb.codegen import _envelope, compiled
     model = andrews.build().compile()
     mod = compiled(model).mod
     rng = np.random.default_rng(5)
@@ -49,10 +49,12 @@ def test_band_lu_matches_dense_solve_and_flags_singularity():
                 AB[j, kl + ku + i - j] = A[i, j]
         ABf = AB.reshape(-1).copy()
         piv = np.zeros(N, dtype=np.int64)
-        assert mod.band_lu(ABf, N, kl, ku, piv, 1e-13) == 0
+        rows, cols = np.nonzero(A)
+        env = _envelope(rows, cols, N, kl, ku)          # the work bounds femb computes per model
+        assert mod.band_lu(ABf, N, kl, ku, env, piv, 1e-13) == 0
         b = rng.standard_normal(N)
         x = b.copy()
-        mod.band_solve(ABf, N, kl, ku, piv, x)
+        mod.band_solve(ABf, N, kl, ku, env, piv, x)
         np.testing.assert_allclose(A @ x, b, rtol=1e-9, atol=1e-9 * np.abs(b).max())
         # two equal rows make it singular (row N-2 kept inside row N-1's band)
         A2 = A.copy()
@@ -64,4 +66,15 @@ def test_band_lu_matches_dense_solve_and_flags_singularity():
             for i in range(max(0, j - ku), min(N, j + kl + 1)):
                 AB2[j, kl + ku + i - j] = A2[i, j]
         ABf2 = AB2.reshape(-1).copy()
-        assert mod.band_lu(ABf2, N, kl, ku, piv, 1e-13) == 1
+        assert mod.band_lu(ABf2, N, kl, ku, env, piv, 1e-13) == 1
+
+
+def test_spin_up_runs_with_the_variable_band_and_matches_the_full_band():
+    """The per-column work bounds of the band LU change the cost, not the numbers."""
+    from femb.benchmarks import spin_up
+    model = spin_up.build(20).compile()
+    a = femb.simulate(model, 0.2, 5e-3)
+    b = femb.simulate(model, 0.2, 5e-3, linear_solver="dense")
+    assert a.settings["storage"] == "band"
+    np.testing.assert_allclose(a.q, b.q, rtol=0, atol=1e-11)
+    np.testing.assert_allclose(a.lam, b.lam, rtol=1e-7, atol=1e-7 * np.abs(b.lam).max())
