@@ -33,7 +33,7 @@ W_RA, W_RB, W_M, W_N, W_T1, W_T2, W_I = 0, 1, 2, 3, 4, 5, 6
 V_RA, V_RB, V_PA, V_PB, V_D, V_U, V_W, V_C, V_S, V_T = 0, 1, 2, 3, 4, 5, 6, 7, 8, 9
 
 
-@kernel
+@kernel(allocates=True)
 def frames(P, x, W, V):
     """Rotations, arms and points of the two frames.
 
@@ -58,33 +58,33 @@ def frames(P, x, W, V):
         V[V_D, i] = V[V_PB, i] - V[V_PA, i]
 
 
-@kernel
+@kernel(allocates=True)
 def rot_vec(R, a, out):
     """out = R a."""
     for i in range(3):
         out[i] = R[i, 0] * a[0] + R[i, 1] * a[1] + R[i, 2] * a[2]
 
 
-@kernel
+@kernel(allocates=True)
 def rotT_vec(R, a, out):
     """out = Rᵀ a."""
     for i in range(3):
         out[i] = R[0, i] * a[0] + R[1, i] * a[1] + R[2, i] * a[2]
 
 
-@kernel
+@kernel(allocates=True)
 def cross_into(a, b, out):
     out[0] = a[1] * b[2] - a[2] * b[1]
     out[1] = a[2] * b[0] - a[0] * b[2]
     out[2] = a[0] * b[1] - a[1] * b[0]
 
 
-@kernel
+@kernel(allocates=True)
 def dot3(a, b):
     return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 
 
-@kernel
+@kernel(allocates=True)
 def skskw(a, b, M):
     """M = a~ b~ = b aᵀ − (a·b) I."""
     ab = a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
@@ -94,7 +94,7 @@ def skskw(a, b, M):
         M[i, i] -= ab
 
 
-@kernel
+@kernel(allocates=True)
 def add_RtMR(H, i0, j0, R1, M, R2, s):
     """H[i0:i0+3, j0:j0+3] += s R1ᵀ M R2."""
     for i in range(3):
@@ -108,7 +108,7 @@ def add_RtMR(H, i0, j0, R1, M, R2, s):
             H[i0 + i, j0 + j] += s * acc
 
 
-@kernel
+@kernel(allocates=True)
 def add_skew_block(H, i0, j0, a, R, s, left):
     """H block += s a~ R (left) or s Rᵀ a~ (not left)."""
     for i in range(3):
@@ -131,7 +131,7 @@ def add_skew_block(H, i0, j0, a, R, s, left):
 # ---------------------------------------------------------------------------
 # primitives
 # ---------------------------------------------------------------------------
-@kernel
+@kernel(allocates=True)
 def prim_point(r, P, x, lam, jac, Phi, B, H, W, V):
     """Rows r..r+2: Φ = p_a − p_b, B = [I, −R_a X_a~, −I, R_b X_b~].
 
@@ -179,7 +179,7 @@ def prim_point(r, P, x, lam, jac, Phi, B, H, W, V):
                 H[9 + i, 9 + j] -= M[i, j]
 
 
-@kernel
+@kernel(allocates=True)
 def prim_dot1(r, abar, bbar, lam, jac, Phi, B, H, W, V):
     """Row r: Φ = u·w, u = R_a ā, w = R_b b̄; B = [0, cᵀR_a, 0, −cᵀR_b], c = u × w."""
     Ra, Rb = W[W_RA], W[W_RB]
@@ -205,7 +205,7 @@ def prim_dot1(r, abar, bbar, lam, jac, Phi, B, H, W, V):
         add_RtMR(H, 9, 9, Rb, N, Rb, l)
 
 
-@kernel
+@kernel(allocates=True)
 def prim_dot2(r, x, abar, offset, lam, jac, Phi, B, H, W, V):
     """Row r: Φ = u·d − offset, u = R_a ā, d = p_b − p_a.
 
@@ -244,7 +244,7 @@ def prim_dot2(r, x, abar, offset, lam, jac, Phi, B, H, W, V):
         add_RtMR(H, 9, 9, Rb, M, Rb, l)
 
 
-@kernel
+@kernel(allocates=True)
 def gmat(P, W, V, G):
     """G (3, 12) with δd = G δq: [−I, R_a X_a~, I, −R_b X_b~]."""
     Ra, Rb = W[W_RA], W[W_RB]
@@ -272,7 +272,7 @@ def gmat(P, W, V, G):
             G[i, 9 + j] = -sb
 
 
-@kernel
+@kernel(allocates=True)
 def add_arm_blocks(P, H, a, s, W, V):
     """H += s · blockdiag(0, −X_a~(R_aᵀa)~, 0, X_b~(R_bᵀa)~) (derivative of Gᵀa at fixed a)."""
     t, M = V[V_T], W[W_M]
@@ -288,7 +288,7 @@ def add_arm_blocks(P, H, a, s, W, V):
             H[9 + i, 9 + j] += s * M[i, j]
 
 
-@kernel
+@kernel(allocates=True)
 def prim_distance(r, P, L, lam, jac, Phi, B, H, W, V, G):
     """Row r: Φ = (d·d − L²)/(2L), B = dᵀG/L (λ = tension of the link).
 
@@ -307,7 +307,7 @@ def prim_distance(r, P, L, lam, jac, Phi, B, H, W, V, G):
         add_arm_blocks(P, H, d, s, W, V)
 
 
-@kernel
+@kernel(allocates=True)
 def quadratic_form(v, H):
     """vᵀ H v."""
     acc = 0.0
@@ -320,7 +320,7 @@ def quadratic_form(v, H):
     return acc
 
 
-@kernel
+@kernel(allocates=True)
 def angle_about(P, abar1, abar2, bbar, W, V):
     """atan2(u2·w, u1·w) with u_k = R_a ā_k, w = R_b b̄."""
     u, w = V[V_U], V[V_W]

@@ -262,7 +262,7 @@ def spatial_ground(ground):
 # ---------------------------------------------------------------------------
 # rigid body kernels
 # ---------------------------------------------------------------------------
-@kernel
+@kernel(allocates=True)
 def rigid_body_mass(P, xe, Me):
     """Me = diag(m I₃, J); P = (m, J row-major (9))."""
     for e in range(xe.shape[0]):
@@ -272,7 +272,7 @@ def rigid_body_mass(P, xe, Me):
                 Me[e, 3 + i, 3 + j] = P[e, 1 + 3 * i + j]
 
 
-@kernel
+@kernel(allocates=True)
 def rigid_body_force(P, t, tf, xe, ve, jac, fe, fq, fv):
     """Gyroscopic moment f_θ = −Ω × JΩ; fv(θ, Ω) = −(Ω~J − (JΩ)~); fq = 0."""
     for e in range(xe.shape[0]):
@@ -402,7 +402,7 @@ class SpatialRigidBody(SpatialBody, Element):
         return {"P": np.ascontiguousarray(P), "m": P[:, 0].copy(), "J": P[:, 1:].reshape(-1, 3, 3).copy()}
 
 
-@kernel
+@kernel(allocates=True)
 def point_mass_mass(P, xe, Me):
     """Me = diag(m I₃, 0); P = (m,)."""
     for e in range(xe.shape[0]):

@@ -42,7 +42,7 @@ from .spatial_joints import A1, A2, A3, B1, B2, B3, SpatialPairElement, _resolve
 # ---------------------------------------------------------------------------
 # measure forces
 # ---------------------------------------------------------------------------
-@kernel
+@kernel(allocates=True)
 def _add_measure(k, m, g, Hm, P_K, P_C, P_m0, v, jac, fe, fq, fv):
     """Add measure k's force: F = K (m − m0) + C g·v to fe, fq, fv (one element)."""
     md = 0.0
@@ -65,7 +65,7 @@ def _add_measure(k, m, g, Hm, P_K, P_C, P_m0, v, jac, fe, fq, fv):
                     fv[i, j] -= P_C * g[i] * g[j]
 
 
-@kernel
+@kernel(allocates=True)
 def point_spring_force(P, t, tf, xe, ve, jac, fe, fq, fv):
     """Point-to-point spring–damper: measure ℓ = |p_b − p_a|; P = (frame (24), k, c, ℓ0).
 
@@ -96,7 +96,7 @@ def point_spring_force(P, t, tf, xe, ve, jac, fe, fq, fv):
         _add_measure(0, L, g, Hm, Pe[24], Pe[25], Pe[26], ve[e], jac, fe[e], fq[e], fv[e])
 
 
-@kernel
+@kernel(allocates=True)
 def bushing_force(P, t, tf, xe, ve, jac, fe, fq, fv):
     """Six-component bushing; P = (frame (24), K (6), C (6), m0 (6)).
 
@@ -134,7 +134,7 @@ def bushing_force(P, t, tf, xe, ve, jac, fe, fq, fv):
                          fe[e], fq[e], fv[e])
 
 
-@kernel
+@kernel(allocates=True)
 def rotational_spring_force(P, t, tf, xe, ve, jac, fe, fq, fv):
     """Rotational spring–damper about ē3: measure θ = atan2(s, c) ∈ (−π, π].
 
@@ -336,7 +336,7 @@ def _frame_pack(elements):
 # ---------------------------------------------------------------------------
 # loads on one body
 # ---------------------------------------------------------------------------
-@kernel
+@kernel(allocates=True)
 def load_force(P, t, tf, xe, ve, jac, fe, fq, fv):
     """Force or torque on one frame node, scaled by f(t); P = (X (3), V (3), follower, torque).
 

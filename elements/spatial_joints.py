@@ -187,7 +187,7 @@ SPEC = 6
 PROGRAM = NPAR_FRAME + 1
 
 
-@kernel
+@kernel(allocates=True)
 def _driven_axis(P, tf, base, value, k, V):
     """ā(t) into V[10], t̄ into V[11] (body a axes), θ* = value + φ(t); returns (φ', φ'')."""
     th = value + tf[k, 0]
@@ -198,7 +198,7 @@ def _driven_axis(P, tf, base, value, k, V):
     return tf[k, 1], tf[k, 2]
 
 
-@kernel
+@kernel(allocates=True)
 def joint_ev(P, t, tf, x, lam, jac, Phi, B, H, W, V, G):
     """One element's Φ (nc), B (nc, 12) and H += ∂(Bᵀλ)/∂(δr, δθ) from its row program.
 
@@ -232,7 +232,7 @@ def joint_ev(P, t, tf, x, lam, jac, Phi, B, H, W, V, G):
             prim_dot1(r, V[10], P[ib:ib + 3], lam, jac, Phi, B, H, W, V)
 
 
-@kernel
+@kernel(allocates=True)
 def joint_time(P, t, tf, x, v, Phi_t, gam, W, V, G):
     """Φ_t and the explicit-time part 2 B_t v + Φ_tt (added to gam) of the rheonomic rows.
 
@@ -278,7 +278,7 @@ def joint_time(P, t, tf, x, v, Phi_t, gam, W, V, G):
             gam[r] += 2.0 * btv + phitt
 
 
-@kernel
+@kernel(allocates=True)
 def joint_constraint(P, t, tf, xe, le, jac, Phi, B, H):
     """Batch constraint kernel of every spatial joint type (Φ, B, H; docs/kernels.md)."""
     W = np.empty((NW, 3, 3))
@@ -288,7 +288,7 @@ def joint_constraint(P, t, tf, xe, le, jac, Phi, B, H):
         joint_ev(P[e], t, tf[e], xe[e], le[e], jac, Phi[e], B[e], H[e], W, V, G)
 
 
-@kernel
+@kernel(allocates=True)
 def joint_rates(P, t, tf, xe, ve, Phi_t, gam):
     """Batch rates kernel of every spatial joint type: Φ_t and γ = (Bv)_x v + 2 B_t v + Φ_tt.
 

@@ -15,13 +15,21 @@ from pathlib import Path
 
 import numba
 
-#: numba options shared by every compiled function of femb
-OPTIONS = dict(nogil=True, error_model="numpy", boundscheck=False, _nrt=False)
+#: numba options of the element kernels
+KERNEL_OPTIONS = dict(nogil=True, error_model="numpy", boundscheck=False)
+#: options of the time loop (femb/step.py and the generated modules): no reference counting of
+#: arrays (the loop allocates nothing; this removes atomic increments from every call)
+OPTIONS = dict(KERNEL_OPTIONS, _nrt=False)
 
 
-def kernel(fn=None, **kw):
-    """Decorator for element kernels: ``numba.njit`` with femb's options, no cache."""
-    opts = dict(OPTIONS)
+def kernel(fn=None, *, allocates=False, **kw):
+    """Decorator for element kernels: ``numba.njit`` with femb's options, no cache.
+
+    Kernels run without reference counting of arrays (as the time loop): they
+    must not create arrays. ``allocates=True`` compiles a kernel that does (slower
+    calls; the spatial kernels, until they are written allocation-free).
+    """
+    opts = dict(KERNEL_OPTIONS if allocates else OPTIONS)
     opts.update(kw)
     if fn is None:
         return lambda f: numba.njit(**opts)(f)

@@ -42,7 +42,7 @@ SERIES_SWITCH = 0.1
 # ---------------------------------------------------------------------------
 # scalar coefficient functions of the SO(3) exponential
 # ---------------------------------------------------------------------------
-@kernel
+@kernel(allocates=True)
 def s1(phi):
     """sin φ / φ."""
     if phi < SERIES_SWITCH:
@@ -51,7 +51,7 @@ def s1(phi):
     return math.sin(phi) / phi
 
 
-@kernel
+@kernel(allocates=True)
 def s2(phi):
     """(1 − cos φ) / φ²."""
     if phi < SERIES_SWITCH:
@@ -60,7 +60,7 @@ def s2(phi):
     return (1.0 - math.cos(phi)) / (phi * phi)
 
 
-@kernel
+@kernel(allocates=True)
 def s3(phi):
     """(φ − sin φ) / φ³."""
     if phi < SERIES_SWITCH:
@@ -69,7 +69,7 @@ def s3(phi):
     return (phi - math.sin(phi)) / (phi * phi * phi)
 
 
-@kernel
+@kernel(allocates=True)
 def s4(phi):
     """(1 − (φ/2) cot(φ/2)) / φ² (singular at φ = 2π)."""
     if phi < SERIES_SWITCH:
@@ -79,7 +79,7 @@ def s4(phi):
     return (1.0 - h * math.cos(h) / math.sin(h)) / (phi * phi)
 
 
-@kernel
+@kernel(allocates=True)
 def s7(phi):
     """sin(φ/2) / φ: the quaternion of exp(θ) is (cos(φ/2), s7 θ)."""
     if phi < SERIES_SWITCH:
@@ -91,7 +91,7 @@ def s7(phi):
 # ---------------------------------------------------------------------------
 # small linear algebra
 # ---------------------------------------------------------------------------
-@kernel
+@kernel(allocates=True)
 def skew_into(a, S):
     """S = a~ (3×3), so that S b = a × b."""
     S[0, 0] = 0.0
@@ -105,7 +105,7 @@ def skew_into(a, S):
     S[2, 2] = 0.0
 
 
-@kernel
+@kernel(allocates=True)
 def skew(a):
     """The skew matrix a~ of a 3-vector, shape (3, 3)."""
     S = np.empty((3, 3))
@@ -113,7 +113,7 @@ def skew(a):
     return S
 
 
-@kernel
+@kernel(allocates=True)
 def vee(S):
     """The axial vector of the skew part of S: vee(a~) = a, shape (3,)."""
     return np.array([0.5 * (S[2, 1] - S[1, 2]), 0.5 * (S[0, 2] - S[2, 0]), 0.5 * (S[1, 0] - S[0, 1])])
@@ -122,7 +122,7 @@ def vee(S):
 # ---------------------------------------------------------------------------
 # quaternions
 # ---------------------------------------------------------------------------
-@kernel
+@kernel(allocates=True)
 def quat_mul_into(a, b, out):
     """out = a ⊗ b = (a0b0 − a⃗·b⃗, a0b⃗ + b0a⃗ + a⃗ × b⃗); ``out`` must not alias a or b."""
     out[0] = a[0] * b[0] - a[1] * b[1] - a[2] * b[2] - a[3] * b[3]
@@ -131,7 +131,7 @@ def quat_mul_into(a, b, out):
     out[3] = a[0] * b[3] + b[0] * a[3] + a[1] * b[2] - a[2] * b[1]
 
 
-@kernel
+@kernel(allocates=True)
 def quat_mul(a, b):
     """Quaternion product a ⊗ b (R(a ⊗ b) = R(a) R(b)), shape (4,)."""
     out = np.empty(4)
@@ -139,13 +139,13 @@ def quat_mul(a, b):
     return out
 
 
-@kernel
+@kernel(allocates=True)
 def quat_conj(a):
     """Conjugate (p0, −p⃗): the inverse rotation of a unit quaternion, shape (4,)."""
     return np.array([a[0], -a[1], -a[2], -a[3]])
 
 
-@kernel
+@kernel(allocates=True)
 def quat_normalize_into(p):
     """Scale p to unit norm in place."""
     n = math.sqrt(p[0] * p[0] + p[1] * p[1] + p[2] * p[2] + p[3] * p[3])
@@ -153,7 +153,7 @@ def quat_normalize_into(p):
         p[i] /= n
 
 
-@kernel
+@kernel(allocates=True)
 def quat_to_matrix_into(p, R):
     """R = R(p) for a unit quaternion p (no normalisation)."""
     p0, p1, p2, p3 = p[0], p[1], p[2], p[3]
@@ -169,7 +169,7 @@ def quat_to_matrix_into(p, R):
     R[2, 1] = 2.0 * (p2 * p3 + p0 * p1)
 
 
-@kernel
+@kernel(allocates=True)
 def quat_to_matrix(p):
     """Rotation matrix of a unit quaternion, shape (3, 3)."""
     R = np.empty((3, 3))
@@ -177,7 +177,7 @@ def quat_to_matrix(p):
     return R
 
 
-@kernel
+@kernel(allocates=True)
 def quat_exp_into(theta, out):
     """out = quaternion of exp(θ) = (cos(φ/2), s7(φ) θ)."""
     phi = math.sqrt(theta[0] * theta[0] + theta[1] * theta[1] + theta[2] * theta[2])
@@ -188,7 +188,7 @@ def quat_exp_into(theta, out):
     out[3] = c * theta[2]
 
 
-@kernel
+@kernel(allocates=True)
 def quat_exp(theta):
     """Unit quaternion of the rotation exp(θ), shape (4,)."""
     out = np.empty(4)
@@ -196,7 +196,7 @@ def quat_exp(theta):
     return out
 
 
-@kernel
+@kernel(allocates=True)
 def quat_log(p):
     """Rotation vector θ with exp(θ) = R(p), |θ| ≤ π, shape (3,).
 
@@ -215,7 +215,7 @@ def quat_log(p):
     return np.array([c * v0, c * v1, c * v2])
 
 
-@kernel
+@kernel(allocates=True)
 def matrix_to_quat(R):
     """Unit quaternion (p0 ≥ 0) of a rotation matrix (Shepperd's method), shape (4,)."""
     tr = R[0, 0] + R[1, 1] + R[2, 2]
@@ -251,7 +251,7 @@ def matrix_to_quat(R):
 # ---------------------------------------------------------------------------
 # SO(3): exponential, logarithm, tangent operator
 # ---------------------------------------------------------------------------
-@kernel
+@kernel(allocates=True)
 def expm_into(theta, R):
     """R = exp(θ~) = I + s1 θ~ + s2 θ~² (Rodrigues)."""
     phi = math.sqrt(theta[0] * theta[0] + theta[1] * theta[1] + theta[2] * theta[2])
@@ -268,7 +268,7 @@ def expm_into(theta, R):
     R[2, 1] = a * x + b * y * z
 
 
-@kernel
+@kernel(allocates=True)
 def expm(theta):
     """Rotation matrix exp(θ~), shape (3, 3)."""
     R = np.empty((3, 3))
@@ -276,13 +276,13 @@ def expm(theta):
     return R
 
 
-@kernel
+@kernel(allocates=True)
 def logm(R):
     """Rotation vector θ, |θ| ≤ π, with exp(θ~) = R, shape (3,) (via the quaternion)."""
     return quat_log(matrix_to_quat(R))
 
 
-@kernel
+@kernel(allocates=True)
 def _poly_into(theta, c1, c2, out):
     """out = I + c1 θ~ + c2 θ~²."""
     x, y, z = theta[0], theta[1], theta[2]
@@ -297,14 +297,14 @@ def _poly_into(theta, c1, c2, out):
     out[2, 1] = c1 * x + c2 * y * z
 
 
-@kernel
+@kernel(allocates=True)
 def tangent_into(theta, T):
     """T = T(θ) = I − s2 θ~ + s3 θ~² (Brüls & Cardona 2010)."""
     phi = math.sqrt(theta[0] * theta[0] + theta[1] * theta[1] + theta[2] * theta[2])
     _poly_into(theta, -s2(phi), s3(phi), T)
 
 
-@kernel
+@kernel(allocates=True)
 def tangent(theta):
     """Tangent operator T(θ) of SO(3), shape (3, 3): exp(θ + δ) ≈ exp(θ) exp((T(θ)δ)~)."""
     T = np.empty((3, 3))
@@ -312,14 +312,14 @@ def tangent(theta):
     return T
 
 
-@kernel
+@kernel(allocates=True)
 def tangent_inv_into(theta, Ti):
     """Ti = T⁻¹(θ) = I + ½ θ~ + s4 θ~² (singular at |θ| = 2π)."""
     phi = math.sqrt(theta[0] * theta[0] + theta[1] * theta[1] + theta[2] * theta[2])
     _poly_into(theta, 0.5, s4(phi), Ti)
 
 
-@kernel
+@kernel(allocates=True)
 def tangent_inv(theta):
     """Inverse tangent operator T⁻¹(θ), shape (3, 3)."""
     Ti = np.empty((3, 3))
@@ -330,7 +330,7 @@ def tangent_inv(theta):
 # ---------------------------------------------------------------------------
 # the group R³ × SO(3) of a frame node: x = (r, p), tangent (δr, δθ)
 # ---------------------------------------------------------------------------
-@kernel
+@kernel(allocates=True)
 def frame_compose_into(x, d, out):
     """out = x ∘ exp(d) on R³ × SO(3): (r + d_r, p ⊗ quat(exp(d_θ))), renormalised.
 
@@ -344,7 +344,7 @@ def frame_compose_into(x, d, out):
     quat_normalize_into(out[3:7])
 
 
-@kernel
+@kernel(allocates=True)
 def frame_compose(x, d):
     """x ∘ exp(d) for a frame node, shape (7,) (see :func:`frame_compose_into`)."""
     out = np.empty(7)
@@ -352,7 +352,7 @@ def frame_compose(x, d):
     return out
 
 
-@kernel
+@kernel(allocates=True)
 def frame_tangent(d):
     """T(d) of R³ × SO(3): blockdiag(I₃, T(d_θ)), shape (6, 6)."""
     T = np.zeros((6, 6))
@@ -362,7 +362,7 @@ def frame_tangent(d):
     return T
 
 
-@kernel
+@kernel(allocates=True)
 def frame_bracket(v, w):
     """Lie bracket [v, w] of R³ × SO(3): (0, Ω_v × Ω_w), shape (6,)."""
     out = np.zeros(6)

@@ -418,17 +418,18 @@ class GeneralizedAlphaSolver:
         cp = self.cp
         bt, bq, bqd, bqdd, bl, bh, bit, berr = self._buffers(max(1, n_chunk))
         before = int(self.si[0])
+        m = 0
         while True:
+            k = int(self.si[0]) - before
             status = cp.mod.run(cp.G, cp.C, self.ip, self.fp, self.si, self.sf, self.stats_arr,
                                 self.q, self.qd, self.qdd, self.lam, self.a, self.pqdd, self.plam,
                                 cp.tfv, self.AB, self.ipiv, self.r, self.Phi, self.rhs, self.x, self.info, self.W,
-                                n_chunk - (int(self.si[0]) - before), bt, bq, bqd, bqdd, bl,
-                                bh[int(self.si[0]) - before:], bit[int(self.si[0]) - before:],
-                                berr[int(self.si[0]) - before:])
+                                n_chunk - k, bt[m:], bq[m:], bqd[m:], bqdd[m:], bl[m:], bh[k:], bit[k:], berr[k:])
+            m += int(self.si[3])
             if status == 2:                      # Python time functions needed at info[0]
                 self._fill_python_tf(float(self.info[0]))
                 continue
-            return status, int(self.si[3]), int(self.si[0]) - before
+            return status, m, int(self.si[0]) - before
 
     def raise_status(self, status):
         """Raise the femb error of a negative status of the compiled loop."""

@@ -85,7 +85,7 @@ def test_slider_lambdas_normal_force_and_torque_on_b():
     m, T = 1.2, 0.5
     mech = femb.Mechanism("slider")
     blk = mech.add(RigidBody("blk", m, 0.01, (0.2, 0.1)))
-    mech.add(Slider("rail", "ground", blk, axis=(1.0, 0.0)), Gravity((0.0, -G)), Torque("t", blk, T))
+    mech.add(Slider("rail", "ground", blk, axis=(1.0, 0.0), at=(0.2, 0.1)), Gravity((0.0, -G)), Torque("t", blk, T))
     lam = _lam0(mech, "rail")
     np.testing.assert_allclose(lam, [-m * G, T], rtol=1e-12, atol=1e-12)
 
