@@ -40,7 +40,7 @@ def quick_report(tmp_path_factory):
         cmd = [sys.executable, "-m", "femb.cli", "bench", "--quick", "--out", str(out)]
     else:   # until the command line forwards to the suite: the same entry point, called directly
         cmd = [sys.executable, "-m", "femb.benchmarks.suite", "--quick", "--out", str(out)]
-    proc = subprocess.run(cmd, capture_output=True, text=True, timeout=240)
+    proc = subprocess.run(cmd, capture_output=True, text=True, timeout=900)
     assert proc.returncode == 0, proc.stderr[-3000:]
     results = json.loads((out / "results.json").read_text())
     report = (out / "report.md").read_text()
