@@ -633,13 +633,7 @@ def run(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam, tfv, AB, ip
             if not adaptive:
                 return k
             # Newton failed: retry from the accepted state with h/4, no growth next step
-            copy_into(q, q_s)
-            copy_into(qd, qd_s)
-            copy_into(qdd, qdd_s)
-            copy_into(lam, lam_s)
-            copy_into(a, a_s)
-            copy_into(pqdd, pqdd_s)
-            copy_into(plam, plam_s)
+            restore_state(q, qd, qdd, lam, a, pqdd, plam, W)
             si[SI_HASPREV] = hasprev_s
             sf[SF_FREF] = fref_s
             si[SI_NFAIL] += 1
@@ -688,13 +682,7 @@ def run(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam, tfv, AB, ip
         if adaptive:
             if err > 1.0:
                 # rejected: back to the accepted state with a smaller step
-                copy_into(q, q_s)
-                copy_into(qd, qd_s)
-                copy_into(qdd, qdd_s)
-                copy_into(lam, lam_s)
-                copy_into(a, a_s)
-                copy_into(pqdd, pqdd_s)
-                copy_into(plam, plam_s)
+                restore_state(q, qd, qdd, lam, a, pqdd, plam, W)
                 si[SI_HASPREV] = hasprev_s
                 sf[SF_FREF] = fref_s
                 si[SI_REJECTED] += 1
@@ -859,6 +847,18 @@ def mass_residual(C, qdd, r, ABf, jac, cM):
         for k in range(tI.shape[0]):
             ABf[tI[k]] = 1.0
     return scale
+
+
+@njit(cache=True, **OPTIONS)
+def restore_state(q, qd, qdd, lam, a, pqdd, plam, W):
+    """Back to the accepted state saved at the start of the trial step (W[0:7])."""
+    copy_into(q, W[0])
+    copy_into(qd, W[1])
+    copy_into(qdd, W[2])
+    copy_into(lam, W[3])
+    copy_into(a, W[4])
+    copy_into(pqdd, W[5])
+    copy_into(plam, W[6])
 
 
 @njit(cache=True, **OPTIONS)
