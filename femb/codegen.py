@@ -266,6 +266,11 @@ class Compiled:
         # work exceeds that of the dense scans
         self.dense = bool(ordering != "rcm" or N <= DENSE_SMALL
                           or (N <= DENSE_MAX and band_flops > 4 * N * N))
+        if self.dense and ordering == "rcm":
+            # the zero-skipping LU's fill follows reverse Cuthill–McKee of the whole matrix best
+            perm = np.asarray(reverse_cuthill_mckee((pat + pat.T).tocsr(), symmetric_mode=True), dtype=np.int64)
+            iperm = np.empty(N, dtype=np.int64)
+            iperm[perm] = np.arange(N)
         if self.dense:
             self.ldab = ldab = N
             self.storage_size = N * N
