@@ -438,11 +438,16 @@ def newton_step(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam, t1,
                 break
         else:
             # the correction in q units (dqw ≤ 1) and in acceleration units
-            acc_tol = 1e-8 * (1.0 + qddmax) + fp[FP_NEWTC] * eps * (1.0 + qmax) * bp
+            acc_tol = 1e-8 * (1.0 + qddmax) + fp[FP_NEWTC] * eps * (1.0 + qmax) * bp * math.sqrt(max(1.0, nv / 100.0))
             acc_ratio = bp * dqmax / acc_tol
             size = max(dqw, acc_ratio)
             if prev_norm > 0.0:
                 theta = size / prev_norm
+                if theta > 0.5 and size <= 1e3 and err_phi <= tol_phi and k >= ip[IP_MINIT]:
+                    # the corrections stopped contracting within a factor 1e3 of the tolerance:
+                    # round-off of the linear solve (large stiff models), not divergence
+                    stats[NS_ROUNDOFF] += 1
+                    break
                 if theta >= 1.0:
                     theta_prev_bad += 1
                     if theta_prev_bad >= 2:
@@ -624,9 +629,16 @@ def run(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam, tfv, AB, ip
             for i in range(nv):
                 wq[i] = fp[FP_TOLQ] * (atolv[i] + fp[FP_ERTOL] * abs(q[i]))
         else:
+            # fixed steps: 1e-13 relative, but never below the round-off that a chain of nv
+            # coordinates accumulates in a correction (≈ √nv · c ε |q|, stepsize.md §5)
             wC = C[3]
+            qmax_ = 0.0
             for i in range(nv):
-                wq[i] = fp[FP_TOLQ] * (abs(q[i]) + fp[FP_L] * wC[i])
+                if abs(q[i]) > qmax_:
+                    qmax_ = abs(q[i])
+            floor = fp[FP_NEWTC] * 2.220446049250313e-16 * (1.0 + qmax_) * math.sqrt(max(1.0, nv / 100.0))
+            for i in range(nv):
+                wq[i] = max(fp[FP_TOLQ] * (abs(q[i]) + fp[FP_L] * wC[i]), floor)
         k = newton_step(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam, t1, h,
                         h_prev if h_prev > 0.0 else h, AB, ipiv, r, Phi, rhs, x, info, wq)
         if k < 0:
