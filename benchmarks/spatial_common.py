@@ -1,7 +1,7 @@
 """Helpers shared by the spatial scenes: rotations of results, initial constraint checks.
 
-The spatial scenes (:mod:`.heavy_top`, :mod:`.spatial_slider_crank`,
-:mod:`.bricard`, :mod:`.spatial_double_pendulum`) need the Lie-group time loop
+The spatial scenes (:mod:`femb.benchmarks.heavy_top`, :mod:`femb.benchmarks.spatial_slider_crank`,
+:mod:`femb.benchmarks.bricard`, :mod:`femb.benchmarks.spatial_double_pendulum`) need the Lie-group time loop
 to run; until it exists, :func:`initial_constraints` evaluates their joints'
 compiled kernels in the initial configuration (Φ, B, B v0 + Φ_t) without the
 model compiler, and :func:`redundancy` reports the rank of B there.

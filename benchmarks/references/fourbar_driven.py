@@ -12,7 +12,7 @@ length, J_k = m_k l_k²/12; gravity (0, −g). The crank angle is prescribed,
 is pure kinematics, solved here in closed form (no time integration needed):
 
 * position: B is the intersection of the circles |B − A| = l2 and
-  |B − C| = l3, on the side given at t = 0 (left of A → C);
+  the distance from B to C equals l3, on the side given at t = 0 (left of A → C);
 * velocity and acceleration: the loop closure
   l1 e1 + l2 e2 − l3 e3 − (l4, 0) = 0 differentiated once and twice, two
   linear 2 × 2 solves for (θ̇2, θ̇3) and (θ̈2, θ̈3).

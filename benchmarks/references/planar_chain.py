@@ -19,8 +19,9 @@ so ṙ_k = Σ_j L_kj φ̇_j e⊥_j and r̈_k = Σ_j L_kj (φ̈_j e⊥_j − φ̇
 Lagrange's equations (virtual work of the external forces F_k at the
 centres of mass and torques τ_k on the links, ∂r_k/∂φ_i = L_ki e⊥_i) read
 
-    Σ_j [B_ij cos(φ_i − φ_j) + J_i δ_ij] φ̈_j = −Σ_j B_ij sin(φ_i − φ_j) φ̇_j²
-                                                + Σ_k L_ki e⊥_i·F_k + τ_i,
+    Σ_j [B_ij cos(φ_i − φ_j) + J_i δ_ij] φ̈_j
+        = −Σ_j B_ij sin(φ_i − φ_j) φ̇_j² + Σ_k L_ki e⊥_i·F_k + τ_i,
+
     B_ij = Σ_k m_k L_ki L_kj,
 
 with gravity included in F_k = m_k g + (user loads). They are integrated by

@@ -56,3 +56,17 @@ numpydoc_xref_param_type = False
 html_theme = "alabaster"
 html_static_path = []
 html_title = f"femb {release}"
+
+
+def _escape_bars(app, what, name, obj, options, lines):
+    """Docstrings write norms and absolute values as |x| (math, not reST substitutions):
+    escape every bar that is not part of a table line."""
+    for i, line in enumerate(lines):
+        s = line.lstrip()
+        if "|" in line and not (s.startswith("|") or s.startswith("+")):
+            lines[i] = line.replace("\\|", "|").replace("|", "\\|")
+
+
+def setup(app):
+    app.connect("autodoc-process-docstring", _escape_bars)
+    return {"parallel_read_safe": True}
