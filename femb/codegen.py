@@ -206,7 +206,7 @@ class Compiled:
     Attributes
     ----------
     mod : module
-        The generated module (``evaluate``, ``rates``, ``run_fixed``, ...).
+        The generated module (``evaluate``, ``rates``, ``run``, ...).
     G : tuple
         (force batches, constraint batches), each a tuple of per-batch tuples.
     C : tuple
@@ -335,8 +335,6 @@ class Compiled:
         self.mod, fresh, self.cache_path = load_kind(model)
         _attach_entry_points(model, self.mod)
         self.fresh = fresh
-        self.announced = False
-        self.kind_summary = ", ".join(sorted({g.name for g in model.groups}))
         self.setup_time = time.perf_counter() - t0
 
 

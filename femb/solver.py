@@ -27,8 +27,7 @@ import warnings
 import numpy as np
 
 from femb.alpha import GeneralizedAlpha
-from femb.errors import (SINGULAR_HINT, SINGULAR_HINT_DIVERGED, ConvergenceError, InitializationError,
-                         ParameterError, SingularMatrixError)
+from femb.errors import SINGULAR_HINT_DIVERGED, ConvergenceError, ParameterError, SingularMatrixError
 from femb.initial import consistent_initial_state, singular_hint  # noqa: F401  (re-exported)
 from femb.model import State
 from femb.result import Result
@@ -251,7 +250,8 @@ class GeneralizedAlphaSolver:
         if t_end is None:
             if self.adaptive:
                 raise ParameterError("adaptive steps need t_end")
-            t_end = self.t0 + self.h * (n_steps if n_steps is not None else 1)
+            # fixed steps without an end: step() as often as the caller likes
+            t_end = self.t0 + self.h * n_steps if n_steps is not None else math.inf
         self.t_end = float(t_end)
         self.cp = _stepmod().compiled(model, ordering="natural" if self.linear_solver == "dense" else "rcm")
         cp = self.cp
@@ -261,12 +261,17 @@ class GeneralizedAlphaSolver:
         al = self.alpha
         self.Cq, self.Cv = error_constants(al)
         if not self.adaptive:
-            self.n_steps = int(n_steps) if n_steps is not None else max(1, int(round((self.t_end - self.t0) / self.h)))
+            if n_steps is not None:
+                self.n_steps = int(n_steps)
+            elif math.isfinite(self.t_end):
+                self.n_steps = max(1, int(round((self.t_end - self.t0) / self.h)))
+            else:
+                self.n_steps = 2 ** 62
         else:
             self.n_steps = 2 ** 62
-        span = self.t_end - self.t0
+        span = self.t_end - self.t0 if math.isfinite(self.t_end) else self.h * 1e6
         self.h_max = math.inf if h_max is None else _check_positive("h_max", h_max)
-        self.h_min = 1e-10 * max(abs(self.t_end), span)
+        self.h_min = 1e-10 * max(abs(self.t_end) if math.isfinite(self.t_end) else 0.0, span)
         self.ip = np.zeros(cp.mod.NIP, dtype=np.int64)
         self.ip[:] = [nv, nc, model.nfix, N, cp.kl, cp.ku, self.max_iter, self.min_iter,
                       1 if newton == "full" else 0, {"zero": 0, "previous": 1, "extrapolate": 2}[predictor],
@@ -510,7 +515,10 @@ class GeneralizedAlphaSolver:
         status, _, k = self.advance(1)
         if status < 0:
             self.raise_status(status)
-        return int(self._bufs[6][0]) if k else 0
+        if not k:
+            raise ParameterError(f"the solver has reached its end (t = {self.t:.6g} s, step {self.step_index}); "
+                                 "create it with a later t_end or more n_steps")
+        return int(self._bufs[6][0])
 
     def max_error_estimate(self):
         """(largest local error estimate seen, its time); fixed steps only check every ``check_every``."""
