@@ -102,3 +102,19 @@ def test_python_time_functions_give_the_same_run_as_compiled_ones():
     np.testing.assert_allclose(a.lam, b.lam, rtol=1e-10, atol=1e-10)
     c = femb.simulate(build(py), 0.5, rtol=1e-6)          # adaptive steps with Python functions
     assert c.success and c.t[-1] == 0.5 and c.h_steps.size == c.t.size - 1
+
+
+def test_solver_steps_one_at_a_time_and_stops_at_its_end():
+    from femb.benchmarks import pendulum
+    from femb.solver import GeneralizedAlphaSolver
+    model = pendulum.build().compile()
+    s = GeneralizedAlphaSolver(model, 1e-3)                 # no end: steps as asked
+    its = [s.step() for _ in range(5)]
+    assert s.step_index == 5 and s.state.t == pytest.approx(5e-3) and min(its) >= 1
+    r = femb.simulate(model, 5e-3, 1e-3)
+    np.testing.assert_allclose(s.state.q, r.q[-1], rtol=0, atol=1e-14)
+    s2 = GeneralizedAlphaSolver(model, 1e-3, n_steps=2)
+    s2.step()
+    s2.step()
+    with pytest.raises(femb.ParameterError, match="reached its end"):
+        s2.step()
