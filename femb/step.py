@@ -454,8 +454,8 @@ def newton_step(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam, t1,
                         info[3] = k
                         return ST_MAXITER
                     have_lu = False          # diverging: refresh the iteration matrix
-                elif theta > 0.125:
-                    have_lu = False          # slow (linear) contraction: refresh the iteration matrix
+                elif theta > 0.5:
+                    have_lu = False          # slow contraction: refresh the iteration matrix
                 if theta < 1.0 and theta / (1.0 - theta) * size <= 1.0 and err_phi <= tol_phi \
                         and k >= ip[IP_MINIT]:
                     break
