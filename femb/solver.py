@@ -349,7 +349,15 @@ class GeneralizedAlphaSolver:
         need_j = self.adaptive or (self.start == "consistent" and self._initialized)
         h0 = self.h
         if need_j:
-            dl = min(1e-4, 1e-3 * (self.t_end - t0))
+            # central-difference step of the jerk: small against the step size (the start
+            # correction is d·h·j₀), and for fixed steps independent of t_end, so that a
+            # stepping solver and simulate start alike
+            if self.adaptive:
+                dl = min(1e-4, 1e-3 * (self.t_end - t0))
+                if self.h0 is not None:
+                    dl = min(dl, 1e-2 * self.h0)
+            else:
+                dl = min(1e-4, 1e-2 * self.h)
             q0, v0, a0 = self.q, self.qd, self.qdd
             KBt = np.zeros_like(self.AB)
             kp = np.zeros_like(self.ipiv)
