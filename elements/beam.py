@@ -96,7 +96,7 @@ from femb.nodes import PlanarNode
 from ._planar import rot
 from .bodies import Body, _check_scalar, _point
 from .forces import write_pair_blocks
-from .joints import Hinge, PairElement
+from .joints import Hinge, PairElement, hinge_rates
 
 __all__ = ["Section", "BeamNode", "ReissnerBeam", "Clamp", "BeamMesh", "add_beam",
            "beam_resultants", "beam_strain_energy"]
@@ -564,14 +564,8 @@ def clamp_constraint(P, t, tf, xe, le, jac, Phi, B, H):
 
 @kernel
 def clamp_rates(P, t, tf, xe, ve, Phi_t, gam):
-    """Φ_t = 0; γ = (−d_a θ̇_a² + d_b θ̇_b², 0)."""
-    for e in range(xe.shape[0]):
-        ca, sa = math.cos(xe[e, 2]), math.sin(xe[e, 2])
-        cb, sb = math.cos(xe[e, 5]), math.sin(xe[e, 5])
-        wa2 = ve[e, 2] * ve[e, 2]
-        wb2 = ve[e, 5] * ve[e, 5]
-        gam[e, 0] = -(ca * P[e, 0] - sa * P[e, 1]) * wa2 + (cb * P[e, 2] - sb * P[e, 3]) * wb2
-        gam[e, 1] = -(sa * P[e, 0] + ca * P[e, 1]) * wa2 + (sb * P[e, 2] + cb * P[e, 3]) * wb2
+    """Φ_t = 0; γ = (−d_a θ̇_a² + d_b θ̇_b², 0): the hinge's two rows (same P = (s_a, s_b, …)), and 0."""
+    hinge_rates(P, t, tf, xe, ve, Phi_t, gam)
 
 
 class Clamp(PairElement):

@@ -153,6 +153,10 @@ def generate_source(model):
         lines += ["", "", "@njit(cache=True, **OPTIONS)", f"def w_{alias}(*args):",
                   f'    """Cached entry point of {mod}.{name}."""', f"    return {alias}(*args)"]
     body = "\n".join(lines) + "\n\n\n" + _STEP_SOURCE.read_text()
+    # every source file beside a kernel (kernels call helpers in sibling modules, e.g. the clamp
+    # calls the hinge's rates): an edit in any of them gives a new module
+    for f in list(files):
+        files.update(str(p) for p in Path(f).parent.glob("*.py"))
     h = hashlib.sha256(body.encode())
     for f in sorted(files):
         h.update(Path(f).read_bytes())
