@@ -830,7 +830,7 @@ def beam_resultants(model, q, qd=None):
     qdx = None if qd is None else model.ext_velocity(np.asarray(qd, dtype=float))
     out = {}
     for g in _beam_groups(model):
-        sig = g.cls.resultants(g.params, qx[g.dofs], None if qdx is None else qdx[g.dofs])
+        sig = g.cls.resultants(g.params, qx[g.xdofs], None if qdx is None else qdx[g.dofs])
         out.update(zip(g.names, sig))
     return out
 
@@ -838,4 +838,4 @@ def beam_resultants(model, q, qd=None):
 def beam_strain_energy(model, q):
     """Total elastic energy of all beams at q (J)."""
     qx = model.ext(np.asarray(q, dtype=float))
-    return float(sum(g.cls.strain_energy(g.params, qx[g.dofs]).sum() for g in _beam_groups(model)))
+    return float(sum(g.cls.strain_energy(g.params, qx[g.xdofs]).sum() for g in _beam_groups(model)))

@@ -73,7 +73,7 @@ def mass_matrix(model, q=None):
     if model.constant_mass:
         return model.M_const.copy()
     qx, _ = _ext(model, q)
-    return _coo(model.mass_groups, "nn", [kernels.mass(g, qx[g.dofs]) for g in model.mass_groups],
+    return _coo(model.mass_groups, "nn", [kernels.mass(g, qx[g.xdofs]) for g in model.mass_groups],
                 (model.nq, model.nq))
 
 
@@ -85,10 +85,10 @@ def force_vector(model, t, q, qd):
     qx, qdx = _ext(model, q, qd)
     f = model.f_const.copy()
     f += _scatter(model, model.force_groups,
-                  [kernels.force(g, t, qx[g.dofs], qdx[g.dofs], False)[0] for g in model.force_groups])
+                  [kernels.force(g, t, qx[g.xdofs], qdx[g.dofs], False)[0] for g in model.force_groups])
     if model.g_hat is not None and not model.constant_mass:
         f += _scatter(model, model.mass_groups,
-                      [np.einsum("eij,ej->ei", kernels.mass(g, qx[g.dofs]), model.g_hat[g.dofs])
+                      [np.einsum("eij,ej->ei", kernels.mass(g, qx[g.xdofs]), model.g_hat[g.dofs])
                        for g in model.mass_groups])
     return f
 
@@ -98,7 +98,7 @@ def force_jacobians(model, t, q, qd):
     qx, qdx = _ext(model, q, qd)
     fq, fqd = [], []
     for g in model.force_groups:
-        _, a, b = kernels.force(g, t, qx[g.dofs], qdx[g.dofs], True)
+        _, a, b = kernels.force(g, t, qx[g.xdofs], qdx[g.dofs], True)
         fq.append(a)
         fqd.append(b)
     shape = (model.nq, model.nq)
@@ -116,7 +116,7 @@ def constraint_vector(model, t, q):
     qx, _ = _ext(model, q)
     Phi = np.zeros(model.nc)
     for g in model.constraint_groups:
-        P, _, _ = kernels.constraint(g, t, qx[g.dofs], jac=False)
+        P, _, _ = kernels.constraint(g, t, qx[g.xdofs], jac=False)
         Phi[g.lam.ravel()] = P.ravel()
     return _masked(model, Phi)
 
@@ -125,7 +125,7 @@ def constraint_jacobian(model, t, q):
     """Φ_q(q, t), csr matrix of shape (nc, nq); zero rows for equations removed as redundant."""
     qx, _ = _ext(model, q)
     return _coo(model.constraint_groups, "cq",
-                [_masked_rows(model, g, kernels.constraint(g, t, qx[g.dofs], jac=False)[1])
+                [_masked_rows(model, g, kernels.constraint(g, t, qx[g.xdofs], jac=False)[1])
                  for g in model.constraint_groups],
                 (model.nc, model.nq))
 
@@ -136,7 +136,7 @@ def constraint_rates(model, t, q, qd):
     Phi_t = np.zeros(model.nc)
     gam = np.zeros(model.nc)
     for g in model.constraint_groups:
-        a, b = kernels.rates(g, t, qx[g.dofs], qdx[g.dofs])
+        a, b = kernels.rates(g, t, qx[g.xdofs], qdx[g.dofs])
         Phi_t[g.lam.ravel()] = a.ravel()
         gam[g.lam.ravel()] = b.ravel()
     return _masked(model, Phi_t), _masked(model, gam)
@@ -157,7 +157,7 @@ def tangent_stiffness(model, state):
     f_q, _ = force_jacobians(model, state.t, state.q, state.qd)
     H = []
     for g in model.constraint_groups:
-        H.append(kernels.constraint(g, state.t, qx[g.dofs], state.lam[g.lam], jac=True)[2])
+        H.append(kernels.constraint(g, state.t, qx[g.xdofs], state.lam[g.lam], jac=True)[2])
     K = -f_q + _coo(model.constraint_groups, "nn", H, (model.nq, model.nq))
     return K.tocsr()
 

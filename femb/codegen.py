@@ -39,6 +39,7 @@ DENSE_MAX = 400
 #: systems up to this size are always stored densely
 DENSE_SMALL = 128
 _JIT_SOURCE = Path(__file__).with_name("jit.py")
+_ROTATIONS_SOURCE = Path(__file__).with_name("rotations.py")
 _loaded = {}
 
 
@@ -80,44 +81,61 @@ def generate_source(model):
     lines += ["", "", "@njit(cache=True, **OPTIONS)",
               "def evaluate(G, C, t, q, qd, qdd, lam, jac, cM, cC, cK, ABf, r, Phi):",
               '    """Residual r = M q̈ − f + Bᵀλ, Φ, and (jac) the iteration matrix into ABf; returns the force scale."""',
-              "    nv = q.shape[0]",
-              "    qfix = C[5]", "    wext = C[4]", "    tfv = C[13]", "    active = C[15]",
+              "    nv = qd.shape[0]", "    nx = q.shape[0]",
+              "    qfix = C[5]", "    wext = C[4]", "    tfv = C[13]", "    active = C[15]", "    Tn = C[18]",
               "    scale = mass_residual(C, qdd, r, ABf, jac, cM)"]
     GF, GC = "G[0]", "G[1]"
+    lie = bool(getattr(model, "lie", False))
+    CT = "P, dofs, lamidx, tfi, tnn, tB, tBt, xe, ve, le, tf, Phe, Be, He, Pt, gm, xdofs, tblk"
+    # planar kinds gather x and v with one index array; rotation kinds (x ≠ v) with two
+    gather = ("    gather_x_v(q, qd, qfix, xdofs, dofs, xe, ve, nx, nv)" if lie
+              else "    gather_xv(q, qd, qfix, dofs, xe, ve, nv)")
+    gather_v = ("    gather_x_v(q, v, qfix, xdofs, dofs, xe, ve, nx, nv)" if lie
+                else "    gather_xv(q, v, qfix, dofs, xe, ve, nv)")
     for role, gi, fn, has_c in roles:
         k = imports[_kernel_ref(fn)[:2]]
         if role == "force":
-            lines += [f"    P, dofs, tfi, tnn, xe, ve, tf, fe, fq, fv = {GF}[{gi}]",
-                      "    gather_xv(q, qd, qfix, dofs, xe, ve, nv)",
+            lines += [f"    P, dofs, tfi, tnn, xe, ve, tf, fe, fq, fv, xdofs, tblk = {GF}[{gi}]",
+                      gather,
                       "    gather_tf(tfv, tfi, tf)",
                       "    zero2(fe)",
                       "    if jac:", "        zero3(fq)", "        zero3(fv)",
                       f"    {k}(P, t, tf, xe, ve, jac, fe, fq, fv)",
                       "    scale = scatter_force(fe, dofs, r, nv, wext, scale)",
-                      "    if jac:", "        scatter_matrix(fq, tnn, ABf, -cK)"]
+                      "    if jac:"]
+            if lie:
+                lines.append("        apply_tangent(fq, tblk, Tn, cK)")
+            lines.append("        scatter_matrix(fq, tnn, ABf, -cK)")
             if has_c:
                 lines.append("        scatter_matrix(fv, tnn, ABf, -cC)")
         elif role == "constraint":
-            lines += [f"    P, dofs, lamidx, tfi, tnn, tB, tBt, xe, ve, le, tf, Phe, Be, He, Pt, gm = {GC}[{gi}]",
-                      "    gather_xv(q, qd, qfix, dofs, xe, ve, nv)",
+            lines += [f"    {CT} = {GC}[{gi}]",
+                      gather,
                       "    gather_lam(lam, lamidx, le)",
                       "    gather_tf(tfv, tfi, tf)",
                       "    zero2(Phe)", "    zero3(Be)",
                       "    if jac:", "        zero3(He)",
                       f"    {k}(P, t, tf, xe, le, jac, Phe, Be, He)",
                       "    scale = scatter_constraint(Phe, Be, le, dofs, lamidx, active, Phi, r, nv, wext, scale)",
-                      "    if jac:", "        scatter_B(Be, tB, tBt, ABf)", "        scatter_matrix(He, tnn, ABf, cK)"]
+                      "    if jac:"]
+            if lie:
+                lines += ["        scatter_B_tangent(Be, tblk, Tn, cK, tB, tBt, ABf)",
+                          "        apply_tangent(He, tblk, Tn, cK)"]
+            else:
+                lines.append("        scatter_B(Be, tB, tBt, ABf)")
+            lines.append("        scatter_matrix(He, tnn, ABf, cK)")
     lines.append("    return scale")
     # rates: Φ_t and γ of every constraint, for consistent starts and error estimates
     lines += ["", "", "@njit(cache=True, **OPTIONS)",
               "def rates(G, C, t, q, qd, Phi_t, gam):",
               '    """Φ_t and γ (B q̈ = −γ) of all constraints at (t, q, q̇)."""',
-              "    nv = q.shape[0]", "    qfix = C[5]", "    tfv = C[13]", "    zero1(Phi_t)", "    zero1(gam)"]
+              "    nv = qd.shape[0]", "    nx = q.shape[0]", "    qfix = C[5]", "    tfv = C[13]",
+              "    zero1(Phi_t)", "    zero1(gam)"]
     for role, gi, fn, _ in roles:
         if role == "rates":
             k = imports[_kernel_ref(fn)[:2]]
-            lines += [f"    P, dofs, lamidx, tfi, tnn, tB, tBt, xe, ve, le, tf, Phe, Be, He, Pt, gm = {GC}[{gi}]",
-                      "    gather_xv(q, qd, qfix, dofs, xe, ve, nv)",
+            lines += [f"    {CT} = {GC}[{gi}]",
+                      gather,
                       "    gather_tf(tfv, tfi, tf)",
                       "    zero2(Pt)", "    zero2(gm)",
                       f"    {k}(P, t, tf, xe, ve, Pt, gm)",
@@ -132,12 +150,12 @@ def generate_source(model):
     lines += ["", "", "@njit(cache=True, **OPTIONS)",
               "def jacobian_times(G, C, t, q, v, out):",
               '    """out = B(q, t) v for all constraints."""',
-              "    nv = q.shape[0]", "    qfix = C[5]", "    tfv = C[13]", "    zero1(out)"]
+              "    nv = v.shape[0]", "    nx = q.shape[0]", "    qfix = C[5]", "    tfv = C[13]", "    zero1(out)"]
     for role, gi, fn, _ in roles:
         if role == "constraint":
             k = imports[_kernel_ref(fn)[:2]]
-            lines += [f"    P, dofs, lamidx, tfi, tnn, tB, tBt, xe, ve, le, tf, Phe, Be, He, Pt, gm = {GC}[{gi}]",
-                      "    gather_xv(q, v, qfix, dofs, xe, ve, nv)",
+            lines += [f"    {CT} = {GC}[{gi}]",
+                      gather_v,
                       "    gather_tf(tfv, tfi, tf)",
                       "    zero2(Phe)", "    zero3(Be)",
                       f"    {k}(P, t, tf, xe, le, nv < 0, Phe, Be, He)",
@@ -152,11 +170,20 @@ def generate_source(model):
     for (mod, name), alias in imports.items():
         lines += ["", "", "@njit(cache=True, **OPTIONS)", f"def w_{alias}(*args):",
                   f'    """Cached entry point of {mod}.{name}."""', f"    return {alias}(*args)"]
-    body = "\n".join(lines) + "\n\n\n" + _STEP_SOURCE.read_text()
+    step_text = _STEP_SOURCE.read_text()
+    if lie:
+        # the spatial kernels create small arrays: their kinds compile with reference counting
+        # (femb.jit.KERNEL_OPTIONS) instead of the allocation-free options of planar kinds
+        step_text = step_text.replace("from femb.jit import OPTIONS\n", "from femb.jit import KERNEL_OPTIONS as OPTIONS\n")
+        lines = [ln.replace("from femb.jit import OPTIONS", "from femb.jit import KERNEL_OPTIONS as OPTIONS")
+                 for ln in lines]
+    body = "\n".join(lines) + "\n\n\n" + step_text
     # every source file beside a kernel (kernels call helpers in sibling modules, e.g. the clamp
     # calls the hinge's rates): an edit in any of them gives a new module
     for f in list(files):
-        files.update(str(p) for p in Path(f).parent.glob("*.py"))
+        if f not in (str(_STEP_SOURCE), str(_JIT_SOURCE)):
+            files.update(str(p) for p in Path(f).parent.glob("*.py"))
+    files.add(str(_ROTATIONS_SOURCE))      # the group operations the time loop calls
     h = hashlib.sha256(body.encode())
     for f in sorted(files):
         h.update(Path(f).read_bytes())
@@ -303,16 +330,36 @@ class Compiled:
             t[ok] = target(Rr[ok], Cr[ok])
             return t
 
+        # rotation blocks: T(Δθ) of each free rotation multiplies the element columns of its
+        # rotation vector in the Newton matrix (tblk[e, k] = (first column in the element, block))
+        rot = getattr(model, "rot_blocks", np.zeros((0, 2), dtype=np.int64))
+        block_of = {int(vs): b for b, (_, vs) in enumerate(rot)}
+
+        def tangent_blocks(g):
+            rows = [[(i, block_of[int(d)]) for i, d in enumerate(e) if int(d) in block_of] for e in g.dofs]
+            k = max([len(r_) for r_ in rows] + [0])
+            out = np.full((len(rows), k, 2), -1, dtype=np.int64)
+            for e, r_ in enumerate(rows):
+                for j, pair in enumerate(r_):
+                    out[e, j] = pair
+            return out
+
+        def xdofs_of(g):
+            return _i64(g.xdofs if getattr(g, "xdofs", None) is not None else g.dofs)
+
         G_force = []
         for g in model.force_groups:
             nel, nd = g.dofs.shape
+            ndx = xdofs_of(g).shape[1]
             ntf = g.tf_index.shape[1]
             G_force.append((g.P, _i64(g.dofs), _i64(g.tf_index), nn_targets(g),
-                            np.zeros((nel, nd)), np.zeros((nel, nd)), np.zeros((nel, ntf, 3)),
-                            np.zeros((nel, nd)), np.zeros((nel, nd, nd)), np.zeros((nel, nd, nd))))
+                            np.zeros((nel, ndx)), np.zeros((nel, nd)), np.zeros((nel, ntf, 3)),
+                            np.zeros((nel, nd)), np.zeros((nel, nd, nd)), np.zeros((nel, nd, nd)),
+                            xdofs_of(g), tangent_blocks(g)))
         G_con = []
         for g in model.constraint_groups:
             nel, nd = g.dofs.shape
+            ndx = xdofs_of(g).shape[1]
             ncg = g.nc
             ntf = g.tf_index.shape[1]
             tB = np.full((nel, ncg, nd), -1, dtype=np.int64)
@@ -323,9 +370,10 @@ class Compiled:
             tB[ok] = target(nv + Rr[ok], Cr[ok])
             tBt[ok] = target(Cr[ok], nv + Rr[ok])
             G_con.append((g.P, _i64(g.dofs), _i64(g.lam), _i64(g.tf_index), nn_targets(g), tB, tBt,
-                          np.zeros((nel, nd)), np.zeros((nel, nd)), np.zeros((nel, ncg)),
+                          np.zeros((nel, ndx)), np.zeros((nel, nd)), np.zeros((nel, ncg)),
                           np.zeros((nel, ntf, 3)), np.zeros((nel, ncg)), np.zeros((nel, ncg, nd)),
-                          np.zeros((nel, nd, nd)), np.zeros((nel, ncg)), np.zeros((nel, ncg))))
+                          np.zeros((nel, nd, nd)), np.zeros((nel, ncg)), np.zeros((nel, ncg)),
+                          xdofs_of(g), tangent_blocks(g)))
         self.G = (tuple(G_force), tuple(G_con))
         tf = model.time_function_table
         self.tfv = np.zeros((max(1, len(tf["kind"])), 3))
@@ -334,7 +382,12 @@ class Compiled:
                   _i64(tf["kind"]), _i64(tf["off"]), _f64(tf["coef"]), _f64(Mc.data),
                   _i64(target(Mcoo.row, Mcoo.col)), self.tfv,
                   np.array([float(np.abs(model.f_const * model.force_weight).max(initial=0.0))]),
-                  active, _i64(target(nv + inactive, nv + inactive)), self.env)
+                  active, _i64(target(nv + inactive, nv + inactive)), self.env,
+                  # rotation nodes: T(Δθ) per free rotation (identity between steps), x index of each
+                  # additive v entry (−1 on rotations), (x start, v start) of each free rotation, the
+                  # quaternions at the start of the step, the step's increment Δ on rotation entries
+                  np.tile(np.eye(3), (len(rot), 1, 1)), _i64(getattr(model, "xmap", np.arange(nv))),
+                  _i64(rot).reshape(-1, 2), np.zeros((len(rot), 4)), np.zeros(nv))
         self.python_tf = tf["python"]
         self.mod, fresh, self.cache_path = load_kind(model)
         _attach_entry_points(model, self.mod)
@@ -458,6 +511,7 @@ def evaluate_dense(model, state, h, alpha, scaled=True, ordering="rcm"):
     AB = np.zeros(cp.storage_size)
     r = np.zeros(nv)
     Phi = np.zeros(model.nc)
+    cp.mod.lie_reset(cp.C)
     scale = cp.mod.evaluate(cp.G, cp.C, float(state.t), _f64(state.q), _f64(state.qd), _f64(state.qdd),
                             _f64(state.lam), True, c * bp, c * gp, c, AB, r, Phi)
     perm = cp.C[1]

@@ -26,6 +26,8 @@ from __future__ import annotations
 import warnings
 from dataclasses import dataclass, field
 
+import math
+
 import numpy as np
 import scipy.linalg as sla
 import scipy.sparse as sp
@@ -295,7 +297,12 @@ def body_moves(model, q_from, q_to):
             continue
         dist = float(np.linalg.norm(b[tr] - a[tr])) if tr else 0.0
         rot = [c for c in range(len(idx)) if c not in tr]
-        ang = float(np.abs(b[rot] - a[rot]).max()) if rot else 0.0
+        if getattr(node, "rotation_blocks", ()):
+            # angle between two unit quaternions: 2 acos |p_a · p_b|
+            ang = max(2.0 * math.acos(min(1.0, abs(float(np.dot(a[xs:xs + 4], b[xs:xs + 4])))))
+                      for xs, _ in node.rotation_blocks)
+        else:
+            ang = float(np.abs(b[rot] - a[rot]).max()) if rot else 0.0
         out.append((name, dist, ang))
     return out
 
@@ -387,7 +394,7 @@ def consistent_initial_state(model, state=None, *, t0=0.0, phi_tol=1e-12, max_it
                     f"({Phi[i]:.3e}). The joints cannot all be closed from these positions: "
                     "check the bodies' positions and the joints' points")
             Bk = assembly.constraint_jacobian(model, t, q).tocsr()[rows]
-            sol = _solve_augmented(I, Bk, q0 - q, -Phi[rows], "position projection")
+            sol = _solve_augmented(I, Bk, model.difference(q0, q), -Phi[rows], "position projection")
             if sol is None:
                 i = int(np.argmax(np.abs(Phi)))
                 why = (f"cannot project the initial configuration onto the constraints: ‖Φ‖ = {err:.3e} "
@@ -395,7 +402,7 @@ def consistent_initial_state(model, state=None, *, t0=0.0, phi_tol=1e-12, max_it
                        f"Jacobian is rank-deficient at Gauss–Newton iteration {k}")
                 e = _redundancy_error(model, q, t, why)
                 raise e or InitializationError(f"{why}; {SINGULAR_HINT}")
-            q += sol[0]
+            q = model.compose(q, sol[0])
         _check_moves(model, q0, q, Phi0, labels, act, max_initial_move, report_move)
         st.q = q
         B = assembly.constraint_jacobian(model, t, st.q).tocsr()[rows]

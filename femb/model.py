@@ -54,11 +54,12 @@ class Group:
     elements: list
     names: list
     params: dict
-    dofs: np.ndarray          # (nel, nd) indices into q_ext
+    dofs: np.ndarray          # (nel, nd) indices into the extended velocities [q̇, 0] (tangent entries)
     traits: dict
     lam: np.ndarray           # (nel, nc) indices into λ
     P: np.ndarray = None       # (nel, npar) kernel parameters (params["P"])
     tf_index: np.ndarray = None  # (nel, ntf) rows of the model's time-function table
+    xdofs: np.ndarray = None  # (nel, ndx) indices into q_ext = [q, q_fixed] (≡ dofs without rotations)
     time_functions: list = None  # per element, its TimeFunctions
     nn_sel: np.ndarray = None  # flat indices of free-free entries of (nel, nd, nd)
     nn_rows: np.ndarray = None
@@ -95,8 +96,16 @@ class Model:
     ----------
     name : str
     nq, nc, nfix : int
-        Free coordinates, constraints, fixed coordinates.
-    q0, qd0 : ndarray, shape (nq,)
+        Free velocities (= free coordinates without rotation nodes), constraints,
+        fixed coordinates.
+    nx, nfix_v : int
+        Free configuration entries (a free frame node has 7: position and unit
+        quaternion, for 6 velocities) and fixed velocity entries.
+    lie : bool
+        The model has rotation nodes (x ≠ v): the time loop composes
+        q ∘ exp(Δ) (:meth:`compose`) and uses the tangent operator.
+    q0 : ndarray, shape (nx,)
+    qd0 : ndarray, shape (nq,)
         Initial coordinates and velocities as given (not yet consistent).
     q_fixed : ndarray, shape (nfix,)
     groups : list of Group
@@ -133,8 +142,64 @@ class Model:
         return np.concatenate((q, self.q_fixed))
 
     def ext_velocity(self, qd):
-        """Extended velocities [q̇, 0], shape (nq + nfix,)."""
-        return np.concatenate((qd, np.zeros(self.nfix)))
+        """Extended velocities [q̇, 0], shape (nq + nfix_v,)."""
+        return np.concatenate((qd, np.zeros(self.nfix_v)))
+
+    def compose(self, q, d):
+        """q ∘ exp(d): additive entries q + d, each free rotation p ⊗ exp(d_θ) (renormalised).
+
+        Parameters
+        ----------
+        q : ndarray, shape (nx,)
+            Configuration (quaternions stored in it for frame nodes).
+        d : ndarray, shape (nq,)
+            Increment in the tangent (velocity) numbering; rotation parts in body axes.
+
+        Returns
+        -------
+        ndarray, shape (nx,)
+        """
+        from femb import rotations as rt
+        q = np.array(q, dtype=float)
+        d = np.asarray(d, dtype=float)
+        if not self.lie:
+            return q + d
+        add = self.xmap >= 0
+        q[self.xmap[add]] += d[add]
+        for xs, vs in self.rot_blocks:
+            # the plain-Python versions of the compiled group operations (no compilation on import)
+            p = rt.quat_mul.py_func(q[xs:xs + 4], rt.quat_exp.py_func(np.ascontiguousarray(d[vs:vs + 3])))
+            q[xs:xs + 4] = p / np.linalg.norm(p)
+        return q
+
+    def magnitude(self, q):
+        """|q| per velocity entry (nq,): |x| of additive entries, 0 on rotations (judged by atol)."""
+        q = np.asarray(q, dtype=float)
+        if not self.lie:
+            return np.abs(q)
+        return np.where(self.xmap >= 0, np.abs(q[np.maximum(self.xmap, 0)]), 0.0)
+
+    def bracket(self, v, w):
+        """Lie bracket [v, w] (nq,): Ω_v × Ω_w on each free rotation, 0 elsewhere."""
+        out = np.zeros(self.nq)
+        for _, vs in self.rot_blocks:
+            out[vs:vs + 3] = np.cross(v[vs:vs + 3], w[vs:vs + 3])
+        return out
+
+    def difference(self, q1, q0):
+        """The increment d (nq,) with q1 = q0 ∘ exp(d): q1 − q0 on additive entries, log(p0⁻¹ ⊗ p1) on rotations."""
+        from femb import rotations as rt
+        q1 = np.asarray(q1, dtype=float)
+        q0 = np.asarray(q0, dtype=float)
+        if not self.lie:
+            return q1 - q0
+        d = np.zeros(self.nq)
+        add = self.xmap >= 0
+        d[add] = q1[self.xmap[add]] - q0[self.xmap[add]]
+        for xs, vs in self.rot_blocks:
+            d[vs:vs + 3] = rt.quat_log.py_func(rt.quat_mul.py_func(rt.quat_conj.py_func(q0[xs:xs + 4]),
+                                                                  q1[xs:xs + 4]))
+        return d
 
     def initial_state(self, t0=0.0):
         """The state as given by the user (not projected onto the constraints)."""
@@ -149,7 +214,20 @@ class Model:
         q = np.asarray(q)
         out = np.empty(q.shape[:-1] + (idx.size,))
         for k, i in enumerate(idx):
-            out[..., k] = q[..., i] if i < self.nq else self.q_fixed[i - self.nq]
+            out[..., k] = q[..., i] if i < self.nx else self.q_fixed[i - self.nx]
+        return out
+
+    def node_velocities(self, name, qd):
+        """Velocities of node ``name`` (fixed ones as 0) for q̇ of shape (..., nq)."""
+        try:
+            idx = self.node_vindex[name]
+        except KeyError:
+            raise ModelError(f"model '{self.name}' has no node/body named '{name}'") from None
+        qd = np.asarray(qd)
+        out = np.zeros(qd.shape[:-1] + (idx.size,))
+        for k, i in enumerate(idx):
+            if i < self.nq:
+                out[..., k] = qd[..., i]
         return out
 
     def lam_indices(self, name):
@@ -221,31 +299,80 @@ def compile_model(mech, *, length_scale=None):
         if nd.name in names:
             raise ModelError(f"duplicate node name '{nd.name}'")
         names[nd.name] = nd
-    nq = sum(int((~nd.fixed).sum()) for nd in nodes)
+    # configuration entries x (nx per node; a frame node stores a quaternion) and velocity /
+    # tangent entries v (nv per node) are numbered apart: free ones first, fixed ones after.
+    # Nodes without rotations (planar) have x ≡ v, and both numberings agree on them when the
+    # model has no rotation nodes.
+    def _nx(nd):
+        return int(getattr(nd, "nx", nd.ncoord))
+
+    def _fixed_v(nd):
+        return np.asarray(getattr(nd, "fixed_v", nd.fixed), dtype=bool)
+
+    nx = sum(int((~nd.fixed).sum()) for nd in nodes)
     nfix = sum(int(nd.fixed.sum()) for nd in nodes)
-    q0 = np.empty(nq)
+    nq = sum(int((~_fixed_v(nd)).sum()) for nd in nodes)
+    nfix_v = sum(int(_fixed_v(nd).sum()) for nd in nodes)
+    q0 = np.empty(nx)
     qd0 = np.empty(nq)
     q_fixed = np.empty(nfix)
     node_index = {}
+    node_vindex = {}
     labels = []
-    kq = kf = 0
+    vlabels = []
+    xmap = np.full(nq, -1, dtype=np.int64)     # x index of each additive free v entry, −1 for rotations
+    rot_blocks = []                            # (x start of the quaternion, v start of its rotation vector)
+    kq = kf = kv = kfv = 0
     for nd in nodes:
-        idx = np.empty(nd.ncoord, dtype=np.int64)
-        for c in range(nd.ncoord):
-            if nd.fixed[c]:
-                idx[c] = nq + kf
+        fx = nd.fixed
+        fv = _fixed_v(nd)
+        nvn = fv.size
+        idx = np.empty(_nx(nd), dtype=np.int64)
+        for c in range(idx.size):
+            if fx[c]:
+                idx[c] = nx + kf
                 q_fixed[kf] = nd.q0[c]
                 kf += 1
             else:
                 idx[c] = kq
                 q0[kq] = nd.q0[c]
-                qd0[kq] = nd.qd0[c]
                 labels.append(f"{nd.name}.{nd.coord_names[c]}")
                 kq += 1
+        vidx = np.empty(nvn, dtype=np.int64)
+        vnames = getattr(nd, "velocity_names", nd.coord_names)
+        for c in range(nvn):
+            if fv[c]:
+                vidx[c] = nq + kfv
+                kfv += 1
+            else:
+                vidx[c] = kv
+                qd0[kv] = nd.qd0[c]
+                vlabels.append(f"{nd.name}.{vnames[c]}")
+                kv += 1
+        blocks = tuple(getattr(nd, "rotation_blocks", ()))
+        in_rot = np.zeros(nvn, dtype=bool)
+        for xs, vs in blocks:
+            in_rot[vs:vs + 3] = True
+            if not fv[vs]:
+                rot_blocks.append((int(idx[xs]), int(vidx[vs])))
+        # additive entries: the i-th non-rotation x entry goes with the i-th non-rotation v entry
+        xs_add = [c for c in range(idx.size) if not any(b[0] <= c < b[0] + 4 for b in blocks)]
+        vs_add = [c for c in range(nvn) if not in_rot[c]]
+        if len(xs_add) != len(vs_add):
+            raise ModelError(f"node '{nd.name}': {len(xs_add)} additive coordinates but {len(vs_add)} "
+                             "additive velocities")
+        for cx, cv in zip(xs_add, vs_add):
+            if fx[cx] != fv[cv]:
+                raise ModelError(f"node '{nd.name}': coordinate {nd.coord_names[cx]} and its velocity must "
+                                 "be both free or both fixed")
+            if not fv[cv]:
+                xmap[vidx[cv]] = idx[cx]
         node_index[nd.name] = idx
+        node_vindex[nd.name] = vidx
     if nq == 0:
         raise ModelError(f"mechanism '{mech.name}' has no free coordinates (add a body)")
-    next_ = nq + nfix
+    next_ = nq + nfix_v
+    lie = bool(rot_blocks) or nx != nq
 
     # ---- batches
     batches = {}
@@ -256,8 +383,10 @@ def compile_model(mech, *, length_scale=None):
     lam_index = {}
     tf_all = []
     for (cls, key), els in batches.items():
-        dofs = np.array([np.concatenate([node_index[n.name] for n in e.nodes()]) for e in els],
+        dofs = np.array([np.concatenate([node_vindex[n.name] for n in e.nodes()]) for e in els],
                         dtype=np.int64).reshape(len(els), -1)
+        xdofs = (np.array([np.concatenate([node_index[n.name] for n in e.nodes()]) for e in els],
+                          dtype=np.int64).reshape(len(els), -1) if lie else dofs)
         tr = cls.traits(els)
         ncon = int(tr["n_constraints"])
         lam = (nc + np.arange(len(els) * ncon)).reshape(len(els), ncon)
@@ -281,7 +410,7 @@ def compile_model(mech, *, length_scale=None):
                 tf_index[e, k] = len(tf_all)
                 tf_all.append(fn)
         g = Group(cls=cls, key=key, elements=els, names=[e.name for e in els],
-                  params=params, dofs=dofs, traits=tr, lam=lam,
+                  params=params, dofs=dofs, xdofs=xdofs, traits=tr, lam=lam,
                   P=np.ascontiguousarray(params["P"], dtype=np.float64), tf_index=tf_index,
                   time_functions=fns)
         _index_group(g, nq)
@@ -306,7 +435,7 @@ def compile_model(mech, *, length_scale=None):
     from types import SimpleNamespace
     from femb import codegen
     kind = SimpleNamespace(groups=groups, mass_groups=mass_groups, force_groups=force_groups,
-                           constraint_groups=constraint_groups)
+                           constraint_groups=constraint_groups, lie=lie)
     kind_mod, _, _ = codegen.load_kind(kind)
     codegen._attach_entry_points(kind, kind_mod)
 
@@ -314,7 +443,7 @@ def compile_model(mech, *, length_scale=None):
     # divided by the length scale so the force-residual test mixes N with N, not
     # N with N·m (unit-invariant Newton stopping); computed after the length scale.
     qx0 = np.concatenate((q0, q_fixed))
-    qdx0 = np.concatenate((qd0, np.zeros(nfix)))
+    qdx0 = np.concatenate((qd0, np.zeros(nfix_v)))
 
     # ---- constant mass and constant forces
     constant_mass = all(g.traits["constant_mass"] for g in mass_groups)
@@ -322,7 +451,7 @@ def compile_model(mech, *, length_scale=None):
     if gravity:
         g_hat = np.zeros(next_)
         for nd in nodes:
-            idx = node_index[nd.name]
+            idx = node_vindex[nd.name]
             for c, comp in zip(nd.translational, gravity[0].g):
                 g_hat[idx[c]] = comp
     f_const = np.zeros(next_)
@@ -330,7 +459,7 @@ def compile_model(mech, *, length_scale=None):
     if constant_mass:
         rows, cols, vals = [], [], []
         for g in mass_groups:
-            Me = _kernels.mass(g, qx0[g.dofs])
+            Me = _kernels.mass(g, qx0[g.xdofs])
             rows.append(g.nn_rows)
             cols.append(g.nn_cols)
             vals.append(Me.reshape(-1)[g.nn_sel])
@@ -341,13 +470,14 @@ def compile_model(mech, *, length_scale=None):
                                 shape=(nq, nq))
         M_const.sum_duplicates()
     for g in const_force_groups:
-        fe, _, _ = _kernels.force(g, 0.0, qx0[g.dofs], qdx0[g.dofs], False)
+        fe, _, _ = _kernels.force(g, 0.0, qx0[g.xdofs], qdx0[g.dofs], False)
         f_const += np.bincount(g.dofs.ravel(), fe.ravel(), minlength=next_)
 
     # ---- length scale
     if length_scale is None:
-        pts = [nd.q0[list(nd.translational)] for nd in nodes if len(nd.translational)]
-        pts = np.array(pts) if pts else np.zeros((1, 2))
+        pts = [np.pad(nd.q0[list(nd.translational)], (0, 3 - len(nd.translational)))
+               for nd in nodes if len(nd.translational)]
+        pts = np.array(pts) if pts else np.zeros((1, 3))
         L = float(np.max(np.ptp(pts, axis=0))) if len(pts) > 1 else 0.0
         for e in [mech.ground] + others:
             for s in getattr(e, "points", {}).values():
@@ -360,11 +490,13 @@ def compile_model(mech, *, length_scale=None):
 
     w_ext = np.full(next_, 1.0 / length_scale)
     for nd in nodes:
-        w_ext[node_index[nd.name][list(nd.translational)]] = 1.0
+        w_ext[node_vindex[nd.name][list(nd.translational)]] = 1.0
 
     model = Model(
-        name=mech.name, nq=nq, nc=nc, nfix=nfix, q0=q0, qd0=qd0, q_fixed=q_fixed,
-        node_index=node_index, node_names=[nd.name for nd in nodes], coord_labels=labels,
+        name=mech.name, nq=nq, nx=nx, nc=nc, nfix=nfix, nfix_v=nfix_v, q0=q0, qd0=qd0, q_fixed=q_fixed,
+        node_index=node_index, node_vindex=node_vindex, node_names=[nd.name for nd in nodes],
+        coord_labels=labels, velocity_labels=vlabels, lie=lie, xmap=xmap,
+        rot_blocks=np.array(rot_blocks, dtype=np.int64).reshape(-1, 2),
         groups=groups, mass_groups=mass_groups, force_groups=force_groups,
         const_force_groups=const_force_groups, constraint_groups=constraint_groups,
         constant_mass=constant_mass, M_const=M_const, f_const=f_const[:nq].copy(),

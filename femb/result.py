@@ -66,18 +66,17 @@ class Result:
 
         Returns
         -------
-        ndarray, shape (nt, ncoord) — (x, y, θ) for planar nodes.
+        ndarray, shape (nt, ncoord) — (x, y, θ) for planar nodes; for a spatial
+        frame node (nt, 7) = (r, p) with "q" and (nt, 6) = (ṙ, Ω body axes) with
+        "qd" / "qdd".
         """
         arr = {"q": self.q, "qd": self.qd, "qdd": self.qdd}.get(what)
         if arr is None:
             raise ModelError(f"what must be 'q', 'qd' or 'qdd', got {what!r}")
         if what == "q":
             return self.model.node_coordinates(name, arr)
-        idx = self._node(name)
-        out = np.zeros((arr.shape[0], idx.size))
-        free = idx < self.model.nq
-        out[:, free] = arr[:, idx[free]]
-        return out
+        self._node(name)
+        return self.model.node_velocities(name, arr)
 
     def _node(self, name):
         try:

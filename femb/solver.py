@@ -303,7 +303,8 @@ class GeneralizedAlphaSolver:
         self.x = np.zeros(N)
         self.info = np.zeros(8)
         z = np.zeros
-        self.W = (z(nv), z(nv), z(nv), z(nc), z(nv), z(nv), z(nc), z(nv), z(nv), z(nv), z(nv),
+        nx = model.nx
+        self.W = (z(nx), z(nv), z(nv), z(nc), z(nv), z(nv), z(nc), z(nv), z(nv), z(nv), z(nv),
                   z(cp.storage_size), z(cp.storage_size), z(2 * N, dtype=np.int64), z(2 * N, dtype=np.int64),
                   z(nv), z(N), z(nc), z(nc), z(nv), z(nc), z(nc), z(nc), z(nv), z(nv), self.atol.copy(), z(nv))
         self._bufs = None
@@ -361,8 +362,9 @@ class GeneralizedAlphaSolver:
             q0, v0, a0 = self.q, self.qd, self.qdd
             KBt = np.zeros_like(self.AB)
             kp = np.zeros_like(self.ipiv)
-            ap = self._qpp(t0 + dl, q0 + dl * v0 + 0.5 * dl * dl * a0, v0 + dl * a0, KBt, kp)
-            am_ = self._qpp(t0 - dl, q0 - dl * v0 + 0.5 * dl * dl * a0, v0 - dl * a0, KBt, kp)
+            cmp = self.model.compose
+            ap = self._qpp(t0 + dl, cmp(q0, dl * v0 + 0.5 * dl * dl * a0), v0 + dl * a0, KBt, kp)
+            am_ = self._qpp(t0 - dl, cmp(q0, -dl * v0 + 0.5 * dl * dl * a0), v0 - dl * a0, KBt, kp)
             j0 = (ap - am_) / (2.0 * dl)
             # the factorization at the initial state, for re-synchronisations
             qpp0 = self._qpp(t0, self.q, self.qd, W[12], W[14])
@@ -373,7 +375,7 @@ class GeneralizedAlphaSolver:
                 if self.h0 is not None:
                     h0 = self.h0
                 else:
-                    wq = self.atol + self.rtol * np.abs(self.q)
+                    wq = self.atol + self.rtol * self.model.magnitude(self.q)
                     nrm = math.sqrt(np.mean((self.Cq * j0 / wq) ** 2))
                     expo = -0.5 if self.error_per == "unit_step" else -1.0 / 3.0
                     h0 = 0.5 * min(nrm ** expo if nrm > 0 else math.inf, 0.1)
@@ -391,6 +393,13 @@ class GeneralizedAlphaSolver:
                     self._tf_at(t0)
                     cp.mod.rates(cp.G, cp.C, float(t0), self.q, self.qd, Pt, gm)
                     target = -Pt + h0 * h0 * self.Cq * Bj
+                    if self.model.lie:
+                        # the bracket term of the first increment's defect on a Lie group,
+                        # h³/12 [v0, v̇0] (Arnold, Cardona & Brüls 2016; docs/spatial.md)
+                        Bb = np.zeros(self.model.nc)
+                        cp.mod.jacobian_times(cp.G, cp.C, float(t0), self.q,
+                                              self.model.bracket(self.qd, self.qdd), Bb)
+                        target = target + (h0 * h0 / 12.0) * Bb
                     cp.mod.project_normal_velocity(cp.G, cp.C, self.ip, float(t0), self.q, self.qd, target,
                                                    W[12], W[14], W[16], W[21])
         elif not self.adaptive and self.check_every:
@@ -402,7 +411,7 @@ class GeneralizedAlphaSolver:
         b = self._bufs
         if b is None or b[0].shape[0] < n:
             nv, nc = self.model.nq, self.model.nc
-            b = (np.zeros(n), np.zeros((n, nv)), np.zeros((n, nv)), np.zeros((n, nv)), np.zeros((n, nc)),
+            b = (np.zeros(n), np.zeros((n, self.model.nx)), np.zeros((n, nv)), np.zeros((n, nv)), np.zeros((n, nc)),
                  np.zeros(n), np.zeros(n, dtype=np.int32), np.zeros(n))
             self._bufs = b
         return b

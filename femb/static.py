@@ -158,7 +158,7 @@ def _external(model, groups, t, q, jac):
     f = model.f_const.copy()
     rows, cols, vals = [], [], []
     for g in groups:
-        fe, fq, _ = kernels.force(g, t, qx[g.dofs], qdx[g.dofs], jac)
+        fe, fq, _ = kernels.force(g, t, qx[g.xdofs], qdx[g.dofs], jac)
         f += np.bincount(g.dofs.ravel(), fe.ravel(), minlength=next_)[:nq]
         if jac:
             rows.append(g.nn_rows)

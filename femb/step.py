@@ -26,6 +26,7 @@ import math
 from numba import njit
 
 from femb.jit import OPTIONS
+from femb.rotations import s2, s3, s7
 
 # ``evaluate``, ``rates`` and ``jacobian_times`` are defined by the generated module this text is appended to.
 
@@ -315,6 +316,16 @@ def newton_step(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam, t1,
     # predictor and (3)-(5) of Algorithm 1 for that guess of (q̈_{n+1}, λ_{n+1})
     pred = ip[IP_PRED]
     rho = h / h_prev if h_prev > 0.0 else 1.0
+    # rotation nodes (Brüls & Cardona 2010, Algorithm 2): q = q_n ∘ exp(Δ); additive entries
+    # are updated in place (as on Rⁿ), rotations rebuilt from q_n and the increment D
+    xm = C[19]
+    rot = C[20]
+    nrot = rot.shape[0]
+    pn = C[21]
+    D = C[22]
+    for b in range(nrot):
+        for m in range(4):
+            pn[b, m] = q[rot[b, 0] + m]
     for i in range(nv):
         a_base = (af * qdd[i] - am * a[i]) / (1.0 - am)
         if pred == 0:
@@ -330,9 +341,15 @@ def newton_step(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam, t1,
         # x[:nv] keeps a_base until the step is accepted (eq. (3) needs it)
         x[i] = a_base
         qd_new = qd[i] + (h * (1.0 - gamma)) * a[i] + (h * gamma) * a_pred
-        q[i] = q[i] + h * qd[i] + (h * h * (0.5 - beta)) * a[i] + (h * h * beta) * a_pred
+        j = xm[i]
+        if j >= 0:
+            q[j] = q[j] + h * qd[i] + (h * h * (0.5 - beta)) * a[i] + (h * h * beta) * a_pred
+        else:
+            D[i] = h * qd[i] + (h * h * (0.5 - beta)) * a[i] + (h * h * beta) * a_pred
         qd[i] = qd_new
         qdd[i] = g
+    if nrot > 0:
+        lie_update(q, C)
     for j in range(nc):
         if pred == 0:
             g = 0.0
@@ -422,18 +439,24 @@ def newton_step(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam, t1,
         inv_c = 1.0 / c
         for i in range(nv):
             dq = rhs[iperm[i]]
-            q[i] += dq
+            j = xm[i]
+            if j >= 0:
+                q[j] += dq
+                if abs(q[j]) > qmax:
+                    qmax = abs(q[j])
+            else:
+                D[i] += dq
             qd[i] += gp * dq
             qdd[i] += bp * dq
             if abs(dq) > dqmax:
                 dqmax = abs(dq)
-            if abs(q[i]) > qmax:
-                qmax = abs(q[i])
             if abs(qdd[i]) > qddmax:
                 qddmax = abs(qdd[i])
             v = abs(dq) / wq[i]
             if v > dqw:
                 dqw = v
+        if nrot > 0:
+            lie_update(q, C)
         for j in range(nc):
             lam[j] += rhs[iperm[nv + j]] * inv_c
         k += 1
@@ -536,13 +559,15 @@ def project_normal_velocity(G, C, ip, t, q, qd, target, KB, kpiv, kx, Bv):
 
 
 @njit(cache=True, **OPTIONS)
-def error_norm(ip, fp, q0, q1, qd0, qd1, eq, ev, atolv, use_v):
+def error_norm(ip, fp, xm, q0, q1, qd0, qd1, eq, ev, atolv, use_v):
     """RMS of the local error estimate over q (and q̇) weighted by atol + rtol·max(|x_n|, |x_{n+1}|)."""
     nv = ip[IP_NV]
     rtol = fp[FP_ERTOL]
     s = 0.0
     for i in range(nv):
-        wi = atolv[i] + rtol * max(abs(q0[i]), abs(q1[i]))
+        j = xm[i]
+        # rotation entries (j < 0) are judged by atol alone (radians)
+        wi = atolv[i] + (rtol * max(abs(q0[j]), abs(q1[j])) if j >= 0 else 0.0)
         s += (eq[i] / wi) ** 2
     n = nv
     if use_v:
@@ -590,6 +615,7 @@ def run(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam, tfv, AB, ip
     tf_coef = C[10]
     (q_s, qd_s, qdd_s, lam_s, a_s, pqdd_s, plam_s, qpp, qpp_new, jn, jnew, KB, KBacc, kpiv, kpivacc,
      kr, kx, gam, Pt, zq, zl, Bv, tgt, eq, ev, atolv, wq) = W
+    xm = C[19]
     si[SI_STORED] = 0
     done = 0
     while done < n_chunk:
@@ -644,18 +670,21 @@ def run(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam, tfv, AB, ip
                         tgt[j] = -Pt[j] + h * h * Cq * Bv[j]
                     project_normal_velocity(G, C, ip, t, q, qd, tgt, KBacc, kpivacc, kx, Bv)
             for i in range(nv):
-                wq[i] = fp[FP_TOLQ] * (atolv[i] + fp[FP_ERTOL] * abs(q[i]))
+                j = xm[i]
+                wq[i] = fp[FP_TOLQ] * (atolv[i] + (fp[FP_ERTOL] * abs(q[j]) if j >= 0 else 0.0))
         else:
             # fixed steps: 1e-13 relative, but never below the round-off that a chain of nv
             # coordinates accumulates in a correction (≈ √nv · c ε |q|, stepsize.md §5)
             wC = C[3]
             qmax_ = 0.0
             for i in range(nv):
-                if abs(q[i]) > qmax_:
-                    qmax_ = abs(q[i])
+                j = xm[i]
+                if j >= 0 and abs(q[j]) > qmax_:
+                    qmax_ = abs(q[j])
             floor = fp[FP_NEWTC] * 2.220446049250313e-16 * (1.0 + qmax_) * math.sqrt(max(1.0, nv / 100.0))
             for i in range(nv):
-                wq[i] = max(fp[FP_TOLQ] * (abs(q[i]) + fp[FP_L] * wC[i]), floor)
+                j = xm[i]
+                wq[i] = max(fp[FP_TOLQ] * ((abs(q[j]) if j >= 0 else 0.0) + fp[FP_L] * wC[i]), floor)
         k = newton_step(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam, t1, h,
                         h_prev if h_prev > 0.0 else h, AB, ipiv, r, Phi, rhs, x, info, wq)
         if k < 0:
@@ -682,7 +711,7 @@ def run(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam, tfv, AB, ip
                 jnew[i] = (qpp_new[i] - qpp[i]) / h
                 eq[i] = Cq * h * h * (qpp_new[i] - qpp[i])
                 ev[i] = Cv * h * h * h * (jnew[i] - jn[i]) / hbar
-            err = error_norm(ip, fp, q_s, q, qd_s, qd, eq, ev, atolv, nv >= 0)
+            err = error_norm(ip, fp, xm, q_s, q, qd_s, qd, eq, ev, atolv, nv >= 0)
             if fp[FP_EPUS] != 0.0:
                 err /= h
         elif ip[IP_CHECK] > 1:
@@ -700,7 +729,7 @@ def run(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam, tfv, AB, ip
                     for i in range(nv):
                         eq[i] = Cq * h * h * (qpp_new[i] - qpp[i])
                     # per step (not per unit step): the threshold of stepsize.md §9
-                    err = error_norm(ip, fp, q, q, qd, qd, eq, ev, atolv, nv < 0)
+                    err = error_norm(ip, fp, xm, q, q, qd, qd, eq, ev, atolv, nv < 0)
                     si[SI_HAVEJ] = 0
                     if err > sf[SF_ERRMAX]:
                         sf[SF_ERRMAX] = err
@@ -876,6 +905,118 @@ def mass_residual(C, qdd, r, ABf, jac, cM):
         for k in range(tI.shape[0]):
             ABf[tI[k]] = 1.0
     return scale
+
+
+@njit(cache=True, **OPTIONS)
+def lie_update(q, C):
+    """Rotations of q from the step's start and increment: p = p_n ⊗ exp(D_θ), and T(D_θ).
+
+    For each free rotation b with quaternion at x[xs:xs+4] and rotation vector at
+    v[vs:vs+3] (``C[20][b] = (xs, vs)``): q[xs:xs+4] = p_n ⊗ (cos(φ/2), s7(φ) θ),
+    renormalised, θ = D[vs:vs+3], φ = |θ|; ``C[18][b]`` = T(θ) = I − s2 θ~ + s3 θ~²
+    (Brüls & Cardona 2010; femb/rotations.py for the coefficient functions).
+    """
+    Tn = C[18]
+    rot = C[20]
+    pn = C[21]
+    D = C[22]
+    for b in range(rot.shape[0]):
+        xs = rot[b, 0]
+        vs = rot[b, 1]
+        t0 = D[vs]
+        t1 = D[vs + 1]
+        t2 = D[vs + 2]
+        phi = math.sqrt(t0 * t0 + t1 * t1 + t2 * t2)
+        c = math.cos(0.5 * phi)
+        sv = s7(phi)
+        e1 = sv * t0
+        e2 = sv * t1
+        e3 = sv * t2
+        a0 = pn[b, 0]
+        a1 = pn[b, 1]
+        a2 = pn[b, 2]
+        a3 = pn[b, 3]
+        p0 = a0 * c - a1 * e1 - a2 * e2 - a3 * e3
+        p1 = a0 * e1 + c * a1 + a2 * e3 - a3 * e2
+        p2 = a0 * e2 + c * a2 + a3 * e1 - a1 * e3
+        p3 = a0 * e3 + c * a3 + a1 * e2 - a2 * e1
+        n = 1.0 / math.sqrt(p0 * p0 + p1 * p1 + p2 * p2 + p3 * p3)
+        q[xs] = p0 * n
+        q[xs + 1] = p1 * n
+        q[xs + 2] = p2 * n
+        q[xs + 3] = p3 * n
+        # T = I − s2 θ~ + s3 θ~², θ~² = θθᵀ − φ² I
+        c2 = s2(phi)
+        c3 = s3(phi)
+        ph2 = phi * phi
+        for r in range(3):
+            for k in range(3):
+                Tn[b, r, k] = c3 * (D[vs + r] * D[vs + k]) + ((1.0 - c3 * ph2) if r == k else 0.0)
+        Tn[b, 0, 1] += c2 * t2
+        Tn[b, 0, 2] -= c2 * t1
+        Tn[b, 1, 0] -= c2 * t2
+        Tn[b, 1, 2] += c2 * t0
+        Tn[b, 2, 0] += c2 * t1
+        Tn[b, 2, 1] -= c2 * t0
+
+
+@njit(cache=True, **OPTIONS)
+def lie_reset(C):
+    """T = I for every rotation (between steps: evaluations outside Newton use no tangent operator)."""
+    Tn = C[18]
+    for b in range(Tn.shape[0]):
+        for r in range(3):
+            for k in range(3):
+                Tn[b, r, k] = 1.0 if r == k else 0.0
+
+
+@njit(cache=True, **OPTIONS)
+def gather_x_v(q, qd, qfix, xdofs, dofs, xe, ve, nx, nv):
+    """xe[e, i] = [q, q_fixed][xdofs[e, i]] (configuration), ve[e, i] = [q̇, 0][dofs[e, i]] (velocities)."""
+    for e in range(xdofs.shape[0]):
+        for i in range(xdofs.shape[1]):
+            d = xdofs[e, i]
+            xe[e, i] = q[d] if d < nx else qfix[d - nx]
+        for i in range(dofs.shape[1]):
+            d = dofs[e, i]
+            ve[e, i] = qd[d] if d < nv else 0.0
+
+
+@njit(cache=True, **OPTIONS)
+def apply_tangent(K, tblk, Tn, cK):
+    """K[e, :, i0:i0+3] ← K[e, :, i0:i0+3] T_b for every rotation (i0, b) of element e (Newton only: cK ≠ 0)."""
+    if cK == 0.0:
+        return
+    for e in range(tblk.shape[0]):
+        for k in range(tblk.shape[1]):
+            i0 = tblk[e, k, 0]
+            if i0 < 0:
+                continue
+            b = tblk[e, k, 1]
+            for r in range(K.shape[1]):
+                k0 = K[e, r, i0]
+                k1 = K[e, r, i0 + 1]
+                k2 = K[e, r, i0 + 2]
+                for c in range(3):
+                    K[e, r, i0 + c] = k0 * Tn[b, 0, c] + k1 * Tn[b, 1, c] + k2 * Tn[b, 2, c]
+
+
+@njit(cache=True, **OPTIONS)
+def scatter_B_tangent(Be, tblk, Tn, cK, tB, tBt, ABf):
+    """Bᵀ into the upper right block, B T(Δ) into the lower left one (overwrites Be)."""
+    for e in range(Be.shape[0]):
+        for j in range(Be.shape[1]):
+            for i in range(Be.shape[2]):
+                t = tBt[e, j, i]
+                if t >= 0:
+                    ABf[t] += Be[e, j, i]
+    apply_tangent(Be, tblk, Tn, cK)
+    for e in range(Be.shape[0]):
+        for j in range(Be.shape[1]):
+            for i in range(Be.shape[2]):
+                t = tB[e, j, i]
+                if t >= 0:
+                    ABf[t] += Be[e, j, i]
 
 
 @njit(cache=True, **OPTIONS)

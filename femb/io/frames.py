@@ -37,7 +37,7 @@ def model_blocks(model, t, q, qd, lam):
         blocks.append(GeometryBlock("Ground", pts, [("vertex", np.arange(len(pts))[:, None])]))
     for g in model.groups:
         le = lam[g.lam] if g.nc else np.zeros((g.nel, 0))
-        blocks.extend(g.cls.geometry(g.params, t, qx[g.dofs], qdx[g.dofs], le, g.names))
+        blocks.extend(g.cls.geometry(g.params, t, qx[g.xdofs], qdx[g.dofs], le, g.names))
     return blocks
 
 
