@@ -23,10 +23,9 @@ reactions are not unique).
 """
 from __future__ import annotations
 
+import math
 import warnings
 from dataclasses import dataclass, field
-
-import math
 
 import numpy as np
 import scipy.linalg as sla

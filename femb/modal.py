@@ -123,6 +123,7 @@ def modal_analysis(model, state=None, n_modes=6, *, t=None, method="auto", sigma
     -------
     ModalResult
     """
+    model.require_vector_space("modal analysis")
     st = _reference_state(model, state, t)
     nq, nc = model.nq, model.nc
     k = int(n_modes)

@@ -172,6 +172,12 @@ class Model:
             q[xs:xs + 4] = p / np.linalg.norm(p)
         return q
 
+    def require_vector_space(self, what):
+        """Raise :class:`ModelError` if the model has rotation nodes (``what`` is not available for them)."""
+        if self.lie:
+            raise ModelError(f"model '{self.name}' has spatial rotation nodes (quaternions): {what} is not "
+                             "available for such models yet (see docs/spatial.md, 'Time loop')")
+
     def magnitude(self, q):
         """|q| per velocity entry (nq,): |x| of additive entries, 0 on rotations (judged by atol)."""
         q = np.asarray(q, dtype=float)

@@ -531,6 +531,7 @@ def solve_static(model, *, load_steps=None, load_factors=None, t=0.0, state=None
     >>> round(float(res.body("p")[-1, 1]), 6), res.strategy
     (-1.1, 'direct')
     """
+    model.require_vector_space("static analysis")
     asked = load_steps is not None or load_factors is not None
     if load_steps is not None and load_factors is not None:
         raise ParameterError("give either load_steps or load_factors, not both")

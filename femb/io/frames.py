@@ -78,6 +78,9 @@ class VTKStream:
             self.dt = float(dt)
             if not (self.dt > 0.0 and np.isfinite(self.dt)):
                 raise OutputError(f"dt must be a positive finite time, got {dt!r}")
+            if getattr(model, "lie", False):
+                raise OutputError(f"model '{model.name}' has spatial rotation nodes: frames at a fixed dt "
+                                  "(interpolated) are not available for it yet; use every=...")
             self.every = 1
         self._prev = None
         self._next_t = None
