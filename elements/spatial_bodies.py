@@ -189,7 +189,7 @@ class SpatialBody(Body):
         owner = f"body '{name}'"
         self.points = {str(k): vector3(owner, f"point '{k}'", v) for k, v in (points or {}).items()}
         self.axes = {str(k): unit3(owner, f"axis '{k}'", v) for k, v in (axes or {}).items()}
-        self.shape = sg.check_shape(owner, shape)
+        self.shape = sg.check_shape(f"{type(self).__name__} '{name}'", shape)
 
     # body-frame quantities from names or inertial values at t0
     def local(self, spec, role="point"):

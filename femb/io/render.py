@@ -437,7 +437,7 @@ def _add_frame(pv, pl, mesh, scan, scalars, *, name, color=None, legend=None):
         line_width=LINE_WIDTH,
         point_size=POINT_SIZE,
         render_points_as_spheres=True,
-        lighting=False,
+        lighting=not scan.planar,  # shading shows the depth of 3-D surfaces
         render=False,
     )
     if mesh.n_cells == 0:
