@@ -66,8 +66,9 @@ def build(mass=PARAMS["mass"], inertia=PARAMS["inertia"], X=PARAMS["X"], omega0=
     X = np.asarray(X, dtype=float)
     W = np.asarray(omega0, dtype=float)
     mech = Mechanism("heavy_top")
+    disc = {"type": "cylinder", "radius": 0.25, "length": 0.1, "axis": (0.0, 1.0, 0.0)}
     top = mech.add(SpatialRigidBody("top", mass, inertia, position=X, velocity=np.cross(W, X), omega=W,
-                                    points={"O": -X}, shape={"type": "cylinder", "radius": 0.25, "length": 0.1}))
+                                    points={"O": -X}, shape=disc))
     mech.add(SphericalJoint("support", "ground", top, point_b="O"),
              SpatialGravity(g))
     return mech

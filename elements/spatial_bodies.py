@@ -28,9 +28,11 @@ import numpy as np
 from femb import rotations as rt
 from femb.element import Element
 from femb.errors import ModelError
+from femb.geometry import GeometryBlock
 from femb.jit import kernel
 from femb.nodes import Node
 
+from . import _spatial_geometry as sg
 from .bodies import Body, Ground, _check_scalar
 
 
@@ -175,8 +177,11 @@ class SpatialBody(Body):
         Named unit vectors in body axes.
     shape : dict or None
         Drawing shape for output (``{"type": "box", "size": (a, b, c)}``,
-        ``{"type": "cylinder", "radius": r, "length": l}``, ``{"type": "sphere",
-        "radius": r}``), unused by the kernels.
+        ``{"type": "cylinder", "radius": r, "length": l, "axis": (3,)}`` (axis in
+        body axes, default body x), ``{"type": "sphere", "radius": r}``; None or
+        ``{"type": "hull"}``: the convex hull of the named points and the node),
+        unused by the kernels; checked by
+        :func:`~femb.elements._spatial_geometry.check_shape`.
     """
 
     def _init_body(self, name, node, points=None, axes=None, shape=None):
@@ -184,7 +189,7 @@ class SpatialBody(Body):
         owner = f"body '{name}'"
         self.points = {str(k): vector3(owner, f"point '{k}'", v) for k, v in (points or {}).items()}
         self.axes = {str(k): unit3(owner, f"axis '{k}'", v) for k, v in (axes or {}).items()}
-        self.shape = shape
+        self.shape = sg.check_shape(f"{type(self).__name__} '{name}'", shape)
 
     # body-frame quantities from names or inertial values at t0
     def local(self, spec, role="point"):
@@ -398,8 +403,43 @@ class SpatialRigidBody(SpatialBody, Element):
 
     @classmethod
     def pack(cls, elements):
+        """``P = (m, J (9))`` (nel, 10), plus masses, inertias and the drawing tables of :meth:`geometry`."""
         P = np.array([[e.m, *e.J.reshape(-1)] for e in elements], dtype=float)
-        return {"P": np.ascontiguousarray(P), "m": P[:, 0].copy(), "J": P[:, 1:].reshape(-1, 3, 3).copy()}
+        p = {"P": np.ascontiguousarray(P), "m": P[:, 0].copy(), "J": P[:, 1:].reshape(-1, 3, 3).copy(),
+             "body_id": np.arange(len(elements))}
+        p.update(_pack_outlines([sg.outline(e.shape, e.points, e.m, e.J) for e in elements]))
+        return p
+
+    @classmethod
+    def geometry(cls, p, t, qe, qde, lame, names):
+        """Surfaces of the bodies and a block of body frames.
+
+        Parameters
+        ----------
+        p : dict
+            From :meth:`pack`.
+        t : float
+        qe : ndarray, shape (nel, 7)
+            (r, p) of each body.
+        qde : ndarray, shape (nel, 6)
+            (ṙ, Ω), Ω in body axes.
+        lame : ndarray, shape (nel, 0)
+        names : list of str
+
+        Returns
+        -------
+        list of GeometryBlock
+            ``SpatialRigidBody``: each body's drawing (triangles, or a polygon
+            fan / segment for degenerate point sets) at r + R(p) X with point
+            data ``velocity`` ṙ + R(Ω × X) (m/s, space axes) and cell data
+            ``body_id`` and ``mass`` (kg). ``SpatialRigidBodyFrame``: one vertex
+            per body at r with point data ``e1``, ``e2``, ``e3`` (the columns
+            of R scaled to the body's size, m), ``omega`` (RΩ, rad/s, space
+            axes) and ``velocity`` ṙ.
+        """
+        qe = np.asarray(qe, dtype=float)
+        qde = np.asarray(qde, dtype=float)
+        return [_outline_block(cls.__name__, p, qe, qde), _frame_block(cls.__name__ + "Frame", p, qe, qde)]
 
 
 @kernel(allocates=True)
@@ -444,7 +484,63 @@ class SpatialPointMass(SpatialBody, Element):
     @classmethod
     def pack(cls, elements):
         P = np.array([[e.m] for e in elements], dtype=float)
-        return {"P": P, "m": P[:, 0].copy()}
+        return {"P": P, "m": P[:, 0].copy(), "body_id": np.arange(len(elements))}
+
+    @classmethod
+    def geometry(cls, p, t, qe, qde, lame, names):
+        """One vertex per point mass at r (qe (nel, 7)) with point data ``velocity`` ṙ
+        (qde (nel, 6), m/s) and cell data ``body_id`` and ``mass`` (kg)."""
+        qe = np.asarray(qe, dtype=float)
+        n = qe.shape[0]
+        return [GeometryBlock(cls.__name__, qe[:, 0:3].copy(), [("vertex", sg.vertex_cells(n))],
+                              point_data={"velocity": np.asarray(qde, dtype=float)[:, 0:3].copy()},
+                              cell_data={"body_id": [p["body_id"].copy()], "mass": [p["m"].copy()]})]
+
+
+def _pack_outlines(outlines):
+    """Stack per-body drawings (verts, triangles, lines) into batch tables (global indices)."""
+    local, owner, tri, tri_owner, lines, line_owner = [], [], [], [], [], []
+    start = 0
+    scale = np.empty(len(outlines))
+    for k, (verts, t, ln) in enumerate(outlines):
+        local.append(verts)
+        owner.append(np.full(len(verts), k, dtype=np.int64))
+        tri.append(t + start)
+        tri_owner.append(np.full(len(t), k, dtype=np.int64))
+        lines.append(ln + start)
+        line_owner.append(np.full(len(ln), k, dtype=np.int64))
+        start += len(verts)
+        ext = float(np.max(np.linalg.norm(verts, axis=1))) if len(verts) else 0.0
+        scale[k] = ext if ext > 0.0 else 0.1
+    return {"outline_local": np.concatenate(local), "outline_owner": np.concatenate(owner),
+            "outline_triangles": np.concatenate(tri).reshape(-1, 3),
+            "outline_triangle_body": np.concatenate(tri_owner),
+            "outline_lines": np.concatenate(lines).reshape(-1, 2),
+            "outline_line_body": np.concatenate(line_owner), "frame_scale": scale}
+
+
+def _outline_block(name, p, qe, qde):
+    own = p["outline_owner"]
+    pos, vel = sg.material_points(qe[own], qde[own], p["outline_local"])
+    cells, ids, mass = [], [], []
+    for kind, conn, body in (("triangle", p["outline_triangles"], p["outline_triangle_body"]),
+                             ("line", p["outline_lines"], p["outline_line_body"])):
+        if len(conn):
+            cells.append((kind, conn))
+            ids.append(p["body_id"][body])
+            mass.append(p["m"][body])
+    return GeometryBlock(name, pos, cells, point_data={"velocity": vel},
+                         cell_data={"body_id": ids, "mass": mass})
+
+
+def _frame_block(name, p, qe, qde):
+    R = sg.rotation_matrices(qe[:, 3:7])
+    s = p["frame_scale"][:, None]
+    n = qe.shape[0]
+    pd = {"e1": R[:, :, 0] * s, "e2": R[:, :, 1] * s, "e3": R[:, :, 2] * s,
+          "omega": sg.rotate(R, qde[:, 3:6]), "velocity": qde[:, 0:3].copy()}
+    return GeometryBlock(name, qe[:, 0:3].copy(), [("vertex", sg.vertex_cells(n))], point_data=pd,
+                         cell_data={"body_id": [p["body_id"].copy()], "mass": [p["m"].copy()]})
 
 
 def box_inertia(mass, a, b, c):

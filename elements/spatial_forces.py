@@ -28,15 +28,17 @@ import numpy as np
 
 from femb.element import Element
 from femb.errors import ModelError
-from femb.functions import Constant, as_time_function
+from femb.functions import Constant, as_time_function, evaluate
+from femb.geometry import GeometryBlock
 from femb.jit import kernel
 
 from . import _spatial as sp
+from . import _spatial_geometry as sg
 from ._spatial import NV, NW, frames, prim_dot1, prim_dot2
 from .bodies import _check_scalar
 from .forces import Gravity
 from .spatial_bodies import vector3
-from .spatial_joints import A1, A2, A3, B1, B2, B3, SpatialPairElement, _resolve_spatial
+from .spatial_joints import A1, A2, A3, B1, B2, B3, SpatialPairElement, _resolve_spatial, pair_points
 
 
 # ---------------------------------------------------------------------------
@@ -225,6 +227,24 @@ class PointSpringDamper(SpatialPairElement):
         p["P"] = np.ascontiguousarray(np.hstack((p["P"], [[e.k, e.c, e.L0] for e in elements])))
         return p
 
+    @classmethod
+    def geometry(cls, p, t, qe, qde, lame, names):
+        """One line p_a → p_b per spring with cell data ``tension`` N = k(ℓ − ℓ0) + cℓ̇ (N,
+        positive pulls the points together) and ``length`` ℓ (m); qe (nel, 14), qde (nel, 12)."""
+        qe = np.asarray(qe, dtype=float)
+        qde = np.asarray(qde, dtype=float)
+        pa, va = sg.material_points(qe[:, 0:7], qde[:, 0:6], p["Xa"])
+        pb, vb = sg.material_points(qe[:, 7:14], qde[:, 6:12], p["Xb"])
+        d = pb - pa
+        L = np.linalg.norm(d, axis=1)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            Ld = np.where(L > 0.0, np.einsum("ij,ij->i", d, vb - va) / np.where(L > 0.0, L, 1.0), 0.0)
+        k, c, L0 = p["P"][:, 24], p["P"][:, 25], p["P"][:, 26]
+        n = L.size
+        return [GeometryBlock(cls.__name__, np.vstack((pa, pb)),
+                              [("line", np.column_stack((np.arange(n), n + np.arange(n))))],
+                              cell_data={"tension": [k * (L - L0) + c * Ld], "length": [L]})]
+
 
 class Bushing(SpatialPairElement):
     """Six-component linear bushing between a and b in a joint frame.
@@ -284,6 +304,11 @@ class Bushing(SpatialPairElement):
         p["P"] = np.ascontiguousarray(np.hstack((p["P"], [np.concatenate((e.K, e.C, e.m0)) for e in elements])))
         return p
 
+    @classmethod
+    def geometry(cls, p, t, qe, qde, lame, names):
+        """A vertex at the joint point p_a with the bushing's action on b (see :func:`_pair_wrench_block`)."""
+        return _pair_wrench_block(cls, p, t, qe, qde)
+
 
 class RotationalSpringDamper(SpatialPairElement):
     """Torsion spring–damper about ē3 = ``axis`` (use with a revolute joint on the same axis).
@@ -326,11 +351,62 @@ class RotationalSpringDamper(SpatialPairElement):
         p["P"] = np.ascontiguousarray(np.hstack((p["P"], [[e.k, e.c, e.angle0] for e in elements])))
         return p
 
+    @classmethod
+    def geometry(cls, p, t, qe, qde, lame, names):
+        """A vertex at the joint point p_a with the spring's action on b (see
+        :func:`_pair_wrench_block`) and point data ``angle``: the relative angle
+        atan2(u2·w1, u1·w1) of b about ē3 (rad, zero at t0)."""
+        blocks = _pair_wrench_block(cls, p, t, qe, qde)
+        qe = np.asarray(qe, dtype=float)
+        _, _, Ra, Rb = pair_points(p, qe)
+        w1 = sg.rotate(Rb, p["Eb"][:, 0])
+        u1 = sg.rotate(Ra, p["Ea"][:, 0])
+        u2 = sg.rotate(Ra, p["Ea"][:, 1])
+        blocks[0].point_data["angle"] = np.arctan2(np.einsum("ij,ij->i", u2, w1), np.einsum("ij,ij->i", u1, w1))
+        return blocks
+
 
 def _frame_pack(elements):
     P = np.array([np.concatenate((e.Xa, e.Ea.reshape(-1), e.Xb, e.Eb.reshape(-1))) for e in elements])
     return {"P": P, "Xa": P[:, 0:3].copy(), "Xb": P[:, 12:15].copy(),
             "Ea": P[:, 3:12].reshape(-1, 3, 3).copy(), "Eb": P[:, 15:24].reshape(-1, 3, 3).copy()}
+
+
+def _pair_wrench_block(cls, p, t, qe, qde):
+    """The force element's action on body b, reduced to its joint point p_a.
+
+    Evaluates the element's own force kernel: the generalized force on b,
+    (f_r, f_θ) = fe[6:12], gives ``force`` F = f_r (N, space axes) and
+    ``moment`` M = R_b f_θ − (p_a − x_b) × F (N m, space axes, about p_a).
+
+    Parameters
+    ----------
+    cls : type
+    p : dict
+        ``cls.pack(elements)``.
+    t : float
+    qe : ndarray, shape (nel, 14)
+    qde : ndarray, shape (nel, 12)
+
+    Returns
+    -------
+    list of GeometryBlock
+        One vertex per element at p_a.
+    """
+    qe = np.ascontiguousarray(qe, dtype=float)
+    qde = np.ascontiguousarray(qde, dtype=float)
+    if qe.ndim != 2 or qe.shape[1] != 14 or qde.shape != (qe.shape[0], 12):
+        raise ModelError(f"{cls.__name__}: geometry needs (nel, 14) coordinates and (nel, 12) velocities, "
+                         f"got shapes {qe.shape} and {qde.shape}")
+    n = qe.shape[0]
+    fe = np.zeros((n, 12))
+    fq = np.zeros((n, 12, 12))
+    fv = np.zeros((n, 12, 12))
+    cls.kernels["force"](p["P"], float(t), np.zeros((n, 0, 3)), qe, qde, False, fe, fq, fv)
+    pa, _, _, Rb = pair_points(p, qe)
+    F, M = sg.wrench_at(fe[:, 6:12], qe[:, 7:10], Rb, pa)
+    return [GeometryBlock(cls.__name__, pa, [("vertex", sg.vertex_cells(n))],
+                          point_data={"force": F, "moment": M})]
 
 
 # ---------------------------------------------------------------------------
@@ -423,7 +499,23 @@ class _Load(Element):
     @classmethod
     def pack(cls, elements):
         P = np.array([[*e.X, *e.value, float(e.follower), float(e._torque)] for e in elements])
-        return {"P": np.ascontiguousarray(P)}
+        return {"P": np.ascontiguousarray(P), "functions": [e.fn for e in elements]}
+
+    @classmethod
+    def geometry(cls, p, t, qe, qde, lame, names):
+        """A vertex at the point of application x + R X (the node for a torque) with point
+        data ``force`` (N) or ``torque`` (N m): f(t) F, space axes (R F for a follower load);
+        qe (nel, 7)."""
+        qe = np.asarray(qe, dtype=float)
+        P = p["P"]
+        R = sg.rotation_matrices(qe[:, 3:7])
+        s = evaluate(p["functions"], float(t))[:, None]
+        V = s * P[:, 3:6]
+        V = np.where(P[:, 6:7] != 0.0, sg.rotate(R, V), V)
+        pts = qe[:, 0:3] + sg.rotate(R, P[:, 0:3])
+        n = qe.shape[0]
+        return [GeometryBlock(cls.__name__, pts, [("vertex", sg.vertex_cells(n))],
+                              point_data={"torque" if cls._torque else "force": V})]
 
 
 class SpatialForce(_Load):

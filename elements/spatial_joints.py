@@ -42,9 +42,11 @@ import numpy as np
 from femb.element import Element
 from femb.errors import ModelError
 from femb.functions import as_time_function
+from femb.geometry import GeometryBlock
 from femb.jit import kernel
 
 from . import _spatial as sp
+from . import _spatial_geometry as sg
 from ._spatial import EA, EB, NPAR_FRAME, NV, NW, frames, prim_distance, prim_dot1, prim_dot2, prim_point
 from .bodies import Ground
 from .spatial_bodies import SpatialBody, SpatialGround, spatial_ground, unit3, vector3
@@ -170,11 +172,98 @@ class SpatialPairElement(Element):
                                         [len(prog)], prog.reshape(-1))))
         P = np.ascontiguousarray(np.array(rows, dtype=float))
         return {"P": P, "Xa": P[:, 0:3].copy(), "Xb": P[:, 12:15].copy(),
-                "Ea": P[:, 3:12].reshape(-1, 3, 3).copy(), "Eb": P[:, 15:24].reshape(-1, 3, 3).copy()}
+                "Ea": P[:, 3:12].reshape(-1, 3, 3).copy(), "Eb": P[:, 15:24].reshape(-1, 3, 3).copy(),
+                "time_functions": [list(cls.time_functions(e)) for e in elements]}
 
     @classmethod
     def time_functions(cls, element):
         return []
+
+    @classmethod
+    def geometry(cls, p, t, qe, qde, lame, names):
+        """Joint points with the reaction on body b, and the gap lines p_a → p_b.
+
+        B comes from the element's own constraint kernel (its time functions
+        evaluated at t for driven joints); the generalized force on b is
+        −B_bᵀλ (sign convention M v̇ = f − Bᵀλ), reduced to the joint point.
+
+        Parameters
+        ----------
+        p : dict
+            From :meth:`pack`.
+        t : float
+        qe : ndarray, shape (nel, 14)
+            (r_a, p_a, r_b, p_b).
+        qde : ndarray, shape (nel, 12)
+        lame : ndarray, shape (nel, n_constraints)
+            The multipliers λ of each joint.
+        names : list of str
+
+        Returns
+        -------
+        list of GeometryBlock
+            Two blocks named after the class: one vertex per joint at
+            p_a = x_a + R_a X_a with point data ``reaction_force`` (N) and
+            ``reaction_moment`` (N m, about p_a), both the action of the joint
+            on body b in space axes; and one line p_a → p_b per joint with
+            cell data ``gap`` = |p_b − p_a| (m, zero when the point rows hold).
+        """
+        F, M, pa, pb = joint_reactions(cls, p, t, qe, lame)
+        n = pa.shape[0]
+        return [GeometryBlock(cls.__name__, pa, [("vertex", sg.vertex_cells(n))],
+                              point_data={"reaction_force": F, "reaction_moment": M}),
+                GeometryBlock(cls.__name__, np.vstack((pa, pb)),
+                              [("line", np.column_stack((np.arange(n), n + np.arange(n))))],
+                              cell_data={"gap": [np.linalg.norm(pb - pa, axis=1)]})]
+
+
+def pair_points(p, qe):
+    """Joint points p_a = x_a + R_a X_a, p_b (each (nel, 3)) and R_a, R_b (nel, 3, 3) of a batch."""
+    Ra = sg.rotation_matrices(qe[:, 3:7])
+    Rb = sg.rotation_matrices(qe[:, 10:14])
+    return qe[:, 0:3] + sg.rotate(Ra, p["Xa"]), qe[:, 7:10] + sg.rotate(Rb, p["Xb"]), Ra, Rb
+
+
+def joint_reactions(cls, p, t, qe, lame):
+    """Force and moment of each joint of a batch on its body b, reduced to p_a (space axes).
+
+    Parameters
+    ----------
+    cls : type
+        The joint class (its ``kernels["constraint"]`` and ``n_constraints``).
+    p : dict
+        ``cls.pack(elements)``.
+    t : float
+    qe : ndarray, shape (nel, 14)
+    lame : ndarray, shape (nel, n_constraints)
+
+    Returns
+    -------
+    F, M : ndarray, shape (nel, 3)
+        F (N) = the force part of −B_bᵀλ; M (N m) = R_b m − (p_a − x_b) × F with
+        m the moment part of −B_bᵀλ (body b axes, about x_b).
+    pa, pb : ndarray, shape (nel, 3)
+    """
+    qe = np.ascontiguousarray(qe, dtype=float)
+    n = qe.shape[0]
+    nc = int(cls.n_constraints)
+    try:
+        lam = np.ascontiguousarray(np.asarray(lame, dtype=float).reshape(n, nc))
+    except ValueError:
+        raise ModelError(f"{cls.__name__}: geometry needs {nc} multipliers per joint, got an array of "
+                         f"shape {np.shape(lame)}") from None
+    if qe.ndim != 2 or qe.shape[1] != 14:
+        raise ModelError(f"{cls.__name__}: geometry needs (nel, 14) node coordinates (r_a, p_a, r_b, p_b), "
+                         f"got shape {qe.shape}")
+    tf = np.ascontiguousarray(sg.time_function_table(p.get("time_functions"), float(t), n))
+    Phi = np.zeros((n, nc))
+    B = np.zeros((n, nc, 12))
+    H = np.zeros((n, 12, 12))
+    cls.kernels["constraint"](p["P"], float(t), tf, qe, lam, False, Phi, B, H)
+    f = -np.einsum("eki,ek->ei", B, lam)
+    pa, pb, _, Rb = pair_points(p, qe)
+    F, M = sg.wrench_at(f[:, 6:12], qe[:, 7:10], Rb, pa)
+    return F, M, pa, pb
 
 
 # ---------------------------------------------------------------------------
@@ -571,4 +660,5 @@ def relative_angle(Ea, Eb, xa, xb):
 
 __all__ = ["SpatialPairElement", "joint_frame", "SphericalJoint", "RevoluteJoint", "UniversalJoint",
            "CylindricalJoint", "PrismaticJoint", "FixedJoint", "DistanceJoint", "DrivenRevoluteAngle",
-           "DrivenPrismaticDisplacement", "relative_angle", "joint_constraint", "joint_rates", "JOINT_KERNELS"]
+           "DrivenPrismaticDisplacement", "relative_angle", "joint_constraint", "joint_rates", "JOINT_KERNELS",
+           "joint_reactions", "pair_points"]

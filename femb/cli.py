@@ -491,12 +491,13 @@ def cmd_render(args):
                     raise UsageError(f"--{kind} needs a file name ending in .{kind}, got {path}")
                 kw = {"window_size": size} if size else {}
                 femb.io.render_animation(pvd, path, fps=args.fps, every=args.every, scalars=args.scalars,
-                                         show_progress=True, **kw)
+                                         show_progress=True, view=args.view, **kw)
             elif kind == "png":
                 kw = {"window_size": size} if size else {}
-                femb.io.render_png(pvd, path, time=args.time, scalars=args.scalars, **kw)
+                femb.io.render_png(pvd, path, time=args.time, scalars=args.scalars, view=args.view, **kw)
             else:
-                femb.io.render_strip(pvd, path, n=args.n, scalars=args.scalars, window_size=size)
+                femb.io.render_strip(pvd, path, n=args.n, scalars=args.scalars, window_size=size,
+                                     view=args.view)
             print(f"wrote {path} ({time.perf_counter() - t0:.1f} s)")
     except femb.io.OutputError as exc:
         raise _OutputFailure(str(exc).splitlines()[0]) from None
@@ -575,6 +576,9 @@ def build_parser():
     rp.add_argument("--every", type=_count, default=1, metavar="N", help="animate every N-th frame (default 1)")
     rp.add_argument("--scalars", metavar="NAME", help="colour by this point/cell data field")
     rp.add_argument("--size", type=_count, nargs=2, metavar=("W", "H"), help="picture size in pixels")
+    rp.add_argument("--view", choices=("xy", "xz", "yz", "iso", "3d"), default=None,
+                    help="camera direction (default: xy for planar motion, else 3d: perspective from "
+                    "(1, -1, 0.7) with z up)")
     rp.set_defaults(func=cmd_render)
 
     bp = sub.add_parser("bench", help="benchmarks: convergence studies and the paper's figures",

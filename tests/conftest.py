@@ -1,10 +1,42 @@
 """Shared test fixtures: small mechanisms using every element type."""
+import importlib.util
 import math
+import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
 
-from femb import Mechanism
+import femb
+
+
+def _use_checkout_subpackages():
+    """Import ``femb.elements`` and ``femb.benchmarks`` from this checkout.
+
+    pyproject.toml maps them to the top-level folders ``elements/`` and
+    ``benchmarks/``; an editable install records the folders of the checkout
+    it was made from, so with ``PYTHONPATH`` pointing at another checkout
+    ``femb`` would come from that checkout but its two subpackages from the
+    installed one. When ``femb`` itself is this checkout's, load them from here.
+    """
+    root = Path(__file__).resolve().parent.parent
+    if Path(femb.__file__).resolve().parent != root / "femb":
+        return
+    for name, folder in (("femb.elements", "elements"), ("femb.benchmarks", "benchmarks")):
+        init = root / folder / "__init__.py"
+        if name in sys.modules or not init.is_file():
+            continue
+        spec = importlib.util.spec_from_file_location(name, init,
+                                                      submodule_search_locations=[str(root / folder)])
+        module = importlib.util.module_from_spec(spec)
+        sys.modules[name] = module
+        spec.loader.exec_module(module)
+        setattr(femb, folder, module)
+
+
+_use_checkout_subpackages()
+
+from femb import Mechanism  # noqa: E402
 from femb.functions import Harmonic, Polynomial, TimeFunction
 
 

@@ -24,7 +24,8 @@ def model_blocks(model, t, q, qd, lam):
     Returns
     -------
     list of GeometryBlock
-        One or more blocks per element type, plus the ground's named points.
+        One or more blocks per element type, plus the ground's named points
+        (and those of its spatial twin, :func:`~femb.elements.spatial_bodies.spatial_ground`).
     """
     qx = model.ext(np.asarray(q, dtype=float))
     qdx = model.ext_velocity(np.asarray(qd, dtype=float))
@@ -35,6 +36,10 @@ def model_blocks(model, t, q, qd, lam):
         pts = np.zeros((len(ground.points), 3))
         pts[:, :2] = np.array(list(ground.points.values()))
         blocks.append(GeometryBlock("Ground", pts, [("vertex", np.arange(len(pts))[:, None])]))
+    twin = getattr(ground, "_spatial_twin", None)       # the ground as seen by spatial elements
+    if twin is not None and twin.points:
+        pts = np.array(list(twin.points.values()), dtype=float).reshape(-1, 3)
+        blocks.append(GeometryBlock("SpatialGround", pts, [("vertex", np.arange(len(pts))[:, None])]))
     for g in model.groups:
         le = lam[g.lam] if g.nc else np.zeros((g.nel, 0))
         blocks.extend(g.cls.geometry(g.params, t, qx[g.xdofs], qdx[g.dofs], le, g.names))

@@ -11,7 +11,9 @@ Common conventions of the rendering functions:
   of the bounds of every frame in the collection) and kept fixed, so
   successive pictures are comparable;
 * planar data (all z equal) is shown in a 2D view (looking down the z axis,
-  parallel projection) unless ``view`` says otherwise;
+  parallel projection) unless ``view`` says otherwise; 3-D motion in a
+  perspective view from the direction (1, −1, 0.7) with z up (``view="3d"``,
+  see :func:`camera_3d`), framing the whole motion;
 * each picture carries a time label ``t = ... s``;
 * lines are drawn with some width and vertex cells as round points, so thin
   mechanisms stay visible; cells are coloured by element type unless
@@ -32,7 +34,7 @@ import numpy as np
 from .progress import progress as _progress
 from .vtk import OutputError, read_pvd
 
-__all__ = ["can_render", "render_png", "render_strip", "render_animation"]
+__all__ = ["can_render", "render_png", "render_strip", "render_animation", "camera_3d"]
 
 #: Colours of the element types (id 0, 1, ...), cycled when there are more.
 PALETTE = (
@@ -54,7 +56,9 @@ _MARGIN = 1.08  # empty border around the motion, as a factor on its size
 _BAR = 0.14  # fraction of the width kept for the colour bar
 _LEGEND = 0.25  # fraction of the width kept for the legend of times
 
-_VIEWS = ("xy", "xz", "yz", "iso")
+_VIEWS = ("xy", "xz", "yz", "iso", "3d")
+#: viewing directions (from the motion towards the camera) of the perspective views
+_DIRECTIONS = {"iso": (1.0, 1.0, 1.0), "3d": (1.0, -1.0, 0.7)}
 
 # ---------------------------------------------------------------------------
 # can we render here?
@@ -298,7 +302,7 @@ def _check_suffix(path, allowed, param):
 
 def _check_view(view, scan):
     if view is None:
-        return "xy" if scan.planar else "iso"
+        return "xy" if scan.planar else "3d"
     if view not in _VIEWS:
         raise OutputError(f"view={view!r}: expected one of {', '.join(_VIEWS)}")
     return view
@@ -333,21 +337,12 @@ def _fit_camera(pl, scan, view, aspect, *, right=0.0, top=0.0):
     dist = 4.0 * scan.size
     # shift the projection centre so the motion sits in the free part
     cam.SetWindowCenter(right, top)
-    if view == "iso":
-        d = np.array([1.0, 1.0, 1.0]) / math.sqrt(3.0)
-        up = np.array([-1.0, -1.0, 2.0]) / math.sqrt(6.0)  # z axis, made normal to d
-        rgt = np.cross(up, d)
+    if view in _DIRECTIONS:
         pl.disable_parallel_projection()
-        # distance at which every corner of the bounding box is in view
-        half = math.tan(math.radians(cam.view_angle) / 2.0)
-        tx = half * aspect * (1.0 - right) / _MARGIN
-        ty = half * (1.0 - top) / _MARGIN
-        corners = np.array([[x, y, z] for x in (lo[0], hi[0])
-                            for y in (lo[1], hi[1]) for z in (lo[2], hi[2])]) - center
-        need = corners @ d + np.maximum(np.abs(corners @ rgt) / tx, np.abs(corners @ up) / ty)
-        dist = max(float(need.max()), 1e-6 * scan.size)
-        cam.focal_point = tuple(center)
-        cam.position = tuple(center + dist * d)
+        focal, position, up = camera_3d(lo, hi, _DIRECTIONS[view], aspect, cam.view_angle,
+                                        right=right, top=top, size=scan.size)
+        cam.focal_point = tuple(focal)
+        cam.position = tuple(position)
         cam.up = tuple(up)
         pl.renderer.ResetCameraClippingRange(
             *[float(v) for pair in zip(lo - scan.size, hi + scan.size) for v in pair]
@@ -371,6 +366,62 @@ def _fit_camera(pl, scan, view, aspect, *, right=0.0, top=0.0):
     )
 
 
+def camera_3d(lo, hi, direction=(1.0, -1.0, 0.7), aspect=4.0 / 3.0, view_angle=30.0, *, right=0.0,
+              top=0.0, size=None, margin=_MARGIN):
+    """A perspective camera looking at a bounding box from a direction, z up.
+
+    Parameters
+    ----------
+    lo, hi : array_like, shape (3,)
+        Bounds of the whole motion (m).
+    direction : array_like, shape (3,)
+        From the centre of the box towards the camera (normalised here; it
+        must not be parallel to z).
+    aspect : float
+        Picture width / height.
+    view_angle : float
+        Vertical view angle of the camera (degrees).
+    right, top : float
+        Fractions of the picture width and height kept free (colour bar,
+        time label); the camera's window centre is shifted by the caller.
+    size : float, optional
+        Length scale of the motion (default the largest edge of the box);
+        the distance is at least 1e-6 of it.
+    margin : float
+        Empty border, as a factor on the size of the motion.
+
+    Returns
+    -------
+    focal_point, position, up : ndarray, shape (3,)
+        The centre of the box, the camera at the distance where every corner
+        of the box is in view with the margin, and the z axis made normal to
+        the viewing direction.
+    """
+    lo = np.asarray(lo, dtype=float)
+    hi = np.asarray(hi, dtype=float)
+    center = 0.5 * (lo + hi)
+    d = np.asarray(direction, dtype=float)
+    d = d / np.linalg.norm(d)
+    up = np.array([0.0, 0.0, 1.0]) - d[2] * d          # z axis, made normal to d
+    nu = np.linalg.norm(up)
+    if nu < 1e-9:
+        raise OutputError(f"camera direction {tuple(direction)!r} is parallel to the z axis (the up direction)")
+    up /= nu
+    rgt = np.cross(up, d)
+    if size is None:
+        size = float(np.max(hi - lo))
+    size = size if size > 0 else 1.0
+    # distance at which every corner of the bounding box is in view
+    half = math.tan(math.radians(view_angle) / 2.0)
+    tx = half * aspect * (1.0 - right) / margin
+    ty = half * (1.0 - top) / margin
+    corners = np.array([[x, y, z] for x in (lo[0], hi[0])
+                        for y in (lo[1], hi[1]) for z in (lo[2], hi[2])]) - center
+    need = corners @ d + np.maximum(np.abs(corners @ rgt) / tx, np.abs(corners @ up) / ty)
+    dist = max(float(need.max()), 1e-6 * size)
+    return center, center + dist * d, up
+
+
 def _top_reserve(height_px, font_px=34):
     """Fraction of the picture height kept for the time label."""
     return min(0.2, font_px / float(height_px))
@@ -386,7 +437,7 @@ def _add_frame(pv, pl, mesh, scan, scalars, *, name, color=None, legend=None):
         line_width=LINE_WIDTH,
         point_size=POINT_SIZE,
         render_points_as_spheres=True,
-        lighting=False,
+        lighting=not scan.planar,  # shading shows the depth of 3-D surfaces
         render=False,
     )
     if mesh.n_cells == 0:
@@ -451,8 +502,9 @@ def render_png(pvd, out_png, time=None, *, scalars=None, window_size=(1024, 768)
         Point or cell data array to colour by (default: element type).
     window_size : (int, int), default (1024, 768)
         Picture size in pixels.
-    view : {"xy", "xz", "yz", "iso"}, optional
-        Camera direction; default "xy" for planar data, else "iso".
+    view : {"xy", "xz", "yz", "iso", "3d"}, optional
+        Camera direction; default "xy" for planar data, else "3d" (perspective
+        from (1, −1, 0.7), z up, :func:`camera_3d`); "iso" looks from (1, 1, 1).
 
     Returns
     -------
@@ -521,8 +573,9 @@ def render_strip(
         listed in the label).
     window_size : (int, int), optional
         Picture size; default (1024, 768) for overlay, (360 n, 360) for row.
-    view : {"xy", "xz", "yz", "iso"}, optional
-        Camera direction; default "xy" for planar data, else "iso".
+    view : {"xy", "xz", "yz", "iso", "3d"}, optional
+        Camera direction; default "xy" for planar data, else "3d" (perspective
+        from (1, −1, 0.7), z up, :func:`camera_3d`); "iso" looks from (1, 1, 1).
 
     Returns
     -------
@@ -635,8 +688,9 @@ def render_animation(
         Point or cell data array to colour by (default: element type).
     window_size : (int, int), default (800, 600)
         Picture size in pixels (rounded up to even numbers for MP4).
-    view : {"xy", "xz", "yz", "iso"}, optional
-        Camera direction; default "xy" for planar data, else "iso".
+    view : {"xy", "xz", "yz", "iso", "3d"}, optional
+        Camera direction; default "xy" for planar data, else "3d" (perspective
+        from (1, −1, 0.7), z up, :func:`camera_3d`); "iso" looks from (1, 1, 1).
     show_progress : bool, default False
         Report progress on stderr.
 
