@@ -35,6 +35,10 @@ this protocol:
     it was obtained. Without it, the convergence study uses a femb run with a
     much smaller step as its reference (and says so).
 
+``COMPILE = {...}``  (optional)
+    Keyword arguments of :meth:`~femb.Mechanism.compile` (e.g. ``{"redundant":
+    "eliminate"}`` for a structurally redundant closed loop).
+
 ``CONVERGENCE = {"t_end", "h": [...], "q": [...], "lambda": [...]}``  (optional)
     The h-convergence study: final time, step sizes, and the output names of
     the coordinates and of the multipliers whose relative errors at ``t_end``
@@ -72,6 +76,11 @@ SCENES = {
     "force_pulse": "femb.benchmarks.force_pulse",
     "bead_attractor": "femb.benchmarks.bead_attractor",
     "fourbar_driven": "femb.benchmarks.fourbar_driven",
+    # spatial (Lie-group generalized-α on R³ × SO(3))
+    "heavy_top": "femb.benchmarks.heavy_top",
+    "spatial_slider_crank": "femb.benchmarks.spatial_slider_crank",
+    "bricard": "femb.benchmarks.bricard",
+    "spatial_double_pendulum": "femb.benchmarks.spatial_double_pendulum",
 }
 
 #: Run settings used for a scene file without DEFAULTS (only ρ∞; t_end and h must be given).
@@ -180,7 +189,7 @@ class Scene:
         if compile_ is None:
             raise SceneError(f"scene '{self.name}': build() returned {type(obj).__name__}, "
                              "expected a femb Mechanism or Model")
-        return compile_()
+        return compile_(**dict(getattr(self.module, "COMPILE", {}) or {}))
 
     def outputs(self, result):
         """Named outputs over the stored steps (the scene's, or the free coordinates)."""

@@ -13,7 +13,7 @@ and of J2 on link2, space axes = the multipliers λ[0:3] of J1 and J2),
 ``energy`` (J). Reference: :mod:`femb.benchmarks.references.spatial_double_pendulum`
 (relative coordinates θ1, θ2).
 
-Not registered in the benchmark registry yet: it needs the Lie-group time loop.
+Registered as ``spatial_double_pendulum``.
 """
 from __future__ import annotations
 
@@ -24,6 +24,14 @@ from femb.benchmarks.references.spatial_double_pendulum import DATA, bodies, ini
 from femb.elements.spatial_bodies import SpatialRigidBody
 from femb.elements.spatial_forces import SpatialGravity
 from femb.elements.spatial_joints import RevoluteJoint
+
+PARAMETERS = {"D": ("the data dict (masses, link frames, skew axes, joint points, initial rates, g); "
+                    "see femb.benchmarks.references.spatial_double_pendulum.DATA", "-")}
+
+OUTPUTS = {**{f"x{k}_{a}": (f"centre of mass of link{k}, space {a}", "m") for k in (1, 2) for a in "xyz"},
+           **{f"Omega{k}_{a}": (f"angular velocity of link{k}, body {a}", "rad/s") for k in (1, 2) for a in "xyz"},
+           **{f"F{k}_{a}": (f"force of J{k} on link{k}, space {a}", "N") for k in (1, 2) for a in "xyz"},
+           "energy": ("kinetic + gravitational energy", "J")}
 
 #: t ∈ [0, 2] s; h and ρ∞ as a starting point (to be measured).
 DEFAULTS = {"t_end": 2.0, "h": 1e-3, "rho_inf": 0.9}

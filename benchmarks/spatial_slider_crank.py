@@ -22,7 +22,7 @@ Outputs (:func:`outputs`): ``theta`` (crank angle, rad, unwrapped), ``theta_d``
 space axes), ``energy`` (J). Reference: the minimal-coordinate model
 :mod:`femb.benchmarks.references.spatial_slider_crank`.
 
-Not registered in the benchmark registry yet: it needs the Lie-group time loop.
+Registered as ``spatial_slider_crank``.
 """
 from __future__ import annotations
 
@@ -38,6 +38,16 @@ from .spatial_common import rotation_matrices
 PARAMS = dict(A=(0.0, 0.1, 0.12), l_crank=0.08, l_rod=0.3, m_crank=0.12, m_rod=0.5, m_slider=2.0,
               J_crank=(1e-4, 1e-4, 1e-5), J_rod=(4e-4, 4e-3, 4e-3), J_slider=(1e-4, 1e-4, 1e-4),
               g=(0.0, 0.0, -9.81), crank_rate=6.0)
+
+PARAMETERS = {"crank_rate": ("initial crank rate about x", "rad/s"),
+              "P": ("the data dict (points, lengths, masses, inertias, g); see PARAMS", "-")}
+
+OUTPUTS = {"theta": ("crank angle (unwrapped)", "rad"), "theta_d": ("crank rate", "rad/s"),
+           "slider_x": ("slider position", "m"), "slider_v": ("slider velocity", "m/s"),
+           "rod_omega_x": ("rod angular velocity, space x", "rad/s"),
+           "rod_omega_y": ("rod angular velocity, space y", "rad/s"),
+           "rod_omega_z": ("rod angular velocity, space z", "rad/s"),
+           "energy": ("kinetic + gravitational energy", "J")}
 
 #: Source run of the benchmark: 5 s, h = 1e-4 s, ρ∞ = 0.9 (docs/spatial.md §7.2).
 DEFAULTS = {"t_end": 5.0, "h": 1e-4, "rho_inf": 0.9}
