@@ -45,6 +45,9 @@ COMPILE = {"redundant": "eliminate"}
 #: Benchmark run: 10 s; ρ∞ = 0.9 and h = 1e-3 s as a starting point (to be measured).
 DEFAULTS = {"t_end": 10.0, "h": 1e-3, "rho_inf": 0.9}
 
+#: Work–precision groups (the reference has no reactions).
+CONVERGENCE = {"q": ["P3_x", "P3_y", "P3_z"], "v": [], "lambda": []}
+
 
 def build(length=PARAMS["length"], width=PARAMS["width"], mass=PARAMS["mass"], g=PARAMS["g"]):
     """Bricard's mechanism as a :class:`~femb.Mechanism` (see the module docstring).

@@ -54,8 +54,8 @@ DEFAULTS = {"t_end": 2.0, "h": 2.0 ** -11, "rho_inf": 0.9}
 
 #: The protocol of docs/spatial.md §7.1: errors at t = 1 s for h = 2⁻⁸ … 2⁻¹³, ρ∞ = 0.9.
 CONVERGENCE = {"t_end": 1.0, "h": [2.0 ** -k for k in range(8, 14)], "rho_inf": 0.9,
-               "outputs": ["x_cm", "y_cm", "z_cm", "omega_x", "omega_y", "omega_z",
-                           "lambda_x", "lambda_y", "lambda_z"]}
+               "q": ["x_cm", "y_cm", "z_cm"], "v": ["omega_x", "omega_y", "omega_z"],
+               "lambda": ["lambda_x", "lambda_y", "lambda_z"]}
 
 
 def build(mass=PARAMS["mass"], inertia=PARAMS["inertia"], X=PARAMS["X"], omega0=PARAMS["omega0"],
@@ -96,10 +96,12 @@ def outputs(result, mass=None, inertia=None, g=None):
 
     Mass, inertia and gravity default to the model's own (``--set`` values included).
     """
-    top = result.model.bodies["top"]
-    mass = top.m if mass is None else mass
-    inertia = top.J if inertia is None else inertia
-    g = (result.model.gravity if result.model.gravity is not None else np.zeros(3)) if g is None else g
+    model = getattr(result, "model", None)
+    top = model.bodies["top"] if model is not None else None
+    mass = (top.m if top is not None else PARAMS["mass"]) if mass is None else mass
+    inertia = (top.J if top is not None else PARAMS["inertia"]) if inertia is None else inertia
+    if g is None:
+        g = model.gravity if model is not None and model.gravity is not None else PARAMS["g"]
     x = result.body("top")
     v = result.body("top", "qd")
     J = np.diag(inertia) if np.ndim(inertia) == 1 else np.asarray(inertia)

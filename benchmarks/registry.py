@@ -39,10 +39,11 @@ this protocol:
     Keyword arguments of :meth:`~femb.Mechanism.compile` (e.g. ``{"redundant":
     "eliminate"}`` for a structurally redundant closed loop).
 
-``CONVERGENCE = {"t_end", "h": [...], "q": [...], "lambda": [...]}``  (optional)
+``CONVERGENCE = {"t_end", "h": [...], "q": [...], "lambda": [...], "v": [...]}``  (optional)
     The h-convergence study: final time, step sizes, and the output names of
     the coordinates and of the multipliers whose relative errors at ``t_end``
-    are measured. Without it the study uses ``DEFAULTS["t_end"]``,
+    are measured; ``"v"`` optionally names the velocity outputs (default: the
+    position names with ``_d`` appended, where the scene has them). Without it the study uses ``DEFAULTS["t_end"]``,
     ``DEFAULTS["h"]`` × (1, 1/2, 1/4, 1/8), and the outputs split by name
     (names starting with ``lambda`` or ``R_`` are multipliers).
 
@@ -218,7 +219,10 @@ class Scene:
             coord = [n for n in output_names if n not in mult]
             q = coord if q is None else q
             lam = mult if lam is None else lam
-        return {"t_end": t_end, "h": list(h) if h is not None else None, "q": list(q), "lambda": list(lam)}
+        out = {"t_end": t_end, "h": list(h) if h is not None else None, "q": list(q), "lambda": list(lam)}
+        if "v" in conv:
+            out["v"] = list(conv["v"])
+        return out
 
 
 def _pair(value, scene, what, name):

@@ -36,6 +36,11 @@ OUTPUTS = {**{f"x{k}_{a}": (f"centre of mass of link{k}, space {a}", "m") for k 
 #: t ∈ [0, 2] s; h and ρ∞ as a starting point (to be measured).
 DEFAULTS = {"t_end": 2.0, "h": 1e-3, "rho_inf": 0.9}
 
+#: Work–precision groups: centres of mass, body angular velocities, joint forces.
+CONVERGENCE = {"q": [f"x{k}_{a}" for k in (1, 2) for a in "xyz"],
+               "v": [f"Omega{k}_{a}" for k in (1, 2) for a in "xyz"],
+               "lambda": [f"F{k}_{a}" for k in (1, 2) for a in "xyz"]}
+
 
 def build(D=DATA):
     """The double pendulum as a :class:`~femb.Mechanism` (see the module docstring)."""

@@ -52,6 +52,10 @@ OUTPUTS = {"theta": ("crank angle (unwrapped)", "rad"), "theta_d": ("crank rate"
 #: Source run of the benchmark: 5 s, h = 1e-4 s, ρ∞ = 0.9 (docs/spatial.md §7.2).
 DEFAULTS = {"t_end": 5.0, "h": 1e-4, "rho_inf": 0.9}
 
+#: Work–precision groups (the reference has no reactions).
+CONVERGENCE = {"q": ["theta", "slider_x"], "v": ["theta_d", "slider_v", "rod_omega_x", "rod_omega_y", "rod_omega_z"],
+               "lambda": []}
+
 
 def geometry(P=PARAMS):
     """Initial points A, B, D, rod axis e₀ (B → D) and the rod's initial rotation (body x along e₀)."""

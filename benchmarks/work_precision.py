@@ -184,7 +184,8 @@ def _groups_from_outputs(scene, names):
     setup = scene.convergence_setup(list(names))
     pos = [n for n in setup["q"] if n in names]
     lam = [n for n in setup["lambda"] if n in names]
-    vel = [n + "_d" for n in pos if n + "_d" in names]
+    vel = ([n for n in setup["v"] if n in names] if "v" in setup
+           else [n + "_d" for n in pos if n + "_d" in names])
     return {"positions": pos, "velocities": vel, "multipliers": lam}
 
 
