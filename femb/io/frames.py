@@ -83,9 +83,6 @@ class VTKStream:
             self.dt = float(dt)
             if not (self.dt > 0.0 and np.isfinite(self.dt)):
                 raise OutputError(f"dt must be a positive finite time, got {dt!r}")
-            if getattr(model, "lie", False):
-                raise OutputError(f"model '{model.name}' has spatial rotation nodes: frames at a fixed dt "
-                                  "(interpolated) are not available for it yet; use every=...")
             self.every = 1
         self._prev = None
         self._next_t = None
@@ -107,7 +104,7 @@ class VTKStream:
                 t = self._t0 + self._k * self.dt
                 if t > state.t * (1 + 1e-12) + 1e-300:
                     break
-                q, qd, _, lam = state_between(s0, state, min(t, state.t))
+                q, qd, _, lam = state_between(s0, state, min(t, state.t), self.model)
                 self.writer.write(t, model_blocks(self.model, t, q, qd, lam))
                 self._k += 1
         self._prev = state.copy() if hasattr(state, "copy") else state
