@@ -94,33 +94,93 @@ class Result:
             raise ModelError(f"no body named '{body}' (known: {sorted(self.model.bodies)})")
         return b
 
-    def _point_series(self, body, s):
-        qb = self.body(body)
-        c, sn = np.cos(qb[:, 2]), np.sin(qb[:, 2])
-        return np.stack((qb[:, 0] + c * s[0] - sn * s[1], qb[:, 1] + sn * s[0] + c * s[1]), axis=1)
+    def _spatial(self, body):
+        """True for a body on a spatial frame node (quaternion rotation)."""
+        return bool(getattr(getattr(self._body(body), "node", None), "rotation_blocks", ()))
 
-    def point(self, body, point=(0.0, 0.0)):
-        """Inertial position r_P = r + R(θ) s of a body point over time, shape (nt, 2) (m).
+    def _require_spatial(self, body, what):
+        if not self._spatial(body):
+            raise ModelError(f"{what}: body '{body}' is planar (its rotation is the angle θ, "
+                             f"result.body('{body}')[:, 2])")
+
+    def rotation(self, body):
+        """Unit quaternion p = (p0, p1, p2, p3) (body to space) of a spatial body over time, shape (nt, 4)."""
+        self._require_spatial(body, "rotation")
+        return self.body(body)[:, 3:7].copy()
+
+    def rotation_matrix(self, body):
+        """Rotation matrix R (body to space) of a spatial body over time, shape (nt, 3, 3)."""
+        from femb.rotations import quat_to_matrix
+        return np.array([quat_to_matrix.py_func(np.ascontiguousarray(p)) for p in self.rotation(body)])
+
+    def angular_velocity(self, body, frame="body"):
+        """Angular velocity of a spatial body over time, shape (nt, 3) (rad/s).
 
         Parameters
         ----------
         body : str
-        point : str or (x, y)
-            A named point of the body or body-frame coordinates (default: the node).
+        frame : {"body", "space"}
+            Components in body axes (Ω, the model's velocity entries) or in space
+            axes (ω = R Ω).
         """
-        return self._point_series(body, self._body(body).local(point))
+        self._require_spatial(body, "angular_velocity")
+        if frame not in ("body", "space"):
+            raise ModelError(f"angular_velocity: frame must be 'body' or 'space', got {frame!r}")
+        W = self.body(body, "qd")[:, 3:6]
+        if frame == "body":
+            return W
+        return np.einsum("nij,nj->ni", self.rotation_matrix(body), W)
+
+    def _point_series(self, body, s):
+        if self._spatial(body):
+            R = self.rotation_matrix(body)
+            return self.body(body)[:, 0:3] + R @ np.asarray(s, dtype=float)
+        qb = self.body(body)
+        c, sn = np.cos(qb[:, 2]), np.sin(qb[:, 2])
+        return np.stack((qb[:, 0] + c * s[0] - sn * s[1], qb[:, 1] + sn * s[0] + c * s[1]), axis=1)
+
+    def _local(self, body, point):
+        b = self._body(body)
+        if self._spatial(body) and point is not None and not isinstance(point, str) and np.size(point) == 2:
+            point = (0.0, 0.0, 0.0) if not np.any(point) else point
+        return b.local(point)
+
+    def point(self, body, point=(0.0, 0.0)):
+        """Inertial position r_P = r + R s of a body point over time (m).
+
+        Parameters
+        ----------
+        body : str
+        point : str or (x, y) or (x, y, z)
+            A named point of the body or body-frame coordinates (default: the node).
+
+        Returns
+        -------
+        ndarray, shape (nt, 2) for planar bodies, (nt, 3) for spatial ones
+        """
+        return self._point_series(body, self._local(body, point))
 
     def point_velocity(self, body, point=(0.0, 0.0)):
-        """v_P = ṙ + θ̇ J R(θ) s of a body point over time, shape (nt, 2) (m/s)."""
-        s = self._body(body).local(point)
+        """v_P = ṙ + θ̇ J R(θ) s (planar, (nt, 2)) or ṙ + R (Ω × s) (spatial, (nt, 3)) of a body point (m/s)."""
+        s = self._local(body, point)
+        if self._spatial(body):
+            v = self.body(body, "qd")
+            R = self.rotation_matrix(body)
+            return v[:, 0:3] + np.einsum("nij,nj->ni", R, np.cross(v[:, 3:6], s))
         q, v = self.body(body), self.body(body, "qd")
         c, sn = np.cos(q[:, 2]), np.sin(q[:, 2])
         d = np.stack((c * s[0] - sn * s[1], sn * s[0] + c * s[1]), axis=1)
         return v[:, :2] + v[:, 2:3] * np.stack((-d[:, 1], d[:, 0]), axis=1)
 
     def point_acceleration(self, body, point=(0.0, 0.0)):
-        """a_P = r̈ + θ̈ J R(θ) s − θ̇² R(θ) s of a body point over time, shape (nt, 2) (m/s²)."""
-        s = self._body(body).local(point)
+        """a_P = r̈ + θ̈ J R(θ) s − θ̇² R(θ) s (planar, (nt, 2)) or r̈ + R(Ω̇ × s + Ω × (Ω × s)) (spatial, (nt, 3)) (m/s²)."""
+        s = self._local(body, point)
+        if self._spatial(body):
+            v, a = self.body(body, "qd"), self.body(body, "qdd")
+            R = self.rotation_matrix(body)
+            W = v[:, 3:6]
+            loc = np.cross(a[:, 3:6], s) + np.cross(W, np.cross(W, s))
+            return a[:, 0:3] + np.einsum("nij,nj->ni", R, loc)
         q, v, a = self.body(body), self.body(body, "qd"), self.body(body, "qdd")
         c, sn = np.cos(q[:, 2]), np.sin(q[:, 2])
         d = np.stack((c * s[0] - sn * s[1], sn * s[0] + c * s[1]), axis=1)
@@ -194,7 +254,9 @@ class Result:
         Returns
         -------
         ndarray, shape (nt, 3)
-            F_x, F_y (N) in the inertial frame and M_z (N·m, counter-clockwise).
+            F_x, F_y (N) in the inertial frame and M_z (N·m, counter-clockwise);
+            for a spatial joint shape (nt, 6): F_x, F_y, F_z (N) and M_x, M_y,
+            M_z (N·m) in space axes, the moment about the point.
         """
         from femb import assembly
 
@@ -205,6 +267,8 @@ class Result:
         m = self.model
         body = e.b if on == "b" else e.a
         other = e.a if on == "b" else e.b
+        if getattr(getattr(body, "node", None), "rotation_blocks", ()):
+            return self._reaction_at_spatial(e, idx, body, other, point, on)
         if point is None:
             s = getattr(e, "sb" if on == "b" else "sa", None)
             s = np.zeros(2) if s is None else np.asarray(s, dtype=float)
@@ -228,6 +292,40 @@ class Result:
             d = xs[:2] - P[k]
             out[k, :2] = sign * F
             out[k, 2] = sign * (Mn + d[0] * F[1] - d[1] * F[0])
+        return out
+
+    def _frame_series(self, node):
+        """(r (nt, 3), R (nt, 3, 3)) of a spatial node, fixed ones included."""
+        from femb.rotations import quat_to_matrix
+        x = self.model.node_coordinates(node.name, self.q)
+        R = np.array([quat_to_matrix.py_func(np.ascontiguousarray(p)) for p in x[:, 3:7]])
+        return x[:, 0:3], R
+
+    def _reaction_at_spatial(self, e, idx, body, other, point, on):
+        """:meth:`reaction_at` for spatial joints: (nt, 6) = force (N) and moment (N·m), space axes."""
+        from femb import assembly
+
+        m = self.model
+        if point is None:
+            s = np.asarray(getattr(e, "Xb" if on == "b" else "Xa", np.zeros(3)), dtype=float)
+        else:
+            s = np.asarray(body.local(point), dtype=float)
+        sign, src = 1.0, body
+        if not np.any(m.node_vindex[body.node.name] < m.nq):     # fixed body: from the other, opposite
+            sign, src = -1.0, other
+        r_b, R_b = self._frame_series(body.node)
+        P = r_b + R_b @ s
+        r_s, R_s = self._frame_series(src.node)
+        vidx = m.node_vindex[src.node.name]
+        out = np.zeros((self.t.size, 6))
+        for k, (t, q, lam) in enumerate(zip(self.t, self.q, self.lam)):
+            B = assembly.constraint_jacobian(m, t, q).tocsr()[idx]
+            g = -(B.T @ lam[idx])
+            gen = np.array([g[i] if i < m.nq else 0.0 for i in vidx])
+            F = gen[0:3]
+            M_node = R_s[k] @ gen[3:6]            # the rotation entries are body-axes moments
+            out[k, 0:3] = sign * F
+            out[k, 3:6] = sign * (M_node + np.cross(r_s[k] - P[k], F))
         return out
 
     def write_vtk(self, directory, every=1, basename="frame"):

@@ -196,3 +196,37 @@ def test_planar_and_spatial_rotation_entries_apart():
     r = femb.simulate(both, 0.2, 1e-3, rho_inf=0.9)
     name = [n for n in mp.node_index if n != "ground"][0]
     assert np.allclose(r.body(name)[-1], ref.body(name)[-1], rtol=0, atol=1e-12)
+
+
+def test_result_access_of_a_spatial_body(top):
+    """Rotation, angular velocity in both frames, body points and the support reaction of the heavy top."""
+    h = 2.0 ** -10
+    r = femb.simulate(top, 0.2, h, rho_inf=0.9)
+    R = r.rotation_matrix("top")
+    assert np.allclose(np.einsum("nij,nkj->nik", R, R), np.eye(3), atol=1e-14)
+    W = r.angular_velocity("top")
+    w = r.angular_velocity("top", frame="space")
+    assert np.allclose(w, np.einsum("nij,nj->ni", R, W), atol=1e-12)
+    # the fixed point O stays at the origin (index 3 holds positions exactly); its velocity vanishes
+    # to the scheme's O(h²) (index 3 does not enforce the velocity constraint)
+    assert np.abs(r.point("top", "O")).max() < 1e-12
+    r2 = femb.simulate(top, 0.2, h / 2, rho_inf=0.9)
+    vO, vO2 = np.abs(r.point_velocity("top", "O")).max(), np.abs(r2.point_velocity("top", "O")).max()
+    assert vO2 < vO / 3.0, (vO, vO2)
+    # point velocity and acceleration are the derivatives of the point position and velocity
+    # (central differences of stored steps, second order)
+    c = r.point("top", (0.1, 0.2, 0.3))
+    v = r.point_velocity("top", (0.1, 0.2, 0.3))
+    a = r.point_acceleration("top", (0.1, 0.2, 0.3))
+    assert np.abs((c[2:] - c[:-2]) / (2 * h) - v[1:-1]).max() < 1e-2 * np.abs(v).max()
+    assert np.abs((v[2:] - v[:-2]) / (2 * h) - a[1:-1]).max() < 1e-2 * np.abs(a).max()
+    # the support acts on the top with the force λ (docs/spatial.md: Φ = p_ground − p_top) and no moment
+    # about the support point
+    F = r.reaction_at("support")
+    assert F.shape == (r.t.size, 6)
+    assert np.allclose(F[:, 0:3], r.reaction("support"), rtol=1e-12, atol=1e-9)
+    assert np.abs(F[:, 3:6]).max() < 1e-9 * np.abs(F[:, 0:3]).max()
+    with pytest.raises(ModelError, match="planar"):
+        from femb.benchmarks import pendulum
+        femb.simulate(pendulum.build().compile(), 0.01, 1e-3).rotation(
+            [n for n in pendulum.build().compile().bodies if n != "ground"][0])
