@@ -267,7 +267,7 @@ def spatial_ground(ground):
 # ---------------------------------------------------------------------------
 # rigid body kernels
 # ---------------------------------------------------------------------------
-@kernel(allocates=True)
+@kernel
 def rigid_body_mass(P, xe, Me):
     """Me = diag(m I₃, J); P = (m, J row-major (9))."""
     for e in range(xe.shape[0]):
@@ -277,7 +277,7 @@ def rigid_body_mass(P, xe, Me):
                 Me[e, 3 + i, 3 + j] = P[e, 1 + 3 * i + j]
 
 
-@kernel(allocates=True)
+@kernel
 def rigid_body_force(P, t, tf, xe, ve, jac, fe, fq, fv):
     """Gyroscopic moment f_θ = −Ω × JΩ; fv(θ, Ω) = −(Ω~J − (JΩ)~); fq = 0."""
     for e in range(xe.shape[0]):
@@ -442,7 +442,7 @@ class SpatialRigidBody(SpatialBody, Element):
         return [_outline_block(cls.__name__, p, qe, qde), _frame_block(cls.__name__ + "Frame", p, qe, qde)]
 
 
-@kernel(allocates=True)
+@kernel
 def point_mass_mass(P, xe, Me):
     """Me = diag(m I₃, 0); P = (m,)."""
     for e in range(xe.shape[0]):

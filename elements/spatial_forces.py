@@ -30,11 +30,11 @@ from femb.element import Element
 from femb.errors import ModelError
 from femb.functions import Constant, as_time_function, evaluate
 from femb.geometry import GeometryBlock
+from femb import rotations as rt
 from femb.jit import kernel
 
 from . import _spatial as sp
 from . import _spatial_geometry as sg
-from ._spatial import NV, NW, frames, prim_dot1, prim_dot2
 from .bodies import _check_scalar
 from .forces import Gravity
 from .spatial_bodies import vector3
@@ -44,99 +44,92 @@ from .spatial_joints import A1, A2, A3, B1, B2, B3, SpatialPairElement, _resolve
 # ---------------------------------------------------------------------------
 # measure forces
 # ---------------------------------------------------------------------------
-@kernel(allocates=True)
-def _add_measure(k, m, g, Hm, P_K, P_C, P_m0, v, jac, fe, fq, fv):
-    """Add measure k's force: F = K (m − m0) + C g·v to fe, fq, fv (one element)."""
-    md = 0.0
-    for i in range(12):
-        md += g[i] * v[i]
-    F = P_K * (m - P_m0) + P_C * md
-    for i in range(12):
-        fe[i] -= F * g[i]
+@kernel
+def _tension(m, g, K, C, m0, v):
+    """F = K (m − m0) + C ṁ, ṁ = g·v (v a 12-vector of tuples)."""
+    return K * (m - m0) + C * sp.dot12(g, v)
+
+
+@kernel
+def _add_measure(F, g, hv, K, C, jac, fe, fq, fv):
+    """Add a measure's force −F g to fe and, if ``jac``, −g (K g + C vᵀH)ᵀ to fq and −C g gᵀ to fv.
+
+    The caller has added −F H (H the measure's Hessian) to fq itself; hv = vᵀH.
+    """
+    sp.axpy_row(fe, -F, g)
     if jac:
-        for j in range(12):
-            hv = 0.0
-            for i in range(12):
-                hv += v[i] * Hm[i, j]
-            s = P_K * g[j] + P_C * hv
-            for i in range(12):
-                fq[i, j] -= F * Hm[i, j] + g[i] * s
-        if P_C != 0.0:
-            for i in range(12):
-                for j in range(12):
-                    fv[i, j] -= P_C * g[i] * g[j]
+        sp.add_outer12(fq, -1.0, g, sp.lin12(K, g, C, hv))
+        if C != 0.0:
+            sp.add_outer12(fv, -C, g, g)
 
 
-@kernel(allocates=True)
+@kernel
 def point_spring_force(P, t, tf, xe, ve, jac, fe, fq, fv):
     """Point-to-point spring–damper: measure ℓ = |p_b − p_a|; P = (frame (24), k, c, ℓ0).
 
     g = nᵀG, H = Gᵀ(I − nnᵀ)G/ℓ + blockdiag(0, −X_a~(R_aᵀn)~, 0, X_b~(R_bᵀn)~),
-    n = d/ℓ, δd = G δq. ℓ = 0 gives NaN (direction undefined).
+    n = d/ℓ, δd = G δq = [−I, R_a X_a~, I, −R_b X_b~] δq. ℓ = 0 gives NaN (direction undefined).
     """
-    W = np.empty((NW, 3, 3))
-    V = np.empty((NV, 3))
-    G = np.empty((3, 12))
-    g = np.empty(12)
-    Hm = np.empty((12, 12))
     for e in range(xe.shape[0]):
         Pe = P[e]
-        frames(Pe, xe[e], W, V)
-        d = V[sp.V_D]
+        F = sp.frames(Pe, xe[e])
+        Ra, Rb, Rab, Xa, Xb, rb, pa, pb, d, xa = F
+        v = sp.vec12(ve[e])
         L = math.sqrt(sp.dot3(d, d))
-        n = V[15]
-        for i in range(3):
-            n[i] = d[i] / L if L > 0.0 else math.nan
-        sp.gmat(Pe, W, V, G)
-        for j in range(12):
-            g[j] = n[0] * G[0, j] + n[1] * G[1, j] + n[2] * G[2, j]
+        il = 1.0 / L if L > 0.0 else math.nan
+        n = sp.scale3(il, d)
+        G0 = sp.neg9(sp.I9)
+        G1 = sp.rskew(Ra, Xa)
+        G3 = sp.neg9(sp.rskew(Rb, Xb))
+        g = (sp.mtv(G0, n), sp.mtv(G1, n), n, sp.mtv(G3, n))
+        K, C = Pe[24], Pe[25]
+        Fk = _tension(L, g, K, C, Pe[26], v)
+        hv = sp.Z12
         if jac:
-            for i in range(12):
-                for j in range(12):
-                    Hm[i, j] = (G[0, i] * G[0, j] + G[1, i] * G[1, j] + G[2, i] * G[2, j] - g[i] * g[j]) / L
-            sp.add_arm_blocks(Pe, Hm, n, 1.0, W, V)
-        _add_measure(0, L, g, Hm, Pe[24], Pe[25], Pe[26], ve[e], jac, fe[e], fq[e], fv[e])
+            c = -Fk * il
+            hg = sp.gtg(fq[e], True, c, G0, G1, sp.I9, G3, v)
+            sp.add_outer12(fq[e], -c, g, g)
+            ha = sp.blk(fq[e], True, 3, 3, -Fk, sp.neg9(sp.skskw(Xa, sp.mtv(Ra, n))), v[1])
+            hb = sp.blk(fq[e], True, 9, 9, -Fk, sp.skskw(Xb, sp.mtv(Rb, n)), v[3])
+            gv = sp.dot12(g, v)
+            hv = sp.lin12(il, hg, -gv * il, g)
+            hv = (hv[0], sp.add3(hv[1], ha), hv[2], sp.add3(hv[3], hb))
+        _add_measure(Fk, g, hv, K, C, jac, fe[e], fq[e], fv[e])
 
 
-@kernel(allocates=True)
+@kernel
+def _bushing_measure(k, Pe, F, H, add, c, v):
+    """Measure k of a bushing: Δ_k = u_k·d (k < 3, dot-2) or ψ_(k−3) (dot-1); (m, g, vᵀH)."""
+    if k < 3:
+        return sp.dot2(sp.vec3(Pe, A1 + 3 * k), 0.0, F, H, add, c, v)
+    if k == 3:
+        return sp.dot1(sp.vec3(Pe, A3), sp.vec3(Pe, B2), F, H, add, c, v)
+    if k == 4:
+        return sp.dot1(sp.vec3(Pe, A1), sp.vec3(Pe, B3), F, H, add, c, v)
+    return sp.dot1(sp.vec3(Pe, A2), sp.vec3(Pe, B1), F, H, add, c, v)
+
+
+@kernel
 def bushing_force(P, t, tf, xe, ve, jac, fe, fq, fv):
     """Six-component bushing; P = (frame (24), K (6), C (6), m0 (6)).
 
     Measures in the joint frame of a: Δ_k = u_k·d − Δ0_k (k = 1, 2, 3; dot-2) and
     ψ = (u3·w2, u1·w3, u2·w1) (dot-1; the small relative rotation about ē1, ē2, ē3).
     """
-    W = np.empty((NW, 3, 3))
-    V = np.empty((NV, 3))
-    Phi = np.zeros(6)
-    B = np.zeros((6, 12))
-    Hm = np.zeros((12, 12))
-    lam = np.zeros(6)
     for e in range(xe.shape[0]):
         Pe = P[e]
-        x = xe[e]
-        frames(Pe, x, W, V)
+        F = sp.frames(Pe, xe[e])
+        v = sp.vec12(ve[e])
         for k in range(6):
-            for i in range(6):
-                lam[i] = 0.0
-            lam[k] = 1.0
-            Hm[:, :] = 0.0
-            if k == 0:
-                prim_dot2(0, x, Pe[A1:A1 + 3], 0.0, lam, jac, Phi, B, Hm, W, V)
-            elif k == 1:
-                prim_dot2(1, x, Pe[A2:A2 + 3], 0.0, lam, jac, Phi, B, Hm, W, V)
-            elif k == 2:
-                prim_dot2(2, x, Pe[A3:A3 + 3], 0.0, lam, jac, Phi, B, Hm, W, V)
-            elif k == 3:
-                prim_dot1(3, Pe[A3:A3 + 3], Pe[B2:B2 + 3], lam, jac, Phi, B, Hm, W, V)
-            elif k == 4:
-                prim_dot1(4, Pe[A1:A1 + 3], Pe[B3:B3 + 3], lam, jac, Phi, B, Hm, W, V)
-            else:
-                prim_dot1(5, Pe[A2:A2 + 3], Pe[B1:B1 + 3], lam, jac, Phi, B, Hm, W, V)
-            _add_measure(k, Phi[k], B[k], Hm, Pe[24 + k], Pe[30 + k], Pe[36 + k], ve[e], jac,
-                         fe[e], fq[e], fv[e])
+            K, C = Pe[24 + k], Pe[30 + k]
+            m, g, hv = _bushing_measure(k, Pe, F, fq[e], False, 0.0, v)
+            Fk = _tension(m, g, K, C, Pe[36 + k], v)
+            if jac:
+                _bushing_measure(k, Pe, F, fq[e], True, -Fk, v)
+            _add_measure(Fk, g, hv, K, C, jac, fe[e], fq[e], fv[e])
 
 
-@kernel(allocates=True)
+@kernel
 def rotational_spring_force(P, t, tf, xe, ve, jac, fe, fq, fv):
     """Rotational spring–damper about ē3: measure θ = atan2(s, c) ∈ (−π, π].
 
@@ -146,41 +139,37 @@ def rotational_spring_force(P, t, tf, xe, ve, jac, fe, fq, fv):
     H = (g_s g_cᵀ − g_c g_sᵀ + c H_s − s H_c)/ρ − (c g_s − s g_c)(2 s g_s + 2 c g_c)ᵀ/ρ².
     P = (frame (24), k, c, θ0).
     """
-    W = np.empty((NW, 3, 3))
-    V = np.empty((NV, 3))
-    Phi = np.zeros(2)
-    B = np.zeros((2, 12))
-    Hs = np.zeros((12, 12))
-    Hc = np.zeros((12, 12))
-    Hm = np.zeros((12, 12))
-    g = np.zeros(12)
-    one = np.zeros(2)
-    a1 = np.empty(3)
-    a2 = np.empty(3)
     for e in range(xe.shape[0]):
         Pe = P[e]
-        frames(Pe, xe[e], W, V)
+        F = sp.frames(Pe, xe[e])
+        v = sp.vec12(ve[e])
         th0 = Pe[26]
         ct, st = math.cos(th0), math.sin(th0)
-        for i in range(3):
-            a1[i] = ct * Pe[A1 + i] + st * Pe[A2 + i]
-            a2[i] = -st * Pe[A1 + i] + ct * Pe[A2 + i]
-        Hs[:, :] = 0.0
-        Hc[:, :] = 0.0
-        one[0] = 1.0
-        one[1] = 1.0
-        prim_dot1(0, a2, Pe[B1:B1 + 3], one, jac, Phi, B, Hs, W, V)     # s, g_s, H_s
-        prim_dot1(1, a1, Pe[B1:B1 + 3], one, jac, Phi, B, Hc, W, V)     # c, g_c, H_c
-        s, c = Phi[0], Phi[1]
+        e1 = sp.vec3(Pe, A1)
+        e2 = sp.vec3(Pe, A2)
+        a1 = (ct * e1[0] + st * e2[0], ct * e1[1] + st * e2[1], ct * e1[2] + st * e2[2])
+        a2 = (-st * e1[0] + ct * e2[0], -st * e1[1] + ct * e2[1], -st * e1[2] + ct * e2[2])
+        b1 = sp.vec3(Pe, B1)
+        s, gs, hs = sp.dot1(a2, b1, F, fq[e], False, 0.0, v)
+        c, gc, hc = sp.dot1(a1, b1, F, fq[e], False, 0.0, v)
         rho = s * s + c * c
-        for i in range(12):
-            g[i] = (c * B[0, i] - s * B[1, i]) / rho
+        g = sp.lin12(c / rho, gs, -s / rho, gc)
+        K, C = Pe[24], Pe[25]
+        Fk = _tension(math.atan2(s, c), g, K, C, 0.0, v)
+        hv = sp.Z12
         if jac:
-            for i in range(12):
-                for j in range(12):
-                    Hm[i, j] = ((B[0, i] * B[1, j] - B[1, i] * B[0, j] + c * Hs[i, j] - s * Hc[i, j]) / rho
-                                - g[i] * (2.0 * s * B[0, j] + 2.0 * c * B[1, j]) / rho)
-        _add_measure(0, math.atan2(s, c), g, Hm, Pe[24], Pe[25], 0.0, ve[e], jac, fe[e], fq[e], fv[e])
+            # fq −= F H, H as in the docstring
+            sp.dot1(a2, b1, F, fq[e], True, -Fk * c / rho, v)
+            sp.dot1(a1, b1, F, fq[e], True, Fk * s / rho, v)
+            sp.add_outer12(fq[e], -Fk / rho, gs, gc)
+            sp.add_outer12(fq[e], Fk / rho, gc, gs)
+            r2 = sp.lin12(2.0 * s, gs, 2.0 * c, gc)
+            sp.add_outer12(fq[e], Fk / rho, g, r2)
+            # vᵀH
+            hv = sp.lin12(sp.dot12(v, gs) / rho, gc, -sp.dot12(v, gc) / rho, gs)
+            hv = sp.lin12(1.0, hv, 1.0, sp.lin12(c / rho, hs, -s / rho, hc))
+            hv = sp.lin12(1.0, hv, -sp.dot12(v, g) / rho, r2)
+        _add_measure(Fk, g, hv, K, C, jac, fe[e], fq[e], fv[e])
 
 
 class PointSpringDamper(SpatialPairElement):
@@ -412,7 +401,7 @@ def _pair_wrench_block(cls, p, t, qe, qde):
 # ---------------------------------------------------------------------------
 # loads on one body
 # ---------------------------------------------------------------------------
-@kernel(allocates=True)
+@kernel
 def load_force(P, t, tf, xe, ve, jac, fe, fq, fv):
     """Force or torque on one frame node, scaled by f(t); P = (X (3), V (3), follower, torque).
 
@@ -421,20 +410,14 @@ def load_force(P, t, tf, xe, ve, jac, fe, fq, fv):
     dead torque M:          f_θ = RᵀM, fq(θ,θ) = (RᵀM)~
     follower torque M_b:    f_θ = M_b
     """
-    R = np.empty((3, 3))
-    a = np.empty(3)
     for e in range(xe.shape[0]):
         s = tf[e, 0, 0]
-        X = P[e, 0:3]
-        F0, F1, F2 = s * P[e, 3], s * P[e, 4], s * P[e, 5]
+        X = sp.vec3(P[e], 0)
+        Fv = (s * P[e, 3], s * P[e, 4], s * P[e, 5])
         follower = P[e, 6] != 0.0
         torque = P[e, 7] != 0.0
-        sp.rt.quat_to_matrix_into(xe[e, 3:7], R)
-        if not follower:
-            for i in range(3):
-                a[i] = R[0, i] * F0 + R[1, i] * F1 + R[2, i] * F2      # Rᵀ V
-        else:
-            a[0], a[1], a[2] = F0, F1, F2
+        R = rt.quat_to_matrix_t(xe[e, 3], xe[e, 4], xe[e, 5], xe[e, 6])
+        a = Fv if follower else sp.mtv(R, Fv)          # body-axes load
         if torque:
             for i in range(3):
                 fe[e, 3 + i] = a[i]
@@ -446,26 +429,25 @@ def load_force(P, t, tf, xe, ve, jac, fe, fq, fv):
                 fq[e, 5, 3] = -a[1]
                 fq[e, 5, 4] = a[0]
             continue
-        fe[e, 3] = X[1] * a[2] - X[2] * a[1]
-        fe[e, 4] = X[2] * a[0] - X[0] * a[2]
-        fe[e, 5] = X[0] * a[1] - X[1] * a[0]
+        m = sp.cross3(X, a)
+        for i in range(3):
+            fe[e, 3 + i] = m[i]
         if not follower:
-            fe[e, 0], fe[e, 1], fe[e, 2] = F0, F1, F2
+            for i in range(3):
+                fe[e, i] = Fv[i]
             if jac:
-                # X~ a~ = a Xᵀ − (X·a) I
-                xa = X[0] * a[0] + X[1] * a[1] + X[2] * a[2]
+                M = sp.skskw(X, a)            # X~ a~ = a Xᵀ − (X·a) I
                 for i in range(3):
                     for j in range(3):
-                        fq[e, 3 + i, 3 + j] = a[i] * X[j] - (xa if i == j else 0.0)
+                        fq[e, 3 + i, 3 + j] = M[3 * i + j]
         else:
+            f = sp.mv(R, Fv)
+            K = sp.rskew(R, Fv)               # R F_b~;  fq(r, θ) = −R F_b~
             for i in range(3):
-                fe[e, i] = R[i, 0] * F0 + R[i, 1] * F1 + R[i, 2] * F2
-            if jac:
-                # −R F_b~ : column j = −R (e_j × F_b)... (F~)[k, j] = −ε_kjm F_m
-                for i in range(3):
-                    fq[e, i, 3] = -(R[i, 1] * F2 - R[i, 2] * F1)
-                    fq[e, i, 4] = -(R[i, 2] * F0 - R[i, 0] * F2)
-                    fq[e, i, 5] = -(R[i, 0] * F1 - R[i, 1] * F0)
+                fe[e, i] = f[i]
+                if jac:
+                    for j in range(3):
+                        fq[e, i, 3 + j] = -K[3 * i + j]
 
 
 class _Load(Element):

@@ -43,11 +43,12 @@ from femb.element import Element
 from femb.errors import ModelError
 from femb.functions import as_time_function
 from femb.geometry import GeometryBlock
+from femb import rotations as rt
 from femb.jit import kernel
 
 from . import _spatial as sp
 from . import _spatial_geometry as sg
-from ._spatial import EA, EB, NPAR_FRAME, NV, NW, frames, prim_distance, prim_dot1, prim_dot2, prim_point
+from ._spatial import EA, EB, NPAR_FRAME
 from .bodies import Ground
 from .spatial_bodies import SpatialBody, SpatialGround, spatial_ground, unit3, vector3
 
@@ -276,29 +277,41 @@ SPEC = 6
 PROGRAM = NPAR_FRAME + 1
 
 
-@kernel(allocates=True)
-def _driven_axis(P, tf, base, value, k, V):
-    """ā(t) into V[10], t̄ into V[11] (body a axes), θ* = value + φ(t); returns (φ', φ'')."""
+@kernel
+def _driven_axis(P, tf, base, value, k):
+    """ā(t), t̄(t) (body a axes), θ* = value + φ(t), and (φ', φ'').
+
+    ā = −sin θ* ē_a1 + cos θ* ē_a2, t̄ = cos θ* ē_a1 + sin θ* ē_a2 (= −∂ā/∂θ*),
+    ē_a1 = P[base:base+3], ē_a2 = P[base+3:base+6].
+    """
     th = value + tf[k, 0]
     c, s = math.cos(th), math.sin(th)
-    for i in range(3):
-        V[10, i] = -s * P[base + i] + c * P[base + 3 + i]
-        V[11, i] = c * P[base + i] + s * P[base + 3 + i]
-    return tf[k, 1], tf[k, 2]
+    e1 = sp.vec3(P, base)
+    e2 = sp.vec3(P, base + 3)
+    abar = (-s * e1[0] + c * e2[0], -s * e1[1] + c * e2[1], -s * e1[2] + c * e2[2])
+    tbar = (c * e1[0] + s * e2[0], c * e1[1] + s * e2[1], c * e1[2] + s * e2[2])
+    return abar, tbar, tf[k, 1], tf[k, 2]
 
 
-@kernel(allocates=True)
-def joint_ev(P, t, tf, x, lam, jac, Phi, B, H, W, V, G):
-    """One element's Φ (nc), B (nc, 12) and H += ∂(Bᵀλ)/∂(δr, δθ) from its row program.
+@kernel
+def joint_ev(P, tf, x, lam, jac, Phi, B, H, rates, v, gam):
+    """One element's rows from its row program.
 
     P = (frame (24), n, entries (n × 6)); entry = (kind, row, ia, ib, value, k):
     POINT: 3 rows Φ = p_a − p_b; DOT1: Φ = (R_a P[ia:ia+3])·(R_b P[ib:ib+3]);
     DOT2: Φ = (R_a P[ia:ia+3])·d − value (− φ_k(t) if k ≥ 0); DISTANCE: L = value;
     DRIVEN_DOT1: ā(t) = −sin θ* ē_a1 + cos θ* ē_a2 with ē_a1 = P[ia:ia+3],
     ē_a2 = P[ia+3:ia+6], θ* = value + φ_k(t), b̄ = P[ib:ib+3].
+
+    Constraint kernel (``rates`` false): writes Φ (nc), B (nc, 12) and, if ``jac``, adds
+    H = ∂(Bᵀλ)/∂(δr, δθ) to ``H``; v and gam are not used. Rates kernel (``rates``
+    true): writes the convective term gam[row] = vᵀH_row v of every row (H_row the
+    Hessian of that row, v the velocities (12)) and touches neither lam, Phi, B nor H.
     """
-    frames(P, x, W, V)
+    F = sp.frames(P, x)
     n = int(P[NPAR_FRAME])
+    vv = sp.vec12(v) if rates else sp.Z12
+    add = jac and not rates
     for s in range(n):
         o = PROGRAM + SPEC * s
         kind = int(P[o])
@@ -308,21 +321,35 @@ def joint_ev(P, t, tf, x, lam, jac, Phi, B, H, W, V, G):
         val = P[o + 4]
         k = int(P[o + 5])
         if kind == POINT:
-            prim_point(r, P, x, lam, jac, Phi, B, H, W, V)
-        elif kind == DOT1:
-            prim_dot1(r, P[ia:ia + 3], P[ib:ib + 3], lam, jac, Phi, B, H, W, V)
+            if rates:
+                gam[r] = sp.dot12(sp.point_hess(F, (1.0, 0.0, 0.0), H, False, 1.0, vv), vv)
+                gam[r + 1] = sp.dot12(sp.point_hess(F, (0.0, 1.0, 0.0), H, False, 1.0, vv), vv)
+                gam[r + 2] = sp.dot12(sp.point_hess(F, (0.0, 0.0, 1.0), H, False, 1.0, vv), vv)
+            else:
+                sp.point_rows(r, F, Phi, B)
+                if jac:
+                    sp.point_hess(F, (lam[r], lam[r + 1], lam[r + 2]), H, True, 1.0, vv)
+            continue
+        c = 0.0 if rates else lam[r]
+        if kind == DOT1:
+            phi, g, hv = sp.dot1(sp.vec3(P, ia), sp.vec3(P, ib), F, H, add, c, vv)
         elif kind == DOT2:
             off = val + (tf[k, 0] if k >= 0 else 0.0)
-            prim_dot2(r, x, P[ia:ia + 3], off, lam, jac, Phi, B, H, W, V)
+            phi, g, hv = sp.dot2(sp.vec3(P, ia), off, F, H, add, c, vv)
         elif kind == DISTANCE:
-            prim_distance(r, P, val, lam, jac, Phi, B, H, W, V, G)
+            phi, g, hv = sp.distance(val, F, H, add, c, vv)
         else:
-            _driven_axis(P, tf, ia, val, k, V)
-            prim_dot1(r, V[10], P[ib:ib + 3], lam, jac, Phi, B, H, W, V)
+            abar, tbar, d1, d2 = _driven_axis(P, tf, ia, val, k)
+            phi, g, hv = sp.dot1(abar, sp.vec3(P, ib), F, H, add, c, vv)
+        if rates:
+            gam[r] = sp.dot12(hv, vv)
+        else:
+            Phi[r] = phi
+            sp.put_row(B, r, g)
 
 
-@kernel(allocates=True)
-def joint_time(P, t, tf, x, v, Phi_t, gam, W, V, G):
+@kernel
+def joint_time(P, tf, x, v, Phi_t, gam):
     """Φ_t and the explicit-time part 2 B_t v + Φ_tt (added to gam) of the rheonomic rows.
 
     DOT2 with a time function: Φ_t = −s′, Φ_tt = −s″, B_t = 0. DRIVEN_DOT1:
@@ -330,7 +357,6 @@ def joint_time(P, t, tf, x, v, Phi_t, gam, W, V, G):
     ā̇ = −φ′ t̄, ā̈ = −φ″ t̄ − φ′² ā (docs/spatial.md §4).
     """
     n = int(P[NPAR_FRAME])
-    framed = False
     for s in range(n):
         o = PROGRAM + SPEC * s
         kind = int(P[o])
@@ -342,66 +368,38 @@ def joint_time(P, t, tf, x, v, Phi_t, gam, W, V, G):
             Phi_t[r] = -tf[k, 1]
             gam[r] += -tf[k, 2]
         elif kind == DRIVEN_DOT1:
-            if not framed:
-                frames(P, x, W, V)
-                framed = True
+            Ra = rt.quat_to_matrix_t(x[3], x[4], x[5], x[6])
+            Rb = rt.quat_to_matrix_t(x[10], x[11], x[12], x[13])
             ia = int(P[o + 2])
             ib = int(P[o + 3])
-            d1, d2 = _driven_axis(P, tf, ia, P[o + 4], k, V)
-            Ra, Rb = W[sp.W_RA], W[sp.W_RB]
-            w, ad, c, tmp = V[sp.V_W], V[12], V[13], V[14]
-            sp.rot_vec(Rb, P[ib:ib + 3], w)
-            for i in range(3):
-                tmp[i] = -d1 * V[11, i]
-            sp.rot_vec(Ra, tmp, ad)                  # R_a ā̇
+            abar, tbar, d1, d2 = _driven_axis(P, tf, ia, P[o + 4], k)
+            w = sp.mv(Rb, sp.vec3(P, ib))
+            ad = sp.mv(Ra, sp.scale3(-d1, tbar))                                   # R_a ā̇
             Phi_t[r] = sp.dot3(ad, w)
-            for i in range(3):
-                tmp[i] = -d2 * V[11, i] - d1 * d1 * V[10, i]
-            sp.rot_vec(Ra, tmp, c)                   # R_a ā̈
-            phitt = sp.dot3(c, w)
-            sp.cross_into(ad, w, c)                  # c_t; B_t = [0, c_tᵀR_a, 0, −c_tᵀR_b]
-            sp.rotT_vec(Ra, c, tmp)
-            btv = tmp[0] * v[3] + tmp[1] * v[4] + tmp[2] * v[5]
-            sp.rotT_vec(Rb, c, tmp)
-            btv -= tmp[0] * v[9] + tmp[1] * v[10] + tmp[2] * v[11]
+            add_ = sp.mv(Ra, sp.sub3(sp.scale3(-d2, tbar), sp.scale3(d1 * d1, abar)))   # R_a ā̈
+            phitt = sp.dot3(add_, w)
+            ct = sp.cross3(ad, w)                    # c_t; B_t = [0, c_tᵀR_a, 0, −c_tᵀR_b]
+            btv = sp.dot3(sp.mtv(Ra, ct), sp.vec3(v, 3)) - sp.dot3(sp.mtv(Rb, ct), sp.vec3(v, 9))
             gam[r] += 2.0 * btv + phitt
 
 
-@kernel(allocates=True)
+@kernel
 def joint_constraint(P, t, tf, xe, le, jac, Phi, B, H):
     """Batch constraint kernel of every spatial joint type (Φ, B, H; docs/kernels.md)."""
-    W = np.empty((NW, 3, 3))
-    V = np.empty((NV, 3))
-    G = np.empty((3, 12))
     for e in range(xe.shape[0]):
-        joint_ev(P[e], t, tf[e], xe[e], le[e], jac, Phi[e], B[e], H[e], W, V, G)
+        joint_ev(P[e], tf[e], xe[e], le[e], jac, Phi[e], B[e], H[e], False, le[e], Phi[e])
 
 
-@kernel(allocates=True)
+@kernel
 def joint_rates(P, t, tf, xe, ve, Phi_t, gam):
     """Batch rates kernel of every spatial joint type: Φ_t and γ = (Bv)_x v + 2 B_t v + Φ_tt.
 
-    The convective term of row k is vᵀ H_k v, H_k the Hessian kernel at λ = e_k
-    (exact; docs/spatial.md §2).
+    The convective term of row k is vᵀ H_k v, H_k the Hessian of row k (exact;
+    docs/spatial.md §2), from the primitives' vᵀH without forming H.
     """
-    nc = Phi_t.shape[1]
-    W = np.empty((NW, 3, 3))
-    V = np.empty((NV, 3))
-    G = np.empty((3, 12))
-    lam = np.zeros(nc)
-    ph = np.zeros(nc)
-    Bs = np.zeros((nc, 12))
-    Hs = np.zeros((12, 12))
     for e in range(xe.shape[0]):
-        for k in range(nc):
-            for i in range(nc):
-                lam[i] = 0.0
-            lam[k] = 1.0
-            Bs[:, :] = 0.0
-            Hs[:, :] = 0.0
-            joint_ev(P[e], t, tf[e], xe[e], lam, True, ph, Bs, Hs, W, V, G)
-            gam[e, k] = sp.quadratic_form(ve[e], Hs)
-        joint_time(P[e], t, tf[e], xe[e], ve[e], Phi_t[e], gam[e], W, V, G)
+        joint_ev(P[e], tf[e], xe[e], ve[e], False, Phi_t[e], Phi_t, Phi_t, True, ve[e], gam[e])
+        joint_time(P[e], tf[e], xe[e], ve[e], Phi_t[e], gam[e])
 
 
 JOINT_KERNELS = {"constraint": joint_constraint, "rates": joint_rates}

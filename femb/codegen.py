@@ -171,12 +171,6 @@ def generate_source(model):
         lines += ["", "", "@njit(cache=True, **OPTIONS)", f"def w_{alias}(*args):",
                   f'    """Cached entry point of {mod}.{name}."""', f"    return {alias}(*args)"]
     step_text = _STEP_SOURCE.read_text()
-    if lie:
-        # the spatial kernels create small arrays: their kinds compile with reference counting
-        # (femb.jit.KERNEL_OPTIONS) instead of the allocation-free options of planar kinds
-        step_text = step_text.replace("from femb.jit import OPTIONS\n", "from femb.jit import KERNEL_OPTIONS as OPTIONS\n")
-        lines = [ln.replace("from femb.jit import OPTIONS", "from femb.jit import KERNEL_OPTIONS as OPTIONS")
-                 for ln in lines]
     body = "\n".join(lines) + "\n\n\n" + step_text
     # every source file beside a kernel (kernels call helpers in sibling modules, e.g. the clamp
     # calls the hinge's rates): an edit in any of them gives a new module

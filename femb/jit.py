@@ -26,8 +26,9 @@ def kernel(fn=None, *, allocates=False, **kw):
     """Decorator for element kernels: ``numba.njit`` with femb's options, no cache.
 
     Kernels run without reference counting of arrays (as the time loop): they
-    must not create arrays. ``allocates=True`` compiles a kernel that does (slower
-    calls; the spatial kernels, until they are written allocation-free).
+    must not create arrays (tuples of floats are fine). ``allocates=True``
+    compiles a function that does: it cannot be called from the time loop, only
+    from Python (e.g. the array-returning functions of :mod:`femb.rotations`).
     """
     opts = dict(KERNEL_OPTIONS if allocates else OPTIONS)
     opts.update(kw)

@@ -14,8 +14,10 @@ Conventions (Brüls & Cardona 2010; femb's ``docs/spatial.md``):
   s4 = (1 − (φ/2) cot(φ/2))/φ², φ = |θ|, each by its Taylor series for φ < 0.1.
 
 Every function is a numba kernel (:func:`femb.jit.kernel`) working on float64
-arrays. Functions named ``*_into`` write into a given output array and allocate
-nothing (for use inside element kernels); the others return new arrays.
+arrays. The scalar functions, :func:`quat_to_matrix_t` (a tuple) and the
+functions named ``*_into`` (they write into a given output array) allocate
+nothing and may be called from element kernels and the time loop; the others
+return new arrays (``allocates=True``) and serve Python-side code only.
 
 References
 ----------
@@ -42,7 +44,7 @@ SERIES_SWITCH = 0.1
 # ---------------------------------------------------------------------------
 # scalar coefficient functions of the SO(3) exponential
 # ---------------------------------------------------------------------------
-@kernel(allocates=True)
+@kernel
 def s1(phi):
     """sin φ / φ."""
     if phi < SERIES_SWITCH:
@@ -51,7 +53,7 @@ def s1(phi):
     return math.sin(phi) / phi
 
 
-@kernel(allocates=True)
+@kernel
 def s2(phi):
     """(1 − cos φ) / φ²."""
     if phi < SERIES_SWITCH:
@@ -60,7 +62,7 @@ def s2(phi):
     return (1.0 - math.cos(phi)) / (phi * phi)
 
 
-@kernel(allocates=True)
+@kernel
 def s3(phi):
     """(φ − sin φ) / φ³."""
     if phi < SERIES_SWITCH:
@@ -69,7 +71,7 @@ def s3(phi):
     return (phi - math.sin(phi)) / (phi * phi * phi)
 
 
-@kernel(allocates=True)
+@kernel
 def s4(phi):
     """(1 − (φ/2) cot(φ/2)) / φ² (singular at φ = 2π)."""
     if phi < SERIES_SWITCH:
@@ -79,7 +81,7 @@ def s4(phi):
     return (1.0 - h * math.cos(h) / math.sin(h)) / (phi * phi)
 
 
-@kernel(allocates=True)
+@kernel
 def s7(phi):
     """sin(φ/2) / φ: the quaternion of exp(θ) is (cos(φ/2), s7 θ)."""
     if phi < SERIES_SWITCH:
@@ -91,7 +93,7 @@ def s7(phi):
 # ---------------------------------------------------------------------------
 # small linear algebra
 # ---------------------------------------------------------------------------
-@kernel(allocates=True)
+@kernel
 def skew_into(a, S):
     """S = a~ (3×3), so that S b = a × b."""
     S[0, 0] = 0.0
@@ -122,7 +124,7 @@ def vee(S):
 # ---------------------------------------------------------------------------
 # quaternions
 # ---------------------------------------------------------------------------
-@kernel(allocates=True)
+@kernel
 def quat_mul_into(a, b, out):
     """out = a ⊗ b = (a0b0 − a⃗·b⃗, a0b⃗ + b0a⃗ + a⃗ × b⃗); ``out`` must not alias a or b."""
     out[0] = a[0] * b[0] - a[1] * b[1] - a[2] * b[2] - a[3] * b[3]
@@ -145,7 +147,7 @@ def quat_conj(a):
     return np.array([a[0], -a[1], -a[2], -a[3]])
 
 
-@kernel(allocates=True)
+@kernel
 def quat_normalize_into(p):
     """Scale p to unit norm in place."""
     n = math.sqrt(p[0] * p[0] + p[1] * p[1] + p[2] * p[2] + p[3] * p[3])
@@ -153,20 +155,22 @@ def quat_normalize_into(p):
         p[i] /= n
 
 
-@kernel(allocates=True)
+@kernel
+def quat_to_matrix_t(p0, p1, p2, p3):
+    """R(p) of a unit quaternion (no normalisation) as a row-major 9-tuple (no array)."""
+    d = p0 * p0 - (p1 * p1 + p2 * p2 + p3 * p3)
+    return (d + 2.0 * p1 * p1, 2.0 * (p1 * p2 - p0 * p3), 2.0 * (p1 * p3 + p0 * p2),
+            2.0 * (p1 * p2 + p0 * p3), d + 2.0 * p2 * p2, 2.0 * (p2 * p3 - p0 * p1),
+            2.0 * (p1 * p3 - p0 * p2), 2.0 * (p2 * p3 + p0 * p1), d + 2.0 * p3 * p3)
+
+
+@kernel
 def quat_to_matrix_into(p, R):
     """R = R(p) for a unit quaternion p (no normalisation)."""
-    p0, p1, p2, p3 = p[0], p[1], p[2], p[3]
-    d = p0 * p0 - (p1 * p1 + p2 * p2 + p3 * p3)
-    R[0, 0] = d + 2.0 * p1 * p1
-    R[1, 1] = d + 2.0 * p2 * p2
-    R[2, 2] = d + 2.0 * p3 * p3
-    R[0, 1] = 2.0 * (p1 * p2 - p0 * p3)
-    R[1, 0] = 2.0 * (p1 * p2 + p0 * p3)
-    R[0, 2] = 2.0 * (p1 * p3 + p0 * p2)
-    R[2, 0] = 2.0 * (p1 * p3 - p0 * p2)
-    R[1, 2] = 2.0 * (p2 * p3 - p0 * p1)
-    R[2, 1] = 2.0 * (p2 * p3 + p0 * p1)
+    T = quat_to_matrix_t(p[0], p[1], p[2], p[3])
+    for i in range(3):
+        for j in range(3):
+            R[i, j] = T[3 * i + j]
 
 
 @kernel(allocates=True)
@@ -177,7 +181,7 @@ def quat_to_matrix(p):
     return R
 
 
-@kernel(allocates=True)
+@kernel
 def quat_exp_into(theta, out):
     """out = quaternion of exp(θ) = (cos(φ/2), s7(φ) θ)."""
     phi = math.sqrt(theta[0] * theta[0] + theta[1] * theta[1] + theta[2] * theta[2])
@@ -251,7 +255,7 @@ def matrix_to_quat(R):
 # ---------------------------------------------------------------------------
 # SO(3): exponential, logarithm, tangent operator
 # ---------------------------------------------------------------------------
-@kernel(allocates=True)
+@kernel
 def expm_into(theta, R):
     """R = exp(θ~) = I + s1 θ~ + s2 θ~² (Rodrigues)."""
     phi = math.sqrt(theta[0] * theta[0] + theta[1] * theta[1] + theta[2] * theta[2])
@@ -282,7 +286,7 @@ def logm(R):
     return quat_log(matrix_to_quat(R))
 
 
-@kernel(allocates=True)
+@kernel
 def _poly_into(theta, c1, c2, out):
     """out = I + c1 θ~ + c2 θ~²."""
     x, y, z = theta[0], theta[1], theta[2]
@@ -297,7 +301,7 @@ def _poly_into(theta, c1, c2, out):
     out[2, 1] = c1 * x + c2 * y * z
 
 
-@kernel(allocates=True)
+@kernel
 def tangent_into(theta, T):
     """T = T(θ) = I − s2 θ~ + s3 θ~² (Brüls & Cardona 2010)."""
     phi = math.sqrt(theta[0] * theta[0] + theta[1] * theta[1] + theta[2] * theta[2])
@@ -312,7 +316,7 @@ def tangent(theta):
     return T
 
 
-@kernel(allocates=True)
+@kernel
 def tangent_inv_into(theta, Ti):
     """Ti = T⁻¹(θ) = I + ½ θ~ + s4 θ~² (singular at |θ| = 2π)."""
     phi = math.sqrt(theta[0] * theta[0] + theta[1] * theta[1] + theta[2] * theta[2])
@@ -330,14 +334,16 @@ def tangent_inv(theta):
 # ---------------------------------------------------------------------------
 # the group R³ × SO(3) of a frame node: x = (r, p), tangent (δr, δθ)
 # ---------------------------------------------------------------------------
-@kernel(allocates=True)
+@kernel
 def frame_compose_into(x, d, out):
     """out = x ∘ exp(d) on R³ × SO(3): (r + d_r, p ⊗ quat(exp(d_θ))), renormalised.
 
     x : (7,) = (r, p); d : (6,) = (δr in space axes, δθ in body axes); out : (7,).
     """
-    e = np.empty(4)
-    quat_exp_into(d[3:6], e)
+    t0, t1, t2 = d[3], d[4], d[5]
+    phi = math.sqrt(t0 * t0 + t1 * t1 + t2 * t2)
+    c = s7(phi)
+    e = (math.cos(0.5 * phi), c * t0, c * t1, c * t2)       # quaternion of exp(d_θ)
     for i in range(3):
         out[i] = x[i] + d[i]
     quat_mul_into(x[3:7], e, out[3:7])
