@@ -171,6 +171,16 @@ def generate_source(model):
         lines += ["", "", "@njit(cache=True, **OPTIONS)", f"def w_{alias}(*args):",
                   f'    """Cached entry point of {mod}.{name}."""', f"    return {alias}(*args)"]
     step_text = _STEP_SOURCE.read_text()
+    # a kernel compiled with reference counting (``@kernel(allocates=True)`` or a plain
+    # ``numba.njit``, e.g. a user's first version of an element) can only be called from code
+    # compiled likewise: such kinds get the slower KERNEL_OPTIONS for the whole loop
+    allocating = sorted({f"{_kernel_ref(fn)[0]}.{_kernel_ref(fn)[1]}" for fn in wrapped
+                         if getattr(fn, "targetoptions", {}).get("_nrt", True)})
+    if allocating:
+        step_text = step_text.replace("from femb.jit import OPTIONS\n",
+                                      "from femb.jit import KERNEL_OPTIONS as OPTIONS\n")
+        lines = [ln.replace("from femb.jit import OPTIONS", "from femb.jit import KERNEL_OPTIONS as OPTIONS")
+                 for ln in lines]
     body = "\n".join(lines) + "\n\n\n" + step_text
     # every source file beside a kernel (kernels call helpers in sibling modules, e.g. the clamp
     # calls the hinge's rates): an edit in any of them gives a new module

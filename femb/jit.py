@@ -27,8 +27,10 @@ def kernel(fn=None, *, allocates=False, **kw):
 
     Kernels run without reference counting of arrays (as the time loop): they
     must not create arrays (tuples of floats are fine). ``allocates=True``
-    compiles a function that does: it cannot be called from the time loop, only
-    from Python (e.g. the array-returning functions of :mod:`femb.rotations`).
+    compiles a function that does (e.g. the array-returning functions of
+    :mod:`femb.rotations`, called from Python); a model whose element kernels
+    allocate still runs, with the whole time loop of its kind compiled with
+    reference counting (slower; :mod:`femb.codegen`).
     """
     opts = dict(KERNEL_OPTIONS if allocates else OPTIONS)
     opts.update(kw)

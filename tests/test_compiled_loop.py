@@ -1,5 +1,6 @@
 """The compiled time loop against the numpy engine it replaced, and its linear algebra."""
 import json
+import math
 from pathlib import Path
 
 import numpy as np
@@ -7,6 +8,7 @@ import pytest
 
 import femb
 from femb.benchmarks import andrews
+from femb.jit import kernel
 
 REF = json.loads((Path(__file__).parent / "data" / "andrews_numpy_d1a00cd.json").read_text())
 #: the seed reproduction's settings: residual Newton test, the seed's start, no step-size check
@@ -118,3 +120,38 @@ def test_solver_steps_one_at_a_time_and_stops_at_its_end():
     s2.step()
     with pytest.raises(femb.ParameterError, match="reached its end"):
         s2.step()
+
+
+@kernel(allocates=True)
+def attractor_allocating(P, t, tf, xe, ve, jac, fe, fq, fv):
+    for e in range(xe.shape[0]):
+        D = np.empty(2)                       # an allocation per element and call
+        D[0] = xe[e, 0] - P[e, 0]
+        D[1] = xe[e, 1] - P[e, 1]
+        d2 = D[0] * D[0] + D[1] * D[1]
+        a = P[e, 2] / (d2 * math.sqrt(d2))
+        fe[e, 0] = -a * D[0]
+        fe[e, 1] = -a * D[1]
+        if jac:
+            b = 3.0 / d2
+            fq[e, 0, 0] = -a * (1.0 - b * D[0] * D[0])
+            fq[e, 0, 1] = a * b * D[0] * D[1]
+            fq[e, 1, 0] = a * b * D[0] * D[1]
+            fq[e, 1, 1] = -a * (1.0 - b * D[1] * D[1])
+
+
+def test_an_allocating_user_kernel_still_runs():
+    """A user's kernel that creates arrays (``@kernel(allocates=True)``) runs: its model kind's loop
+    is compiled with reference counting; the numbers equal the allocation-free kernel's."""
+    from femb.benchmarks import bead_attractor as ba
+
+    class AllocatingAttractor(ba.PointAttractor):
+        kernels = {"force": attractor_allocating}
+
+    ref = femb.simulate(ba.build().compile(), 0.05, 1e-3)
+    mech = ba.build()
+    for e in mech.elements:
+        if isinstance(e, ba.PointAttractor):
+            e.__class__ = AllocatingAttractor       # the same element with the user's kernel
+    r = femb.simulate(mech.compile(), 0.05, 1e-3)
+    assert np.array_equal(r.q, ref.q) and np.array_equal(r.lam, ref.lam)
