@@ -67,6 +67,24 @@ def _stepmod():
     return codegen
 
 
+FORMULATIONS = ("index3", "index2")
+
+
+def _check_formulation(formulation, model, adaptive):
+    """The formulation name, or a ParameterError saying why it cannot run on this model."""
+    if not isinstance(formulation, str) or formulation not in FORMULATIONS:
+        raise ParameterError(f"formulation must be 'index3' (Arnold & Brüls 2007) or 'index2' (stabilized "
+                             f"index 2, GGL), got {formulation!r}")
+    if formulation == "index2":
+        if getattr(model, "lie", False):
+            raise ParameterError("formulation='index2' is available for planar models only: this model has "
+                                 "rotation nodes (spatial rigid bodies or beams); use formulation='index3'")
+        if adaptive:
+            raise ParameterError("formulation='index2' is available with fixed steps only (give h, not rtol); "
+                                 "adaptive steps with the index-2 form are not available")
+    return formulation
+
+
 def error_constants(alpha):
     """Local error constants (C_q, C_v) of the generalized-α scheme (stepsize.md §1).
 
@@ -165,12 +183,13 @@ class GeneralizedAlphaSolver:
                  h0=None, h_max=None, error_per="step", start="consistent", newton_test="correction",
                  newton_rtol=1e-10, newton_atol=0.0, phi_tol=1e-12, max_iter=25, min_iter=1, newton="full",
                  linear_solver="auto", predictor="extrapolate", check_every=16, warn_factor=10.0,
-                 state=None, t0=0.0, t_end=None, initialize=True, n_steps=None):
+                 state=None, t0=0.0, t_end=None, initialize=True, n_steps=None, formulation="index3"):
         from femb.model import Model
         if not isinstance(model, Model):
             raise ParameterError(f"expected a compiled Model (call mechanism.compile()), got {type(model).__name__}")
         self.model = model
         self.adaptive = h is None
+        self.formulation = _check_formulation(formulation, model, self.adaptive)
         self.h = None if h is None else _check_positive("h", h)
         if alpha is not None and rho_inf is not None:
             raise ParameterError("give either rho_inf or alpha, not both")
@@ -253,11 +272,12 @@ class GeneralizedAlphaSolver:
             # fixed steps without an end: step() as often as the caller likes
             t_end = self.t0 + self.h * n_steps if n_steps is not None else math.inf
         self.t_end = float(t_end)
-        self.cp = _stepmod().compiled(model, ordering="natural" if self.linear_solver == "dense" else "rcm")
+        self.cp = _stepmod().compiled(model, ordering="natural" if self.linear_solver == "dense" else "rcm",
+                                      layout=self.formulation)
         cp = self.cp
         NFP, NNS, NSF, NSI = cp.mod.NFP, cp.mod.NNS, cp.mod.NSF, cp.mod.NSI
         nv, nc = model.nq, model.nc
-        N = nv + nc
+        N = cp.N
         al = self.alpha
         self.Cq, self.Cv = error_constants(al)
         if not self.adaptive:
@@ -277,7 +297,7 @@ class GeneralizedAlphaSolver:
                       1 if newton == "full" else 0, {"zero": 0, "previous": 1, "extrapolate": 2}[predictor],
                       self.n_steps, 1, 1, 1 if cp.python_tf else 0, 1 if self.adaptive else 0,
                       1 if newton_test == "correction" else 0, 0 if self.adaptive else check_every,
-                      1 if cp.dense else 0]
+                      1 if cp.dense else 0, 1 if self.formulation == "index2" else 0]
         self.fp = np.zeros(NFP)
         self.fp[:] = [self.h or 0.0, self.t0, al.alpha_m, al.alpha_f, al.beta, al.gamma, self.newton_rtol,
                       self.newton_atol, self.phi_tol, model.length_scale, 64.0 * np.finfo(float).eps,
@@ -347,7 +367,9 @@ class GeneralizedAlphaSolver:
         self.sf[0] = cp.mod.evaluate(cp.G, cp.C, t0, self.q, self.qd, self.qdd, self.lam, False,
                                      0.0, 0.0, 0.0, self.AB, self.r, self.Phi)
         # the consistent start needs consistent initial values; initialize=False keeps the seed's start
-        need_j = self.adaptive or (self.start == "consistent" and self._initialized)
+        # (the index-2 scheme needs no start correction: its velocities satisfy B q̇ + Φ_t = 0 exactly)
+        need_j = self.adaptive or (self.start == "consistent" and self._initialized
+                                   and self.formulation == "index3")
         h0 = self.h
         if need_j:
             # central-difference step of the jerk: small against the step size (the start
@@ -550,7 +572,7 @@ class GeneralizedAlphaSolver:
                 "error_per": self.error_per, "newton_test": self.newton_test, "newton_rtol": self.newton_rtol,
                 "newton_atol": self.newton_atol, "phi_tol": self.phi_tol, "max_iter": self.max_iter,
                 "min_iter": self.min_iter, "newton": self.newton, "linear_solver": self.linear_solver,
-                "predictor": self.predictor, "band": (self.cp.kl, self.cp.ku),
+                "predictor": self.predictor, "formulation": self.formulation, "band": (self.cp.kl, self.cp.ku),
                 "storage": "dense" if self.cp.dense else "band"}
 
 
@@ -657,12 +679,11 @@ def simulate(model, t_end, h=None, *, rtol=None, atol=None, h0=None, h_max=None,
                 or t_eval[0] < t0 - 1e-12 * max(1.0, abs(t0)) or t_eval[-1] > t_end * (1 + 1e-12) + 1e-300:
             raise ParameterError(f"t_eval must be sorted finite times within [{t0}, {t_end}]")
         stride, store = 1, True
-    if formulation != "index3":
-        raise ParameterError(f"formulation must be 'index3' (the stabilized index-2 form is not implemented), "
-                             f"got {formulation!r}")
+    _check_formulation(formulation, model, adaptive)
     solver = GeneralizedAlphaSolver(model, h_fixed, rho_inf=rho_inf, alpha=alpha, scaling=scaling,
                                     rtol=rtol, atol=atol, h0=h0, h_max=h_max, state=state, t0=t0, t_end=t_end,
-                                    initialize=initialize, n_steps=n_steps, start=start, **options)
+                                    initialize=initialize, n_steps=n_steps, start=start,
+                                    formulation=formulation, **options)
     solver.ip[11] = stride
     solver.ip[12] = 1 if store else 0
     st = solver.initial_state
