@@ -572,11 +572,14 @@ def compiled(model, ordering="rcm", layout="index3"):
     return c
 
 
-def evaluate_dense(model, state, h, alpha, scaled=True, ordering="rcm"):
+def evaluate_dense(model, state, h, alpha, scaled=True, ordering="rcm", formulation="index3"):
     """Residual, Φ, force scale and iteration matrix as the compiled loop computes them.
 
     For checks and debugging: runs the generated ``evaluate`` once and unpacks
     the band storage into a dense (N, N) array in the model's numbering.
+    ``formulation="index2"``: the matrix of the stabilized index-2 step
+    (``newton_step_ggl``), N = nq + 2 nc, with the state's q as both q_n and
+    the iterate.
 
     Returns
     -------
@@ -585,7 +588,7 @@ def evaluate_dense(model, state, h, alpha, scaled=True, ordering="rcm"):
     scale : float
     S : ndarray (nq + nc, nq + nc)
     """
-    cp = compiled(model, ordering)
+    cp = compiled(model, ordering, formulation)
     nv, N = model.nq, cp.N
     for k, fn in cp.python_tf:
         cp.tfv[k] = (fn.f(state.t), fn.df(state.t), fn.ddf(state.t))
@@ -598,6 +601,11 @@ def evaluate_dense(model, state, h, alpha, scaled=True, ordering="rcm"):
     cp.mod.lie_reset(cp.C)
     scale = cp.mod.evaluate(cp.G, cp.C, float(state.t), _f64(state.q), _f64(state.qd), _f64(state.qdd),
                             _f64(state.lam), True, c * bp, c * gp, c, AB, r, Phi)
+    if formulation == "index2":
+        Bw = cp.C[26]
+        cp.mod.constraint_B(cp.G, cp.C, float(state.t), _f64(state.q), _f64(state.qd), Bw[0])
+        cp.mod.copy_B(cp.G, Bw[1])
+        cp.mod.ggl_matrix(cp.C, AB, 1.0 if scaled else gp)
     perm = cp.C[1]
     S = np.zeros((N, N))
     if cp.dense:

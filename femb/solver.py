@@ -367,9 +367,7 @@ class GeneralizedAlphaSolver:
         self.sf[0] = cp.mod.evaluate(cp.G, cp.C, t0, self.q, self.qd, self.qdd, self.lam, False,
                                      0.0, 0.0, 0.0, self.AB, self.r, self.Phi)
         # the consistent start needs consistent initial values; initialize=False keeps the seed's start
-        # (the index-2 scheme needs no start correction: its velocities satisfy B q̇ + Φ_t = 0 exactly)
-        need_j = self.adaptive or (self.start == "consistent" and self._initialized
-                                   and self.formulation == "index3")
+        need_j = self.adaptive or (self.start == "consistent" and self._initialized)
         h0 = self.h
         if need_j:
             # central-difference step of the jerk: small against the step size (the start
@@ -407,7 +405,9 @@ class GeneralizedAlphaSolver:
             if self.start == "consistent":
                 d = self.alpha.alpha_m - self.alpha.alpha_f
                 self.a[:] = self.qdd + d * h0 * j0
-                if self.model.nc:
+                # the index-2 scheme keeps B q̇ + Φ_t = 0 exactly: no normal-velocity offset to match,
+                # only a (which lags q̈ by Δh) is started consistently
+                if self.model.nc and self.formulation == "index3":
                     Bj = np.zeros(self.model.nc)
                     cp.mod.jacobian_times(cp.G, cp.C, float(t0), self.q, j0, Bj)
                     Pt = np.zeros(self.model.nc)
