@@ -74,7 +74,7 @@ def _stepmod():
 FORMULATIONS = ("index3", "index2")
 
 
-def _check_formulation(formulation, model, adaptive):
+def _check_formulation(formulation, model):
     """The formulation name, or a ParameterError saying why it cannot run on this model."""
     if not isinstance(formulation, str) or formulation not in FORMULATIONS:
         raise ParameterError(f"formulation must be 'index3' (Arnold & Brüls 2007) or 'index2' (stabilized "
@@ -83,9 +83,6 @@ def _check_formulation(formulation, model, adaptive):
         if getattr(model, "lie", False):
             raise ParameterError("formulation='index2' is available for planar models only: this model has "
                                  "rotation nodes (spatial rigid bodies or beams); use formulation='index3'")
-        if adaptive:
-            raise ParameterError("formulation='index2' is available with fixed steps only (give h, not rtol); "
-                                 "adaptive steps with the index-2 form are not available")
     return formulation
 
 
@@ -105,7 +102,7 @@ def error_constants(alpha):
 
 class GeneralizedAlphaSolver:
     """Generalized-α integrator: index 3 (Algorithm 1 of Arnold & Brüls 2007, fixed or adaptive
-    steps) or stabilized index 2 (GGL-type; planar models, fixed steps).
+    steps) or stabilized index 2 (GGL-type; planar models, fixed or adaptive steps).
 
     Contract: :meth:`advance` runs the compiled loop (``femb/step.py``) for a
     chunk of accepted steps, or raises (:class:`ConvergenceError`,
@@ -185,12 +182,13 @@ class GeneralizedAlphaSolver:
     formulation : {"index3", "index2"}
         "index3" (default): Algorithm 1, constraints on position level.
         "index2": the stabilized index-2 (Gear–Gupta–Leimkuhler) form, planar
-        models (``model.lie`` False) with fixed steps only: m more unknowns η
+        models (``model.lie`` False), fixed or adaptive steps: m more unknowns η
         with q_{n+1} = q_n + Δ + B(q_n)ᵀη, and Φ = 0 and B q̇ + Φ_t = 0 both
         enforced at every step. λ is then free of the 1/h² amplification of
         Newton and round-off errors in Φ (relative λ error 6e-14 on Andrews at
         h = 1e-8 s, 3e-3 with index 3), and only a needs a consistent start
-        (``start="consistent"`` sets a_0, not q̇_0). Cost: nq + 2m unknowns, a
+        (``start="consistent"`` sets a_0, not q̇_0; adaptive steps re-synchronise
+        only a at a step change). Cost: nq + 2m unknowns, a
         second constraint-rate evaluation per iteration and about 1.4× the
         Newton iterations (docs/method.md §7).
     """
@@ -205,7 +203,7 @@ class GeneralizedAlphaSolver:
             raise ParameterError(f"expected a compiled Model (call mechanism.compile()), got {type(model).__name__}")
         self.model = model
         self.adaptive = h is None
-        self.formulation = _check_formulation(formulation, model, self.adaptive)
+        self.formulation = _check_formulation(formulation, model)
         self.h = None if h is None else _check_positive("h", h)
         if alpha is not None and rho_inf is not None:
             raise ParameterError("give either rho_inf or alpha, not both")
@@ -627,13 +625,12 @@ def simulate(model, t_end, h=None, *, rtol=None, atol=None, h0=None, h_max=None,
     formulation : {"index3", "index2"}
         "index3" (default): the index-3 generalized-α scheme of Arnold & Brüls
         (2007). "index2": the stabilized index-2 (GGL-type) form for planar
-        models with fixed steps: Φ and the velocity constraint B q̇ + Φ_t hold
+        models, fixed or adaptive steps: Φ and the velocity constraint B q̇ + Φ_t hold
         at every step and λ stays accurate as h → 0 (no 1/h² amplification of
         errors in Φ), at the cost of m more unknowns and about 1.4× the Newton
         iterations. Pick it for very small steps or when reaction forces or
         velocity constraints must be accurate; see docs/method.md §7. Spatial
-        models with rotation nodes and adaptive steps refuse it with a
-        ParameterError.
+        models with rotation nodes refuse it with a ParameterError.
     rho_inf, alpha, scaling, initialize, **options
         See :class:`GeneralizedAlphaSolver` (error_per, newton_test, phi_tol,
         max_iter, newton, linear_solver, predictor, check_every, ...).
@@ -703,7 +700,7 @@ def simulate(model, t_end, h=None, *, rtol=None, atol=None, h0=None, h_max=None,
                 or t_eval[0] < t0 - 1e-12 * max(1.0, abs(t0)) or t_eval[-1] > t_end * (1 + 1e-12) + 1e-300:
             raise ParameterError(f"t_eval must be sorted finite times within [{t0}, {t_end}]")
         stride, store = 1, True
-    _check_formulation(formulation, model, adaptive)
+    _check_formulation(formulation, model)
     solver = GeneralizedAlphaSolver(model, h_fixed, rho_inf=rho_inf, alpha=alpha, scaling=scaling,
                                     rtol=rtol, atol=atol, h0=h0, h_max=h_max, state=state, t0=t0, t_end=t_end,
                                     initialize=initialize, n_steps=n_steps, start=start,

@@ -940,7 +940,8 @@ def run(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam, tfv, AB, ip
                 # re-synchronise a and the normal velocity with the new step (stepsize.md §2)
                 for i in range(nv):
                     a[i] += delta * (h - h_prev) * jn[i]
-                if nc > 0:
+                # (the index-2 step keeps B q̇ + Φ_t = 0: no normal velocity to re-synchronise)
+                if nc > 0 and ip[IP_GGL] == 0:
                     jacobian_times(G, C, t, q, jn, Bv)
                     rates(G, C, t, q, qd, Pt, gam)
                     for j in range(nc):

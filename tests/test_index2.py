@@ -167,7 +167,27 @@ def test_bad_formulation_is_refused_clearly(bad):
         femb.simulate(model, 0.01, 1e-3, formulation=bad)
 
 
-def test_adaptive_index2_is_refused_clearly():
-    model = pendulum.build().compile()
-    with pytest.raises(femb.ParameterError, match="fixed steps only.*not available"):
-        femb.simulate(model, 0.01, rtol=1e-4, formulation="index2")
+# ------------------------------------------------------------------ adaptive steps
+@pytest.mark.parametrize("scene", ["double_pendulum", "force_pulse"])
+def test_adaptive_index2_takes_the_steps_of_index3_with_smaller_errors(scene):
+    """Same controller and estimate; only a is re-synchronised at step changes.
+
+    Measured at rtol = atol = 1e-6: the same step counts (597, 856/857) and 20–30 % smaller
+    max errors in q and λ than index 3; B q̇ + Φ_t = 0 at every step.
+    """
+    sc = registry.load(scene)
+    out = {}
+    for f in ("index3", "index2"):
+        r = S.run(scene, rtol=1e-6, atol=1e-6, formulation=f)
+        ref = sc.reference(r.result.t)
+        e = {n: float(np.abs(r.outputs[n] - ref[n]).max()) for n in ref if n in r.outputs}
+        out[f] = (len(r.result.h_steps), max(v for n, v in e.items() if not n.startswith("R_")),
+                  max(v for n, v in e.items() if n.startswith("R_")), r.result)
+    assert abs(out["index2"][0] - out["index3"][0]) <= 0.1 * out["index3"][0], out
+    assert out["index2"][1] <= out["index3"][1] and out["index2"][2] <= out["index3"][2], out
+    res = out["index2"][3]
+    model = res.model
+    g = max(float(np.abs(assembly.constraint_jacobian(model, float(t), q) @ qd
+                         + assembly.constraint_rates(model, float(t), q, qd)[0]).max())
+            for t, q, qd in zip(res.t, res.q, res.qd))
+    assert g <= 1e-9, g
