@@ -139,6 +139,17 @@ def test_newton_takes_few_iterations_on_andrews():
     assert max(err2) <= max(err3), (max(err2), max(err3))
 
 
+def test_band_storage_of_the_index2_layout_matches_the_dense_one():
+    """A beam clamped to a hub (nq + 2nc = 198 unknowns): band LU on the index-2 layout."""
+    from femb.benchmarks import spin_up
+    model = spin_up.build(60).compile()
+    a = femb.simulate(model, 0.2, 5e-3, formulation="index2")
+    b = femb.simulate(model, 0.2, 5e-3, formulation="index2", linear_solver="dense")
+    assert a.settings["storage"] == "band" and b.settings["storage"] == "dense"
+    np.testing.assert_allclose(a.q, b.q, rtol=0, atol=1e-11)
+    np.testing.assert_allclose(a.lam, b.lam, rtol=1e-7, atol=1e-7 * np.abs(b.lam).max())
+
+
 def test_solver_object_steps_with_index2():
     model = pendulum.build().compile()
     s = femb.GeneralizedAlphaSolver(model, 1e-3, t_end=0.01, formulation="index2")
