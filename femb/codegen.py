@@ -166,6 +166,31 @@ def generate_source(model):
                       "                s += Be[e, j, i] * ve[e, i]",
                       "            out[lamidx[e, j]] = s"]
     lines.append("    return 0")
+    # B as a flat list of the element blocks (batch by batch, element, row, column), for the
+    # stabilized index-2 step: at a configuration (kernel calls), or copied from the blocks of the
+    # last ``evaluate``
+    lines += ["", "", "@njit(cache=True, **OPTIONS)",
+              "def constraint_B(G, C, t, q, qd, out):",
+              '    """out = the element blocks of B(q, t), flat (see ``copy_blocks`` in femb/step.py)."""',
+              "    nv = qd.shape[0]", "    nx = q.shape[0]", "    qfix = C[5]", "    tfv = C[13]", "    o = 0"]
+    for role, gi, fn, _ in roles:
+        if role == "constraint":
+            k = imports[_kernel_ref(fn)[:2]]
+            lines += [f"    {CT} = {GC}[{gi}]",
+                      gather,
+                      "    gather_tf(tfv, tfi, tf)",
+                      "    zero2(Phe)", "    zero3(Be)",
+                      f"    {k}(P, t, tf, xe, le, nv < 0, Phe, Be, He)",
+                      "    o = copy_blocks(Be, out, o)"]
+    lines.append("    return o")
+    lines += ["", "", "@njit(cache=True, **OPTIONS)",
+              "def copy_B(G, out):",
+              '    """out = the element blocks of B left by the last ``evaluate``, flat."""',
+              "    o = 0"]
+    for role, gi, fn, _ in roles:
+        if role == "constraint":
+            lines.append(f"    o = copy_blocks({GC}[{gi}][12], out, o)")
+    lines.append("    return o")
     # cached entry points of every kernel, for Python-side evaluations (femb.kernels)
     for (mod, name), alias in imports.items():
         lines += ["", "", "@njit(cache=True, **OPTIONS)", f"def w_{alias}(*args):",
@@ -247,14 +272,24 @@ class Compiled:
     C : tuple
         Model constants (see ``femb/step.py``: mass matrix, permutation, weights, ...).
     N, kl, ku, ldab : int
-        Unknowns nq + nc and the band of the permuted iteration matrix.
+        Unknowns nq + nc (nq + 2 nc with the index-2 layout) and the band of the
+        permuted iteration matrix.
+    layout : {"index3", "index2"}
+        "index2" adds nc rows and columns for the stabilized index-2 step
+        (``newton_step_ggl`` in femb/step.py): the velocity constraint rows
+        (B in the q̇ columns) and the unknowns η, coupled to the Φ rows by
+        B(q) B(q_n)ᵀ. Its ``evaluate`` puts the identity on the η block, so
+        that the constrained-acceleration solves of the index-3 layout work
+        unchanged on it. The index-3 layout is the one of every index-3 run.
     """
 
-    def __init__(self, model, ordering="rcm"):
+    def __init__(self, model, ordering="rcm", layout="index3"):
         t0 = time.perf_counter()
         self.model = model
+        self.layout = layout
+        ggl = layout == "index2"
         nv, nc = model.nq, model.nc
-        N = nv + nc
+        N = nv + 2 * nc if ggl else nv + nc
         self.N = N
         active = np.ones(nc, dtype=np.int8) if getattr(model, "active_constraints", None) is None \
             else np.asarray(model.active_constraints, dtype=np.int8)
@@ -274,6 +309,36 @@ class Compiled:
         inactive = np.nonzero(active == 0)[0]
         R.append(nv + inactive)
         Cc.append(nv + inactive)
+        if ggl:
+            # flat element blocks of B (batch, element, row, column) and their positions
+            fl_c, fl_d = [], []
+            for g in model.constraint_groups:
+                nel, nd = g.dofs.shape
+                cc = np.broadcast_to(g.lam[:, :, None], (nel, g.nc, nd)).reshape(-1)
+                dd = np.broadcast_to(g.dofs[:, None, :], (nel, g.nc, nd)).reshape(-1)
+                ok = (dd < nv) & (active[cc] != 0)
+                fl_c.append(np.where(ok, cc, -1))
+                fl_d.append(np.where(ok, dd, -1))
+            fl_c = np.concatenate(fl_c).astype(np.int64) if fl_c else np.zeros(0, dtype=np.int64)
+            fl_d = np.concatenate(fl_d).astype(np.int64) if fl_d else np.zeros(0, dtype=np.int64)
+            valid = np.nonzero(fl_c >= 0)[0]
+            # velocity rows: B in the q̇ columns
+            R.append(nv + nc + fl_c[valid])
+            Cc.append(fl_d[valid])
+            # Φ rows, η columns: B(q) B(q_n)ᵀ, one product per pair of entries in the same column
+            order = valid[np.argsort(fl_d[valid], kind="stable")]
+            dsort = fl_d[order]
+            starts = np.flatnonzero(np.r_[True, dsort[1:] != dsort[:-1]]) if order.size else np.zeros(0, int)
+            ends = np.r_[starts[1:], order.size]
+            k1, k2 = [], []
+            for a_, b_ in zip(starts, ends):
+                ks = order[a_:b_]
+                k1.append(np.repeat(ks, ks.size))
+                k2.append(np.tile(ks, ks.size))
+            k1 = np.concatenate(k1).astype(np.int64) if k1 else np.zeros(0, dtype=np.int64)
+            k2 = np.concatenate(k2).astype(np.int64) if k2 else np.zeros(0, dtype=np.int64)
+            R.append(nv + fl_c[k1])
+            Cc.append(nv + nc + fl_c[k2])
         R.append(np.arange(N))       # the diagonal, so that every unknown is in the graph
         Cc.append(np.arange(N))
         rows = np.concatenate(R).astype(np.int64)
@@ -351,6 +416,19 @@ class Compiled:
         def xdofs_of(g):
             return _i64(g.xdofs if getattr(g, "xdofs", None) is not None else g.dofs)
 
+        if ggl:
+            tG = np.full(fl_c.size, -1, dtype=np.int64)
+            tG[valid] = target(nv + nc + fl_c[valid], fl_d[valid])
+            pairs = np.stack((k1, k2, target(nv + fl_c[k1], nv + nc + fl_c[k2])), axis=1).astype(np.int64)
+            eta_diag = target(nv + nc + np.arange(nc), nv + nc + np.arange(nc))
+            tEta = np.where(active != 0, eta_diag, -1).astype(np.int64)
+            tI = np.concatenate((target(nv + inactive, nv + inactive), eta_diag))
+            nB = fl_c.size
+        else:
+            fl_c = fl_d = tG = tEta = np.zeros(0, dtype=np.int64)
+            pairs = np.zeros((0, 3), dtype=np.int64)
+            tI = target(nv + inactive, nv + inactive)
+            nB = 0
         G_force = []
         for g in model.force_groups:
             nel, nd = g.dofs.shape
@@ -386,12 +464,17 @@ class Compiled:
                   _i64(tf["kind"]), _i64(tf["off"]), _f64(tf["coef"]), _f64(Mc.data),
                   _i64(target(Mcoo.row, Mcoo.col)), self.tfv,
                   np.array([float(np.abs(model.f_const * model.force_weight).max(initial=0.0))]),
-                  active, _i64(target(nv + inactive, nv + inactive)), self.env,
+                  active, _i64(tI), self.env,
                   # rotation nodes: T(Δθ) per free rotation (identity between steps), x index of each
                   # additive v entry (−1 on rotations), (x start, v start) of each free rotation, the
                   # quaternions at the start of the step, the step's increment Δ on rotation entries
                   np.tile(np.eye(3), (len(rot), 1, 1)), _i64(getattr(model, "xmap", np.arange(nv))),
-                  _i64(rot).reshape(-1, 2), np.zeros((len(rot), 4)), np.zeros(nv))
+                  _i64(rot).reshape(-1, 2), np.zeros((len(rot), 4)), np.zeros(nv),
+                  # index-2 layout (empty otherwise): per flat entry of B (constraint, coordinate, target
+                  # in the velocity rows), the products of B(q) B(q_n)ᵀ (entry, entry, target), the η
+                  # diagonal of active constraints, work: B(q_n) and B(q) flat, and η, g, Φ_t, γ
+                  np.ascontiguousarray(np.stack((fl_c, fl_d, tG), axis=1).astype(np.int64)), pairs,
+                  _i64(tEta), np.zeros((2, nB)), np.zeros((4, nc if ggl else 0)))
         self.python_tf = tf["python"]
         self.mod, fresh, self.cache_path = load_kind(model)
         _attach_entry_points(model, self.mod)
@@ -482,21 +565,25 @@ def _band_ordering(pat, nv):
     return min(cands, key=lambda p: _band_cost(pat, p)[2])
 
 
-def compiled(model, ordering="rcm"):
-    """The :class:`Compiled` data of a model (built once per model and ordering, kept on it)."""
+def compiled(model, ordering="rcm", layout="index3"):
+    """The :class:`Compiled` data of a model (built once per model, ordering and layout, kept on it)."""
     store = model.__dict__.setdefault("_compiled", {})
-    c = store.get(ordering)
+    key = ordering if layout == "index3" else (ordering, layout)
+    c = store.get(key)
     if c is None:
-        c = Compiled(model, ordering)
-        store[ordering] = c
+        c = Compiled(model, ordering, layout)
+        store[key] = c
     return c
 
 
-def evaluate_dense(model, state, h, alpha, scaled=True, ordering="rcm"):
+def evaluate_dense(model, state, h, alpha, scaled=True, ordering="rcm", formulation="index3"):
     """Residual, Φ, force scale and iteration matrix as the compiled loop computes them.
 
     For checks and debugging: runs the generated ``evaluate`` once and unpacks
     the band storage into a dense (N, N) array in the model's numbering.
+    ``formulation="index2"``: the matrix of the stabilized index-2 step
+    (``newton_step_ggl``), N = nq + 2 nc, with the state's q as both q_n and
+    the iterate.
 
     Returns
     -------
@@ -505,7 +592,7 @@ def evaluate_dense(model, state, h, alpha, scaled=True, ordering="rcm"):
     scale : float
     S : ndarray (nq + nc, nq + nc)
     """
-    cp = compiled(model, ordering)
+    cp = compiled(model, ordering, formulation)
     nv, N = model.nq, cp.N
     for k, fn in cp.python_tf:
         cp.tfv[k] = (fn.f(state.t), fn.df(state.t), fn.ddf(state.t))
@@ -518,6 +605,11 @@ def evaluate_dense(model, state, h, alpha, scaled=True, ordering="rcm"):
     cp.mod.lie_reset(cp.C)
     scale = cp.mod.evaluate(cp.G, cp.C, float(state.t), _f64(state.q), _f64(state.qd), _f64(state.qdd),
                             _f64(state.lam), True, c * bp, c * gp, c, AB, r, Phi)
+    if formulation == "index2":
+        Bw = cp.C[26]
+        cp.mod.constraint_B(cp.G, cp.C, float(state.t), _f64(state.q), _f64(state.qd), Bw[0])
+        cp.mod.copy_B(cp.G, Bw[1])
+        cp.mod.ggl_matrix(cp.C, AB, 1.0 if scaled else gp)
     perm = cp.C[1]
     S = np.zeros((N, N))
     if cp.dense:

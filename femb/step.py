@@ -44,8 +44,8 @@ ST_KKT_SINGULAR = -6  # the matrix [[M, Bᵀ], [B, 0]] of the error estimate is 
 # ---- indices of the integer parameters ip[...] ------------------------------------------
 IP_NV, IP_NC, IP_NFIX, IP_N, IP_KL, IP_KU = 0, 1, 2, 3, 4, 5
 IP_MAXIT, IP_MINIT, IP_FULL, IP_PRED, IP_NSTEPS, IP_STRIDE, IP_STORE, IP_PYTF = 6, 7, 8, 9, 10, 11, 12, 13
-IP_MODE, IP_NTEST, IP_CHECK, IP_DENSE = 14, 15, 16, 17
-NIP = 18
+IP_MODE, IP_NTEST, IP_CHECK, IP_DENSE, IP_GGL = 14, 15, 16, 17, 18
+NIP = 19
 # ---- indices of the float parameters fp[...] ---------------------------------------------
 FP_H, FP_T0, FP_AM, FP_AF, FP_BETA, FP_GAMMA, FP_RTOL, FP_ATOL = 0, 1, 2, 3, 4, 5, 6, 7
 FP_PHITOL, FP_L, FP_XTOL, FP_SCALED, FP_SINGTOL, FP_TEND, FP_FCONST = 8, 9, 10, 11, 12, 13, 14
@@ -511,6 +511,283 @@ def newton_step(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam, t1,
 
 
 @njit(cache=True, **OPTIONS)
+def copy_blocks(Be, out, o):
+    """out[o:] = Be (nel, nc_e, nd) in row-major order; returns the next offset."""
+    for e in range(Be.shape[0]):
+        for j in range(Be.shape[1]):
+            for i in range(Be.shape[2]):
+                out[o] = Be[e, j, i]
+                o += 1
+    return o
+
+
+@njit(cache=True, **OPTIONS)
+def ggl_matrix(C, ABf, sg):
+    """The rows and columns of the index-2 layout that ``evaluate`` leaves out, into ABf.
+
+    With B = B(q) (``C[26][1]``) and B_n = B(q_n) (``C[26][0]``), flat per element
+    block: sg·B in the velocity rows (q̇ columns), B B_nᵀ in the Φ rows (η
+    columns), and a zero η diagonal for active constraints (``evaluate`` puts 1
+    there for the constrained-acceleration solves).
+    """
+    fl = C[23]
+    pairs = C[24]
+    tEta = C[25]
+    Bn = C[26][0]
+    Bq = C[26][1]
+    for c in range(tEta.shape[0]):
+        if tEta[c] >= 0:
+            ABf[tEta[c]] = 0.0
+    for k in range(fl.shape[0]):
+        if fl[k, 0] >= 0:
+            ABf[fl[k, 2]] += sg * Bq[k]
+    for p in range(pairs.shape[0]):
+        ABf[pairs[p, 2]] += Bq[pairs[p, 0]] * Bn[pairs[p, 1]]
+
+
+@njit(cache=True, **OPTIONS)
+def newton_step_ggl(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam, t1, h, h_prev,
+                    AB, ipiv, r, Phi, rhs, x, info, wq):
+    """One step of the stabilized index-2 (GGL-type) generalized-α scheme, planar models, in place.
+
+    Gear, Gupta & Leimkuhler (1985) with the generalized-α discretization of
+    Arnold & Brüls (2007, §5): with the Newmark increment
+    Δ = h q̇_n + h²(½ − β) a_n + h²β a_{n+1} and nc more unknowns η,
+
+        q_{n+1} = q_n + Δ + B(q_n)ᵀ η,   q̇_{n+1}, q̈_{n+1} from Δ as in Algorithm 1,
+        r_q(q_{n+1}, q̇_{n+1}, q̈_{n+1}, λ) = 0,  Φ(q_{n+1}, t) = 0,  B(q_{n+1}) q̇_{n+1} + Φ_t = 0.
+
+    Newton on (δΔ, δλ, δη) with the scaled matrix (c = βh², γ' = γ/(hβ))
+
+        [ c(Mβ' + C_tγ' + K_t)   Bᵀ   0      ]   [δΔ     ]     [ c r_q    ]
+        [ B                      0    B B_nᵀ ] · [δλ / c ] = − [ Φ        ]
+        [ B                      0    0      ]   [δη     ]     [ g / γ'   ]
+
+    (g = B q̇ + Φ_t; unscaled runs: c = 1 and the velocity rows γ'B, g). It drops
+    c K_t B_nᵀ (O(h²)) and ∂(B q̇)/∂q (O(h) after the row scaling): Newton
+    converges linearly at a rate O(h), to the solution of the exact equations.
+    Stopping rules as :func:`newton_step`; the constraint test holds for Φ and
+    for g/γ' (a position-sized velocity residual). Returns as :func:`newton_step`.
+    """
+    nv = ip[IP_NV]
+    nc = ip[IP_NC]
+    am = fp[FP_AM]
+    af = fp[FP_AF]
+    beta = fp[FP_BETA]
+    gamma = fp[FP_GAMMA]
+    bp = (1.0 - am) / (h * h * beta * (1.0 - af))
+    gp = gamma / (h * beta)
+    scaled = fp[FP_SCALED] != 0.0
+    c = beta * h * h if scaled else 1.0
+    sg = 1.0 if scaled else gp
+    sr = 1.0 / gp if scaled else 1.0
+    ka = (1.0 - af) / (1.0 - am)
+    iperm = C[2]
+    w = C[3]
+    full = ip[IP_FULL] != 0
+    tol_phi = fp[FP_PHITOL] * fp[FP_L]
+    rtol = fp[FP_RTOL]
+    atol = fp[FP_ATOL]
+    L = fp[FP_L]
+    ntest = ip[IP_NTEST]
+    eps = 2.220446049250313e-16
+    fl = C[23]
+    Bn = C[26][0]
+    Bq = C[26][1]
+    E = C[27]
+    eta = E[0]
+    g_ = E[1]
+    Pt = E[2]
+    gam = E[3]
+    nB = fl.shape[0]
+    # B(q_n) for the step (time functions at t_{n+1}: they are evaluated before the step)
+    constraint_B(G, C, t1, q, qd, Bn)
+    pred = ip[IP_PRED]
+    rho = h / h_prev if h_prev > 0.0 else 1.0
+    for i in range(nv):
+        a_base = (af * qdd[i] - am * a[i]) / (1.0 - am)
+        if pred == 0:
+            gi = 0.0
+            a_pred = a_base
+        else:
+            if pred == 2 and si[SI_HASPREV] != 0:
+                gi = (1.0 + rho) * qdd[i] - rho * pqdd[i]
+            else:
+                gi = qdd[i]
+            a_pred = a_base + ka * gi
+        pqdd[i] = qdd[i]
+        x[i] = a_base
+        qd_new = qd[i] + (h * (1.0 - gamma)) * a[i] + (h * gamma) * a_pred
+        q[i] = q[i] + h * qd[i] + (h * h * (0.5 - beta)) * a[i] + (h * h * beta) * a_pred
+        qd[i] = qd_new
+        qdd[i] = gi
+    for j in range(nc):
+        if pred == 0:
+            gj = 0.0
+        elif pred == 2 and si[SI_HASPREV] != 0:
+            gj = (1.0 + rho) * lam[j] - rho * plam[j]
+        else:
+            gj = lam[j]
+        plam[j] = lam[j]
+        lam[j] = gj
+        eta[j] = 0.0
+    F_ref = sf[SF_FREF]
+    prev_norm = -1.0
+    theta_prev_bad = 0
+    k = 0
+    maxit = ip[IP_MAXIT]
+    F = F_ref
+    have_lu = False
+    err_f = 0.0
+    err_phi = 0.0
+    redo = False
+    while True:
+        if redo:
+            jac = True
+        elif ntest == 0:
+            jac = (full and k == 0) or si[SI_LUVALID] == 0
+        else:
+            jac = not have_lu
+        scale = evaluate(G, C, t1, q, qd, qdd, lam, jac, c * bp, c * gp, c, AB, r, Phi)
+        stats[NS_EVAL] += 1
+        # the velocity constraint g = B(q) q̇ + Φ_t, from the blocks evaluate() left
+        copy_B(G, Bq)
+        rates(G, C, t1, q, qd, Pt, gam)
+        for j in range(nc):
+            g_[j] = Pt[j]
+        for kk in range(nB):
+            cj = fl[kk, 0]
+            if cj >= 0:
+                g_[cj] += Bq[kk] * qd[fl[kk, 1]]
+        if not redo:
+            F = scale if scale > F_ref else F_ref
+            err_f = 0.0
+            for i in range(nv):
+                v = abs(r[i] * w[i])
+                if not (v <= err_f):
+                    err_f = v if v == v else math.inf
+            err_phi = 0.0
+            iphi = -1
+            for j in range(nc):
+                v = abs(Phi[j])
+                vg = abs(g_[j]) / gp
+                if vg > v or not (vg == vg):
+                    v = vg
+                if not (v <= err_phi):
+                    err_phi = v if v == v else math.inf
+                    iphi = j
+            info[0] = t1
+            info[1] = err_f
+            info[2] = err_phi
+            info[3] = k
+            info[4] = iphi
+            info[5] = rtol * F + atol
+            info[6] = tol_phi
+            if not (math.isfinite(err_f) and math.isfinite(err_phi)):
+                return ST_NONFINITE
+            if ntest == 0 and k >= ip[IP_MINIT] and err_f <= rtol * F + atol and err_phi <= tol_phi:
+                break
+            if k == maxit:
+                return ST_MAXITER
+            if ntest == 0 and not jac:
+                if full:
+                    redo = True
+                    continue
+                if prev_norm >= 0.0 and si[SI_LUVALID] != 0:
+                    cur = max(err_f / max(F, 1e-300), err_phi / max(tol_phi, 1e-300))
+                    if cur > 0.25 * prev_norm:
+                        redo = True
+                        continue
+        redo = False
+        if jac:
+            ggl_matrix(C, AB, sg)
+            if factor(AB, ip, C[17], ipiv, fp[FP_SINGTOL]) != 0:
+                si[SI_LUVALID] = 0
+                return ST_DIVERGED_SINGULAR if k > 0 else ST_SINGULAR
+            si[SI_LUVALID] = 1
+            have_lu = True
+            stats[NS_FACT] += 1
+        if ntest == 0 and not full:
+            prev_norm = max(err_f / max(F, 1e-300), err_phi / max(tol_phi, 1e-300))
+        for i in range(nv):
+            rhs[iperm[i]] = -c * r[i]
+        for j in range(nc):
+            rhs[iperm[nv + j]] = -Phi[j]
+            rhs[iperm[nv + nc + j]] = -sr * g_[j]
+        solve(AB, ip, C[17], ipiv, rhs)
+        stats[NS_SOLVE] += 1
+        dqmax = 0.0
+        qmax = 0.0
+        dqw = 0.0
+        qddmax = 0.0
+        inv_c = 1.0 / c
+        for j in range(nc):
+            lam[j] += rhs[iperm[nv + j]] * inv_c
+            eta[j] += rhs[iperm[nv + nc + j]]
+        for i in range(nv):
+            dD = rhs[iperm[i]]
+            qd[i] += gp * dD
+            qdd[i] += bp * dD
+            if abs(dD) > dqmax:
+                dqmax = abs(dD)
+            if abs(qdd[i]) > qddmax:
+                qddmax = abs(qdd[i])
+        # δq = δΔ + B_nᵀ δη, accumulated in rhs's Δ entries (their values are used above)
+        for kk in range(nB):
+            cj = fl[kk, 0]
+            if cj >= 0:
+                rhs[iperm[fl[kk, 1]]] += Bn[kk] * rhs[iperm[nv + nc + cj]]
+        for i in range(nv):
+            dq = rhs[iperm[i]]
+            q[i] += dq
+            if abs(q[i]) > qmax:
+                qmax = abs(q[i])
+            v = abs(dq) / wq[i]
+            if v > dqw:
+                dqw = v
+        k += 1
+        if ntest == 0:
+            if (err_phi <= tol_phi and err_f <= 1e4 * (rtol * F + atol)
+                    and dqmax <= fp[FP_XTOL] * (qmax + L)):
+                stats[NS_ROUNDOFF] += 1
+                break
+        else:
+            acc_tol = 1e-8 * (1.0 + qddmax) + fp[FP_NEWTC] * eps * (1.0 + qmax) * bp * math.sqrt(max(1.0, nv / 100.0))
+            acc_ratio = bp * dqmax / acc_tol
+            size = max(dqw, acc_ratio)
+            if prev_norm > 0.0:
+                theta = size / prev_norm
+                if theta > 0.5 and size <= 1e3 and err_phi <= tol_phi and k >= ip[IP_MINIT]:
+                    stats[NS_ROUNDOFF] += 1
+                    break
+                if theta >= 1.0:
+                    if jac:
+                        theta_prev_bad += 1
+                    if theta_prev_bad >= 2:
+                        info[3] = k
+                        return ST_MAXITER
+                    have_lu = False
+                elif theta > 0.5:
+                    have_lu = False
+                elif theta > 0.0 and size > 1.0:
+                    n_pred = math.log((1.0 - theta) / size) / math.log(theta)
+                    if n_pred > NEWTON_FROZEN_MAX or k + n_pred > maxit:
+                        have_lu = False
+                if theta < 1.0 and theta / (1.0 - theta) * size <= 1.0 and err_phi <= tol_phi \
+                        and k >= ip[IP_MINIT]:
+                    break
+            if size <= 1.0 and err_phi <= tol_phi and k >= max(ip[IP_MINIT], 1):
+                break
+            prev_norm = size
+    for i in range(nv):
+        a[i] = x[i] + ka * qdd[i]
+    if F > F_ref:
+        sf[SF_FREF] = F
+    si[SI_HASPREV] = 1
+    return k
+
+
+@njit(cache=True, **OPTIONS)
 def kkt_accelerations(G, C, ip, t, q, qd, KB, kpiv, kr, Phi, kx, gam, Pt, zq, zl, out):
     """Constrained accelerations q̈ᵖᵖ of [[M, Bᵀ], [B, 0]] [q̈; λ] = [f; −γ] at (t, q, q̇).
 
@@ -663,7 +940,8 @@ def run(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam, tfv, AB, ip
                 # re-synchronise a and the normal velocity with the new step (stepsize.md §2)
                 for i in range(nv):
                     a[i] += delta * (h - h_prev) * jn[i]
-                if nc > 0:
+                # (the index-2 step keeps B q̇ + Φ_t = 0: no normal velocity to re-synchronise)
+                if nc > 0 and ip[IP_GGL] == 0:
                     jacobian_times(G, C, t, q, jn, Bv)
                     rates(G, C, t, q, qd, Pt, gam)
                     for j in range(nc):
@@ -685,8 +963,12 @@ def run(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam, tfv, AB, ip
             for i in range(nv):
                 j = xm[i]
                 wq[i] = max(fp[FP_TOLQ] * ((abs(q[j]) if j >= 0 else 0.0) + fp[FP_L] * wC[i]), floor)
-        k = newton_step(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam, t1, h,
-                        h_prev if h_prev > 0.0 else h, AB, ipiv, r, Phi, rhs, x, info, wq)
+        if ip[IP_GGL] != 0:
+            k = newton_step_ggl(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam, t1, h,
+                                h_prev if h_prev > 0.0 else h, AB, ipiv, r, Phi, rhs, x, info, wq)
+        else:
+            k = newton_step(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam, t1, h,
+                            h_prev if h_prev > 0.0 else h, AB, ipiv, r, Phi, rhs, x, info, wq)
         if k < 0:
             if not adaptive:
                 return k

@@ -156,12 +156,15 @@ def test_force_pulse_with_h_max_resolves_the_pulse():
 
 
 # ------------------------------------------------------------------ index-2 option (deliverable 3)
-def test_index2_formulation_is_refused_clearly_until_it_exists():
-    """The stabilized index-2 form is not implemented yet: asking for it must say so, not run index 3."""
+def test_index2_formulation_runs_the_index2_step_and_unknown_ones_are_refused():
+    """formulation="index2" runs the stabilized index-2 step (tests/test_index2.py), not index 3."""
     import pytest
     from femb.benchmarks import pendulum
-    with pytest.raises(femb.ParameterError, match="formulation.*index-2 form is not implemented"):
-        femb.simulate(pendulum.build().compile(), 0.01, 1e-3, formulation="index2")
+    model = pendulum.build().compile()
+    r = femb.simulate(model, 0.01, 1e-3, formulation="index2")
+    assert r.settings["formulation"] == "index2"
+    with pytest.raises(femb.ParameterError, match="formulation must be 'index3'"):
+        femb.simulate(model, 0.01, 1e-3, formulation="index1")
 
 
 # ------------------------------------------------------------------ command line
