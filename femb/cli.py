@@ -348,10 +348,11 @@ def cmd_run(args):
         try:
             if adaptive:
                 result = simulate(model, t_end, rtol=args.rtol, atol=args.atol, h0=h, rho_inf=rho_inf,
-                                  scaling=not args.no_scaling, store=False, observer=observer, progress=show)
+                                  scaling=not args.no_scaling, store=False, observer=observer, progress=show,
+                                  formulation=args.formulation)
             else:
                 result = simulate(model, t_end, h, rho_inf=rho_inf, scaling=not args.no_scaling,
-                                  store=False, observer=observer, progress=show)
+                                  store=False, observer=observer, progress=show, formulation=args.formulation)
         except (FembError, KeyboardInterrupt):
             raise
         except Exception as exc:
@@ -371,6 +372,7 @@ def cmd_run(args):
         "rejected_steps": int(getattr(result, "n_rejected", 0)),
         "rho_inf": float(rho_inf),
         "scaling": not args.no_scaling,
+        "formulation": args.formulation,
         "steps": result.steps,
         "newton_iterations": iters,
         "wall_time_s": result.wall_time,
@@ -550,6 +552,9 @@ def build_parser():
                     help="spectral radius at infinity in [0, 1] (default: the scene's, usually 0.7)")
     sp.add_argument("--no-scaling", action="store_true",
                     help="solve the unscaled Newton system (default: scaled, Bottasso et al.)")
+    sp.add_argument("--formulation", choices=("index3", "index2"), default="index3",
+                    help="index3 (default) or the stabilized index-2 (GGL) step of planar models: "
+                         "velocity constraint held, no 1/h^2 round-off in the reactions at tiny h")
     sp.add_argument("--set", action="append", metavar="NAME=VALUE", default=[],
                     help="keyword argument of the scene's build() (repeatable; numbers are parsed as numbers)")
     sp.add_argument("--json", metavar="FILE", help="write the run summary as JSON ('-' for stdout)")

@@ -241,3 +241,11 @@ def test_console_script():
     assert r.returncode == 0 and "run" in r.stdout and "bench" in r.stdout
     r = subprocess.run(cmd + ["run", "andrews", "--h", "x"], capture_output=True, text=True, timeout=120)
     assert r.returncode == 2 and len(r.stderr.strip().splitlines()) == 1
+
+
+def test_run_with_the_index2_formulation(tmp_path):
+    """``femb run --formulation index2`` runs the stabilized index-2 step and says so in the JSON."""
+    out = tmp_path / "run.json"
+    assert cli.main(["run", "pendulum", "--t-end", "0.05", "--formulation", "index2", "--json", str(out)]) == 0
+    data = json.loads(out.read_text())
+    assert data["formulation"] == "index2" and data["steps"] > 0
