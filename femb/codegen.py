@@ -62,8 +62,13 @@ def _roles(model):
     return out
 
 
-def generate_source(model):
-    """(module name, source text) of the generated module for ``model``'s kind."""
+def generate_source(model, ggl=False):
+    """(module name, source text) of the generated module for ``model``'s kind.
+
+    ``ggl``: the module also serves the stabilized index-2 step (``GGL = True`` in its
+    header); index-3 modules leave that code out (numba prunes the branch on the
+    constant), which keeps the first compilation of a kind shorter.
+    """
     roles = _roles(model)
     imports, files = {}, {str(_STEP_SOURCE), str(_JIT_SOURCE)}
     wrapped = [g.cls.kernels["mass"] for g in model.mass_groups] + [fn for _, _, fn, _ in roles]
@@ -78,6 +83,8 @@ def generate_source(model):
     for (mod, name), alias in imports.items():
         lines.append(f"from {mod} import {name} as {alias}")
     lines.append(f"KERNEL_ALIASES = {[((m, n), a) for (m, n), a in imports.items()]!r}")
+    lines.append(f"#: this module serves the stabilized index-2 step (femb/step.py, run)\nGGL = {bool(ggl)}")
+    lines.append(f"#: the kind has rotation nodes (q = q_n ∘ exp(Δ), femb/step.py)\nLIE = {bool(getattr(model, 'lie', False))}")
     lines += ["", "", "@njit(cache=True, **OPTIONS)",
               "def evaluate(G, C, t, q, qd, qdd, lam, jac, cM, cC, cK, ABf, r, Phi):",
               '    """Residual r = M q̈ − f + Bᵀλ, Φ, and (jac) the iteration matrix into ABf; returns the force scale."""',
@@ -220,9 +227,9 @@ def generate_source(model):
     return "femb_kind_" + h.hexdigest()[:20], body
 
 
-def load_kind(model, verbose=True):
+def load_kind(model, verbose=True, ggl=False):
     """Import (writing it first if needed) the generated module of ``model``'s kind."""
-    name, body = generate_source(model)
+    name, body = generate_source(model, ggl)
     mod = _loaded.get(name)
     if mod is not None:
         return mod, False, mod.__file__
@@ -476,7 +483,7 @@ class Compiled:
                   np.ascontiguousarray(np.stack((fl_c, fl_d, tG), axis=1).astype(np.int64)), pairs,
                   _i64(tEta), np.zeros((2, nB)), np.zeros((4, nc if ggl else 0)))
         self.python_tf = tf["python"]
-        self.mod, fresh, self.cache_path = load_kind(model)
+        self.mod, fresh, self.cache_path = load_kind(model, ggl=ggl)
         _attach_entry_points(model, self.mod)
         self.fresh = fresh
         self.setup_time = time.perf_counter() - t0

@@ -28,7 +28,9 @@ from numba import njit
 from femb.jit import OPTIONS
 from femb.rotations import s2, s3, s7
 
-# ``evaluate``, ``rates`` and ``jacobian_times`` are defined by the generated module this text is appended to.
+# ``evaluate``, ``rates`` and ``jacobian_times`` are defined by the generated module this text is appended to,
+# and the constants ``GGL`` (True for the module of the index-2 layout, which runs newton_step_ggl) and
+# ``LIE`` (True for kinds with rotation nodes; planar kinds do not compile the group update).
 
 # ---- status codes returned to Python (femb/solver.py raises femb's errors) -------------
 ST_CHUNK = 0          # requested number of steps done
@@ -348,7 +350,7 @@ def newton_step(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam, t1,
             D[i] = h * qd[i] + (h * h * (0.5 - beta)) * a[i] + (h * h * beta) * a_pred
         qd[i] = qd_new
         qdd[i] = g
-    if nrot > 0:
+    if LIE:
         lie_update(q, C)
     for j in range(nc):
         if pred == 0:
@@ -455,7 +457,7 @@ def newton_step(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam, t1,
             v = abs(dq) / wq[i]
             if v > dqw:
                 dqw = v
-        if nrot > 0:
+        if LIE:
             lie_update(q, C)
         for j in range(nc):
             lam[j] += rhs[iperm[nv + j]] * inv_c
@@ -963,7 +965,10 @@ def run(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam, tfv, AB, ip
             for i in range(nv):
                 j = xm[i]
                 wq[i] = max(fp[FP_TOLQ] * ((abs(q[j]) if j >= 0 else 0.0) + fp[FP_L] * wC[i]), floor)
-        if ip[IP_GGL] != 0:
+        # GGL is a constant of the generated module: index-3 modules do not compile the
+        # index-2 step at all (numba prunes the branch)
+        k = -1
+        if GGL:
             k = newton_step_ggl(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam, t1, h,
                                 h_prev if h_prev > 0.0 else h, AB, ipiv, r, Phi, rhs, x, info, wq)
         else:
