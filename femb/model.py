@@ -179,7 +179,7 @@ class Model:
                              "available for such models yet (see docs/spatial.md, 'Time loop')")
 
     def magnitude(self, q):
-        """|q| per velocity entry (nq,): |x| of additive entries, 0 on rotations (judged by atol)."""
+        """Magnitude of q per velocity entry (nq,): abs(x) of additive entries, 0 on rotations (judged by atol)."""
         q = np.asarray(q, dtype=float)
         if not self.lie:
             return np.abs(q)
