@@ -553,8 +553,8 @@ def build_parser():
     sp.add_argument("--no-scaling", action="store_true",
                     help="solve the unscaled Newton system (default: scaled, Bottasso et al.)")
     sp.add_argument("--formulation", choices=("index3", "index2"), default="index3",
-                    help="index3 (default) or the stabilized index-2 (GGL) step of planar models: "
-                         "velocity constraint held, no 1/h^2 round-off in the reactions at tiny h")
+                    help="index3 (default) or the stabilized index-2 (GGL) step: velocity constraint "
+                         "held, no 1/h^2 round-off in the reactions at tiny h, runs at rho_inf = 1")
     sp.add_argument("--set", action="append", metavar="NAME=VALUE", default=[],
                     help="keyword argument of the scene's build() (repeatable; numbers are parsed as numbers)")
     sp.add_argument("--json", metavar="FILE", help="write the run summary as JSON ('-' for stdout)")

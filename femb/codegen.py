@@ -479,9 +479,9 @@ class Compiled:
                   _i64(rot).reshape(-1, 2), np.zeros((len(rot), 4)), np.zeros(nv),
                   # index-2 layout (empty otherwise): per flat entry of B (constraint, coordinate, target
                   # in the velocity rows), the products of B(q) B(q_n)ᵀ (entry, entry, target), the η
-                  # diagonal of active constraints, work: B(q_n) and B(q) flat, and η, g, Φ_t, γ
+                  # diagonal of active constraints, work: B(q_n), B(q) and B(q) T(D) flat, and η, g, Φ_t, γ
                   np.ascontiguousarray(np.stack((fl_c, fl_d, tG), axis=1).astype(np.int64)), pairs,
-                  _i64(tEta), np.zeros((2, nB)), np.zeros((4, nc if ggl else 0)))
+                  _i64(tEta), np.zeros((3, nB)), np.zeros((4, nc if ggl else 0)))
         self.python_tf = tf["python"]
         self.mod, fresh, self.cache_path = load_kind(model, ggl=ggl)
         _attach_entry_points(model, self.mod)

@@ -79,10 +79,6 @@ def _check_formulation(formulation, model):
     if not isinstance(formulation, str) or formulation not in FORMULATIONS:
         raise ParameterError(f"formulation must be 'index3' (Arnold & Brüls 2007) or 'index2' (stabilized "
                              f"index 2, GGL), got {formulation!r}")
-    if formulation == "index2":
-        if getattr(model, "lie", False):
-            raise ParameterError("formulation='index2' is available for planar models only: this model has "
-                                 "rotation nodes (spatial rigid bodies or beams); use formulation='index3'")
     return formulation
 
 
@@ -102,7 +98,7 @@ def error_constants(alpha):
 
 class GeneralizedAlphaSolver:
     """Generalized-α integrator: index 3 (Algorithm 1 of Arnold & Brüls 2007, fixed or adaptive
-    steps) or stabilized index 2 (GGL-type; planar models, fixed or adaptive steps).
+    steps) or stabilized index 2 (GGL-type; planar and spatial models, fixed or adaptive steps).
 
     Contract: :meth:`advance` runs the compiled loop (``femb/step.py``) for a
     chunk of accepted steps, or raises (:class:`ConvergenceError`,
@@ -181,10 +177,11 @@ class GeneralizedAlphaSolver:
         Fixed steps: number of steps to t_end.
     formulation : {"index3", "index2"}
         "index3" (default): Algorithm 1, constraints on position level.
-        "index2": the stabilized index-2 (Gear–Gupta–Leimkuhler) form, planar
-        models (``model.lie`` False), fixed or adaptive steps: m more unknowns η
-        with q_{n+1} = q_n + Δ + B(q_n)ᵀη, and Φ = 0 and B q̇ + Φ_t = 0 both
-        enforced at every step. λ is then free of the 1/h² amplification of
+        "index2": the stabilized index-2 (Gear–Gupta–Leimkuhler) form, fixed or
+        adaptive steps: m more unknowns η with q_{n+1} = q_n + Δ + B(q_n)ᵀη
+        (q_n ∘ exp(Δ + B(q_n)ᵀη) on models with rotation nodes), and Φ = 0 and
+        B q̇ + Φ_t = 0 both enforced at every step. It also runs without
+        numerical damping (ρ∞ = 1), where the index-3 scheme can diverge. λ is then free of the 1/h² amplification of
         Newton and round-off errors in Φ (relative λ error 6e-14 on Andrews at
         h = 1e-8 s, 3e-3 with index 3), and only a needs a consistent start
         (``start="consistent"`` sets a_0, not q̇_0; adaptive steps re-synchronise
@@ -624,13 +621,14 @@ def simulate(model, t_end, h=None, *, rtol=None, atol=None, h0=None, h_max=None,
         the seed paper's start.
     formulation : {"index3", "index2"}
         "index3" (default): the index-3 generalized-α scheme of Arnold & Brüls
-        (2007). "index2": the stabilized index-2 (GGL-type) form for planar
-        models, fixed or adaptive steps: Φ and the velocity constraint B q̇ + Φ_t hold
+        (2007). "index2": the stabilized index-2 (GGL-type) form, planar or
+        spatial, fixed or adaptive steps: Φ and the velocity constraint B q̇ + Φ_t hold
         at every step and λ stays accurate as h → 0 (no 1/h² amplification of
         errors in Φ), at the cost of m more unknowns and about 1.4× the Newton
         iterations. Pick it for very small steps or when reaction forces or
-        velocity constraints must be accurate; see docs/method.md §7. Spatial
-        models with rotation nodes refuse it with a ParameterError.
+        velocity constraints must be accurate, or to run at ρ∞ = 1 (no numerical
+        damping; the heavy top keeps E and L_z to O(h²)); see docs/method.md §7
+        and docs/spatial.md.
     rho_inf, alpha, scaling, initialize, **options
         See :class:`GeneralizedAlphaSolver` (error_per, newton_test, phi_tol,
         max_iter, newton, linear_solver, predictor, check_every, ...).

@@ -530,13 +530,16 @@ def ggl_matrix(C, ABf, sg):
     With B = B(q) (``C[26][1]``) and B_n = B(q_n) (``C[26][0]``), flat per element
     block: sg·B in the velocity rows (q̇ columns), B B_nᵀ in the Φ rows (η
     columns), and a zero η diagonal for active constraints (``evaluate`` puts 1
-    there for the constrained-acceleration solves).
+    there for the constrained-acceleration solves). Kinds with rotation nodes use
+    B T(D) (``C[26][2]``, the blocks ``evaluate`` scattered) in the Φ rows.
     """
     fl = C[23]
     pairs = C[24]
     tEta = C[25]
     Bn = C[26][0]
     Bq = C[26][1]
+    # rotation kinds: ∂Φ(q_n ∘ exp(Δ + B_nᵀη))/∂η = B(q) T(D) B_nᵀ, with B T in C[26][2]
+    BT = C[26][2] if LIE else C[26][1]
     for c in range(tEta.shape[0]):
         if tEta[c] >= 0:
             ABf[tEta[c]] = 0.0
@@ -544,13 +547,13 @@ def ggl_matrix(C, ABf, sg):
         if fl[k, 0] >= 0:
             ABf[fl[k, 2]] += sg * Bq[k]
     for p in range(pairs.shape[0]):
-        ABf[pairs[p, 2]] += Bq[pairs[p, 0]] * Bn[pairs[p, 1]]
+        ABf[pairs[p, 2]] += BT[pairs[p, 0]] * Bn[pairs[p, 1]]
 
 
 @njit(cache=True, **OPTIONS)
 def newton_step_ggl(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam, t1, h, h_prev,
                     AB, ipiv, r, Phi, rhs, x, info, wq):
-    """One step of the stabilized index-2 (GGL-type) generalized-α scheme, planar models, in place.
+    """One step of the stabilized index-2 (GGL-type) generalized-α scheme, in place.
 
     Gear, Gupta & Leimkuhler (1985) with the generalized-α discretization of
     Arnold & Brüls (2007, §5): with the Newmark increment
@@ -570,6 +573,11 @@ def newton_step_ggl(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam,
     converges linearly at a rate O(h), to the solution of the exact equations.
     Stopping rules as :func:`newton_step`; the constraint test holds for Φ and
     for g/γ' (a position-sized velocity residual). Returns as :func:`newton_step`.
+
+    Rotation nodes (Lie group, docs/spatial.md §2): q_{n+1} = q_n ∘ exp(Δ + B_nᵀη)
+    with B in velocity coordinates; the Φ rows get B T(D) in the Δ columns (from
+    ``evaluate``) and B T(D) B_nᵀ in the η columns, D = Δ + B_nᵀη on the rotation
+    entries. On planar kinds (``LIE`` false) this is the update above, unchanged.
     """
     nv = ip[IP_NV]
     nc = ip[IP_NC]
@@ -606,6 +614,15 @@ def newton_step_ggl(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam,
     constraint_B(G, C, t1, q, qd, Bn)
     pred = ip[IP_PRED]
     rho = h / h_prev if h_prev > 0.0 else 1.0
+    # rotation nodes: q = q_n ∘ exp(Δ + B_nᵀη), additive entries in place, rotations from
+    # p_n and the increment D (as in newton_step)
+    xm = C[19]
+    rot = C[20]
+    pn = C[21]
+    D = C[22]
+    for b in range(rot.shape[0]):
+        for m in range(4):
+            pn[b, m] = q[rot[b, 0] + m]
     for i in range(nv):
         a_base = (af * qdd[i] - am * a[i]) / (1.0 - am)
         if pred == 0:
@@ -620,9 +637,15 @@ def newton_step_ggl(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam,
         pqdd[i] = qdd[i]
         x[i] = a_base
         qd_new = qd[i] + (h * (1.0 - gamma)) * a[i] + (h * gamma) * a_pred
-        q[i] = q[i] + h * qd[i] + (h * h * (0.5 - beta)) * a[i] + (h * h * beta) * a_pred
+        j = xm[i]
+        if j >= 0:
+            q[j] = q[j] + h * qd[i] + (h * h * (0.5 - beta)) * a[i] + (h * h * beta) * a_pred
+        else:
+            D[i] = h * qd[i] + (h * h * (0.5 - beta)) * a[i] + (h * h * beta) * a_pred
         qd[i] = qd_new
         qdd[i] = gi
+    if LIE:
+        lie_update(q, C)
     for j in range(nc):
         if pred == 0:
             gj = 0.0
@@ -652,8 +675,15 @@ def newton_step_ggl(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam,
             jac = not have_lu
         scale = evaluate(G, C, t1, q, qd, qdd, lam, jac, c * bp, c * gp, c, AB, r, Phi)
         stats[NS_EVAL] += 1
-        # the velocity constraint g = B(q) q̇ + Φ_t, from the blocks evaluate() left
-        copy_B(G, Bq)
+        # the velocity constraint g = B(q) q̇ + Φ_t, from the blocks evaluate() left; rotation
+        # kinds: evaluate() left B T(D) when it built the matrix (kept for ggl_matrix), and B
+        # itself comes from the kernels
+        if LIE:
+            if jac:
+                copy_B(G, C[26][2])
+            constraint_B(G, C, t1, q, qd, Bq)
+        else:
+            copy_B(G, Bq)
         rates(G, C, t1, q, qd, Pt, gam)
         for j in range(nc):
             g_[j] = Pt[j]
@@ -741,12 +771,18 @@ def newton_step_ggl(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam,
                 rhs[iperm[fl[kk, 1]]] += Bn[kk] * rhs[iperm[nv + nc + cj]]
         for i in range(nv):
             dq = rhs[iperm[i]]
-            q[i] += dq
-            if abs(q[i]) > qmax:
-                qmax = abs(q[i])
+            j = xm[i]
+            if j >= 0:
+                q[j] += dq
+                if abs(q[j]) > qmax:
+                    qmax = abs(q[j])
+            else:
+                D[i] += dq
             v = abs(dq) / wq[i]
             if v > dqw:
                 dqw = v
+        if LIE:
+            lie_update(q, C)
         k += 1
         if ntest == 0:
             if (err_phi <= tol_phi and err_f <= 1e4 * (rtol * F + atol)

@@ -1,4 +1,6 @@
-"""The stabilized index-2 (GGL-type) generalized-α step, ``formulation="index2"`` (planar models).
+"""The stabilized index-2 (GGL-type) generalized-α step, ``formulation="index2"``, on planar models.
+
+Spatial models (the same step on the Lie group): tests/test_spatial_index2.py.
 
 q_{n+1} = q_n + Δ + B(q_n)ᵀη with Φ(q_{n+1}) = 0 and B(q_{n+1}) q̇_{n+1} + Φ_t = 0
 (femb/step.py, ``newton_step_ggl``). Errors are measured against the independent
@@ -161,16 +163,6 @@ def test_solver_object_steps_with_index2():
 
 
 # ------------------------------------------------------------------ (d) refusals
-def test_index2_is_refused_for_spatial_models():
-    from femb.benchmarks import spatial_double_pendulum as SD
-    model = SD.build().compile()
-    assert model.lie
-    with pytest.raises(femb.ParameterError, match="index2.*planar models only"):
-        femb.simulate(model, 0.01, 1e-3, formulation="index2")
-    with pytest.raises(femb.ParameterError, match="planar models only"):
-        femb.GeneralizedAlphaSolver(model, 1e-3, t_end=0.01, formulation="index2")
-
-
 @pytest.mark.parametrize("bad", ["index1", "Index2", "ggl", 2, None])
 def test_bad_formulation_is_refused_clearly(bad):
     model = pendulum.build().compile()
