@@ -119,6 +119,18 @@ def outputs(result, mass=None, inertia=None, g=None):
     return out
 
 
+def rotation_error(p, ref, k=-1):
+    """Angle (rad) of the rotation between quaternion ``p`` (4,) and the reference's at output ``k``.
+
+    δ = conj(p_ref) ⊗ p, angle = 2 atan2(‖δ_vec‖, |δ_0|) (sign-safe: p and −p are one rotation).
+    """
+    p = np.asarray(p, dtype=float)
+    pr = np.array([np.atleast_1d(ref[f"p{i}"])[k] for i in range(4)])
+    d0 = pr[0] * p[0] + pr[1:] @ p[1:]
+    dv = pr[0] * p[1:] - p[0] * pr[1:] - np.cross(pr[1:], p[1:])
+    return float(2.0 * np.arctan2(np.linalg.norm(dv), abs(d0)))
+
+
 def reference(t_eval):
     """Reference outputs at ``t_eval`` (quaternion ODE, DOP853, rtol = atol = 1e-13)."""
     from femb.benchmarks.references import heavy_top as ref
