@@ -343,8 +343,9 @@ def cmd_run(args):
     with stream as observer, warnings.catch_warnings():
         if rho_inf == 1.0:
             warnings.simplefilter("ignore", ParameterWarning)
-            print("note: rho_inf = 1 is not strictly stable at infinity; multipliers may oscillate",
-                  file=sys.stderr)
+            if args.formulation == "index3":
+                print("note: rho_inf = 1 is not strictly stable at infinity with index 3; multipliers may "
+                      "oscillate (--formulation index2 runs without numerical damping)", file=sys.stderr)
         try:
             if adaptive:
                 result = simulate(model, t_end, rtol=args.rtol, atol=args.atol, h0=h, rho_inf=rho_inf,
