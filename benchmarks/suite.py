@@ -347,8 +347,9 @@ def render_report(res):
             if ha.get("error"):
                 L.append(f"The adaptive measurement failed: {_md(ha['error'])}")
             else:
-                L.append("The largest rtol (= atol) reaching the target (quarter decades from 1e-8, then three "
-                         "bisections in log rtol) against the fixed-step run above. Also printed by "
+                L.append("The largest rtol (= atol) reaching the target (quarter decades from 1e-9, tighter until met or "
+                         "looser while met, then three bisections in log rtol) against the best fixed step (the "
+                         "run above lowered in 2 % decrements while the target is met). Also printed by "
                          "`python -m femb.benchmarks.adaptive_suite`.")
                 L.append("")
                 L.append(adaptive_suite.format_andrews(ha))
