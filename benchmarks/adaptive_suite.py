@@ -284,7 +284,7 @@ def _plt():
 
 
 def period2_amplitude(err):
-    """Period-2 part of an error sequence (steps along axis 0): max over steps and components of |Δ⁴e|/16.
+    """Period-2 part of an error sequence (steps along axis 0): max over steps and components of abs(Δ⁴e)/16.
 
     A λ transient of the index-3 scheme alternates in sign from step to step
     (its characteristic roots sit at −ρ∞, stepsize.md §2), so a kick at a step
@@ -304,8 +304,8 @@ def step_change_windows(h_steps, err, ratio=1.3, window=10):
 
     ``err[n]`` is the error at the stored time t_n (n = 0 … N), ``h_steps[n]``
     the step from t_n to t_{n+1}. A change at step n (h_n/h_{n−1} > ratio or
-    < 1/ratio) is rated by max |err| over t_{n+1} … t_{n+window} over max |err|
-    over t_{n−window+1} … t_n.
+    < 1/ratio) is rated by max abs(err) over the stored times n + 1 … n + window
+    over max abs(err) over n − window + 1 … n.
 
     Returns
     -------
@@ -331,7 +331,7 @@ def step_change_windows(h_steps, err, ratio=1.3, window=10):
 
 
 def _max_errors(r, groups):
-    """{label: max over the run and over ``names`` of |output − reference|}, one reference() call per run."""
+    """{label: max over the run and over ``names`` of abs(output − reference)}, one reference() call per run."""
     ref = r.scene.reference(r.result.t, **r.options.get("params", {}))
     return {g: float(max(np.max(np.abs(np.asarray(r.outputs[n]) - np.asarray(ref[n]))) for n in names))
             for g, names in groups.items()}
