@@ -18,14 +18,17 @@ Parts
     For every scene of the registry (read at run time): wall time against
     the error at t_end and the maximum error over the run, for positions,
     velocities and multipliers, femb at ρ∞ ∈ {0, 0.5, 0.7, 0.9} with scaling on
-    and off, and the peers (:mod:`femb.benchmarks.peers`) measured in the same
-    run (:mod:`femb.benchmarks.work_precision`).
+    and off, femb's adaptive steps over a ladder of rtol beside them, and the
+    peers (:mod:`femb.benchmarks.peers`) measured in the same run
+    (:mod:`femb.benchmarks.work_precision`, :mod:`femb.benchmarks.adaptive_suite`).
 ``headline``
     Wall time to bring Andrews' seven angles to 1e-6 rad at t = 0.03 s, femb
-    against each peer, as ratios.
+    against each peer, as ratios; and femb's adaptive steps against its best
+    fixed step to the same target (steps and wall time).
 stress tests
-    :data:`femb.benchmarks.stress.TESTS`, each with its pass/fail criteria and
-    a verdict (PASS / FAIL / FINDING) next to the measured figures.
+    :data:`femb.benchmarks.stress.TESTS` (the adaptive-step tests of
+    :mod:`femb.benchmarks.adaptive_suite` included), each with its pass/fail
+    criteria and a verdict (PASS / FAIL / FINDING) next to the measured figures.
 
 The exit status is 0 when the report was written (the verdicts are in it), 2
 for bad arguments.
