@@ -1128,3 +1128,9 @@ def run(test_id, ctx):
     out["id"] = test_id
     out["wall_s"] = time.perf_counter() - t0
     return clean(out)
+
+
+# the stress tests of adaptive steps (benchmarks/adaptive_suite.py) follow the fixed-step ones
+from .adaptive_suite import TESTS as _ADAPTIVE_TESTS  # noqa: E402
+
+TESTS.update(_ADAPTIVE_TESTS)

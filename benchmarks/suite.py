@@ -18,14 +18,17 @@ Parts
     For every scene of the registry (read at run time): wall time against
     the error at t_end and the maximum error over the run, for positions,
     velocities and multipliers, femb at ρ∞ ∈ {0, 0.5, 0.7, 0.9} with scaling on
-    and off, and the peers (:mod:`femb.benchmarks.peers`) measured in the same
-    run (:mod:`femb.benchmarks.work_precision`).
+    and off, femb's adaptive steps over a ladder of rtol beside them, and the
+    peers (:mod:`femb.benchmarks.peers`) measured in the same run
+    (:mod:`femb.benchmarks.work_precision`, :mod:`femb.benchmarks.adaptive_suite`).
 ``headline``
     Wall time to bring Andrews' seven angles to 1e-6 rad at t = 0.03 s, femb
-    against each peer, as ratios.
+    against each peer, as ratios; and femb's adaptive steps against its best
+    fixed step to the same target (steps and wall time).
 stress tests
-    :data:`femb.benchmarks.stress.TESTS`, each with its pass/fail criteria and
-    a verdict (PASS / FAIL / FINDING) next to the measured figures.
+    :data:`femb.benchmarks.stress.TESTS` (the adaptive-step tests of
+    :mod:`femb.benchmarks.adaptive_suite` included), each with its pass/fail
+    criteria and a verdict (PASS / FAIL / FINDING) next to the measured figures.
 
 The exit status is 0 when the report was written (the verdicts are in it), 2
 for bad arguments.
@@ -41,7 +44,7 @@ import sys
 import time
 from pathlib import Path
 
-from . import peers, stress, work_precision
+from . import adaptive_suite, peers, stress, work_precision
 from .work_precision import clean, first_line
 
 #: Parts of the suite, in run order (stress tests follow).
@@ -149,6 +152,9 @@ def run_suite(quick=False, out="bench-report", progress=True, only=None):
                 try:
                     wp = work_precision.study(arg, quick=quick, log=log)
                     wp["figure"] = work_precision.figure(wp, out / f"wp_{arg}.png").name
+                    if (wp.get("adaptive") or {}).get("points"):
+                        wp["figure_adaptive"] = work_precision.adaptive_figure(
+                            wp, out / f"wp_adaptive_{arg}.png").name
                 except Exception as exc:    # one broken scene must not stop the suite
                     import traceback
 
@@ -166,6 +172,11 @@ def run_suite(quick=False, out="bench-report", progress=True, only=None):
                     hl["figure"] = work_precision.headline_figure(hl, out / "headline.png").name
                 except Exception as exc:
                     hl = {"error": f"{type(exc).__name__}: {first_line(exc)}", "codes": [], "ratios": {}}
+                try:        # Andrews to the same target with adaptive steps, against femb's fixed run
+                    fixed = next((c for c in hl.get("codes", []) if c["code"] == "femb"), None)
+                    hl["adaptive"] = adaptive_suite.andrews_to_target(quick=quick, fixed=fixed, log=log)
+                except Exception as exc:
+                    hl["adaptive"] = {"error": f"{type(exc).__name__}: {first_line(exc)}"}
                 hl["wall_s"] = time.perf_counter() - t0
                 results["headline"] = clean(hl)
             else:
@@ -229,6 +240,29 @@ def _order(points, group):
     return fit_order([p["h"] for p in pts], [p["errors"][group]["final_rel"] for p in pts])
 
 
+def _adaptive_table(wp):
+    """Fixed (ρ∞ = 0.7, scaled) against adaptive steps of one scene: steps, wall time, max errors."""
+    ad = wp["adaptive"]
+    L = [f"Fixed against adaptive steps (ρ∞ = 0.7; adaptive: rtol = atol, h_max = "
+         f"{_f(ad.get('h_max')) if ad.get('h_max') else 'none'}, errors at the same sample times, interpolated "
+         "between accepted steps; steps include the rejected ones):", "",
+         "| run | h [s] / rtol | steps (rejected) | wall [s] | pos. max | vel. max | mult. max |",
+         "|---|---|---|---|---|---|---|"]
+    fixed = next((s for s in wp["femb"] if s["rho_inf"] == 0.7 and s["scaling"]), None)
+    rows = [("fixed", p, "h") for p in (fixed or {}).get("points", [])] + [("adaptive", p, "rtol")
+                                                                           for p in ad["points"]]
+    for kind, p, key in rows:
+        if p.get("failed"):
+            L.append(f"| {kind} | {_f(p.get(key))} | failed: {_md(p['failed'])[:90]} | | | | |")
+            continue
+        e = p["errors"]
+        rej = f" ({p['rejected']})" if kind == "adaptive" else ""
+        L.append(f"| {kind} | {_f(p.get(key))} | {p.get('steps')}{rej} | {_f(p.get('wall_s'))} | "
+                 f"{_f(e['positions']['max_rel'], '.2e')} | {_f(e['velocities']['max_rel'], '.2e')} | "
+                 f"{_f(e['multipliers']['max_rel'], '.2e')} |")
+    return "\n".join(L)
+
+
 def render_report(res):
     """Markdown report from the results dict (see :func:`run_suite`)."""
     s = res["suite"]
@@ -267,6 +301,12 @@ def render_report(res):
                          + ("not installed" if "not installed" in str(c.get("setting")) else "not reached"))
         L.append(f"* Headline: femb reaches {hl['target']:g} rad on Andrews' angles in {_f(fe.get('wall_s'))} s; "
                  f"femb time / peer time: {'; '.join(parts)}.")
+    ha = (hl or {}).get("adaptive") or {}
+    if ha.get("goals"):
+        L.append(f"* Andrews to {ha['target']:g} rad with adaptive steps: {ha['adaptive']['steps']} steps "
+                 f"(rtol {ha['adaptive']['rtol']:.3g}), {_f(ha['adaptive']['wall_s'])} s, against {ha['fixed']['steps']} "
+                 f"fixed steps, {_f(ha['fixed']['wall_s'])} s (steps ratio {ha['steps_ratio']:.2f}, wall-time ratio "
+                 f"{ha['wall_ratio']:.2f}).")
     v = res.get("verdicts", {})
     L.append(f"* Stress-test criteria: {v.get('PASS', 0)} PASS, {v.get('FINDING', 0)} FINDING, {v.get('FAIL', 0)} FAIL.")
     if res["stress"]:
@@ -302,6 +342,20 @@ def render_report(res):
             if hl.get("figure"):
                 L.append("")
                 L.append(f"![headline]({hl['figure']})")
+        ha = hl.get("adaptive")
+        if ha:
+            L.append("")
+            L.append("### Adaptive against fixed steps (femb)")
+            L.append("")
+            if ha.get("error"):
+                L.append(f"The adaptive measurement failed: {_md(ha['error'])}")
+            else:
+                L.append("The largest rtol (= atol) reaching the target (quarter decades from 1e-9, tighter until met or "
+                         "looser while met, then three bisections in log rtol) against the best fixed step (the "
+                         "run above lowered in 2 % decrements while the target is met). Also printed by "
+                         "`python -m femb.benchmarks.adaptive_suite`.")
+                L.append("")
+                L.append(adaptive_suite.format_andrews(ha))
     # ---- work precision
     if res["work_precision"]:
         L.append("")
@@ -331,6 +385,16 @@ def render_report(res):
             if wp.get("figure"):
                 L.append("")
                 L.append(f"![work-precision {name}]({wp['figure']})")
+            ad = wp.get("adaptive") or {}
+            if ad.get("error"):
+                L.append("")
+                L.append(f"The adaptive series failed: {_md(ad['error'])}")
+            elif ad.get("points"):
+                L.append("")
+                L.append(_adaptive_table(wp))
+                if wp.get("figure_adaptive"):
+                    L.append("")
+                    L.append(f"![fixed vs adaptive {name}]({wp['figure_adaptive']})")
             L.append("")
             L.append("Fitted orders (slope of the final relative error over h) and the finest point of every femb "
                      "series:")
@@ -360,6 +424,8 @@ def render_report(res):
                     continue
                 for p in sr["points"]:
                     L.append(_wp_rows(f"femb ρ∞=0.7 {'scaled' if sr['scaling'] else 'unscaled'}", p, "h"))
+            for p in (wp.get("adaptive") or {}).get("points", []):
+                L.append(_wp_rows(f"femb adaptive ρ∞=0.7 (rtol)", p, "rtol"))
             for sr in wp["exudyn"].get("series", []):
                 if sr["rho_inf"] != 0.7:
                     continue

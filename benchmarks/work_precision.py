@@ -425,6 +425,13 @@ def study(scene, quick=False, log=print, bar=None):
             f"{len(pts)} step sizes, best position error {best if best is None else format(best, '.2e')}")
         if bar is not None:
             bar.update(1)
+    # ---- femb adaptive (rtol ladder at rho_inf = 0.7), beside the fixed steps
+    from .adaptive_suite import adaptive_series
+
+    try:
+        out["adaptive"] = adaptive_series(case, quick, log)
+    except Exception as exc:       # reported in the scene's section, the fixed-step study stands
+        out["adaptive"] = {"error": f"{type(exc).__name__}: {first_line(exc)}", "points": []}
     # ---- scipy peers
     st = peers.status()
     if case.name in peers.scipy_scenes() and case.mode == "outputs":
@@ -685,6 +692,12 @@ def figure(wp, path):
                     ax.loglog(xs, ys, "-" if s["scaling"] else "--", marker="o", ms=4,
                               color=_RHO_COLORS.get(s["rho_inf"], "gray"),
                               label=f"femb ρ∞={s['rho_inf']:g}{'' if s['scaling'] else ' unscaled'}")
+            ad = wp.get("adaptive") or {}
+            xs, ys = _xy(ad.get("points", []), g, which)
+            if xs:
+                any_data = True
+                ax.loglog(xs, ys, "-", marker="*", ms=7, color="k", lw=1.4,
+                          label=f"femb adaptive ρ∞={ad.get('rho_inf', 0.7):g}")
             for s in (wp.get("exudyn") or {}).get("series", []):
                 xs, ys = _xy(s["points"], g, which)
                 if xs:
@@ -709,6 +722,47 @@ def figure(wp, path):
     fig.suptitle(f"work–precision: {wp['scene']}  (t_end = {wp['t_end']:g} s; reference: "
                  f"{'independent' if wp['mode'] == 'outputs' else 'femb self-reference'})", y=0.995, fontsize=11)
     fig.tight_layout(rect=(0, 0, 1, 0.92))
+    fig.savefig(path, dpi=90)
+    plt.close(fig)
+    return path
+
+
+def adaptive_figure(wp, path):
+    """Fixed against adaptive (ρ∞ = 0.7, scaled): max error over the run against wall time and against steps.
+
+    Two rows (positions, multipliers; velocities when a scene has no
+    multipliers), two columns (wall time, steps; adaptive steps include the
+    rejected ones).
+    """
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    groups = ["positions", "multipliers" if wp["groups"].get("multipliers") else "velocities"]
+    fixed = next((s for s in wp["femb"] if s["rho_inf"] == 0.7 and s["scaling"]), None)
+    ad = wp.get("adaptive") or {}
+    fig, axes = plt.subplots(2, 2, figsize=(11, 8), squeeze=False)
+    for i, g in enumerate(groups):
+        for j, key in enumerate(("wall_s", "steps")):
+            ax = axes[i, j]
+            for pts, st, lab in (((fixed or {}).get("points", []), "o-", "fixed h, ρ∞ = 0.7"),
+                                 (ad.get("points", []), "*-", "adaptive rtol = atol, ρ∞ = 0.7")):
+                ok = [p for p in pts if p.get("failed") is None and p.get(key) and
+                      (p["errors"][g]["max_rel"] or 0) > 0]
+                if ok:
+                    ax.loglog([p["errors"][g]["max_rel"] for p in ok], [p[key] for p in ok], st, label=lab)
+                    if lab.startswith("adaptive"):
+                        for p in ok:
+                            ax.annotate(f"{p['rtol']:g}", (p["errors"][g]["max_rel"], p[key]), fontsize=6,
+                                        textcoords="offset points", xytext=(3, 3))
+            ax.set_xlabel(f"{g}: relative error, max over the run")
+            ax.set_ylabel("wall time [s]" if key == "wall_s" else "steps (adaptive: accepted + rejected)")
+            ax.invert_xaxis()
+            ax.grid(True, which="both", alpha=0.3)
+            ax.legend(fontsize=8)
+    fig.suptitle(f"fixed against adaptive steps: {wp['scene']} (t_end = {wp['t_end']:g} s)", fontsize=11)
+    fig.tight_layout()
     fig.savefig(path, dpi=90)
     plt.close(fig)
     return path

@@ -11,12 +11,14 @@ import math
 import re
 import subprocess
 import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
 
 import femb
-from femb.benchmarks import peers, pendulum, registry, singular_slider_crank, stress, suite, work_precision
+from femb.benchmarks import (adaptive_suite, peers, pendulum, registry, singular_slider_crank, stress, suite,
+                             work_precision)
 
 VERDICTS = {"PASS", "FAIL", "FINDING"}
 
@@ -36,10 +38,16 @@ def _cli_has_bench_suite():
 @pytest.fixture(scope="module")
 def quick_report(tmp_path_factory):
     out = tmp_path_factory.mktemp("bench") / "report"
+    # the child process imports femb.elements / femb.benchmarks as this process does (conftest.py: from
+    # this checkout when femb is this checkout's, e.g. a worktree on PYTHONPATH beside an editable install)
+    boot = (f"import sys; sys.path.insert(0, {str(Path(__file__).resolve().parent)!r}); import conftest; "
+            "sys.argv[0] = 'femb'; ")
     if _cli_has_bench_suite():
-        cmd = [sys.executable, "-m", "femb.cli", "bench", "--quick", "--out", str(out)]
+        cmd = [sys.executable, "-c", boot + "from femb.cli import main; sys.exit(main(sys.argv[1:]))",
+               "bench", "--quick", "--out", str(out)]
     else:   # until the command line forwards to the suite: the same entry point, called directly
-        cmd = [sys.executable, "-m", "femb.benchmarks.suite", "--quick", "--out", str(out)]
+        cmd = [sys.executable, "-c", boot + "from femb.benchmarks.suite import main; sys.exit(main(sys.argv[1:]))",
+               "--quick", "--out", str(out)]
     proc = subprocess.run(cmd, capture_output=True, text=True, timeout=900)
     assert proc.returncode == 0, proc.stderr[-3000:]
     results = json.loads((out / "results.json").read_text())
@@ -125,9 +133,83 @@ def test_headline_ratios(quick_report):
     assert "Headline: time to 1e-6 rad" in report
 
 
+def test_work_precision_has_adaptive_series(quick_report):
+    """Every scene's work–precision study has the adaptive ladder beside the fixed steps, with its figure."""
+    out, results, report, _ = quick_report
+    for name in registry.names():
+        wp = results["work_precision"][name]
+        ad = wp["adaptive"]
+        assert "error" not in ad, (name, ad.get("error"))
+        assert [p["rtol"] for p in ad["points"]] == adaptive_suite.RTOLS["quick"]
+        ok = [p for p in ad["points"] if p.get("failed") is None]
+        assert ok, f"{name}: no adaptive run succeeded"
+        for p in ok:
+            assert p["wall_s"] > 0 and p["steps"] == p["accepted"] + p["rejected"] > 0
+            assert p["errors"]["positions"]["max_rel"] is not None
+        if wp["mode"] == "outputs" and len(ok) == len(ad["points"]) and ok[-1]["steps"] > ok[0]["steps"]:
+            # against an independent reference, a tighter tolerance that takes more steps gives a smaller
+            # position error (a quick-mode window can be so short that both tolerances take the same steps)
+            e = [p["errors"]["positions"]["max_rel"] for p in ok]
+            assert e[-1] < e[0], (name, e)
+        assert wp["figure_adaptive"] == f"wp_adaptive_{name}.png"
+        assert f"![fixed vs adaptive {name}](wp_adaptive_{name}.png)" in report
+        assert (out / wp["figure_adaptive"]).read_bytes()[:4] == b"\x89PNG"
+
+
+def test_andrews_adaptive_against_fixed(quick_report):
+    """The largest rtol found meets 1e-6 rad, the next looser one tried does not; both runs are in the report."""
+    _, results, report, _ = quick_report
+    ha = results["headline"]["adaptive"]
+    assert "error" not in ha, ha.get("error")
+    ad, fx = ha["adaptive"], ha["fixed"]
+    assert ad["reached"] and ad["error"] <= 1e-6
+    assert fx["reached"] and fx["error"] <= 1e-6
+    misses = [r for r in ad["tried"] if r["rtol"] > ad["rtol"]]
+    assert misses and all(r.get("error") is None or r["error"] > 1e-6 for r in misses)
+    assert min(r["rtol"] for r in misses) / ad["rtol"] < 10 ** 0.1       # bisected to 1/32 decade
+    assert ha["steps_ratio"] == pytest.approx(ad["steps"] / fx["steps"])
+    for run in (ad, fx):
+        assert len(run["wall_runs"]) == 3 and run["wall_s"] == pytest.approx(sorted(run["wall_runs"])[1])
+    assert set(ha["goals"]) == {"steps_ratio", "wall_s"}
+    assert "### Adaptive against fixed steps (femb)" in report
+
+
+def test_adaptive_stress_tests_in_report(quick_report):
+    _, results, _, _ = quick_report
+    assert set(adaptive_suite.TESTS) <= set(results["stress"])
+    tp = results["stress"]["tolerance_proportionality"]["data"]
+    assert set(tp) == set(adaptive_suite.PROPORTIONALITY_SCENES)
+    for d in tp.values():
+        assert d["slope_err"] is not None and d["slope_steps"] is not None
+    ctrl = results["stress"]["lambda_spikes"]["data"]["control"]
+    assert ctrl["seed"]["share"] > ctrl["consistent"]["share"]
+    only = results["stress"]["adaptive_only"]["criteria"]
+    assert only[0]["verdict"] == "PASS"       # the adaptive run gets through
+
+
 # --------------------------------------------------------------------------
 # cheap checks of the pieces
 # --------------------------------------------------------------------------
+def test_period2_amplitude_sees_an_alternating_kick_not_a_smooth_error():
+    n = np.arange(200)
+    smooth = 1e-3 * np.sin(0.05 * n)
+    assert adaptive_suite.period2_amplitude(smooth) < 1e-3 * 1e-4
+    kick = np.where(n >= 100, (-0.9) ** (n - 100) * (n - 100 + 1.0) ** 2, 0.0) * 1e-4
+    amp = adaptive_suite.period2_amplitude(np.column_stack([smooth, smooth + kick]))
+    assert amp > 0.5 * np.abs(kick).max()
+
+
+def test_step_change_windows():
+    h = np.array([1.0] * 20 + [0.5] * 20)             # one change at step 20 (h x 0.5)
+    err = np.ones(41)
+    err[21:31] = 7.0                                   # after the change
+    w = adaptive_suite.step_change_windows(h, err, ratio=1.3, window=10)
+    assert [x["n"] for x in w] == [20]
+    assert w[0]["h_ratio"] == pytest.approx(0.5) and w[0]["after_over_before"] == pytest.approx(7.0)
+    assert adaptive_suite.step_change_windows(np.ones(40), err) == []
+
+
+
 def test_main_rejects_unknown_part(tmp_path, capsys):
     assert suite.main(["--only", "nonsense", "--out", str(tmp_path), "--quiet"]) == 2
     assert "unknown part" in capsys.readouterr().err
