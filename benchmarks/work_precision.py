@@ -273,6 +273,9 @@ def prepare(scene, quick, log=print):
         # probe the cost per step with a few steps of the default size
         n_probe = max(4, min(20, int(round(t_end / h0))))
         try:
+            # one step first: compiling the scene's kind (tens of seconds on an empty cache) must
+            # not count as the cost of its steps
+            simulate_timed(model, h0, h0, rho_inf=0.7, store=False, options=options)
             res, wall = simulate_timed(model, n_probe * h0, h0, rho_inf=0.7, store=False, options=options)
             c = max(wall, 1e-3) / res.steps
         except SolverError:
