@@ -26,6 +26,12 @@ import math
 from numba import njit
 
 from femb.jit import OPTIONS
+#: functions called from Python: no C-callable wrapper (``cfunc``), whose argument list is
+#: the flattened tuples G, C and W (hundreds of scalars)
+ENTRY = dict(OPTIONS, no_cfunc_wrapper=True)
+#: functions called from compiled code only: no Python wrapper either, and no cache entry of
+#: their own (their code is compiled into, and cached with, every entry point that calls them)
+INNER = dict(ENTRY, no_cpython_wrapper=True)
 from femb.rotations import s2, s3, s7
 
 # ``evaluate``, ``rates`` and ``jacobian_times`` are defined by the generated module this text is appended to,
@@ -70,7 +76,7 @@ NNS = 6
 NEWTON_FROZEN_MAX = 4.0
 
 
-@njit(cache=True, **OPTIONS)
+@njit(cache=True, **ENTRY)
 def band_lu(ABf, N, kl, ku, env, ipiv, rel_tol):
     """LU with partial pivoting of a band matrix in place (LAPACK ``dgbtf2`` logic, variable band).
 
@@ -125,7 +131,7 @@ def band_lu(ABf, N, kl, ku, env, ipiv, rel_tol):
     return 0
 
 
-@njit(cache=True, **OPTIONS)
+@njit(cache=True, **ENTRY)
 def band_solve(ABf, N, kl, ku, env, ipiv, b):
     """Solve with the factors of :func:`band_lu`, in place on ``b`` (permuted order)."""
     d = kl + ku
@@ -148,7 +154,7 @@ def band_solve(ABf, N, kl, ku, env, ipiv, b):
                 b[i] -= AB[j, d + i - j] * bj
 
 
-@njit(cache=True, **OPTIONS)
+@njit(**INNER)
 def dense_lu(Af, N, ipiv, rel_tol):
     """LU with partial pivoting of a dense row-major matrix in place, skipping zeros.
 
@@ -201,7 +207,7 @@ def dense_lu(Af, N, ipiv, rel_tol):
     return 0
 
 
-@njit(cache=True, **OPTIONS)
+@njit(**INNER)
 def dense_solve(Af, N, ipiv, b):
     """Solve with the factors of :func:`dense_lu`, in place on ``b`` (permuted order)."""
     A = Af.reshape((N, N))
@@ -222,7 +228,7 @@ def dense_solve(Af, N, ipiv, b):
         b[k] = s / A[k, k]
 
 
-@njit(cache=True, **OPTIONS)
+@njit(**INNER)
 def factor(Af, ip, env, ipiv, rel_tol):
     """Factorize the iteration matrix in its storage (dense or band, fixed per model)."""
     if ip[IP_DENSE] != 0:
@@ -230,7 +236,7 @@ def factor(Af, ip, env, ipiv, rel_tol):
     return band_lu(Af, ip[IP_N], ip[IP_KL], ip[IP_KU], env, ipiv, rel_tol)
 
 
-@njit(cache=True, **OPTIONS)
+@njit(**INNER)
 def solve(Af, ip, env, ipiv, b):
     """Solve with the factors of :func:`factor`, in place on ``b`` (permuted order)."""
     if ip[IP_DENSE] != 0:
@@ -239,7 +245,7 @@ def solve(Af, ip, env, ipiv, b):
         band_solve(Af, ip[IP_N], ip[IP_KL], ip[IP_KU], env, ipiv, b)
 
 
-@njit(cache=True, **OPTIONS)
+@njit(cache=True, **ENTRY)
 def eval_time_functions(t, kind, off, coef, tfv):
     """Values (f, f', f'') of the compiled time functions at t into ``tfv (ntf, 3)``."""
     for k in range(kind.shape[0]):
@@ -266,7 +272,7 @@ def eval_time_functions(t, kind, off, coef, tfv):
             tfv[k, 2] = -A * w * w * s
 
 
-@njit(cache=True, **OPTIONS)
+@njit(**INNER)
 def newton_step(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam, t1, h, h_prev,
                 AB, ipiv, r, Phi, rhs, x, info, wq):
     """One step of Algorithm 1 (Arnold & Brüls 2007) from t1 − h to t1, in place.
@@ -512,7 +518,7 @@ def newton_step(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam, t1,
     return k
 
 
-@njit(cache=True, **OPTIONS)
+@njit(**INNER)
 def copy_blocks(Be, out, o):
     """out[o:] = Be (nel, nc_e, nd) in row-major order; returns the next offset."""
     for e in range(Be.shape[0]):
@@ -523,7 +529,7 @@ def copy_blocks(Be, out, o):
     return o
 
 
-@njit(cache=True, **OPTIONS)
+@njit(cache=True, **ENTRY)
 def ggl_matrix(C, ABf, sg):
     """The rows and columns of the index-2 layout that ``evaluate`` leaves out, into ABf.
 
@@ -789,7 +795,7 @@ def newton_step_ggl(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam,
     return k
 
 
-@njit(cache=True, **OPTIONS)
+@njit(cache=True, **ENTRY)
 def kkt_accelerations(G, C, ip, t, q, qd, KB, kpiv, kr, Phi, kx, gam, Pt, zq, zl, out):
     """Constrained accelerations q̈ᵖᵖ of [[M, Bᵀ], [B, 0]] [q̈; λ] = [f; −γ] at (t, q, q̇).
 
@@ -817,7 +823,7 @@ def kkt_accelerations(G, C, ip, t, q, qd, KB, kpiv, kr, Phi, kx, gam, Pt, zq, zl
     return 0
 
 
-@njit(cache=True, **OPTIONS)
+@njit(cache=True, **ENTRY)
 def project_normal_velocity(G, C, ip, t, q, qd, target, KB, kpiv, kx, Bv):
     """q̇ ← q̇ + δ with B δ = target − B q̇ and δ M-orthogonal to the constraint manifold.
 
@@ -837,7 +843,7 @@ def project_normal_velocity(G, C, ip, t, q, qd, target, KB, kpiv, kx, Bv):
         qd[i] += kx[iperm[i]]
 
 
-@njit(cache=True, **OPTIONS)
+@njit(**INNER)
 def error_norm(ip, fp, xm, q0, q1, qd0, qd1, eq, ev, atolv, use_v):
     """RMS of the local error estimate over q (and q̇) weighted by atol + rtol·max(|x_n|, |x_{n+1}|)."""
     nv = ip[IP_NV]
@@ -857,7 +863,7 @@ def error_norm(ip, fp, xm, q0, q1, qd0, qd1, eq, ev, atolv, use_v):
     return math.sqrt(s / n)
 
 
-@njit(cache=True, **OPTIONS)
+@njit(cache=True, **ENTRY)
 def run(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam, tfv, AB, ipiv, r, Phi, rhs, x, info,
         W, n_chunk, out_t, out_q, out_qd, out_qdd, out_lam, out_h, out_it, out_err):
     """Advance up to ``n_chunk`` accepted steps: the one time loop, fixed or adaptive.
@@ -1076,7 +1082,7 @@ def run(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam, tfv, AB, ip
 
 
 # ---- gather / scatter helpers called by the generated evaluate() ---------------------------
-@njit(cache=True, **OPTIONS)
+@njit(**INNER)
 def gather_xv(q, qd, qfix, dofs, xe, ve, nv):
     """xe[e, i] = [q, q_fixed][dofs[e, i]], ve likewise with zero fixed velocities."""
     for e in range(dofs.shape[0]):
@@ -1090,14 +1096,14 @@ def gather_xv(q, qd, qfix, dofs, xe, ve, nv):
                 ve[e, i] = 0.0
 
 
-@njit(cache=True, **OPTIONS)
+@njit(**INNER)
 def gather_lam(lam, lamidx, le):
     for e in range(lamidx.shape[0]):
         for j in range(lamidx.shape[1]):
             le[e, j] = lam[lamidx[e, j]]
 
 
-@njit(cache=True, **OPTIONS)
+@njit(**INNER)
 def gather_tf(tfv, tfi, tf):
     for e in range(tfi.shape[0]):
         for k in range(tfi.shape[1]):
@@ -1107,7 +1113,7 @@ def gather_tf(tfv, tfi, tf):
             tf[e, k, 2] = tfv[i, 2]
 
 
-@njit(cache=True, **OPTIONS)
+@njit(**INNER)
 def scatter_force(fe, dofs, r, nv, wext, scale):
     """r −= f_e on free coordinates; returns max(scale, |f_e · w|)."""
     for e in range(dofs.shape[0]):
@@ -1122,7 +1128,7 @@ def scatter_force(fe, dofs, r, nv, wext, scale):
     return scale
 
 
-@njit(cache=True, **OPTIONS)
+@njit(**INNER)
 def scatter_constraint(Phe, Be, le, dofs, lamidx, active, Phi, r, nv, wext, scale):
     """Φ rows and r += Bᵀλ per element; returns max(scale, |(Bᵀλ)_e · w|)."""
     for e in range(dofs.shape[0]):
@@ -1142,7 +1148,7 @@ def scatter_constraint(Phe, Be, le, dofs, lamidx, active, Phi, r, nv, wext, scal
     return scale
 
 
-@njit(cache=True, **OPTIONS)
+@njit(**INNER)
 def scatter_matrix(Ke, tgt, ABf, factor):
     """ABf[tgt[e, i, j]] += factor · Ke[e, i, j] (targets < 0 are fixed coordinates)."""
     for e in range(Ke.shape[0]):
@@ -1153,7 +1159,7 @@ def scatter_matrix(Ke, tgt, ABf, factor):
                     ABf[t] += factor * Ke[e, i, j]
 
 
-@njit(cache=True, **OPTIONS)
+@njit(**INNER)
 def scatter_B(Be, tB, tBt, ABf):
     for e in range(Be.shape[0]):
         for j in range(Be.shape[1]):
@@ -1165,7 +1171,7 @@ def scatter_B(Be, tB, tBt, ABf):
                     ABf[tBt[e, j, i]] += v
 
 
-@njit(cache=True, **OPTIONS)
+@njit(**INNER)
 def mass_residual(C, qdd, r, ABf, jac, cM):
     """r = M q̈ − f_const (constant M in CSR), M into the matrix; returns the force scale."""
     Mp = C[0]
@@ -1194,7 +1200,7 @@ def mass_residual(C, qdd, r, ABf, jac, cM):
     return scale
 
 
-@njit(cache=True, **OPTIONS)
+@njit(**INNER)
 def lie_update(q, C):
     """Rotations of q from the step's start and increment: p = p_n ⊗ exp(D_θ), and T(D_θ).
 
@@ -1247,7 +1253,7 @@ def lie_update(q, C):
         Tn[b, 2, 1] -= c2 * t0
 
 
-@njit(cache=True, **OPTIONS)
+@njit(cache=True, **ENTRY)
 def lie_reset(C):
     """T = I for every rotation (between steps: evaluations outside Newton use no tangent operator)."""
     Tn = C[18]
@@ -1257,7 +1263,7 @@ def lie_reset(C):
                 Tn[b, r, k] = 1.0 if r == k else 0.0
 
 
-@njit(cache=True, **OPTIONS)
+@njit(**INNER)
 def gather_x_v(q, qd, qfix, xdofs, dofs, xe, ve, nx, nv):
     """xe[e, i] = [q, q_fixed][xdofs[e, i]] (configuration), ve[e, i] = [q̇, 0][dofs[e, i]] (velocities)."""
     for e in range(xdofs.shape[0]):
@@ -1269,7 +1275,7 @@ def gather_x_v(q, qd, qfix, xdofs, dofs, xe, ve, nx, nv):
             ve[e, i] = qd[d] if d < nv else 0.0
 
 
-@njit(cache=True, **OPTIONS)
+@njit(**INNER)
 def apply_tangent(K, tblk, Tn, cK):
     """K[e, :, i0:i0+3] ← K[e, :, i0:i0+3] T_b for every rotation (i0, b) of element e (Newton only: cK ≠ 0)."""
     if cK == 0.0:
@@ -1288,7 +1294,7 @@ def apply_tangent(K, tblk, Tn, cK):
                     K[e, r, i0 + c] = k0 * Tn[b, 0, c] + k1 * Tn[b, 1, c] + k2 * Tn[b, 2, c]
 
 
-@njit(cache=True, **OPTIONS)
+@njit(**INNER)
 def scatter_B_tangent(Be, tblk, Tn, cK, tB, tBt, ABf):
     """Bᵀ into the upper right block, B T(Δ) into the lower left one (overwrites Be)."""
     for e in range(Be.shape[0]):
@@ -1306,7 +1312,7 @@ def scatter_B_tangent(Be, tblk, Tn, cK, tB, tBt, ABf):
                     ABf[t] += Be[e, j, i]
 
 
-@njit(cache=True, **OPTIONS)
+@njit(**INNER)
 def restore_state(q, qd, qdd, lam, a, pqdd, plam, W):
     """Back to the accepted state saved at the start of the trial step (W[0:7])."""
     copy_into(q, W[0])
@@ -1318,27 +1324,27 @@ def restore_state(q, qd, qdd, lam, a, pqdd, plam, W):
     copy_into(plam, W[6])
 
 
-@njit(cache=True, **OPTIONS)
+@njit(**INNER)
 def copy_into(dst, src):
     """dst[...] = src for 1-D arrays of equal length."""
     for i in range(src.shape[0]):
         dst[i] = src[i]
 
 
-@njit(cache=True, **OPTIONS)
+@njit(**INNER)
 def zero1(a):
     for i in range(a.shape[0]):
         a[i] = 0.0
 
 
-@njit(cache=True, **OPTIONS)
+@njit(**INNER)
 def zero2(a):
     for i in range(a.shape[0]):
         for j in range(a.shape[1]):
             a[i, j] = 0.0
 
 
-@njit(cache=True, **OPTIONS)
+@njit(**INNER)
 def zero3(a):
     for i in range(a.shape[0]):
         for j in range(a.shape[1]):
