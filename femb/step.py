@@ -65,8 +65,8 @@ SI_STEP, SI_HASPREV, SI_LUVALID, SI_STORED, SI_REJECTED, SI_NFAIL, SI_NOGROW, SI
 SI_HAVEJ = 8
 NSI = 9
 SF_FREF, SF_TFTIME, SF_T, SF_HNEXT, SF_HPREV, SF_ERRPREV, SF_ERRMAX, SF_ERRMAX_T, SF_WARN_T = 0, 1, 2, 3, 4, 5, 6, 7, 8
-SF_WARN_ERR = 9
-NSF = 10
+SF_WARN_ERR, SF_ETA = 9, 10
+NSF = 11
 # ---- statistics counters ------------------------------------------------------------------
 NS_STEPS, NS_EVAL, NS_FACT, NS_SOLVE, NS_ROUNDOFF, NS_KKT = 0, 1, 2, 3, 4, 5
 NNS = 6
@@ -74,6 +74,55 @@ NNS = 6
 #: the correction rule refreshes the iteration matrix when the frozen one would
 #: still need more than this many corrections at the observed contraction rate
 NEWTON_FROZEN_MAX = 4.0
+#: exponent of the carried contraction estimate, η₀ = max(η_prev, ε)^0.8 (Hairer & Wanner, Radau5)
+NEWTON_ETA_EXP = 0.8
+
+
+@njit(**INNER)
+def newton_rate_start(sf):
+    """The contraction estimate η₀ carried into a step's Newton iteration; ``sf[SF_ETA]`` becomes unknown.
+
+    Hairer & Wanner, *Solving ODEs II*, §IV.8 (Radau5): Newton's error after a
+    correction Δ is about η‖Δ‖ with η = θ/(1 − θ), θ the contraction rate. A
+    step starts with η₀ = max(η_prev, ε)^0.8, the previous step's η made a
+    little more pessimistic for every step it is carried over (so a run of
+    steps accepted after one correction ends with one that measures θ again).
+    Returns −1 when there is no estimate (first step, or the previous Newton
+    iteration failed); ``sf[SF_ETA]`` is −1 until :func:`newton_rate_end`
+    stores the step's estimate, so a failed iteration leaves none.
+    """
+    eta = sf[SF_ETA]
+    sf[SF_ETA] = -1.0
+    if not (eta >= 0.0):
+        return -1.0
+    return max(eta, 2.220446049250313e-16) ** NEWTON_ETA_EXP
+
+
+@njit(**INNER)
+def newton_rate_end(sf, eta0, theta):
+    """Store the contraction estimate for the next step: θ/(1 − θ) from the last measured rate θ.
+
+    ``theta < 0``: no rate was measured (accepted after one correction), η₀ is
+    carried on; θ ≥ 0.99 leaves no estimate.
+    """
+    if theta < 0.0:
+        sf[SF_ETA] = eta0
+    elif theta < 0.99:
+        sf[SF_ETA] = theta / (1.0 - theta)
+    else:
+        sf[SF_ETA] = -1.0
+
+
+@njit(**INNER)
+def newton_first_accept(eta0, size, fresh):
+    """Accept the first correction Δ₁ of a step: η₀·‖Δ₁‖ ≤ 1 (sizes in tolerance units).
+
+    Only for a correction of a freshly factored iteration matrix and a known
+    carried estimate η₀ (:func:`newton_rate_start`). The constraint residual at
+    the accepted iterate is not evaluated: Φ(q*) = 0 and the iterate is within
+    η₀‖Δ₁‖ ≤ 1 tolerance units of q*, so Φ is within B times the q tolerance.
+    """
+    return fresh and eta0 >= 0.0 and eta0 * size <= 1.0
 
 
 @njit(cache=True, **ENTRY)
@@ -297,7 +346,10 @@ def newton_step(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam, t1,
        need more than ``NEWTON_FROZEN_MAX`` corrections at the observed rate θ
        (n = log((1 − θ)/‖Δ_k‖)/log θ, the estimate of Hairer & Wanner, *Solving
        ODEs II*, §IV.8): a stiff beam at a large step contracts at θ ≈ 0.46 with
-       a frozen matrix and in three iterations with fresh ones. The Φ test of rule 0 must hold at the last evaluated iterate.
+       a frozen matrix and in three iterations with fresh ones. The Φ test of rule 0 must hold at the last evaluated iterate,
+       except for the first correction of a step, accepted without a second evaluation when
+       η₀·‖Δ₁‖ ≤ 1 with the contraction estimate η₀ carried over from the previous steps
+       (:func:`newton_first_accept`, Hairer & Wanner's Radau5 test).
     """
     nv = ip[IP_NV]
     nc = ip[IP_NC]
@@ -368,6 +420,9 @@ def newton_step(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam, t1,
         plam[j] = lam[j]
         lam[j] = g
     F_ref = sf[SF_FREF]
+    # correction rule: the contraction estimate carried over from the previous step
+    eta0 = newton_rate_start(sf) if ntest != 0 else -1.0
+    theta_last = -1.0
     prev_norm = -1.0
     theta_prev_bad = 0
     k = 0
@@ -480,8 +535,11 @@ def newton_step(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam, t1,
             acc_tol = 1e-8 * (1.0 + qddmax) + fp[FP_NEWTC] * eps * (1.0 + qmax) * bp * math.sqrt(max(1.0, nv / 100.0))
             acc_ratio = bp * dqmax / acc_tol
             size = max(dqw, acc_ratio)
+            if k == 1 and k >= ip[IP_MINIT] and newton_first_accept(eta0, size, jac):
+                break
             if prev_norm > 0.0:
                 theta = size / prev_norm
+                theta_last = theta
                 if theta > 0.5 and size <= 1e3 and err_phi <= tol_phi and k >= ip[IP_MINIT]:
                     # the corrections stopped contracting within a factor 1e3 of the tolerance:
                     # round-off of the linear solve (large stiff models), not divergence
@@ -514,6 +572,8 @@ def newton_step(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam, t1,
         a[i] = x[i] + ka * qdd[i]
     if F > F_ref:
         sf[SF_FREF] = F
+    if ntest != 0:
+        newton_rate_end(sf, eta0, theta_last)
     si[SI_HASPREV] = 1
     return k
 
