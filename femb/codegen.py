@@ -62,12 +62,15 @@ def _roles(model):
     return out
 
 
-def generate_source(model, ggl=False):
+def generate_source(model, ggl=False, dense=None):
     """(module name, source text) of the generated module for ``model``'s kind.
 
     ``ggl``: the module also serves the stabilized index-2 step (``GGL = True`` in its
     header); index-3 modules leave that code out (numba prunes the branch on the
-    constant), which keeps the first compilation of a kind shorter.
+    constant), which keeps the first compilation of a kind shorter. ``dense``: the
+    storage of the iteration matrix of the models the module runs (``STORAGE`` 1
+    dense, 2 band; ``None``: either, chosen at run time), likewise: a time loop
+    compiles the LU and solve of its model's storage only.
     """
     roles = _roles(model)
     imports, files = {}, {str(_STEP_SOURCE), str(_JIT_SOURCE)}
@@ -86,6 +89,8 @@ def generate_source(model, ggl=False):
     lines.append(f"KERNEL_ALIASES = {[((m, n), a) for (m, n), a in imports.items()]!r}")
     lines.append(f"#: this module serves the stabilized index-2 step (femb/step.py, run)\nGGL = {bool(ggl)}")
     lines.append(f"#: the kind has rotation nodes (q = q_n ∘ exp(Δ), femb/step.py)\nLIE = {bool(getattr(model, 'lie', False))}")
+    lines.append(f"#: storage of the iteration matrix: 1 dense, 2 band, 0 either (femb/step.py, factor)\n"
+                 f"STORAGE = {0 if dense is None else (1 if dense else 2)}")
     lines += ["", "", "@njit(cache=True, **ENTRY)",
               "def evaluate(G, C, t, q, qd, qdd, lam, jac, cM, cC, cK, ABf, r, Phi):",
               '    """Residual r = M q̈ − f + Bᵀλ, Φ, and (jac) the iteration matrix into ABf; returns the force scale."""',
@@ -228,9 +233,9 @@ def generate_source(model, ggl=False):
     return "femb_kind_" + h.hexdigest()[:20], body
 
 
-def load_kind(model, verbose=True, ggl=False):
-    """Import (writing it first if needed) the generated module of ``model``'s kind."""
-    name, body = generate_source(model, ggl)
+def load_kind(model, verbose=True, ggl=False, dense=None):
+    """Import (writing it first if needed) the generated module of ``model``'s kind (see :func:`generate_source`)."""
+    name, body = generate_source(model, ggl, dense)
     mod = _loaded.get(name)
     if mod is not None:
         return mod, False, mod.__file__
@@ -249,7 +254,7 @@ def load_kind(model, verbose=True, ggl=False):
     mod.FRESH = fresh
     mod.LOADED_AT = time.perf_counter()
     mod.ANNOUNCED = False
-    if fresh:
+    if fresh and verbose:
         kinds = ", ".join(sorted({g.name for g in model.groups}))
         print(f"femb: compiling the time loop for a new combination of elements ({kinds}); "
               f"first run only, cached in {d}", file=sys.stderr, flush=True)
@@ -484,8 +489,11 @@ class Compiled:
                   np.ascontiguousarray(np.stack((fl_c, fl_d, tG), axis=1).astype(np.int64)), pairs,
                   _i64(tEta), np.zeros((2, nB)), np.zeros((4, nc if ggl else 0)))
         self.python_tf = tf["python"]
-        self.mod, fresh, self.cache_path = load_kind(model, ggl=ggl)
-        _attach_entry_points(model, self.mod)
+        self.mod, fresh, self.cache_path = load_kind(model, ggl=ggl, dense=self.dense)
+        if not all(hasattr(g, "compiled_kernels") for g in model.groups):
+            # (models from Model.compile have them from the module of their kind for either
+            # storage: keep those, whose cache entries a warm start loads)
+            _attach_entry_points(model, self.mod)
         self.fresh = fresh
         self.setup_time = time.perf_counter() - t0
 

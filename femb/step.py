@@ -36,7 +36,9 @@ from femb.rotations import s2, s3, s7
 
 # ``evaluate``, ``rates`` and ``jacobian_times`` are defined by the generated module this text is appended to,
 # and the constants ``GGL`` (True for the module of the index-2 layout, which runs newton_step_ggl) and
-# ``LIE`` (True for kinds with rotation nodes; planar kinds do not compile the group update).
+# ``LIE`` (True for kinds with rotation nodes; planar kinds do not compile the group update) and
+# ``STORAGE`` (1: the module's models store the iteration matrix densely, 2: as a band, 0: either,
+# chosen at run time by ``ip[IP_DENSE]``; a module for one storage does not compile the other's LU).
 
 # ---- status codes returned to Python (femb/solver.py raises femb's errors) -------------
 ST_CHUNK = 0          # requested number of steps done
@@ -280,6 +282,10 @@ def dense_solve(Af, N, ipiv, b):
 @njit(**INNER)
 def factor(Af, ip, env, ipiv, rel_tol):
     """Factorize the iteration matrix in its storage (dense or band, fixed per model)."""
+    if STORAGE == 1:
+        return dense_lu(Af, ip[IP_N], ipiv, rel_tol)
+    if STORAGE == 2:
+        return band_lu(Af, ip[IP_N], ip[IP_KL], ip[IP_KU], env, ipiv, rel_tol)
     if ip[IP_DENSE] != 0:
         return dense_lu(Af, ip[IP_N], ipiv, rel_tol)
     return band_lu(Af, ip[IP_N], ip[IP_KL], ip[IP_KU], env, ipiv, rel_tol)
@@ -288,7 +294,11 @@ def factor(Af, ip, env, ipiv, rel_tol):
 @njit(**INNER)
 def solve(Af, ip, env, ipiv, b):
     """Solve with the factors of :func:`factor`, in place on ``b`` (permuted order)."""
-    if ip[IP_DENSE] != 0:
+    if STORAGE == 1:
+        dense_solve(Af, ip[IP_N], ipiv, b)
+    elif STORAGE == 2:
+        band_solve(Af, ip[IP_N], ip[IP_KL], ip[IP_KU], env, ipiv, b)
+    elif ip[IP_DENSE] != 0:
         dense_solve(Af, ip[IP_N], ipiv, b)
     else:
         band_solve(Af, ip[IP_N], ip[IP_KL], ip[IP_KU], env, ipiv, b)
