@@ -102,10 +102,14 @@ def newton_rate_start(sf):
 
 @njit(**INNER)
 def newton_rate_end(sf, eta0, theta):
-    """Store the contraction estimate for the next step: θ/(1 − θ) from the last measured rate θ.
+    """Store the contraction estimate for the next step: θ/(1 − θ), θ = ‖Δ₂‖/‖Δ₁‖ of this step.
 
-    ``theta < 0``: no rate was measured (accepted after one correction), η₀ is
-    carried on; θ ≥ 0.99 leaves no estimate.
+    The rate of the step's first two corrections, the one that bears on a first
+    correction: Newton with fresh matrices converges quadratically, and the rate
+    of its last corrections would promise far too much (a pendulum at 128 times its
+    default step was accepted after one correction with ‖Φ‖ = 9e-4 m). ``theta < 0``:
+    no rate was measured (accepted after one correction), η₀ is carried on;
+    θ ≥ 0.99 leaves no estimate.
     """
     if theta < 0.0:
         sf[SF_ETA] = eta0
@@ -116,15 +120,17 @@ def newton_rate_end(sf, eta0, theta):
 
 
 @njit(**INNER)
-def newton_first_accept(eta0, size, fresh):
-    """Accept the first correction Δ₁ of a step: η₀·‖Δ₁‖ ≤ 1 (sizes in tolerance units).
+def newton_first_accept(eta0, size, phi_ratio, fresh):
+    """Accept the first correction Δ₁ of a step: η₀·‖Δ₁‖ ≤ 1 and η₀·‖Φ₀‖ ≤ Φ tolerance.
 
-    Only for a correction of a freshly factored iteration matrix and a known
-    carried estimate η₀ (:func:`newton_rate_start`). The constraint residual at
-    the accepted iterate is not evaluated: Φ(q*) = 0 and the iterate is within
-    η₀‖Δ₁‖ ≤ 1 tolerance units of q*, so Φ is within B times the q tolerance.
+    ``size`` is ‖Δ₁‖ in tolerance units, ``phi_ratio`` ‖Φ‖/tolerance at the
+    iterate the correction started from. Only for a correction of a freshly
+    factored iteration matrix and a known carried estimate η₀
+    (:func:`newton_rate_start`). The accepted iterate is not evaluated: Newton's
+    residuals contract at the rate of its corrections, so η₀‖Φ₀‖ estimates Φ there
+    (without that test, stress runs at large steps ended with ‖Φ‖ above tolerance).
     """
-    return fresh and eta0 >= 0.0 and eta0 * size <= 1.0
+    return fresh and eta0 >= 0.0 and eta0 * size <= 1.0 and eta0 * phi_ratio <= 1.0
 
 
 @njit(cache=True, **ENTRY)
@@ -432,7 +438,7 @@ def newton_step(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam, t1,
     F_ref = sf[SF_FREF]
     # correction rule: the contraction estimate carried over from the previous step
     eta0 = newton_rate_start(sf) if ntest != 0 else -1.0
-    theta_last = -1.0
+    theta_first = -1.0
     prev_norm = -1.0
     theta_prev_bad = 0
     k = 0
@@ -545,11 +551,12 @@ def newton_step(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam, t1,
             acc_tol = 1e-8 * (1.0 + qddmax) + fp[FP_NEWTC] * eps * (1.0 + qmax) * bp * math.sqrt(max(1.0, nv / 100.0))
             acc_ratio = bp * dqmax / acc_tol
             size = max(dqw, acc_ratio)
-            if k == 1 and k >= ip[IP_MINIT] and newton_first_accept(eta0, size, jac):
+            if k == 1 and k >= ip[IP_MINIT] and newton_first_accept(eta0, size, err_phi / tol_phi, jac):
                 break
             if prev_norm > 0.0:
                 theta = size / prev_norm
-                theta_last = theta
+                if theta_first < 0.0:
+                    theta_first = theta
                 if theta > 0.5 and size <= 1e3 and err_phi <= tol_phi and k >= ip[IP_MINIT]:
                     # the corrections stopped contracting within a factor 1e3 of the tolerance:
                     # round-off of the linear solve (large stiff models), not divergence
@@ -583,7 +590,7 @@ def newton_step(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam, t1,
     if F > F_ref:
         sf[SF_FREF] = F
     if ntest != 0:
-        newton_rate_end(sf, eta0, theta_last)
+        newton_rate_end(sf, eta0, theta_first)
     si[SI_HASPREV] = 1
     return k
 
