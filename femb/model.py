@@ -442,7 +442,7 @@ def compile_model(mech, *, length_scale=None):
     from femb import codegen
     kind = SimpleNamespace(groups=groups, mass_groups=mass_groups, force_groups=force_groups,
                            constraint_groups=constraint_groups, lie=lie)
-    kind_mod, _, _ = codegen.load_kind(kind)
+    kind_mod, _, _ = codegen.load_kind(kind, verbose=False)   # the time loop's module announces itself
     codegen._attach_entry_points(kind, kind_mod)
 
     # ---- residual weights: moments (rows of non-translational coordinates) are

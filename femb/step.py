@@ -26,11 +26,19 @@ import math
 from numba import njit
 
 from femb.jit import OPTIONS
+#: functions called from Python: no C-callable wrapper (``cfunc``), whose argument list is
+#: the flattened tuples G, C and W (hundreds of scalars)
+ENTRY = dict(OPTIONS, no_cfunc_wrapper=True)
+#: functions called from compiled code only: no Python wrapper either, and no cache entry of
+#: their own (their code is compiled into, and cached with, every entry point that calls them)
+INNER = dict(ENTRY, no_cpython_wrapper=True)
 from femb.rotations import s2, s3, s7
 
 # ``evaluate``, ``rates`` and ``jacobian_times`` are defined by the generated module this text is appended to,
 # and the constants ``GGL`` (True for the module of the index-2 layout, which runs newton_step_ggl) and
-# ``LIE`` (True for kinds with rotation nodes; planar kinds do not compile the group update).
+# ``LIE`` (True for kinds with rotation nodes; planar kinds do not compile the group update) and
+# ``STORAGE`` (1: the module's models store the iteration matrix densely, 2: as a band, 0: either,
+# chosen at run time by ``ip[IP_DENSE]``; a module for one storage does not compile the other's LU).
 
 # ---- status codes returned to Python (femb/solver.py raises femb's errors) -------------
 ST_CHUNK = 0          # requested number of steps done
@@ -59,8 +67,8 @@ SI_STEP, SI_HASPREV, SI_LUVALID, SI_STORED, SI_REJECTED, SI_NFAIL, SI_NOGROW, SI
 SI_HAVEJ = 8
 NSI = 9
 SF_FREF, SF_TFTIME, SF_T, SF_HNEXT, SF_HPREV, SF_ERRPREV, SF_ERRMAX, SF_ERRMAX_T, SF_WARN_T = 0, 1, 2, 3, 4, 5, 6, 7, 8
-SF_WARN_ERR = 9
-NSF = 10
+SF_WARN_ERR, SF_ETA = 9, 10
+NSF = 11
 # ---- statistics counters ------------------------------------------------------------------
 NS_STEPS, NS_EVAL, NS_FACT, NS_SOLVE, NS_ROUNDOFF, NS_KKT = 0, 1, 2, 3, 4, 5
 NNS = 6
@@ -68,9 +76,64 @@ NNS = 6
 #: the correction rule refreshes the iteration matrix when the frozen one would
 #: still need more than this many corrections at the observed contraction rate
 NEWTON_FROZEN_MAX = 4.0
+#: exponent of the carried contraction estimate, η₀ = max(η_prev, ε)^0.8 (Hairer & Wanner, Radau5)
+NEWTON_ETA_EXP = 0.8
 
 
-@njit(cache=True, **OPTIONS)
+@njit(**INNER)
+def newton_rate_start(sf):
+    """The contraction estimate η₀ carried into a step's Newton iteration; ``sf[SF_ETA]`` becomes unknown.
+
+    Hairer & Wanner, *Solving ODEs II*, §IV.8 (Radau5): Newton's error after a
+    correction Δ is about η‖Δ‖ with η = θ/(1 − θ), θ the contraction rate. A
+    step starts with η₀ = max(η_prev, ε)^0.8, the previous step's η made a
+    little more pessimistic for every step it is carried over (so a run of
+    steps accepted after one correction ends with one that measures θ again).
+    Returns −1 when there is no estimate (first step, or the previous Newton
+    iteration failed); ``sf[SF_ETA]`` is −1 until :func:`newton_rate_end`
+    stores the step's estimate, so a failed iteration leaves none.
+    """
+    eta = sf[SF_ETA]
+    sf[SF_ETA] = -1.0
+    if not (eta >= 0.0):
+        return -1.0
+    return max(eta, 2.220446049250313e-16) ** NEWTON_ETA_EXP
+
+
+@njit(**INNER)
+def newton_rate_end(sf, eta0, theta):
+    """Store the contraction estimate for the next step: θ/(1 − θ), θ = ‖Δ₂‖/‖Δ₁‖ of this step.
+
+    The rate of the step's first two corrections, the one that bears on a first
+    correction: Newton with fresh matrices converges quadratically, and the rate
+    of its last corrections would promise far too much (a pendulum at 128 times its
+    default step was accepted after one correction with ‖Φ‖ = 9e-4 m). ``theta < 0``:
+    no rate was measured (accepted after one correction), η₀ is carried on;
+    θ ≥ 0.99 leaves no estimate.
+    """
+    if theta < 0.0:
+        sf[SF_ETA] = eta0
+    elif theta < 0.99:
+        sf[SF_ETA] = theta / (1.0 - theta)
+    else:
+        sf[SF_ETA] = -1.0
+
+
+@njit(**INNER)
+def newton_first_accept(eta0, size, phi_ratio, fresh):
+    """Accept the first correction Δ₁ of a step: η₀·‖Δ₁‖ ≤ 1 and η₀·‖Φ₀‖ ≤ Φ tolerance.
+
+    ``size`` is ‖Δ₁‖ in tolerance units, ``phi_ratio`` ‖Φ‖/tolerance at the
+    iterate the correction started from. Only for a correction of a freshly
+    factored iteration matrix and a known carried estimate η₀
+    (:func:`newton_rate_start`). The accepted iterate is not evaluated: Newton's
+    residuals contract at the rate of its corrections, so η₀‖Φ₀‖ estimates Φ there
+    (without that test, stress runs at large steps ended with ‖Φ‖ above tolerance).
+    """
+    return fresh and eta0 >= 0.0 and eta0 * size <= 1.0 and eta0 * phi_ratio <= 1.0
+
+
+@njit(cache=True, **ENTRY)
 def band_lu(ABf, N, kl, ku, env, ipiv, rel_tol):
     """LU with partial pivoting of a band matrix in place (LAPACK ``dgbtf2`` logic, variable band).
 
@@ -125,7 +188,7 @@ def band_lu(ABf, N, kl, ku, env, ipiv, rel_tol):
     return 0
 
 
-@njit(cache=True, **OPTIONS)
+@njit(cache=True, **ENTRY)
 def band_solve(ABf, N, kl, ku, env, ipiv, b):
     """Solve with the factors of :func:`band_lu`, in place on ``b`` (permuted order)."""
     d = kl + ku
@@ -148,7 +211,7 @@ def band_solve(ABf, N, kl, ku, env, ipiv, b):
                 b[i] -= AB[j, d + i - j] * bj
 
 
-@njit(cache=True, **OPTIONS)
+@njit(**INNER)
 def dense_lu(Af, N, ipiv, rel_tol):
     """LU with partial pivoting of a dense row-major matrix in place, skipping zeros.
 
@@ -201,7 +264,7 @@ def dense_lu(Af, N, ipiv, rel_tol):
     return 0
 
 
-@njit(cache=True, **OPTIONS)
+@njit(**INNER)
 def dense_solve(Af, N, ipiv, b):
     """Solve with the factors of :func:`dense_lu`, in place on ``b`` (permuted order)."""
     A = Af.reshape((N, N))
@@ -222,24 +285,32 @@ def dense_solve(Af, N, ipiv, b):
         b[k] = s / A[k, k]
 
 
-@njit(cache=True, **OPTIONS)
+@njit(**INNER)
 def factor(Af, ip, env, ipiv, rel_tol):
     """Factorize the iteration matrix in its storage (dense or band, fixed per model)."""
+    if STORAGE == 1:
+        return dense_lu(Af, ip[IP_N], ipiv, rel_tol)
+    if STORAGE == 2:
+        return band_lu(Af, ip[IP_N], ip[IP_KL], ip[IP_KU], env, ipiv, rel_tol)
     if ip[IP_DENSE] != 0:
         return dense_lu(Af, ip[IP_N], ipiv, rel_tol)
     return band_lu(Af, ip[IP_N], ip[IP_KL], ip[IP_KU], env, ipiv, rel_tol)
 
 
-@njit(cache=True, **OPTIONS)
+@njit(**INNER)
 def solve(Af, ip, env, ipiv, b):
     """Solve with the factors of :func:`factor`, in place on ``b`` (permuted order)."""
-    if ip[IP_DENSE] != 0:
+    if STORAGE == 1:
+        dense_solve(Af, ip[IP_N], ipiv, b)
+    elif STORAGE == 2:
+        band_solve(Af, ip[IP_N], ip[IP_KL], ip[IP_KU], env, ipiv, b)
+    elif ip[IP_DENSE] != 0:
         dense_solve(Af, ip[IP_N], ipiv, b)
     else:
         band_solve(Af, ip[IP_N], ip[IP_KL], ip[IP_KU], env, ipiv, b)
 
 
-@njit(cache=True, **OPTIONS)
+@njit(cache=True, **ENTRY)
 def eval_time_functions(t, kind, off, coef, tfv):
     """Values (f, f', f'') of the compiled time functions at t into ``tfv (ntf, 3)``."""
     for k in range(kind.shape[0]):
@@ -266,7 +337,7 @@ def eval_time_functions(t, kind, off, coef, tfv):
             tfv[k, 2] = -A * w * w * s
 
 
-@njit(cache=True, **OPTIONS)
+@njit(**INNER)
 def newton_step(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam, t1, h, h_prev,
                 AB, ipiv, r, Phi, rhs, x, info, wq):
     """One step of Algorithm 1 (Arnold & Brüls 2007) from t1 − h to t1, in place.
@@ -291,7 +362,10 @@ def newton_step(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam, t1,
        need more than ``NEWTON_FROZEN_MAX`` corrections at the observed rate θ
        (n = log((1 − θ)/‖Δ_k‖)/log θ, the estimate of Hairer & Wanner, *Solving
        ODEs II*, §IV.8): a stiff beam at a large step contracts at θ ≈ 0.46 with
-       a frozen matrix and in three iterations with fresh ones. The Φ test of rule 0 must hold at the last evaluated iterate.
+       a frozen matrix and in three iterations with fresh ones. The Φ test of rule 0 must hold at the last evaluated iterate,
+       except for the first correction of a step, accepted without a second evaluation when
+       η₀·‖Δ₁‖ ≤ 1 with the contraction estimate η₀ carried over from the previous steps
+       (:func:`newton_first_accept`, Hairer & Wanner's Radau5 test).
     """
     nv = ip[IP_NV]
     nc = ip[IP_NC]
@@ -362,6 +436,9 @@ def newton_step(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam, t1,
         plam[j] = lam[j]
         lam[j] = g
     F_ref = sf[SF_FREF]
+    # correction rule: the contraction estimate carried over from the previous step
+    eta0 = newton_rate_start(sf) if ntest != 0 else -1.0
+    theta_first = -1.0
     prev_norm = -1.0
     theta_prev_bad = 0
     k = 0
@@ -474,8 +551,12 @@ def newton_step(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam, t1,
             acc_tol = 1e-8 * (1.0 + qddmax) + fp[FP_NEWTC] * eps * (1.0 + qmax) * bp * math.sqrt(max(1.0, nv / 100.0))
             acc_ratio = bp * dqmax / acc_tol
             size = max(dqw, acc_ratio)
+            if k == 1 and k >= ip[IP_MINIT] and newton_first_accept(eta0, size, err_phi / tol_phi, jac):
+                break
             if prev_norm > 0.0:
                 theta = size / prev_norm
+                if theta_first < 0.0:
+                    theta_first = theta
                 if theta > 0.5 and size <= 1e3 and err_phi <= tol_phi and k >= ip[IP_MINIT]:
                     # the corrections stopped contracting within a factor 1e3 of the tolerance:
                     # round-off of the linear solve (large stiff models), not divergence
@@ -508,11 +589,13 @@ def newton_step(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam, t1,
         a[i] = x[i] + ka * qdd[i]
     if F > F_ref:
         sf[SF_FREF] = F
+    if ntest != 0:
+        newton_rate_end(sf, eta0, theta_first)
     si[SI_HASPREV] = 1
     return k
 
 
-@njit(cache=True, **OPTIONS)
+@njit(**INNER)
 def copy_blocks(Be, out, o):
     """out[o:] = Be (nel, nc_e, nd) in row-major order; returns the next offset."""
     for e in range(Be.shape[0]):
@@ -523,7 +606,7 @@ def copy_blocks(Be, out, o):
     return o
 
 
-@njit(cache=True, **OPTIONS)
+@njit(cache=True, **ENTRY)
 def ggl_matrix(C, ABf, sg):
     """The rows and columns of the index-2 layout that ``evaluate`` leaves out, into ABf.
 
@@ -825,7 +908,7 @@ def newton_step_ggl(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam,
     return k
 
 
-@njit(cache=True, **OPTIONS)
+@njit(cache=True, **ENTRY)
 def kkt_accelerations(G, C, ip, t, q, qd, KB, kpiv, kr, Phi, kx, gam, Pt, zq, zl, out):
     """Constrained accelerations q̈ᵖᵖ of [[M, Bᵀ], [B, 0]] [q̈; λ] = [f; −γ] at (t, q, q̇).
 
@@ -853,7 +936,7 @@ def kkt_accelerations(G, C, ip, t, q, qd, KB, kpiv, kr, Phi, kx, gam, Pt, zq, zl
     return 0
 
 
-@njit(cache=True, **OPTIONS)
+@njit(cache=True, **ENTRY)
 def project_normal_velocity(G, C, ip, t, q, qd, target, KB, kpiv, kx, Bv):
     """q̇ ← q̇ + δ with B δ = target − B q̇ and δ M-orthogonal to the constraint manifold.
 
@@ -873,7 +956,7 @@ def project_normal_velocity(G, C, ip, t, q, qd, target, KB, kpiv, kx, Bv):
         qd[i] += kx[iperm[i]]
 
 
-@njit(cache=True, **OPTIONS)
+@njit(**INNER)
 def error_norm(ip, fp, xm, q0, q1, qd0, qd1, eq, ev, atolv, use_v):
     """RMS of the local error estimate over q (and q̇) weighted by atol + rtol·max(|x_n|, |x_{n+1}|)."""
     nv = ip[IP_NV]
@@ -893,7 +976,7 @@ def error_norm(ip, fp, xm, q0, q1, qd0, qd1, eq, ev, atolv, use_v):
     return math.sqrt(s / n)
 
 
-@njit(cache=True, **OPTIONS)
+@njit(cache=True, **ENTRY)
 def run(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam, tfv, AB, ipiv, r, Phi, rhs, x, info,
         W, n_chunk, out_t, out_q, out_qd, out_qdd, out_lam, out_h, out_it, out_err):
     """Advance up to ``n_chunk`` accepted steps: the one time loop, fixed or adaptive.
@@ -1112,7 +1195,7 @@ def run(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam, tfv, AB, ip
 
 
 # ---- gather / scatter helpers called by the generated evaluate() ---------------------------
-@njit(cache=True, **OPTIONS)
+@njit(**INNER)
 def gather_xv(q, qd, qfix, dofs, xe, ve, nv):
     """xe[e, i] = [q, q_fixed][dofs[e, i]], ve likewise with zero fixed velocities."""
     for e in range(dofs.shape[0]):
@@ -1126,14 +1209,14 @@ def gather_xv(q, qd, qfix, dofs, xe, ve, nv):
                 ve[e, i] = 0.0
 
 
-@njit(cache=True, **OPTIONS)
+@njit(**INNER)
 def gather_lam(lam, lamidx, le):
     for e in range(lamidx.shape[0]):
         for j in range(lamidx.shape[1]):
             le[e, j] = lam[lamidx[e, j]]
 
 
-@njit(cache=True, **OPTIONS)
+@njit(**INNER)
 def gather_tf(tfv, tfi, tf):
     for e in range(tfi.shape[0]):
         for k in range(tfi.shape[1]):
@@ -1143,7 +1226,7 @@ def gather_tf(tfv, tfi, tf):
             tf[e, k, 2] = tfv[i, 2]
 
 
-@njit(cache=True, **OPTIONS)
+@njit(**INNER)
 def scatter_force(fe, dofs, r, nv, wext, scale):
     """r −= f_e on free coordinates; returns max(scale, |f_e · w|)."""
     for e in range(dofs.shape[0]):
@@ -1158,7 +1241,7 @@ def scatter_force(fe, dofs, r, nv, wext, scale):
     return scale
 
 
-@njit(cache=True, **OPTIONS)
+@njit(**INNER)
 def scatter_constraint(Phe, Be, le, dofs, lamidx, active, Phi, r, nv, wext, scale):
     """Φ rows and r += Bᵀλ per element; returns max(scale, |(Bᵀλ)_e · w|)."""
     for e in range(dofs.shape[0]):
@@ -1178,7 +1261,7 @@ def scatter_constraint(Phe, Be, le, dofs, lamidx, active, Phi, r, nv, wext, scal
     return scale
 
 
-@njit(cache=True, **OPTIONS)
+@njit(**INNER)
 def scatter_matrix(Ke, tgt, ABf, factor):
     """ABf[tgt[e, i, j]] += factor · Ke[e, i, j] (targets < 0 are fixed coordinates)."""
     for e in range(Ke.shape[0]):
@@ -1189,7 +1272,7 @@ def scatter_matrix(Ke, tgt, ABf, factor):
                     ABf[t] += factor * Ke[e, i, j]
 
 
-@njit(cache=True, **OPTIONS)
+@njit(**INNER)
 def scatter_B(Be, tB, tBt, ABf):
     for e in range(Be.shape[0]):
         for j in range(Be.shape[1]):
@@ -1201,7 +1284,7 @@ def scatter_B(Be, tB, tBt, ABf):
                     ABf[tBt[e, j, i]] += v
 
 
-@njit(cache=True, **OPTIONS)
+@njit(**INNER)
 def mass_residual(C, qdd, r, ABf, jac, cM):
     """r = M q̈ − f_const (constant M in CSR), M into the matrix; returns the force scale."""
     Mp = C[0]
@@ -1230,7 +1313,7 @@ def mass_residual(C, qdd, r, ABf, jac, cM):
     return scale
 
 
-@njit(cache=True, **OPTIONS)
+@njit(**INNER)
 def lie_update(q, C):
     """Rotations of q from the step's start and increment: p = p_n ⊗ exp(D_θ), and T(D_θ).
 
@@ -1283,7 +1366,7 @@ def lie_update(q, C):
         Tn[b, 2, 1] -= c2 * t0
 
 
-@njit(cache=True, **OPTIONS)
+@njit(cache=True, **ENTRY)
 def lie_reset(C):
     """T = I for every rotation (between steps: evaluations outside Newton use no tangent operator)."""
     Tn = C[18]
@@ -1293,7 +1376,7 @@ def lie_reset(C):
                 Tn[b, r, k] = 1.0 if r == k else 0.0
 
 
-@njit(cache=True, **OPTIONS)
+@njit(**INNER)
 def gather_x_v(q, qd, qfix, xdofs, dofs, xe, ve, nx, nv):
     """xe[e, i] = [q, q_fixed][xdofs[e, i]] (configuration), ve[e, i] = [q̇, 0][dofs[e, i]] (velocities)."""
     for e in range(xdofs.shape[0]):
@@ -1305,7 +1388,7 @@ def gather_x_v(q, qd, qfix, xdofs, dofs, xe, ve, nx, nv):
             ve[e, i] = qd[d] if d < nv else 0.0
 
 
-@njit(cache=True, **OPTIONS)
+@njit(**INNER)
 def apply_tangent(K, tblk, Tn, cK):
     """K[e, :, i0:i0+3] ← K[e, :, i0:i0+3] T_b for every rotation (i0, b) of element e (Newton only: cK ≠ 0)."""
     if cK == 0.0:
@@ -1324,7 +1407,7 @@ def apply_tangent(K, tblk, Tn, cK):
                     K[e, r, i0 + c] = k0 * Tn[b, 0, c] + k1 * Tn[b, 1, c] + k2 * Tn[b, 2, c]
 
 
-@njit(cache=True, **OPTIONS)
+@njit(**INNER)
 def scatter_B_tangent(Be, tblk, Tn, cK, tB, tBt, ABf):
     """Bᵀ into the upper right block, B T(Δ) into the lower left one (overwrites Be)."""
     for e in range(Be.shape[0]):
@@ -1342,7 +1425,7 @@ def scatter_B_tangent(Be, tblk, Tn, cK, tB, tBt, ABf):
                     ABf[t] += Be[e, j, i]
 
 
-@njit(cache=True, **OPTIONS)
+@njit(**INNER)
 def restore_state(q, qd, qdd, lam, a, pqdd, plam, W):
     """Back to the accepted state saved at the start of the trial step (W[0:7])."""
     copy_into(q, W[0])
@@ -1354,27 +1437,27 @@ def restore_state(q, qd, qdd, lam, a, pqdd, plam, W):
     copy_into(plam, W[6])
 
 
-@njit(cache=True, **OPTIONS)
+@njit(**INNER)
 def copy_into(dst, src):
     """dst[...] = src for 1-D arrays of equal length."""
     for i in range(src.shape[0]):
         dst[i] = src[i]
 
 
-@njit(cache=True, **OPTIONS)
+@njit(**INNER)
 def zero1(a):
     for i in range(a.shape[0]):
         a[i] = 0.0
 
 
-@njit(cache=True, **OPTIONS)
+@njit(**INNER)
 def zero2(a):
     for i in range(a.shape[0]):
         for j in range(a.shape[1]):
             a[i, j] = 0.0
 
 
-@njit(cache=True, **OPTIONS)
+@njit(**INNER)
 def zero3(a):
     for i in range(a.shape[0]):
         for j in range(a.shape[1]):
