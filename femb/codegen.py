@@ -387,6 +387,8 @@ class Compiled:
         if self.dense:
             self.ldab = ldab = N
             self.storage_size = N * N
+            # pivots and the nonzero pattern of the factors (femb/step.py, dense_lu)
+            self.piv_size = 3 * N + 2 * N * N
 
             def target(r_, c_):
                 r_ = np.asarray(r_, dtype=np.int64)
@@ -395,6 +397,7 @@ class Compiled:
         else:
             self.ldab = ldab = 2 * kl + ku + 1
             self.storage_size = N * ldab
+            self.piv_size = 2 * N
             d = kl + ku
 
             def target(r_, c_):

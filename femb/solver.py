@@ -330,7 +330,7 @@ class GeneralizedAlphaSolver:
         self.pqdd = np.zeros(nv)
         self.plam = np.zeros(nc)
         self.AB = np.zeros(cp.storage_size)
-        self.ipiv = np.zeros(2 * N, dtype=np.int64)
+        self.ipiv = np.zeros(cp.piv_size, dtype=np.int64)
         self.r = np.zeros(nv)
         self.Phi = np.zeros(nc)
         self.rhs = np.zeros(N)
@@ -339,8 +339,9 @@ class GeneralizedAlphaSolver:
         z = np.zeros
         nx = model.nx
         self.W = (z(nx), z(nv), z(nv), z(nc), z(nv), z(nv), z(nc), z(nv), z(nv), z(nv), z(nv),
-                  z(cp.storage_size), z(cp.storage_size), z(2 * N, dtype=np.int64), z(2 * N, dtype=np.int64),
-                  z(nv), z(N), z(nc), z(nc), z(nv), z(nc), z(nc), z(nc), z(nv), z(nv), self.atol.copy(), z(nv))
+                  z(cp.storage_size), z(cp.storage_size), z(cp.piv_size, dtype=np.int64), z(cp.piv_size, dtype=np.int64),
+                  z(nv), z(N), z(nc), z(nc), z(nv), z(nc), z(nc), z(nc), z(nv), z(nv), self.atol.copy(), z(nv),
+                  z(nv), z(nc))
         self._bufs = None
         self._compile()
         self._start()
@@ -405,6 +406,7 @@ class GeneralizedAlphaSolver:
             W[7][:] = qpp0
             W[9][:] = j0
             self.si[8] = 1
+            self.si[cp.mod.SI_PROJ] = 2        # that factorization serves the first re-synchronisation
             if self.adaptive:
                 if self.h0 is not None:
                     h0 = self.h0
@@ -556,6 +558,7 @@ class GeneralizedAlphaSolver:
         s = self.stats_arr
         return {"steps": int(s[0]), "evaluations": int(s[1]), "factorizations": int(s[2]),
                 "solves": int(s[3]), "roundoff_accepts": int(s[4]), "kkt_solves": int(s[5]),
+                "kkt_refinements": int(s[6]),
                 "rejected": int(self.si[4]), "newton_failures": int(self.si[5])}
 
     @property

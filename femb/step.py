@@ -64,20 +64,28 @@ FP_TOLQ, FP_NEWTC = 23, 24
 NFP = 25
 # ---- indices of the run state si[...] (int) and sf[...] (float) ---------------------------
 SI_STEP, SI_HASPREV, SI_LUVALID, SI_STORED, SI_REJECTED, SI_NFAIL, SI_NOGROW, SI_LASTFAIL = 0, 1, 2, 3, 4, 5, 6, 7
-SI_HAVEJ = 8
-NSI = 9
+SI_HAVEJ, SI_PROJ, SI_RMODE, SI_RCOUNT, SI_SAVED, SI_HASPREV_S = 8, 9, 10, 11, 12, 13
+NSI = 14
 SF_FREF, SF_TFTIME, SF_T, SF_HNEXT, SF_HPREV, SF_ERRPREV, SF_ERRMAX, SF_ERRMAX_T, SF_WARN_T = 0, 1, 2, 3, 4, 5, 6, 7, 8
-SF_WARN_ERR, SF_ETA = 9, 10
-NSF = 11
+SF_WARN_ERR, SF_ETA, SF_RCHECKH, SF_FREF_S = 9, 10, 11, 12
+NSF = 13
 # ---- statistics counters ------------------------------------------------------------------
-NS_STEPS, NS_EVAL, NS_FACT, NS_SOLVE, NS_ROUNDOFF, NS_KKT = 0, 1, 2, 3, 4, 5
-NNS = 6
+NS_STEPS, NS_EVAL, NS_FACT, NS_SOLVE, NS_ROUNDOFF, NS_KKT, NS_REFINE = 0, 1, 2, 3, 4, 5, 6
+NNS = 7
 # ---- Newton ---------------------------------------------------------------------------------
 #: the correction rule refreshes the iteration matrix when the frozen one would
 #: still need more than this many corrections at the observed contraction rate
 NEWTON_FROZEN_MAX = 4.0
 #: exponent of the carried contraction estimate, η₀ = max(η_prev, ε)^0.8 (Hairer & Wanner, Radau5)
 NEWTON_ETA_EXP = 0.8
+# ---- constrained accelerations of the error estimate --------------------------------------
+#: calls of :func:`constrained_accelerations` between two checks of the one-correction solve
+REFINE_CHECK = 16
+#: largest share of the error estimate (in units of the tolerance) that the second correction
+#: may carry for one correction to be trusted until the next check
+REFINE_SHARE = 0.05
+#: a check is also due when the step has grown by this factor since the last one
+REFINE_HGROW = 1.25
 
 
 @njit(**INNER)
@@ -217,21 +225,35 @@ def dense_lu(Af, N, ipiv, rel_tol):
 
     The iteration matrices of mechanisms are sparse: only the nonzero entries of
     each pivot row and column enter the update, so the cost follows the fill of
-    the factors rather than N³. ``ipiv`` has 2N entries (the second half is
-    work space). Returns 0, or 1 when singular in the sense of :func:`band_lu`.
+    the factors rather than N³. ``ipiv`` has 3N + 2N² entries (``Compiled.piv_size``):
+    the pivot rows, then the nonzero pattern of the factors (per pivot k the
+    rows of L's column k and the columns of U's row k), so that
+    :func:`dense_solve` visits nonzeros only (Andrews: 255 of 41² entries).
+    Returns 0, or 1 when singular in the sense of :func:`band_lu`.
     """
     A = Af.reshape((N, N))
-    cols = ipiv[N:]
+    ucnt = ipiv[N:2 * N]
+    lcnt = ipiv[2 * N:3 * N]
+    ucols = ipiv[3 * N:3 * N + N * N].reshape((N, N))
+    lrows = ipiv[3 * N + N * N:3 * N + 2 * N * N].reshape((N, N))
     pmax = 0.0
     pmin = 1e308
     for k in range(N):
         p = k
         amax = abs(A[k, k])
+        # the pivot search also collects the rows with a nonzero in column k
+        nl = 0
+        if A[k, k] != 0.0:
+            lrows[k, 0] = k
+            nl = 1
         for i in range(k + 1, N):
             v = abs(A[i, k])
-            if v > amax:
-                amax = v
-                p = i
+            if v != 0.0:
+                lrows[k, nl] = i
+                nl += 1
+                if v > amax:
+                    amax = v
+                    p = i
         ipiv[k] = p
         if not (amax > 0.0) or amax > 1e300:
             return 1
@@ -245,20 +267,29 @@ def dense_lu(Af, N, ipiv, rel_tol):
             pmax = amax
         if amax < pmin:
             pmin = amax
+        # rows below the pivot with a nonzero in column k, after the interchange
         m = 0
+        for c in range(nl):
+            i = lrows[k, c]
+            if i == p:
+                continue
+            lrows[k, m] = p if i == k else i
+            m += 1
+        lcnt[k] = m
+        mu = 0
         for j in range(k + 1, N):
             if A[k, j] != 0.0:
-                cols[m] = j
-                m += 1
+                ucols[k, mu] = j
+                mu += 1
+        ucnt[k] = mu
         inv = 1.0 / A[k, k]
-        for i in range(k + 1, N):
-            a = A[i, k]
-            if a != 0.0:
-                l = a * inv
-                A[i, k] = l
-                for c in range(m):
-                    j = cols[c]
-                    A[i, j] -= l * A[k, j]
+        for c in range(m):
+            i = lrows[k, c]
+            l = A[i, k] * inv
+            A[i, k] = l
+            for cc in range(mu):
+                j = ucols[k, cc]
+                A[i, j] -= l * A[k, j]
     if pmin <= rel_tol * pmax:
         return 1
     return 0
@@ -266,8 +297,12 @@ def dense_lu(Af, N, ipiv, rel_tol):
 
 @njit(**INNER)
 def dense_solve(Af, N, ipiv, b):
-    """Solve with the factors of :func:`dense_lu`, in place on ``b`` (permuted order)."""
+    """Solve with the factors of :func:`dense_lu`, in place on ``b`` (permuted order), nonzeros only."""
     A = Af.reshape((N, N))
+    ucnt = ipiv[N:2 * N]
+    lcnt = ipiv[2 * N:3 * N]
+    ucols = ipiv[3 * N:3 * N + N * N].reshape((N, N))
+    lrows = ipiv[3 * N + N * N:3 * N + 2 * N * N].reshape((N, N))
     for k in range(N):
         p = ipiv[k]
         if p != k:
@@ -276,11 +311,13 @@ def dense_solve(Af, N, ipiv, b):
             b[p] = tmp
         bk = b[k]
         if bk != 0.0:
-            for i in range(k + 1, N):
+            for c in range(lcnt[k]):
+                i = lrows[k, c]
                 b[i] -= A[i, k] * bk
     for k in range(N - 1, -1, -1):
         s = b[k]
-        for j in range(k + 1, N):
+        for c in range(ucnt[k]):
+            j = ucols[k, c]
             s -= A[k, j] * b[j]
         b[k] = s / A[k, k]
 
@@ -936,6 +973,41 @@ def kkt_accelerations(G, C, ip, t, q, qd, KB, kpiv, kr, Phi, kx, gam, Pt, zq, zl
     return 0
 
 
+@njit(**INNER)
+def refine_accelerations(G, C, ip, t, q, qd, u, lk, AB, ipiv, kr, Phi, kx, gam, Bu, du, kappa, ncorr):
+    """Corrections of (q̈, λ) towards [[M, Bᵀ], [B, 0]] [q̈; λ] = [f; −γ] with the Newton matrix's LU.
+
+    The iteration matrix of the step, S = [[κM + c γ' C_t + c K_t, Bᵀ], [B, 0]]
+    (κ = c β', femb/step.py ``newton_step``), differs from the KKT matrix
+    [[κM, Bᵀ], [B, 0]] by terms of order h (damping) and h² (stiffness). One
+    correction with S, started from the step's own q̈ and λ,
+
+        S [z; μ] = −[M q̈ − f + Bᵀλ; (B q̈ + γ)/κ],   q̈ += κ z,   λ += μ,
+
+    contracts the error by ρ(S⁻¹E), E = S − KKT: iterative refinement with the
+    factors Newton has just computed, in place of a second factorization.
+    ``ncorr`` corrections; the last one is left in ``du``. γ must be in ``gam``.
+    """
+    nv = ip[IP_NV]
+    nc = ip[IP_NC]
+    iperm = C[2]
+    active = C[15]
+    for it in range(ncorr):
+        evaluate(G, C, t, q, qd, u, lk, False, 0.0, 0.0, 0.0, AB, kr, Phi)
+        jacobian_times(G, C, t, q, u, Bu)
+        for i in range(nv):
+            kx[iperm[i]] = -kr[i]
+        for j in range(nc):
+            kx[iperm[nv + j]] = -(Bu[j] + gam[j]) / kappa if active[j] != 0 else 0.0
+        solve(AB, ip, C[17], ipiv, kx)
+        for i in range(nv):
+            d = kappa * kx[iperm[i]]
+            du[i] = d
+            u[i] += d
+        for j in range(nc):
+            lk[j] += kx[iperm[nv + j]]
+
+
 @njit(cache=True, **ENTRY)
 def project_normal_velocity(G, C, ip, t, q, qd, target, KB, kpiv, kx, Bv):
     """q̇ ← q̇ + δ with B δ = target − B q̇ and δ M-orthogonal to the constraint manifold.
@@ -976,6 +1048,61 @@ def error_norm(ip, fp, xm, q0, q1, qd0, qd1, eq, ev, atolv, use_v):
     return math.sqrt(s / n)
 
 
+@njit(**INNER)
+def constrained_accelerations(G, C, ip, fp, si, sf, stats, t, q, qd, qdd, lam, h, hbar, AB, ipiv, Phi, W, out,
+                              use_v):
+    """q̈ᵖᵖ at the new step (t, q, q̇) into ``out`` for the error estimate; returns 1 if the KKT matrix is singular.
+
+    With the index-3 step, one correction of :func:`refine_accelerations`
+    (the Newton matrix of the step, left in ``AB``) replaces the factorization of
+    [[M, Bᵀ], [B, 0]] as long as a second correction would change the error
+    estimate by at most ``REFINE_SHARE`` of the tolerance. That is checked
+    with two corrections every ``REFINE_CHECK`` calls and whenever h has grown
+    by ``REFINE_HGROW`` since the last check: the contraction ρ(S⁻¹E) grows
+    with h (stiff elements at large steps); where the check fails the KKT
+    matrix is factorized (:func:`kkt_accelerations`) until the next check.
+    """
+    (q_s, qd_s, qdd_s, lam_s, a_s, pqdd_s, plam_s, qpp, qpp_new, jn, jnew, KB, KBacc, kpiv, kpivacc,
+     kr, kx, gam, Pt, zq, zl, Bv, tgt, eq, ev, atolv, wq, du, lk) = W
+    nv = ip[IP_NV]
+    if ip[IP_GGL] == 0 and si[SI_LUVALID] != 0:
+        due = si[SI_RCOUNT] <= 0 or h > REFINE_HGROW * sf[SF_RCHECKH]
+        if not due:
+            si[SI_RCOUNT] -= 1
+        if due or si[SI_RMODE] == 0:
+            copy_into(out, qdd)
+            copy_into(lk, lam)
+            rates(G, C, t, q, qd, Pt, gam)
+            if fp[FP_SCALED] != 0.0:
+                kappa = (1.0 - fp[FP_AM]) / (1.0 - fp[FP_AF])
+            else:
+                kappa = (1.0 - fp[FP_AM]) / (h * h * fp[FP_BETA] * (1.0 - fp[FP_AF]))
+            ncorr = 2 if due else 1
+            refine_accelerations(G, C, ip, t, q, qd, out, lk, AB, ipiv, kr, Phi, kx, gam, Bv, du, kappa, ncorr)
+            stats[NS_REFINE] += ncorr
+            if not due:
+                return 0
+            # the second correction's share of the error estimate (stepsize.md §3 with Δq̈ᵖᵖ = du)
+            Cq = fp[FP_CQ]
+            Cv = fp[FP_CV]
+            for i in range(nv):
+                eq[i] = Cq * h * h * du[i]
+                ev[i] = Cv * h * h * du[i] / hbar
+            share = error_norm(ip, fp, C[19], q, q, qd, qd, eq, ev, atolv, use_v)
+            if use_v and fp[FP_EPUS] != 0.0:
+                share /= h
+            si[SI_RCOUNT] = REFINE_CHECK
+            sf[SF_RCHECKH] = h
+            if share <= REFINE_SHARE:
+                si[SI_RMODE] = 0
+                return 0
+            si[SI_RMODE] = 1
+    if kkt_accelerations(G, C, ip, t, q, qd, KB, kpiv, kr, Phi, kx, gam, Pt, zq, zl, out) != 0:
+        return 1
+    stats[NS_KKT] += 1
+    return 0
+
+
 @njit(cache=True, **ENTRY)
 def run(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam, tfv, AB, ipiv, r, Phi, rhs, x, info,
         W, n_chunk, out_t, out_q, out_qd, out_qdd, out_lam, out_h, out_it, out_err):
@@ -1012,7 +1139,7 @@ def run(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam, tfv, AB, ip
     tf_off = C[9]
     tf_coef = C[10]
     (q_s, qd_s, qdd_s, lam_s, a_s, pqdd_s, plam_s, qpp, qpp_new, jn, jnew, KB, KBacc, kpiv, kpivacc,
-     kr, kx, gam, Pt, zq, zl, Bv, tgt, eq, ev, atolv, wq) = W
+     kr, kx, gam, Pt, zq, zl, Bv, tgt, eq, ev, atolv, wq, du, lk) = W
     xm = C[19]
     si[SI_STORED] = 0
     done = 0
@@ -1040,13 +1167,13 @@ def run(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam, tfv, AB, ip
                 return ST_DONE
             h = fp[FP_H]
             t1 = t0 + n * h
-        if ip[IP_PYTF] != 0:
-            if sf[SF_TFTIME] != t1:
-                info[0] = t1
-                return ST_NEED_TF
-        eval_time_functions(t1, tf_kind, tf_off, tf_coef, tfv)
         h_prev = sf[SF_HPREV]
-        if adaptive:
+        if (adaptive and si[SI_SAVED] == 0 and ip[IP_PYTF] != 0 and sf[SF_TFTIME] != t and h != h_prev
+                and si[SI_HAVEJ] != 0 and nc > 0 and ip[IP_GGL] == 0):
+            # the re-synchronisation below needs Φ_t at t: Python time functions are asked for first
+            info[0] = t
+            return ST_NEED_TF
+        if adaptive and si[SI_SAVED] == 0:
             # save the accepted state: a rejected or failed trial restarts from it
             copy_into(q_s, q)
             copy_into(qd_s, qd)
@@ -1055,19 +1182,41 @@ def run(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam, tfv, AB, ip
             copy_into(a_s, a)
             copy_into(pqdd_s, pqdd)
             copy_into(plam_s, plam)
-            hasprev_s = si[SI_HASPREV]
-            fref_s = sf[SF_FREF]
+            si[SI_HASPREV_S] = si[SI_HASPREV]
+            sf[SF_FREF_S] = sf[SF_FREF]
             if h != h_prev and si[SI_HAVEJ] != 0:
                 # re-synchronise a and the normal velocity with the new step (stepsize.md §2)
                 for i in range(nv):
                     a[i] += delta * (h - h_prev) * jn[i]
                 # (the index-2 step keeps B q̇ + Φ_t = 0: no normal velocity to re-synchronise)
                 if nc > 0 and ip[IP_GGL] == 0:
+                    # Φ_t at t: the time functions at t (Python ones were asked for above)
+                    eval_time_functions(t, tf_kind, tf_off, tf_coef, tfv)
                     jacobian_times(G, C, t, q, jn, Bv)
                     rates(G, C, t, q, qd, Pt, gam)
                     for j in range(nc):
                         tgt[j] = -Pt[j] + h * h * Cq * Bv[j]
-                    project_normal_velocity(G, C, ip, t, q, qd, tgt, KBacc, kpivacc, kx, Bv)
+                    if si[SI_PROJ] == 1:
+                        # the Newton matrix of the accepted step: its constraint rows are B
+                        project_normal_velocity(G, C, ip, t, q, qd, tgt, AB, ipiv, kx, Bv)
+                    else:
+                        if si[SI_PROJ] != 2:
+                            # no factorization at the accepted state (a trial was rejected): one here
+                            if kkt_accelerations(G, C, ip, t, q, qd, KBacc, kpivacc, kr, Phi, kx, gam, Pt,
+                                                 zq, zl, qpp_new) != 0:
+                                info[0] = t
+                                return ST_KKT_SINGULAR
+                            stats[NS_KKT] += 1
+                            si[SI_PROJ] = 2
+                        project_normal_velocity(G, C, ip, t, q, qd, tgt, KBacc, kpivacc, kx, Bv)
+            si[SI_SAVED] = 1
+        if ip[IP_PYTF] != 0:
+            if sf[SF_TFTIME] != t1:
+                info[0] = t1
+                return ST_NEED_TF
+        eval_time_functions(t1, tf_kind, tf_off, tf_coef, tfv)
+        if adaptive:
+            si[SI_SAVED] = 0
             for i in range(nv):
                 j = xm[i]
                 wq[i] = fp[FP_TOLQ] * (atolv[i] + (fp[FP_ERTOL] * abs(q[j]) if j >= 0 else 0.0))
@@ -1098,8 +1247,10 @@ def run(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam, tfv, AB, ip
                 return k
             # Newton failed: retry from the accepted state with h/4, no growth next step
             restore_state(q, qd, qdd, lam, a, pqdd, plam, W)
-            si[SI_HASPREV] = hasprev_s
-            sf[SF_FREF] = fref_s
+            si[SI_HASPREV] = si[SI_HASPREV_S]
+            sf[SF_FREF] = sf[SF_FREF_S]
+            if si[SI_PROJ] == 1:
+                si[SI_PROJ] = 0          # the Newton matrix of the accepted step is gone
             si[SI_NFAIL] += 1
             si[SI_LASTFAIL] = k
             si[SI_NOGROW] = 1
@@ -1108,11 +1259,11 @@ def run(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam, tfv, AB, ip
         # ---- local error estimate (stepsize.md §3)
         err = -1.0
         if adaptive:
-            if kkt_accelerations(G, C, ip, t1, q, qd, KB, kpiv, kr, Phi, kx, gam, Pt, zq, zl, qpp_new) != 0:
+            hbar = 0.5 * (h + (h_prev if h_prev > 0.0 else h))
+            if constrained_accelerations(G, C, ip, fp, si, sf, stats, t1, q, qd, qdd, lam, h, hbar, AB, ipiv,
+                                         Phi, W, qpp_new, True) != 0:
                 info[0] = t1
                 return ST_KKT_SINGULAR
-            stats[NS_KKT] += 1
-            hbar = 0.5 * (h + (h_prev if h_prev > 0.0 else h))
             for i in range(nv):
                 jnew[i] = (qpp_new[i] - qpp[i]) / h
                 eq[i] = Cq * h * h * (qpp_new[i] - qpp[i])
@@ -1124,10 +1275,10 @@ def run(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam, tfv, AB, ip
             # fixed steps: q̈ᵖᵖ at two consecutive steps every IP_CHECK steps, e_q only
             phase = n % ip[IP_CHECK]
             if phase == 0 or (phase == 1 and si[SI_HAVEJ] != 0):
-                if kkt_accelerations(G, C, ip, t1, q, qd, KB, kpiv, kr, Phi, kx, gam, Pt, zq, zl, qpp_new) != 0:
+                if constrained_accelerations(G, C, ip, fp, si, sf, stats, t1, q, qd, qdd, lam, h, h, AB, ipiv,
+                                             Phi, W, qpp_new, False) != 0:
                     info[0] = t1
                     return ST_KKT_SINGULAR
-                stats[NS_KKT] += 1
                 if phase == 0:
                     copy_into(qpp, qpp_new)
                     si[SI_HAVEJ] = 1
@@ -1147,8 +1298,10 @@ def run(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam, tfv, AB, ip
             if err > 1.0:
                 # rejected: back to the accepted state with a smaller step
                 restore_state(q, qd, qdd, lam, a, pqdd, plam, W)
-                si[SI_HASPREV] = hasprev_s
-                sf[SF_FREF] = fref_s
+                si[SI_HASPREV] = si[SI_HASPREV_S]
+                sf[SF_FREF] = sf[SF_FREF_S]
+                if si[SI_PROJ] == 1:
+                    si[SI_PROJ] = 0
                 si[SI_REJECTED] += 1
                 si[SI_NOGROW] = 1
                 sf[SF_HNEXT] = h * max(0.2, 0.9 * err ** (-1.0 / kexp))
@@ -1165,8 +1318,12 @@ def run(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam, tfv, AB, ip
             si[SI_NOGROW] = 0
             sf[SF_ERRPREV] = e
             sf[SF_HNEXT] = h * fac
-            copy_into(KBacc, KB)
-            copy_into(kpivacc, kpiv)
+            if si[SI_RMODE] == 0 and ip[IP_GGL] == 0:
+                si[SI_PROJ] = 1          # projections at the next step change use the Newton matrix
+            else:
+                copy_into(KBacc, KB)
+                copy_into(kpivacc, kpiv)
+                si[SI_PROJ] = 2
             copy_into(qpp, qpp_new)
             copy_into(jn, jnew)
             if err > sf[SF_ERRMAX]:
