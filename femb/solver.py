@@ -324,6 +324,7 @@ class GeneralizedAlphaSolver:
         self.sf[8] = math.nan
         self.sf[2] = self.t0
         self.sf[cp.mod.SF_ETA] = -1.0     # no Newton contraction estimate yet (femb/step.py)
+        self.sf[cp.mod.SF_ETAS] = -1.0
         self.stats_arr = np.zeros(NNS, dtype=np.int64)
         self.q, self.qd, self.qdd, self.lam = st.q.copy(), st.qd.copy(), st.qdd.copy(), st.lam.copy()
         self.a = st.qdd.copy()
@@ -366,8 +367,9 @@ class GeneralizedAlphaSolver:
         W = self.W
         self._tf_at(t)
         out = np.zeros(self.model.nq)
-        if cp.mod.kkt_accelerations(cp.G, cp.C, self.ip, float(t), q, qd, KB, kpiv, W[15], np.zeros(self.model.nc),
-                                    W[16], W[17], W[18], W[19], W[20], out) != 0:
+        if cp.mod.kkt_accelerations(cp.G, cp.C, self.ip, self.fp, self.si, self.sf, self.stats_arr, float(t), q, qd,
+                                    self.qdd, self.lam, 1.0, 1.0, self.AB, self.ipiv, np.zeros(self.model.nc), W,
+                                    KB, kpiv, out, 0) != 0:
             raise SingularMatrixError(f"the matrix [[M, Φ_qᵀ], [Φ_q, 0]] of the constrained accelerations is "
                                       f"singular at t = {t:.6g} s (start); {singular_hint(self.model, q, t)}",
                                       t=float(t), step=0)

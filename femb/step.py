@@ -64,11 +64,11 @@ FP_TOLQ, FP_NEWTC = 23, 24
 NFP = 25
 # ---- indices of the run state si[...] (int) and sf[...] (float) ---------------------------
 SI_STEP, SI_HASPREV, SI_LUVALID, SI_STORED, SI_REJECTED, SI_NFAIL, SI_NOGROW, SI_LASTFAIL = 0, 1, 2, 3, 4, 5, 6, 7
-SI_HAVEJ, SI_PROJ, SI_RMODE, SI_RCOUNT, SI_SAVED, SI_HASPREV_S = 8, 9, 10, 11, 12, 13
-NSI = 14
+SI_HAVEJ, SI_PROJ, SI_RMODE, SI_RCOUNT, SI_SAVED, SI_HASPREV_S, SI_LUREUSE = 8, 9, 10, 11, 12, 13, 14
+NSI = 15
 SF_FREF, SF_TFTIME, SF_T, SF_HNEXT, SF_HPREV, SF_ERRPREV, SF_ERRMAX, SF_ERRMAX_T, SF_WARN_T = 0, 1, 2, 3, 4, 5, 6, 7, 8
-SF_WARN_ERR, SF_ETA, SF_RCHECKH, SF_FREF_S = 9, 10, 11, 12
-NSF = 13
+SF_WARN_ERR, SF_ETA, SF_RCHECKH, SF_FREF_S, SF_ETAS, SF_LUH = 9, 10, 11, 12, 13, 14
+NSF = 15
 # ---- statistics counters ------------------------------------------------------------------
 NS_STEPS, NS_EVAL, NS_FACT, NS_SOLVE, NS_ROUNDOFF, NS_KKT, NS_REFINE = 0, 1, 2, 3, 4, 5, 6
 NNS = 7
@@ -78,8 +78,17 @@ NNS = 7
 NEWTON_FROZEN_MAX = 4.0
 #: exponent of the carried contraction estimate, η₀ = max(η_prev, ε)^0.8 (Hairer & Wanner, Radau5)
 NEWTON_ETA_EXP = 0.8
+#: the next step starts with the iteration matrix of an earlier one unless the contraction rate
+#: of its corrections was above this (or it needed more than NEWTON_REUSE_MAXIT corrections)
+NEWTON_REUSE_THETA = 0.25
+NEWTON_REUSE_MAXIT = 3
+#: systems smaller than this factorize at every step: their LU costs less than the extra
+#: evaluations a reused matrix needs (pendulum, N = 5: 1.1 against 2.2 µs per step)
+NEWTON_REUSE_MIN_N = 16
 # ---- constrained accelerations of the error estimate --------------------------------------
-#: calls of :func:`constrained_accelerations` between two checks of the one-correction solve
+#: modes of :func:`kkt_accelerations`: factorize, estimate of q, estimate of q and q̇
+KKT_FACTOR, KKT_EST_Q, KKT_EST_QV = 0, 1, 2
+#: calls of :func:`kkt_accelerations` (error estimate) between two checks of the one-correction solve
 REFINE_CHECK = 16
 #: largest share of the error estimate (in units of the tolerance) that the second correction
 #: may carry for one correction to be trusted until the next check
@@ -89,8 +98,12 @@ REFINE_HGROW = 1.25
 
 
 @njit(**INNER)
-def newton_rate_start(sf):
-    """The contraction estimate η₀ carried into a step's Newton iteration; ``sf[SF_ETA]`` becomes unknown.
+def newton_rate_start(sf, slot):
+    """The contraction estimate η₀ carried into a step's Newton iteration; ``sf[slot]`` becomes unknown.
+
+    Two estimates are carried: ``SF_ETA`` for a step that starts with a freshly
+    factored iteration matrix, ``SF_ETAS`` for one that starts with the matrix
+    of an earlier step (its rate includes the matrix's age).
 
     Hairer & Wanner, *Solving ODEs II*, §IV.8 (Radau5): Newton's error after a
     correction Δ is about η‖Δ‖ with η = θ/(1 − θ), θ the contraction rate. A
@@ -101,15 +114,15 @@ def newton_rate_start(sf):
     iteration failed); ``sf[SF_ETA]`` is −1 until :func:`newton_rate_end`
     stores the step's estimate, so a failed iteration leaves none.
     """
-    eta = sf[SF_ETA]
-    sf[SF_ETA] = -1.0
+    eta = sf[slot]
+    sf[slot] = -1.0
     if not (eta >= 0.0):
         return -1.0
     return max(eta, 2.220446049250313e-16) ** NEWTON_ETA_EXP
 
 
 @njit(**INNER)
-def newton_rate_end(sf, eta0, theta):
+def newton_rate_end(sf, slot, eta0, theta):
     """Store the contraction estimate for the next step: θ/(1 − θ), θ = ‖Δ₂‖/‖Δ₁‖ of this step.
 
     The rate of the step's first two corrections, the one that bears on a first
@@ -120,11 +133,11 @@ def newton_rate_end(sf, eta0, theta):
     θ ≥ 0.99 leaves no estimate.
     """
     if theta < 0.0:
-        sf[SF_ETA] = eta0
+        sf[slot] = eta0
     elif theta < 0.99:
-        sf[SF_ETA] = theta / (1.0 - theta)
+        sf[slot] = theta / (1.0 - theta)
     else:
-        sf[SF_ETA] = -1.0
+        sf[slot] = -1.0
 
 
 @njit(**INNER)
@@ -134,7 +147,8 @@ def newton_first_accept(eta0, size, phi_ratio, fresh):
     ``size`` is ‖Δ₁‖ in tolerance units, ``phi_ratio`` ‖Φ‖/tolerance at the
     iterate the correction started from. Only for a correction of a freshly
     factored iteration matrix and a known carried estimate η₀
-    (:func:`newton_rate_start`). The accepted iterate is not evaluated: Newton's
+    (:func:`newton_rate_start`); ``fresh``: the estimate belongs to the matrix the
+    correction was computed with. The accepted iterate is not evaluated: Newton's
     residuals contract at the rate of its corrections, so η₀‖Φ₀‖ estimates Φ there
     (without that test, stress runs at large steps ended with ‖Φ‖ above tolerance).
     """
@@ -474,14 +488,24 @@ def newton_step(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam, t1,
         lam[j] = g
     F_ref = sf[SF_FREF]
     # correction rule: the contraction estimate carried over from the previous step
-    eta0 = newton_rate_start(sf) if ntest != 0 else -1.0
+    z0 = 0 * nv            # a run-time 0: literal arguments would compile a function once per value
+    eta0 = newton_rate_start(sf, SF_ETA + z0) if ntest != 0 else -1.0
+    eta0s = newton_rate_start(sf, SF_ETAS + z0) if ntest != 0 else -1.0
+    # fixed steps: the iteration matrix of an earlier step is reused while its corrections contract
+    # fast (Hairer & Wanner, Solving ODEs II, §IV.8: Radau5 keeps its Jacobian while θ is small).
+    # Adaptive steps factor it at every step: their error estimate refines the constrained
+    # accelerations with it (kkt_accelerations), which needs B of this step
+    stale = (ntest != 0 and ip[IP_MODE] == 0 and ip[IP_N] >= NEWTON_REUSE_MIN_N and si[SI_LUREUSE] != 0
+             and si[SI_LUVALID] != 0 and h == sf[SF_LUH])
+    si[SI_LUREUSE] = 0
+    first_stale = stale
     theta_first = -1.0
     prev_norm = -1.0
     theta_prev_bad = 0
     k = 0
     maxit = ip[IP_MAXIT]
     F = F_ref
-    have_lu = False
+    have_lu = stale
     err_f = 0.0
     err_phi = 0.0
     redo = False
@@ -539,6 +563,8 @@ def newton_step(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam, t1,
                 return ST_DIVERGED_SINGULAR if k > 0 else ST_SINGULAR
             si[SI_LUVALID] = 1
             have_lu = True
+            stale = False
+            sf[SF_LUH] = h
             stats[NS_FACT] += 1
         if ntest == 0 and not full:
             prev_norm = max(err_f / max(F, 1e-300), err_phi / max(tol_phi, 1e-300))
@@ -588,15 +614,18 @@ def newton_step(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam, t1,
             acc_tol = 1e-8 * (1.0 + qddmax) + fp[FP_NEWTC] * eps * (1.0 + qmax) * bp * math.sqrt(max(1.0, nv / 100.0))
             acc_ratio = bp * dqmax / acc_tol
             size = max(dqw, acc_ratio)
-            if k == 1 and k >= ip[IP_MINIT] and newton_first_accept(eta0, size, err_phi / tol_phi, jac):
-                break
+            if k == 1:
+                first_stale = stale
+                if k >= ip[IP_MINIT] and newton_first_accept(eta0s if stale else eta0, size, err_phi / tol_phi,
+                                                             jac or stale):
+                    break
             if prev_norm > 0.0:
                 theta = size / prev_norm
                 if theta_first < 0.0:
                     theta_first = theta
-                if theta > 0.5 and size <= 1e3 and err_phi <= tol_phi and k >= ip[IP_MINIT]:
-                    # the corrections stopped contracting within a factor 1e3 of the tolerance:
-                    # round-off of the linear solve (large stiff models), not divergence
+                if theta > 0.5 and size <= 1e3 and err_phi <= tol_phi and k >= ip[IP_MINIT] and not stale:
+                    # the corrections of a fresh matrix stopped contracting within a factor 1e3 of the
+                    # tolerance: round-off of the linear solve (large stiff models), not divergence
                     stats[NS_ROUNDOFF] += 1
                     break
                 if theta >= 1.0:
@@ -627,7 +656,15 @@ def newton_step(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam, t1,
     if F > F_ref:
         sf[SF_FREF] = F
     if ntest != 0:
-        newton_rate_end(sf, eta0, theta_first)
+        # the measured rate belongs to the matrix of the first correction; the other estimate is carried
+        if first_stale:
+            newton_rate_end(sf, SF_ETAS + z0, eta0s, theta_first)
+            newton_rate_end(sf, SF_ETA + z0, eta0, -1.0)
+        else:
+            newton_rate_end(sf, SF_ETA + z0, eta0, theta_first)
+            newton_rate_end(sf, SF_ETAS + z0, eta0s, -1.0)
+        if k <= NEWTON_REUSE_MAXIT and theta_first <= NEWTON_REUSE_THETA:
+            si[SI_LUREUSE] = 1
     si[SI_HASPREV] = 1
     return k
 
@@ -858,6 +895,8 @@ def newton_step_ggl(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam,
                 return ST_DIVERGED_SINGULAR if k > 0 else ST_SINGULAR
             si[SI_LUVALID] = 1
             have_lu = True
+            stale = False
+            sf[SF_LUH] = h
             stats[NS_FACT] += 1
         if ntest == 0 and not full:
             prev_norm = max(err_f / max(F, 1e-300), err_phi / max(tol_phi, 1e-300))
@@ -946,20 +985,82 @@ def newton_step_ggl(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam,
 
 
 @njit(cache=True, **ENTRY)
-def kkt_accelerations(G, C, ip, t, q, qd, KB, kpiv, kr, Phi, kx, gam, Pt, zq, zl, out):
-    """Constrained accelerations q̈ᵖᵖ of [[M, Bᵀ], [B, 0]] [q̈; λ] = [f; −γ] at (t, q, q̇).
+def kkt_accelerations(G, C, ip, fp, si, sf, stats, t, q, qd, qdd, lam, h, hbar, AB, ipiv, Phi, W, KB, kpiv, out,
+                      mode):
+    """Constrained accelerations q̈ᵖᵖ of [[M, Bᵀ], [B, 0]] [q̈; λ] = [f; −γ] at (t, q, q̇) into ``out``.
 
-    Leaves the factorization in ``KB``/``kpiv`` (for velocity projections at this
-    configuration) and returns 0, or 1 if the matrix is singular.
+    ``mode`` 0 (``KKT_FACTOR``): factorize the KKT matrix into ``KB``/``kpiv`` (left there for
+    velocity projections at this configuration) and solve. Returns 0, or 1 if
+    the matrix is singular.
+
+    ``mode`` 1 and 2 (``KKT_EST_Q``, ``KKT_EST_QV``): for the error estimate of a
+    step just taken (of q; of q and q̇). With the index-3 step, one correction with the Newton
+    matrix of the step (``AB``/``ipiv``) replaces the factorization. That matrix,
+    S = [[κM + c γ' C_t + c K_t, Bᵀ], [B, 0]] (κ = c β', see ``newton_step``),
+    differs from the KKT matrix [[κM, Bᵀ], [B, 0]] by terms of order h (damping)
+    and h² (stiffness), so the correction, started from the step's own (q̈, λ),
+
+        S [z; μ] = −[M q̈ − f + Bᵀλ; (B q̈ + γ)/κ],   q̈ += κ z,   λ += μ,
+
+    contracts the error by ρ(S⁻¹E), E = S − KKT (iterative refinement with the
+    factors Newton has just computed). It is trusted while a second correction
+    changes the error estimate by at most ``REFINE_SHARE`` of the tolerance,
+    checked every ``REFINE_CHECK`` calls and whenever h has grown by
+    ``REFINE_HGROW`` since the last check; where that fails (stiff elements at
+    large steps) the KKT matrix is factorized, as in mode 0, until the next check.
     """
+    (q_s, qd_s, qdd_s, lam_s, a_s, pqdd_s, plam_s, qpp, qpp_new, jn, jnew, KB_, KBacc, kpiv_, kpivacc,
+     kr, kx, gam, Pt, zq, zl, Bu, tgt, eq, ev, atolv, wq, du, lk) = W
     nv = ip[IP_NV]
     nc = ip[IP_NC]
-    N = ip[IP_N]
-    kl = ip[IP_KL]
-    ku = ip[IP_KU]
     iperm = C[2]
-    yes = nv >= 0
-    evaluate(G, C, t, q, qd, zq, zl, yes, 1.0, 0.0, 0.0, KB, kr, Phi)
+    if mode != KKT_FACTOR and ip[IP_GGL] == 0 and si[SI_LUVALID] != 0:
+        due = si[SI_RCOUNT] <= 0 or h > REFINE_HGROW * sf[SF_RCHECKH]
+        if not due:
+            si[SI_RCOUNT] -= 1
+        if due or si[SI_RMODE] == 0:
+            copy_into(out, qdd)
+            copy_into(lk, lam)
+            rates(G, C, t, q, qd, Pt, gam)
+            if fp[FP_SCALED] != 0.0:
+                kappa = (1.0 - fp[FP_AM]) / (1.0 - fp[FP_AF])
+            else:
+                kappa = (1.0 - fp[FP_AM]) / (h * h * fp[FP_BETA] * (1.0 - fp[FP_AF]))
+            active = C[15]
+            ncorr = 2 if due else 1
+            for it in range(ncorr):
+                evaluate(G, C, t, q, qd, out, lk, nv < 0, 0.0, 0.0, 0.0, AB, kr, Phi)
+                jacobian_times(G, C, t, q, out, Bu)
+                for i in range(nv):
+                    kx[iperm[i]] = -kr[i]
+                for j in range(nc):
+                    kx[iperm[nv + j]] = -(Bu[j] + gam[j]) / kappa if active[j] != 0 else 0.0
+                solve(AB, ip, C[17], ipiv, kx)
+                for i in range(nv):
+                    d = kappa * kx[iperm[i]]
+                    du[i] = d
+                    out[i] += d
+                for j in range(nc):
+                    lk[j] += kx[iperm[nv + j]]
+            stats[NS_REFINE] += ncorr
+            if not due:
+                return 0
+            # the second correction's share of the error estimate (stepsize.md §3 with Δq̈ᵖᵖ = du)
+            Cq = fp[FP_CQ]
+            Cv = fp[FP_CV]
+            for i in range(nv):
+                eq[i] = Cq * h * h * du[i]
+                ev[i] = Cv * h * h * du[i] / hbar
+            share = error_norm(ip, fp, C[19], q, q, qd, qd, eq, ev, atolv, mode == KKT_EST_QV)
+            if mode == KKT_EST_QV and fp[FP_EPUS] != 0.0:
+                share /= h
+            si[SI_RCOUNT] = REFINE_CHECK
+            sf[SF_RCHECKH] = h
+            if share <= REFINE_SHARE:
+                si[SI_RMODE] = 0
+                return 0
+            si[SI_RMODE] = 1
+    evaluate(G, C, t, q, qd, zq, zl, nv >= 0, 1.0, 0.0, 0.0, KB, kr, Phi)
     if factor(KB, ip, C[17], kpiv, 1e-13) != 0:
         return 1
     rates(G, C, t, q, qd, Pt, gam)
@@ -970,42 +1071,8 @@ def kkt_accelerations(G, C, ip, t, q, qd, KB, kpiv, kr, Phi, kx, gam, Pt, zq, zl
     solve(KB, ip, C[17], kpiv, kx)
     for i in range(nv):
         out[i] = kx[iperm[i]]
+    stats[NS_KKT] += 1
     return 0
-
-
-@njit(**INNER)
-def refine_accelerations(G, C, ip, t, q, qd, u, lk, AB, ipiv, kr, Phi, kx, gam, Bu, du, kappa, ncorr):
-    """Corrections of (q̈, λ) towards [[M, Bᵀ], [B, 0]] [q̈; λ] = [f; −γ] with the Newton matrix's LU.
-
-    The iteration matrix of the step, S = [[κM + c γ' C_t + c K_t, Bᵀ], [B, 0]]
-    (κ = c β', femb/step.py ``newton_step``), differs from the KKT matrix
-    [[κM, Bᵀ], [B, 0]] by terms of order h (damping) and h² (stiffness). One
-    correction with S, started from the step's own q̈ and λ,
-
-        S [z; μ] = −[M q̈ − f + Bᵀλ; (B q̈ + γ)/κ],   q̈ += κ z,   λ += μ,
-
-    contracts the error by ρ(S⁻¹E), E = S − KKT: iterative refinement with the
-    factors Newton has just computed, in place of a second factorization.
-    ``ncorr`` corrections; the last one is left in ``du``. γ must be in ``gam``.
-    """
-    nv = ip[IP_NV]
-    nc = ip[IP_NC]
-    iperm = C[2]
-    active = C[15]
-    for it in range(ncorr):
-        evaluate(G, C, t, q, qd, u, lk, False, 0.0, 0.0, 0.0, AB, kr, Phi)
-        jacobian_times(G, C, t, q, u, Bu)
-        for i in range(nv):
-            kx[iperm[i]] = -kr[i]
-        for j in range(nc):
-            kx[iperm[nv + j]] = -(Bu[j] + gam[j]) / kappa if active[j] != 0 else 0.0
-        solve(AB, ip, C[17], ipiv, kx)
-        for i in range(nv):
-            d = kappa * kx[iperm[i]]
-            du[i] = d
-            u[i] += d
-        for j in range(nc):
-            lk[j] += kx[iperm[nv + j]]
 
 
 @njit(cache=True, **ENTRY)
@@ -1048,61 +1115,6 @@ def error_norm(ip, fp, xm, q0, q1, qd0, qd1, eq, ev, atolv, use_v):
     return math.sqrt(s / n)
 
 
-@njit(**INNER)
-def constrained_accelerations(G, C, ip, fp, si, sf, stats, t, q, qd, qdd, lam, h, hbar, AB, ipiv, Phi, W, out,
-                              use_v):
-    """q̈ᵖᵖ at the new step (t, q, q̇) into ``out`` for the error estimate; returns 1 if the KKT matrix is singular.
-
-    With the index-3 step, one correction of :func:`refine_accelerations`
-    (the Newton matrix of the step, left in ``AB``) replaces the factorization of
-    [[M, Bᵀ], [B, 0]] as long as a second correction would change the error
-    estimate by at most ``REFINE_SHARE`` of the tolerance. That is checked
-    with two corrections every ``REFINE_CHECK`` calls and whenever h has grown
-    by ``REFINE_HGROW`` since the last check: the contraction ρ(S⁻¹E) grows
-    with h (stiff elements at large steps); where the check fails the KKT
-    matrix is factorized (:func:`kkt_accelerations`) until the next check.
-    """
-    (q_s, qd_s, qdd_s, lam_s, a_s, pqdd_s, plam_s, qpp, qpp_new, jn, jnew, KB, KBacc, kpiv, kpivacc,
-     kr, kx, gam, Pt, zq, zl, Bv, tgt, eq, ev, atolv, wq, du, lk) = W
-    nv = ip[IP_NV]
-    if ip[IP_GGL] == 0 and si[SI_LUVALID] != 0:
-        due = si[SI_RCOUNT] <= 0 or h > REFINE_HGROW * sf[SF_RCHECKH]
-        if not due:
-            si[SI_RCOUNT] -= 1
-        if due or si[SI_RMODE] == 0:
-            copy_into(out, qdd)
-            copy_into(lk, lam)
-            rates(G, C, t, q, qd, Pt, gam)
-            if fp[FP_SCALED] != 0.0:
-                kappa = (1.0 - fp[FP_AM]) / (1.0 - fp[FP_AF])
-            else:
-                kappa = (1.0 - fp[FP_AM]) / (h * h * fp[FP_BETA] * (1.0 - fp[FP_AF]))
-            ncorr = 2 if due else 1
-            refine_accelerations(G, C, ip, t, q, qd, out, lk, AB, ipiv, kr, Phi, kx, gam, Bv, du, kappa, ncorr)
-            stats[NS_REFINE] += ncorr
-            if not due:
-                return 0
-            # the second correction's share of the error estimate (stepsize.md §3 with Δq̈ᵖᵖ = du)
-            Cq = fp[FP_CQ]
-            Cv = fp[FP_CV]
-            for i in range(nv):
-                eq[i] = Cq * h * h * du[i]
-                ev[i] = Cv * h * h * du[i] / hbar
-            share = error_norm(ip, fp, C[19], q, q, qd, qd, eq, ev, atolv, use_v)
-            if use_v and fp[FP_EPUS] != 0.0:
-                share /= h
-            si[SI_RCOUNT] = REFINE_CHECK
-            sf[SF_RCHECKH] = h
-            if share <= REFINE_SHARE:
-                si[SI_RMODE] = 0
-                return 0
-            si[SI_RMODE] = 1
-    if kkt_accelerations(G, C, ip, t, q, qd, KB, kpiv, kr, Phi, kx, gam, Pt, zq, zl, out) != 0:
-        return 1
-    stats[NS_KKT] += 1
-    return 0
-
-
 @njit(cache=True, **ENTRY)
 def run(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam, tfv, AB, ipiv, r, Phi, rhs, x, info,
         W, n_chunk, out_t, out_q, out_qd, out_qdd, out_lam, out_h, out_it, out_err):
@@ -1141,6 +1153,8 @@ def run(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam, tfv, AB, ip
     (q_s, qd_s, qdd_s, lam_s, a_s, pqdd_s, plam_s, qpp, qpp_new, jn, jnew, KB, KBacc, kpiv, kpivacc,
      kr, kx, gam, Pt, zq, zl, Bv, tgt, eq, ev, atolv, wq, du, lk) = W
     xm = C[19]
+    # a run-time 0 added to the mode constants: numba compiles a function once per literal argument
+    nc0 = 0 * nc
     si[SI_STORED] = 0
     done = 0
     while done < n_chunk:
@@ -1202,11 +1216,10 @@ def run(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam, tfv, AB, ip
                     else:
                         if si[SI_PROJ] != 2:
                             # no factorization at the accepted state (a trial was rejected): one here
-                            if kkt_accelerations(G, C, ip, t, q, qd, KBacc, kpivacc, kr, Phi, kx, gam, Pt,
-                                                 zq, zl, qpp_new) != 0:
+                            if kkt_accelerations(G, C, ip, fp, si, sf, stats, t, q, qd, qdd, lam, h, h, AB, ipiv,
+                                                 Phi, W, KBacc, kpivacc, qpp_new, KKT_FACTOR + nc0) != 0:
                                 info[0] = t
                                 return ST_KKT_SINGULAR
-                            stats[NS_KKT] += 1
                             si[SI_PROJ] = 2
                         project_normal_velocity(G, C, ip, t, q, qd, tgt, KBacc, kpivacc, kx, Bv)
             si[SI_SAVED] = 1
@@ -1260,8 +1273,8 @@ def run(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam, tfv, AB, ip
         err = -1.0
         if adaptive:
             hbar = 0.5 * (h + (h_prev if h_prev > 0.0 else h))
-            if constrained_accelerations(G, C, ip, fp, si, sf, stats, t1, q, qd, qdd, lam, h, hbar, AB, ipiv,
-                                         Phi, W, qpp_new, True) != 0:
+            if kkt_accelerations(G, C, ip, fp, si, sf, stats, t1, q, qd, qdd, lam, h, hbar, AB, ipiv, Phi, W,
+                                 KB, kpiv, qpp_new, KKT_EST_QV + nc0) != 0:
                 info[0] = t1
                 return ST_KKT_SINGULAR
             for i in range(nv):
@@ -1275,8 +1288,8 @@ def run(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam, tfv, AB, ip
             # fixed steps: q̈ᵖᵖ at two consecutive steps every IP_CHECK steps, e_q only
             phase = n % ip[IP_CHECK]
             if phase == 0 or (phase == 1 and si[SI_HAVEJ] != 0):
-                if constrained_accelerations(G, C, ip, fp, si, sf, stats, t1, q, qd, qdd, lam, h, h, AB, ipiv,
-                                             Phi, W, qpp_new, False) != 0:
+                if kkt_accelerations(G, C, ip, fp, si, sf, stats, t1, q, qd, qdd, lam, h, h, AB, ipiv, Phi, W,
+                                     KB, kpiv, qpp_new, KKT_EST_Q + nc0) != 0:
                     info[0] = t1
                     return ST_KKT_SINGULAR
                 if phase == 0:
