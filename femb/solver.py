@@ -324,7 +324,6 @@ class GeneralizedAlphaSolver:
         self.sf[8] = math.nan
         self.sf[2] = self.t0
         self.sf[cp.mod.SF_ETA] = -1.0     # no Newton contraction estimate yet (femb/step.py)
-        self.sf[cp.mod.SF_ETAS] = -1.0
         self.stats_arr = np.zeros(NNS, dtype=np.int64)
         self.q, self.qd, self.qdd, self.lam = st.q.copy(), st.qd.copy(), st.qdd.copy(), st.lam.copy()
         self.a = st.qdd.copy()

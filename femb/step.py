@@ -64,11 +64,11 @@ FP_TOLQ, FP_NEWTC = 23, 24
 NFP = 25
 # ---- indices of the run state si[...] (int) and sf[...] (float) ---------------------------
 SI_STEP, SI_HASPREV, SI_LUVALID, SI_STORED, SI_REJECTED, SI_NFAIL, SI_NOGROW, SI_LASTFAIL = 0, 1, 2, 3, 4, 5, 6, 7
-SI_HAVEJ, SI_PROJ, SI_RMODE, SI_RCOUNT, SI_SAVED, SI_HASPREV_S, SI_LUREUSE = 8, 9, 10, 11, 12, 13, 14
-NSI = 15
+SI_HAVEJ, SI_PROJ, SI_RMODE, SI_RCOUNT, SI_SAVED, SI_HASPREV_S = 8, 9, 10, 11, 12, 13
+NSI = 14
 SF_FREF, SF_TFTIME, SF_T, SF_HNEXT, SF_HPREV, SF_ERRPREV, SF_ERRMAX, SF_ERRMAX_T, SF_WARN_T = 0, 1, 2, 3, 4, 5, 6, 7, 8
-SF_WARN_ERR, SF_ETA, SF_RCHECKH, SF_FREF_S, SF_ETAS, SF_LUH = 9, 10, 11, 12, 13, 14
-NSF = 15
+SF_WARN_ERR, SF_ETA, SF_RCHECKH, SF_FREF_S = 9, 10, 11, 12
+NSF = 13
 # ---- statistics counters ------------------------------------------------------------------
 NS_STEPS, NS_EVAL, NS_FACT, NS_SOLVE, NS_ROUNDOFF, NS_KKT, NS_REFINE = 0, 1, 2, 3, 4, 5, 6
 NNS = 7
@@ -78,13 +78,6 @@ NNS = 7
 NEWTON_FROZEN_MAX = 4.0
 #: exponent of the carried contraction estimate, η₀ = max(η_prev, ε)^0.8 (Hairer & Wanner, Radau5)
 NEWTON_ETA_EXP = 0.8
-#: the next step starts with the iteration matrix of an earlier one unless the contraction rate
-#: of its corrections was above this (or it needed more than NEWTON_REUSE_MAXIT corrections)
-NEWTON_REUSE_THETA = 0.25
-NEWTON_REUSE_MAXIT = 3
-#: systems smaller than this factorize at every step: their LU costs less than the extra
-#: evaluations a reused matrix needs (pendulum, N = 5: 1.1 against 2.2 µs per step)
-NEWTON_REUSE_MIN_N = 16
 # ---- constrained accelerations of the error estimate --------------------------------------
 #: modes of :func:`kkt_accelerations`: factorize, estimate of q, estimate of q and q̇
 KKT_FACTOR, KKT_EST_Q, KKT_EST_QV = 0, 1, 2
@@ -98,12 +91,8 @@ REFINE_HGROW = 1.25
 
 
 @njit(**INNER)
-def newton_rate_start(sf, slot):
-    """The contraction estimate η₀ carried into a step's Newton iteration; ``sf[slot]`` becomes unknown.
-
-    Two estimates are carried: ``SF_ETA`` for a step that starts with a freshly
-    factored iteration matrix, ``SF_ETAS`` for one that starts with the matrix
-    of an earlier step (its rate includes the matrix's age).
+def newton_rate_start(sf):
+    """The contraction estimate η₀ carried into a step's Newton iteration; ``sf[SF_ETA]`` becomes unknown.
 
     Hairer & Wanner, *Solving ODEs II*, §IV.8 (Radau5): Newton's error after a
     correction Δ is about η‖Δ‖ with η = θ/(1 − θ), θ the contraction rate. A
@@ -114,15 +103,15 @@ def newton_rate_start(sf, slot):
     iteration failed); ``sf[SF_ETA]`` is −1 until :func:`newton_rate_end`
     stores the step's estimate, so a failed iteration leaves none.
     """
-    eta = sf[slot]
-    sf[slot] = -1.0
+    eta = sf[SF_ETA]
+    sf[SF_ETA] = -1.0
     if not (eta >= 0.0):
         return -1.0
     return max(eta, 2.220446049250313e-16) ** NEWTON_ETA_EXP
 
 
 @njit(**INNER)
-def newton_rate_end(sf, slot, eta0, theta):
+def newton_rate_end(sf, eta0, theta):
     """Store the contraction estimate for the next step: θ/(1 − θ), θ = ‖Δ₂‖/‖Δ₁‖ of this step.
 
     The rate of the step's first two corrections, the one that bears on a first
@@ -133,11 +122,11 @@ def newton_rate_end(sf, slot, eta0, theta):
     θ ≥ 0.99 leaves no estimate.
     """
     if theta < 0.0:
-        sf[slot] = eta0
+        sf[SF_ETA] = eta0
     elif theta < 0.99:
-        sf[slot] = theta / (1.0 - theta)
+        sf[SF_ETA] = theta / (1.0 - theta)
     else:
-        sf[slot] = -1.0
+        sf[SF_ETA] = -1.0
 
 
 @njit(**INNER)
@@ -147,8 +136,7 @@ def newton_first_accept(eta0, size, phi_ratio, fresh):
     ``size`` is ‖Δ₁‖ in tolerance units, ``phi_ratio`` ‖Φ‖/tolerance at the
     iterate the correction started from. Only for a correction of a freshly
     factored iteration matrix and a known carried estimate η₀
-    (:func:`newton_rate_start`); ``fresh``: the estimate belongs to the matrix the
-    correction was computed with. The accepted iterate is not evaluated: Newton's
+    (:func:`newton_rate_start`). The accepted iterate is not evaluated: Newton's
     residuals contract at the rate of its corrections, so η₀‖Φ₀‖ estimates Φ there
     (without that test, stress runs at large steps ended with ‖Φ‖ above tolerance).
     """
@@ -336,6 +324,15 @@ def dense_solve(Af, N, ipiv, b):
         b[k] = s / A[k, k]
 
 
+@njit(cache=True, **ENTRY)
+def dense_lu_solve(Af, N, ipiv, rel_tol, b):
+    """:func:`dense_lu` then, if regular, :func:`dense_solve` on ``b``; returns the LU's status (for tests)."""
+    st = dense_lu(Af, N, ipiv, rel_tol)
+    if st == 0:
+        dense_solve(Af, N, ipiv, b)
+    return st
+
+
 @njit(**INNER)
 def factor(Af, ip, env, ipiv, rel_tol):
     """Factorize the iteration matrix in its storage (dense or band, fixed per model)."""
@@ -488,24 +485,14 @@ def newton_step(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam, t1,
         lam[j] = g
     F_ref = sf[SF_FREF]
     # correction rule: the contraction estimate carried over from the previous step
-    z0 = 0 * nv            # a run-time 0: literal arguments would compile a function once per value
-    eta0 = newton_rate_start(sf, SF_ETA + z0) if ntest != 0 else -1.0
-    eta0s = newton_rate_start(sf, SF_ETAS + z0) if ntest != 0 else -1.0
-    # fixed steps: the iteration matrix of an earlier step is reused while its corrections contract
-    # fast (Hairer & Wanner, Solving ODEs II, §IV.8: Radau5 keeps its Jacobian while θ is small).
-    # Adaptive steps factor it at every step: their error estimate refines the constrained
-    # accelerations with it (kkt_accelerations), which needs B of this step
-    stale = (ntest != 0 and ip[IP_MODE] == 0 and ip[IP_N] >= NEWTON_REUSE_MIN_N and si[SI_LUREUSE] != 0
-             and si[SI_LUVALID] != 0 and h == sf[SF_LUH])
-    si[SI_LUREUSE] = 0
-    first_stale = stale
+    eta0 = newton_rate_start(sf) if ntest != 0 else -1.0
     theta_first = -1.0
     prev_norm = -1.0
     theta_prev_bad = 0
     k = 0
     maxit = ip[IP_MAXIT]
     F = F_ref
-    have_lu = stale
+    have_lu = False
     err_f = 0.0
     err_phi = 0.0
     redo = False
@@ -563,8 +550,6 @@ def newton_step(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam, t1,
                 return ST_DIVERGED_SINGULAR if k > 0 else ST_SINGULAR
             si[SI_LUVALID] = 1
             have_lu = True
-            stale = False
-            sf[SF_LUH] = h
             stats[NS_FACT] += 1
         if ntest == 0 and not full:
             prev_norm = max(err_f / max(F, 1e-300), err_phi / max(tol_phi, 1e-300))
@@ -614,18 +599,15 @@ def newton_step(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam, t1,
             acc_tol = 1e-8 * (1.0 + qddmax) + fp[FP_NEWTC] * eps * (1.0 + qmax) * bp * math.sqrt(max(1.0, nv / 100.0))
             acc_ratio = bp * dqmax / acc_tol
             size = max(dqw, acc_ratio)
-            if k == 1:
-                first_stale = stale
-                if k >= ip[IP_MINIT] and newton_first_accept(eta0s if stale else eta0, size, err_phi / tol_phi,
-                                                             jac or stale):
-                    break
+            if k == 1 and k >= ip[IP_MINIT] and newton_first_accept(eta0, size, err_phi / tol_phi, jac):
+                break
             if prev_norm > 0.0:
                 theta = size / prev_norm
                 if theta_first < 0.0:
                     theta_first = theta
-                if theta > 0.5 and size <= 1e3 and err_phi <= tol_phi and k >= ip[IP_MINIT] and not stale:
-                    # the corrections of a fresh matrix stopped contracting within a factor 1e3 of the
-                    # tolerance: round-off of the linear solve (large stiff models), not divergence
+                if theta > 0.5 and size <= 1e3 and err_phi <= tol_phi and k >= ip[IP_MINIT]:
+                    # the corrections stopped contracting within a factor 1e3 of the tolerance:
+                    # round-off of the linear solve (large stiff models), not divergence
                     stats[NS_ROUNDOFF] += 1
                     break
                 if theta >= 1.0:
@@ -656,15 +638,7 @@ def newton_step(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam, t1,
     if F > F_ref:
         sf[SF_FREF] = F
     if ntest != 0:
-        # the measured rate belongs to the matrix of the first correction; the other estimate is carried
-        if first_stale:
-            newton_rate_end(sf, SF_ETAS + z0, eta0s, theta_first)
-            newton_rate_end(sf, SF_ETA + z0, eta0, -1.0)
-        else:
-            newton_rate_end(sf, SF_ETA + z0, eta0, theta_first)
-            newton_rate_end(sf, SF_ETAS + z0, eta0s, -1.0)
-        if k <= NEWTON_REUSE_MAXIT and theta_first <= NEWTON_REUSE_THETA:
-            si[SI_LUREUSE] = 1
+        newton_rate_end(sf, eta0, theta_first)
     si[SI_HASPREV] = 1
     return k
 
@@ -895,8 +869,6 @@ def newton_step_ggl(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam,
                 return ST_DIVERGED_SINGULAR if k > 0 else ST_SINGULAR
             si[SI_LUVALID] = 1
             have_lu = True
-            stale = False
-            sf[SF_LUH] = h
             stats[NS_FACT] += 1
         if ntest == 0 and not full:
             prev_norm = max(err_f / max(F, 1e-300), err_phi / max(tol_phi, 1e-300))
