@@ -33,6 +33,7 @@ import numpy as np
 from femb.alpha import GeneralizedAlpha
 from femb.errors import SINGULAR_HINT_DIVERGED, ConvergenceError, ParameterError, SingularMatrixError
 from femb.initial import consistent_initial_state, singular_hint  # noqa: F401  (re-exported)
+from femb.jit import pack
 from femb.model import State
 from femb.result import Result
 
@@ -338,10 +339,14 @@ class GeneralizedAlphaSolver:
         self.info = np.zeros(8)
         z = np.zeros
         nx = model.nx
-        self.W = (z(nx), z(nv), z(nv), z(nc), z(nv), z(nv), z(nc), z(nv), z(nv), z(nv), z(nv),
-                  z(cp.storage_size), z(cp.storage_size), z(cp.piv_size, dtype=np.int64), z(cp.piv_size, dtype=np.int64),
-                  z(nv), z(N), z(nc), z(nc), z(nv), z(nc), z(nc), z(nc), z(nv), z(nv), self.atol.copy(), z(nv),
-                  z(nv), z(nc))
+        # work arrays of the compiled loop, one pack (femb.jit.pack); the names under which
+        # femb/step.py reads them: q_s … plam_s (the accepted state), qpp, qpp_new, jn, jnew,
+        # KB, KBacc, kpiv, kpivacc, kr, kx, gam, Pt, zq, zl, Bv, tgt, eq, ev, atolv, wq, du, lk
+        self.W, self.Wv = pack(
+            [z(nx), z(nv), z(nv), z(nc), z(nv), z(nv), z(nc), z(nv), z(nv), z(nv), z(nv),
+             z(cp.storage_size), z(cp.storage_size), z(cp.piv_size, dtype=np.int64), z(cp.piv_size, dtype=np.int64),
+             z(nv), z(N), z(nc), z(nc), z(nv), z(nc), z(nc), z(nc), z(nv), z(nv), self.atol.copy(), z(nv),
+             z(nv), z(nc)])
         self._bufs = None
         self._compile()
         self._start()
@@ -351,7 +356,7 @@ class GeneralizedAlphaSolver:
         cp = self.cp
         if cp.python_tf:
             self._fill_python_tf(t)
-        cp.mod.eval_time_functions(float(t), cp.C[8], cp.C[9], cp.C[10], cp.tfv)
+        cp.mod.eval_time_functions(float(t), cp.Cv[8], cp.Cv[9], cp.Cv[10], cp.tfv)
 
     def _fill_python_tf(self, t):
         for k, fn in self.cp.python_tf:
@@ -403,9 +408,9 @@ class GeneralizedAlphaSolver:
             am_ = self._qpp(t0 - dl, cmp(q0, -dl * v0 + 0.5 * dl * dl * a0), v0 - dl * a0, KBt, kp)
             j0 = (ap - am_) / (2.0 * dl)
             # the factorization at the initial state, for re-synchronisations
-            qpp0 = self._qpp(t0, self.q, self.qd, W[12], W[14])
-            W[7][:] = qpp0
-            W[9][:] = j0
+            qpp0 = self._qpp(t0, self.q, self.qd, self.Wv[12], self.Wv[14])
+            self.Wv[7][:] = qpp0
+            self.Wv[9][:] = j0
             self.si[8] = 1
             self.si[cp.mod.SI_PROJ] = 2        # that factorization serves the first re-synchronisation
             if self.adaptive:
@@ -440,7 +445,7 @@ class GeneralizedAlphaSolver:
                                               self.model.bracket(self.qd, self.qdd), Bb)
                         target = target + (h0 * h0 / 12.0) * Bb
                     cp.mod.project_normal_velocity(cp.G, cp.C, self.ip, float(t0), self.q, self.qd, target,
-                                                   W[12], W[14], W[16], W[21])
+                                                   self.Wv[12], self.Wv[14], self.Wv[16], self.Wv[21])
         elif not self.adaptive and self.check_every:
             pass
         if not self.adaptive:

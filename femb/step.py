@@ -25,7 +25,7 @@ import math
 
 from numba import njit
 
-from femb.jit import OPTIONS
+from femb.jit import OPTIONS, fview1, fview2, fview3, iview1, iview2, iview3
 #: functions called from Python: no C-callable wrapper (``cfunc``), whose argument list is
 #: the flattened tuples G, C and W (hundreds of scalars)
 ENTRY = dict(OPTIONS, no_cfunc_wrapper=True)
@@ -428,8 +428,8 @@ def newton_step(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam, t1,
     gp = gamma / (h * beta)
     c = beta * h * h if fp[FP_SCALED] != 0.0 else 1.0
     ka = (1.0 - af) / (1.0 - am)
-    iperm = C[2]
-    w = C[3]
+    iperm = iview1(C, 2)
+    w = fview1(C, 3)
     full = ip[IP_FULL] != 0
     tol_phi = fp[FP_PHITOL] * fp[FP_L]
     rtol = fp[FP_RTOL]
@@ -442,11 +442,11 @@ def newton_step(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam, t1,
     rho = h / h_prev if h_prev > 0.0 else 1.0
     # rotation nodes (Brüls & Cardona 2010, Algorithm 2): q = q_n ∘ exp(Δ); additive entries
     # are updated in place (as on Rⁿ), rotations rebuilt from q_n and the increment D
-    xm = C[19]
-    rot = C[20]
+    xm = iview1(C, 19)
+    rot = iview2(C, 20)
     nrot = rot.shape[0]
-    pn = C[21]
-    D = C[22]
+    pn = fview2(C, 21)
+    D = fview1(C, 22)
     for b in range(nrot):
         for m in range(4):
             pn[b, m] = q[rot[b, 0] + m]
@@ -545,7 +545,7 @@ def newton_step(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam, t1,
                         continue
         redo = False
         if jac:
-            if factor(AB, ip, C[17], ipiv, fp[FP_SINGTOL]) != 0:
+            if factor(AB, ip, iview2(C, 17), ipiv, fp[FP_SINGTOL]) != 0:
                 si[SI_LUVALID] = 0
                 return ST_DIVERGED_SINGULAR if k > 0 else ST_SINGULAR
             si[SI_LUVALID] = 1
@@ -557,7 +557,7 @@ def newton_step(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam, t1,
             rhs[iperm[i]] = -c * r[i]
         for j in range(nc):
             rhs[iperm[nv + j]] = -Phi[j]
-        solve(AB, ip, C[17], ipiv, rhs)
+        solve(AB, ip, iview2(C, 17), ipiv, rhs)
         stats[NS_SOLVE] += 1
         dqmax = 0.0
         qmax = 0.0
@@ -658,19 +658,19 @@ def copy_blocks(Be, out, o):
 def ggl_matrix(C, ABf, sg):
     """The rows and columns of the index-2 layout that ``evaluate`` leaves out, into ABf.
 
-    With B = B(q) (``C[26][1]``) and B_n = B(q_n) (``C[26][0]``), flat per element
+    With B = B(q) (rows 1 of array 26 of C) and B_n = B(q_n) (row 0), flat per element
     block: sg·B in the velocity rows (q̇ columns), B B_nᵀ in the Φ rows (η
     columns), and a zero η diagonal for active constraints (``evaluate`` puts 1
     there for the constrained-acceleration solves). Kinds with rotation nodes use
-    B T(D) (``C[26][2]``, the blocks ``evaluate`` scattered) in the Φ rows.
+    B T(D) (row 2, the blocks ``evaluate`` scattered) in the Φ rows.
     """
-    fl = C[23]
-    pairs = C[24]
-    tEta = C[25]
-    Bn = C[26][0]
-    Bq = C[26][1]
-    # rotation kinds: ∂Φ(q_n ∘ exp(Δ + B_nᵀη))/∂η = B(q) T(D) B_nᵀ, with B T in C[26][2]
-    BT = C[26][2] if LIE else C[26][1]
+    fl = iview2(C, 23)
+    pairs = iview2(C, 24)
+    tEta = iview1(C, 25)
+    Bn = fview2(C, 26)[0]
+    Bq = fview2(C, 26)[1]
+    # rotation kinds: ∂Φ(q_n ∘ exp(Δ + B_nᵀη))/∂η = B(q) T(D) B_nᵀ, with B T in row 2 of C's array 26
+    BT = fview2(C, 26)[2] if LIE else fview2(C, 26)[1]
     for c in range(tEta.shape[0]):
         if tEta[c] >= 0:
             ABf[tEta[c]] = 0.0
@@ -723,8 +723,8 @@ def newton_step_ggl(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam,
     sg = 1.0 if scaled else gp
     sr = 1.0 / gp if scaled else 1.0
     ka = (1.0 - af) / (1.0 - am)
-    iperm = C[2]
-    w = C[3]
+    iperm = iview1(C, 2)
+    w = fview1(C, 3)
     full = ip[IP_FULL] != 0
     tol_phi = fp[FP_PHITOL] * fp[FP_L]
     rtol = fp[FP_RTOL]
@@ -732,10 +732,10 @@ def newton_step_ggl(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam,
     L = fp[FP_L]
     ntest = ip[IP_NTEST]
     eps = 2.220446049250313e-16
-    fl = C[23]
-    Bn = C[26][0]
-    Bq = C[26][1]
-    E = C[27]
+    fl = iview2(C, 23)
+    Bn = fview2(C, 26)[0]
+    Bq = fview2(C, 26)[1]
+    E = fview2(C, 27)
     eta = E[0]
     g_ = E[1]
     Pt = E[2]
@@ -747,10 +747,10 @@ def newton_step_ggl(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam,
     rho = h / h_prev if h_prev > 0.0 else 1.0
     # rotation nodes: q = q_n ∘ exp(Δ + B_nᵀη), additive entries in place, rotations from
     # p_n and the increment D (as in newton_step)
-    xm = C[19]
-    rot = C[20]
-    pn = C[21]
-    D = C[22]
+    xm = iview1(C, 19)
+    rot = iview2(C, 20)
+    pn = fview2(C, 21)
+    D = fview1(C, 22)
     for b in range(rot.shape[0]):
         for m in range(4):
             pn[b, m] = q[rot[b, 0] + m]
@@ -811,7 +811,7 @@ def newton_step_ggl(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam,
         # itself comes from the kernels
         if LIE:
             if jac:
-                copy_B(G, C[26][2])
+                copy_B(G, fview2(C, 26)[2])
             constraint_B(G, C, t1, q, qd, Bq)
         else:
             copy_B(G, Bq)
@@ -864,7 +864,7 @@ def newton_step_ggl(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam,
         redo = False
         if jac:
             ggl_matrix(C, AB, sg)
-            if factor(AB, ip, C[17], ipiv, fp[FP_SINGTOL]) != 0:
+            if factor(AB, ip, iview2(C, 17), ipiv, fp[FP_SINGTOL]) != 0:
                 si[SI_LUVALID] = 0
                 return ST_DIVERGED_SINGULAR if k > 0 else ST_SINGULAR
             si[SI_LUVALID] = 1
@@ -877,7 +877,7 @@ def newton_step_ggl(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam,
         for j in range(nc):
             rhs[iperm[nv + j]] = -Phi[j]
             rhs[iperm[nv + nc + j]] = -sr * g_[j]
-        solve(AB, ip, C[17], ipiv, rhs)
+        solve(AB, ip, iview2(C, 17), ipiv, rhs)
         stats[NS_SOLVE] += 1
         dqmax = 0.0
         qmax = 0.0
@@ -981,11 +981,22 @@ def kkt_accelerations(G, C, ip, fp, si, sf, stats, t, q, qd, qdd, lam, h, hbar, 
     ``REFINE_HGROW`` since the last check; where that fails (stiff elements at
     large steps) the KKT matrix is factorized, as in mode 0, until the next check.
     """
-    (q_s, qd_s, qdd_s, lam_s, a_s, pqdd_s, plam_s, qpp, qpp_new, jn, jnew, KB_, KBacc, kpiv_, kpivacc,
-     kr, kx, gam, Pt, zq, zl, Bu, tgt, eq, ev, atolv, wq, du, lk) = W
+    # work arrays: views into the pack W (femb/solver.py, W_FIELDS)
+    kr = fview1(W, 15)
+    kx = fview1(W, 16)
+    gam = fview1(W, 17)
+    Pt = fview1(W, 18)
+    zq = fview1(W, 19)
+    zl = fview1(W, 20)
+    Bu = fview1(W, 21)
+    eq = fview1(W, 23)
+    ev = fview1(W, 24)
+    atolv = fview1(W, 25)
+    du = fview1(W, 27)
+    lk = fview1(W, 28)
     nv = ip[IP_NV]
     nc = ip[IP_NC]
-    iperm = C[2]
+    iperm = iview1(C, 2)
     if mode != KKT_FACTOR and ip[IP_GGL] == 0 and si[SI_LUVALID] != 0:
         due = si[SI_RCOUNT] <= 0 or h > REFINE_HGROW * sf[SF_RCHECKH]
         if not due:
@@ -998,7 +1009,7 @@ def kkt_accelerations(G, C, ip, fp, si, sf, stats, t, q, qd, qdd, lam, h, hbar, 
                 kappa = (1.0 - fp[FP_AM]) / (1.0 - fp[FP_AF])
             else:
                 kappa = (1.0 - fp[FP_AM]) / (h * h * fp[FP_BETA] * (1.0 - fp[FP_AF]))
-            active = C[15]
+            active = iview1(C, 15)
             ncorr = 2 if due else 1
             for it in range(ncorr):
                 evaluate(G, C, t, q, qd, out, lk, nv < 0, 0.0, 0.0, 0.0, AB, kr, Phi)
@@ -1007,7 +1018,7 @@ def kkt_accelerations(G, C, ip, fp, si, sf, stats, t, q, qd, qdd, lam, h, hbar, 
                     kx[iperm[i]] = -kr[i]
                 for j in range(nc):
                     kx[iperm[nv + j]] = -(Bu[j] + gam[j]) / kappa if active[j] != 0 else 0.0
-                solve(AB, ip, C[17], ipiv, kx)
+                solve(AB, ip, iview2(C, 17), ipiv, kx)
                 for i in range(nv):
                     d = kappa * kx[iperm[i]]
                     du[i] = d
@@ -1023,7 +1034,7 @@ def kkt_accelerations(G, C, ip, fp, si, sf, stats, t, q, qd, qdd, lam, h, hbar, 
             for i in range(nv):
                 eq[i] = Cq * h * h * du[i]
                 ev[i] = Cv * h * h * du[i] / hbar
-            share = error_norm(ip, fp, C[19], q, q, qd, qd, eq, ev, atolv, mode == KKT_EST_QV)
+            share = error_norm(ip, fp, iview1(C, 19), q, q, qd, qd, eq, ev, atolv, mode == KKT_EST_QV)
             if mode == KKT_EST_QV and fp[FP_EPUS] != 0.0:
                 share /= h
             si[SI_RCOUNT] = REFINE_CHECK
@@ -1033,14 +1044,14 @@ def kkt_accelerations(G, C, ip, fp, si, sf, stats, t, q, qd, qdd, lam, h, hbar, 
                 return 0
             si[SI_RMODE] = 1
     evaluate(G, C, t, q, qd, zq, zl, nv >= 0, 1.0, 0.0, 0.0, KB, kr, Phi)
-    if factor(KB, ip, C[17], kpiv, 1e-13) != 0:
+    if factor(KB, ip, iview2(C, 17), kpiv, 1e-13) != 0:
         return 1
     rates(G, C, t, q, qd, Pt, gam)
     for i in range(nv):
         kx[iperm[i]] = -kr[i]                 # r = −f with q̈ = λ = 0
     for j in range(nc):
         kx[iperm[nv + j]] = -gam[j]
-    solve(KB, ip, C[17], kpiv, kx)
+    solve(KB, ip, iview2(C, 17), kpiv, kx)
     for i in range(nv):
         out[i] = kx[iperm[i]]
     stats[NS_KKT] += 1
@@ -1056,13 +1067,14 @@ def project_normal_velocity(G, C, ip, t, q, qd, target, KB, kpiv, kx, Bv):
     """
     nv = ip[IP_NV]
     nc = ip[IP_NC]
-    iperm = C[2]
+    iperm = iview1(C, 2)
+    active = iview1(C, 15)
     jacobian_times(G, C, t, q, qd, Bv)
     for i in range(nv):
         kx[iperm[i]] = 0.0
     for j in range(nc):
-        kx[iperm[nv + j]] = target[j] - Bv[j] if C[15][j] != 0 else 0.0
-    solve(KB, ip, C[17], kpiv, kx)
+        kx[iperm[nv + j]] = target[j] - Bv[j] if active[j] != 0 else 0.0
+    solve(KB, ip, iview2(C, 17), kpiv, kx)
     for i in range(nv):
         qd[i] += kx[iperm[i]]
 
@@ -1119,12 +1131,35 @@ def run(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam, tfv, AB, ip
     Cv = fp[FP_CV]
     kexp = fp[FP_KEXP]
     delta = fp[FP_AM] - fp[FP_AF]
-    tf_kind = C[8]
-    tf_off = C[9]
-    tf_coef = C[10]
-    (q_s, qd_s, qdd_s, lam_s, a_s, pqdd_s, plam_s, qpp, qpp_new, jn, jnew, KB, KBacc, kpiv, kpivacc,
-     kr, kx, gam, Pt, zq, zl, Bv, tgt, eq, ev, atolv, wq, du, lk) = W
-    xm = C[19]
+    tf_kind = iview1(C, 8)
+    tf_off = iview1(C, 9)
+    tf_coef = fview1(C, 10)
+    # work arrays: views into the pack W (femb/solver.py, W_FIELDS)
+    q_s = fview1(W, 0)
+    qd_s = fview1(W, 1)
+    qdd_s = fview1(W, 2)
+    lam_s = fview1(W, 3)
+    a_s = fview1(W, 4)
+    pqdd_s = fview1(W, 5)
+    plam_s = fview1(W, 6)
+    qpp = fview1(W, 7)
+    qpp_new = fview1(W, 8)
+    jn = fview1(W, 9)
+    jnew = fview1(W, 10)
+    KB = fview1(W, 11)
+    KBacc = fview1(W, 12)
+    kpiv = iview1(W, 13)
+    kpivacc = iview1(W, 14)
+    kx = fview1(W, 16)
+    gam = fview1(W, 17)
+    Pt = fview1(W, 18)
+    Bv = fview1(W, 21)
+    tgt = fview1(W, 22)
+    eq = fview1(W, 23)
+    ev = fview1(W, 24)
+    atolv = fview1(W, 25)
+    wq = fview1(W, 26)
+    xm = iview1(C, 19)
     # a run-time 0 added to the mode constants: numba compiles a function once per literal argument
     nc0 = 0 * nc
     si[SI_STORED] = 0
@@ -1208,7 +1243,7 @@ def run(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam, tfv, AB, ip
         else:
             # fixed steps: 1e-13 relative, but never below the round-off that a chain of nv
             # coordinates accumulates in a correction (≈ √nv · c ε |q|, stepsize.md §5)
-            wC = C[3]
+            wC = fview1(C, 3)
             qmax_ = 0.0
             for i in range(nv):
                 j = xm[i]
@@ -1429,13 +1464,13 @@ def scatter_B(Be, tB, tBt, ABf):
 @njit(**INNER)
 def mass_residual(C, qdd, r, ABf, jac, cM):
     """r = M q̈ − f_const (constant M in CSR), M into the matrix; returns the force scale."""
-    Mp = C[0]
-    w = C[3]
-    fconst = C[6]
-    Mi = C[7]
-    Mx = C[11]
-    tM = C[12]
-    scale = C[14][0]
+    Mp = iview1(C, 0)
+    w = fview1(C, 3)
+    fconst = fview1(C, 6)
+    Mi = iview1(C, 7)
+    Mx = fview1(C, 11)
+    tM = iview1(C, 12)
+    scale = fview1(C, 14)[0]
     for i in range(r.shape[0]):
         s = 0.0
         for k in range(Mp[i], Mp[i + 1]):
@@ -1449,7 +1484,7 @@ def mass_residual(C, qdd, r, ABf, jac, cM):
             ABf[k] = 0.0
         for k in range(tM.shape[0]):
             ABf[tM[k]] += cM * Mx[k]
-        tI = C[16]
+        tI = iview1(C, 16)
         for k in range(tI.shape[0]):
             ABf[tI[k]] = 1.0
     return scale
@@ -1460,14 +1495,14 @@ def lie_update(q, C):
     """Rotations of q from the step's start and increment: p = p_n ⊗ exp(D_θ), and T(D_θ).
 
     For each free rotation b with quaternion at x[xs:xs+4] and rotation vector at
-    v[vs:vs+3] (``C[20][b] = (xs, vs)``): q[xs:xs+4] = p_n ⊗ (cos(φ/2), s7(φ) θ),
-    renormalised, θ = D[vs:vs+3], φ = |θ|; ``C[18][b]`` = T(θ) = I − s2 θ~ + s3 θ~²
+    v[vs:vs+3] (row b of C's array 20 = (xs, vs)): q[xs:xs+4] = p_n ⊗ (cos(φ/2), s7(φ) θ),
+    renormalised, θ = D[vs:vs+3], φ = |θ|; C's array 18 [b] = T(θ) = I − s2 θ~ + s3 θ~²
     (Brüls & Cardona 2010; femb/rotations.py for the coefficient functions).
     """
-    Tn = C[18]
-    rot = C[20]
-    pn = C[21]
-    D = C[22]
+    Tn = fview3(C, 18)
+    rot = iview2(C, 20)
+    pn = fview2(C, 21)
+    D = fview1(C, 22)
     for b in range(rot.shape[0]):
         xs = rot[b, 0]
         vs = rot[b, 1]
@@ -1511,7 +1546,7 @@ def lie_update(q, C):
 @njit(cache=True, **ENTRY)
 def lie_reset(C):
     """T = I for every rotation (between steps: evaluations outside Newton use no tangent operator)."""
-    Tn = C[18]
+    Tn = fview3(C, 18)
     for b in range(Tn.shape[0]):
         for r in range(3):
             for k in range(3):
@@ -1569,14 +1604,14 @@ def scatter_B_tangent(Be, tblk, Tn, cK, tB, tBt, ABf):
 
 @njit(**INNER)
 def restore_state(q, qd, qdd, lam, a, pqdd, plam, W):
-    """Back to the accepted state saved at the start of the trial step (W[0:7])."""
-    copy_into(q, W[0])
-    copy_into(qd, W[1])
-    copy_into(qdd, W[2])
-    copy_into(lam, W[3])
-    copy_into(a, W[4])
-    copy_into(pqdd, W[5])
-    copy_into(plam, W[6])
+    """Back to the accepted state saved at the start of the trial step (work arrays 0 to 6 of W)."""
+    copy_into(q, fview1(W, 0))
+    copy_into(qd, fview1(W, 1))
+    copy_into(qdd, fview1(W, 2))
+    copy_into(lam, fview1(W, 3))
+    copy_into(a, fview1(W, 4))
+    copy_into(pqdd, fview1(W, 5))
+    copy_into(plam, fview1(W, 6))
 
 
 @njit(**INNER)
