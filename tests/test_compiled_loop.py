@@ -93,6 +93,61 @@ def test_dense_lu_on_the_nonzero_pattern_solves_sparse_systems_and_flags_singula
         assert mod.dense_lu_solve(A2.reshape(-1).copy(), N, piv, 1e-13, b.copy()) == 1
 
 
+def test_packs_give_compiled_code_the_arrays_by_number_and_share_them_with_python():
+    """femb.jit.pack: every rank and dtype comes back unchanged; writes go both ways; bad input is refused."""
+    import numba
+    from femb.jit import OPTIONS, fview1, fview2, fview3, iview1, iview2, iview3, pack
+    rng = np.random.default_rng(3)
+    arrays = [rng.standard_normal(5), np.arange(6, dtype=np.int64).reshape(2, 3), rng.standard_normal((3, 0)),
+              rng.standard_normal((2, 3, 4)), np.array([1, 0, 1], dtype=np.int8), rng.integers(-9, 9, (2, 2, 2)),
+              rng.standard_normal((4, 1))]
+    P, views = pack(arrays)
+    for a, v in zip(arrays, views):
+        assert v.shape == a.shape and np.array_equal(v, a)
+
+    @numba.njit(**OPTIONS)
+    def checksum(P):
+        a = fview1(P, 0)
+        b = iview2(P, 1)
+        c = fview2(P, 2)
+        d = fview3(P, 3)
+        e = iview1(P, 4)
+        f = iview3(P, 5)
+        g = fview2(P, 6)
+        s = 0.0
+        for i in range(a.shape[0]):
+            s += a[i]
+        for i in range(b.shape[0]):
+            for j in range(b.shape[1]):
+                s += b[i, j] * (i + 1)
+        s += c.shape[0] + 10.0 * c.shape[1]
+        for i in range(d.shape[0]):
+            for j in range(d.shape[1]):
+                for k in range(d.shape[2]):
+                    s += d[i, j, k] * (1 + i + 2 * j + 3 * k)
+        for i in range(e.shape[0]):
+            s += 100.0 * e[i]
+        for i in range(f.shape[0]):
+            for j in range(f.shape[1]):
+                for k in range(f.shape[2]):
+                    s += f[i, j, k] * (k + 1)
+        g[3, 0] = -7.0                     # written by compiled code, seen by Python
+        return s
+
+    views[1][1, 2] = 50                    # written by Python, seen by compiled code
+    arrays[1][1, 2] = 50
+    a, b, c, d, e, f, g = arrays
+    ii, jj, kk = np.meshgrid(range(2), range(3), range(4), indexing="ij")
+    expect = (a.sum() + (b * np.arange(1, 3)[:, None]).sum() + 3.0 + (d * (1 + ii + 2 * jj + 3 * kk)).sum()
+              + 100.0 * e.sum() + (f * np.arange(1, 3)).sum())
+    assert checksum(P) == pytest.approx(expect, rel=1e-13)
+    assert views[6][3, 0] == -7.0
+    with pytest.raises(ValueError, match="array 0 has 4 dimensions"):
+        pack([np.zeros((1, 1, 1, 1))])
+    with pytest.raises(ValueError, match="array 1 has dtype"):
+        pack([np.zeros(2), np.array(["x"])])
+
+
 def test_spin_up_runs_with_the_variable_band_and_matches_the_full_band():
     """The per-column work bounds of the band LU change the cost, not the numbers."""
     from femb.benchmarks import spin_up
