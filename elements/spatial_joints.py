@@ -161,8 +161,15 @@ class SpatialPairElement(Element):
         self.Eb = (self.b.node.rotation0.T @ self.E).T
 
     def program(self):
-        """The row program: list of (kind, first row, ā offset, b̄ offset, value, time-function index)."""
-        raise NotImplementedError
+        """The row program: list of (kind, first row, ā offset, b̄ offset, value, time-function index).
+
+        The contract of a joint type built on this class (every joint of this file
+        defines it; the spatial force elements, which also derive from this class,
+        define ``pack`` instead and never call it).
+        """
+        raise NotImplementedError(f"{type(self).__name__} '{self.name}': a joint type derived from "
+                                  "SpatialPairElement must define program() (its constraint rows), "
+                                  "or override pack()")
 
     @classmethod
     def pack(cls, elements):

@@ -470,6 +470,10 @@ class Compiled:
             pairs = np.zeros((0, 3), dtype=np.int64)
             tI = target(nv + inactive, nv + inactive)
             nB = 0
+        for g in model.force_groups + model.constraint_groups:
+            if g.P.ndim != 2:
+                raise ModelError(f"{g.name}: its parameter array P must have shape (elements, parameters), "
+                                 f"got shape {g.P.shape}")
         G_force = []
         for g in model.force_groups:
             nel, nd = g.dofs.shape
@@ -497,10 +501,6 @@ class Compiled:
                           np.zeros((nel, ntf, 3)), np.zeros((nel, ncg)), np.zeros((nel, ncg, nd)),
                           np.zeros((nel, nd, nd)), np.zeros((nel, ncg)), np.zeros((nel, ncg)),
                           xdofs_of(g), tangent_blocks(g)))
-        for g in model.force_groups + model.constraint_groups:
-            if g.P.ndim != 2:
-                raise ModelError(f"{g.name}: its parameter array P must have shape (elements, parameters), "
-                                 f"got shape {g.P.shape}")
         arrays = [a for batch in G_force + G_con for a in batch]
         self.G, self.Gv = pack(arrays)
         tf = model.time_function_table

@@ -382,7 +382,6 @@ class GeneralizedAlphaSolver:
     def _start(self):
         """Force scale, jerk j_0, consistent a_0 and q̇_0, first step (stepsize.md §2, §4)."""
         cp = self.cp
-        W = self.W
         t0 = self.t0
         self._tf_at(t0)
         self.sf[0] = cp.mod.evaluate(cp.G, cp.C, t0, self.q, self.qd, self.qdd, self.lam, False,

@@ -667,10 +667,11 @@ def ggl_matrix(C, ABf, sg):
     fl = iview2(C, 23)
     pairs = iview2(C, 24)
     tEta = iview1(C, 25)
-    Bn = fview2(C, 26)[0]
-    Bq = fview2(C, 26)[1]
+    Bw = fview2(C, 26)
+    Bn = Bw[0]
+    Bq = Bw[1]
     # rotation kinds: ∂Φ(q_n ∘ exp(Δ + B_nᵀη))/∂η = B(q) T(D) B_nᵀ, with B T in row 2 of C's array 26
-    BT = fview2(C, 26)[2] if LIE else fview2(C, 26)[1]
+    BT = Bw[2] if LIE else Bw[1]
     for c in range(tEta.shape[0]):
         if tEta[c] >= 0:
             ABf[tEta[c]] = 0.0
@@ -733,8 +734,9 @@ def newton_step_ggl(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam,
     ntest = ip[IP_NTEST]
     eps = 2.220446049250313e-16
     fl = iview2(C, 23)
-    Bn = fview2(C, 26)[0]
-    Bq = fview2(C, 26)[1]
+    Bw = fview2(C, 26)
+    Bn = Bw[0]
+    Bq = Bw[1]
     E = fview2(C, 27)
     eta = E[0]
     g_ = E[1]
@@ -811,7 +813,7 @@ def newton_step_ggl(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam,
         # itself comes from the kernels
         if LIE:
             if jac:
-                copy_B(G, fview2(C, 26)[2])
+                copy_B(G, Bw[2])
             constraint_B(G, C, t1, q, qd, Bq)
         else:
             copy_B(G, Bq)
