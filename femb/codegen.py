@@ -1,47 +1,29 @@
-"""Generated compiled code for a model kind, its on-disk cache, and the run-time data.
+"""The run-time data of a model for the one compiled engine (:mod:`femb.step`).
 
-A *model kind* is the sequence of element batches of a model with their roles
-(mass, force, force with damping, constraint) and kernels. For each kind this
-module writes one Python module into the cache directory
-(:func:`femb.jit.cache_dir`): an ``evaluate`` function that gathers the
-coordinates of every batch, calls its kernels and scatters the results into the
-residual and the band storage of the iteration matrix, followed by the text of
-:mod:`femb.step` (Newton iteration, band LU, time loop). numba compiles it on
-first use and caches the machine code beside it.
-
-The module's name is a hash of its own text, of the source files of every
-kernel it calls, and of the numba, numpy and Python versions, so a cached entry
-can never run stale code: any edit gives a new name (and a new compilation).
-
-:class:`Compiled` holds the per-model data handed to the compiled functions:
-one tuple per batch (parameters, index arrays, scatter targets, work arrays)
-and the model constants, computed once per model.
+:class:`Compiled` holds, computed once per model, what the engine needs besides
+the state: the arrays of every element batch (parameters, index arrays, scatter
+targets, work arrays) as one pack ``G``, the model constants as a pack ``C``,
+among them the *batch table* (role of each batch, where its arrays start in ``G``
+and the addresses of its compiled kernels, :func:`femb.kernels.compiled_kernel`),
+the sparsity of the iteration matrix and its bandwidth-reducing ordering.
+Nothing here generates or compiles code: the engine is compiled once per
+installation and each element type's kernels once.
 """
 from __future__ import annotations
 
-import hashlib
-import importlib.util
-import inspect
-import sys
 import time
-from pathlib import Path
 
-import numba
 import numpy as np
 import scipy.sparse as sp
 from scipy.sparse.csgraph import reverse_cuthill_mckee
 
 from femb.errors import ModelError
-from femb.jit import cache_dir, jit_disabled, pack
+from femb.jit import pack
 
-_STEP_SOURCE = Path(__file__).with_name("step.py")
 #: largest system stored densely (its LU skips zeros); larger ones always use the band storage
 DENSE_MAX = 400
 #: systems up to this size are always stored densely
 DENSE_SMALL = 128
-_JIT_SOURCE = Path(__file__).with_name("jit.py")
-_ROTATIONS_SOURCE = Path(__file__).with_name("rotations.py")
-_loaded = {}
 #: the arrays of a force batch and of a constraint batch, in the order they are packed into G
 #: (name, kind: f/i float/integer and the number of dimensions)
 FORCE_FIELDS = [("P", "f2"), ("dofs", "i2"), ("tfi", "i2"), ("tnn", "i3"), ("xe", "f2"), ("ve", "f2"),
@@ -51,236 +33,7 @@ CONSTRAINT_FIELDS = [("P", "f2"), ("dofs", "i2"), ("lamidx", "i2"), ("tfi", "i2"
                      ("Be", "f3"), ("He", "f3"), ("Pt", "f2"), ("gm", "f2"), ("xdofs", "i2"), ("tblk", "i3")]
 #: the model constants packed into C (femb/step.py reads them as views, by these numbers)
 CONSTANT_KINDS = ["i1", "i1", "i1", "f1", "f1", "f1", "f1", "i1", "i1", "i1", "f1", "f1", "i1", "f2", "f1",
-                  "i1", "i1", "i2", "f3", "i1", "i2", "f2", "f1", "i2", "i2", "i1", "f2", "f2"]
-
-
-# --------------------------------------------------------------------------
-# the kind and its generated source
-# --------------------------------------------------------------------------
-def _kernel_ref(fn):
-    py = getattr(fn, "py_func", fn)
-    return py.__module__, py.__name__, inspect.getsourcefile(py)
-
-
-def _roles(model):
-    """[(role, group_index, kernel, has_c)] in evaluation order."""
-    out = []
-    for gi, g in enumerate(model.force_groups):
-        out.append(("force", gi, g.cls.kernels["force"], bool(g.traits["force_depends_on_qd"])))
-    for gi, g in enumerate(model.constraint_groups):
-        out.append(("constraint", gi, g.cls.kernels["constraint"], False))
-        out.append(("rates", gi, g.cls.kernels["rates"], False))
-    return out
-
-
-def generate_source(model, ggl=False, dense=None):
-    """(module name, source text) of the generated module for ``model``'s kind.
-
-    ``ggl``: the module also serves the stabilized index-2 step (``GGL = True`` in its
-    header); index-3 modules leave that code out (numba prunes the branch on the
-    constant), which keeps the first compilation of a kind shorter. ``dense``: the
-    storage of the iteration matrix of the models the module runs (``STORAGE`` 1
-    dense, 2 band; ``None``: either, chosen at run time), likewise: a time loop
-    compiles the LU and solve of its model's storage only.
-    """
-    roles = _roles(model)
-    imports, files = {}, {str(_STEP_SOURCE), str(_JIT_SOURCE)}
-    wrapped = [g.cls.kernels["mass"] for g in model.mass_groups] + [fn for _, _, fn, _ in roles]
-    for fn in wrapped:
-        mod, name, path = _kernel_ref(fn)
-        if (mod, name) not in imports:
-            imports[(mod, name)] = f"k_{len(imports)}"
-        files.add(path)
-    lines = ['"""Generated by femb.codegen for one model kind; do not edit (see femb/step.py)."""',
-             "import math", "import numpy as np", "from numba import njit",
-             "from femb.jit import OPTIONS, fview1, fview2, fview3, iview1, iview2, iview3",
-             "ENTRY = dict(OPTIONS, no_cfunc_wrapper=True)    # as in femb/step.py"]
-    for (mod, name), alias in imports.items():
-        lines.append(f"from {mod} import {name} as {alias}")
-    lines.append(f"KERNEL_ALIASES = {[((m, n), a) for (m, n), a in imports.items()]!r}")
-    lines.append(f"#: this module serves the stabilized index-2 step (femb/step.py, run)\nGGL = {bool(ggl)}")
-    lines.append(f"#: the kind has rotation nodes (q = q_n ∘ exp(Δ), femb/step.py)\nLIE = {bool(getattr(model, 'lie', False))}")
-    lines.append(f"#: storage of the iteration matrix: 1 dense, 2 band, 0 either (femb/step.py, factor)\n"
-                 f"STORAGE = {0 if dense is None else (1 if dense else 2)}")
-    lines += ["", "", "@njit(cache=True, **ENTRY)",
-              "def evaluate(G, C, t, q, qd, qdd, lam, jac, cM, cC, cK, ABf, r, Phi):",
-              '    """Residual r = M q̈ − f + Bᵀλ, Φ, and (jac) the iteration matrix into ABf; returns the force scale."""',
-              "    nv = qd.shape[0]", "    nx = q.shape[0]",
-              "    qfix = fview1(C, 5)", "    wext = fview1(C, 4)", "    tfv = fview2(C, 13)",
-              "    active = iview1(C, 15)", "    Tn = fview3(C, 18)",
-              "    scale = mass_residual(C, qdd, r, ABf, jac, cM)"]
-    lie = bool(getattr(model, "lie", False))
-    nF = len(model.force_groups)
-
-    def unpack(role, gi):
-        # the arrays of batch gi as views into the pack G (femb.jit.pack; order: Compiled.__init__)
-        fields, base = (FORCE_FIELDS, len(FORCE_FIELDS) * gi) if role == "force" else \
-            (CONSTRAINT_FIELDS, len(FORCE_FIELDS) * nF + len(CONSTRAINT_FIELDS) * gi)
-        return [f"    {name} = {kind[0]}view{kind[1]}(G, {base + j})" for j, (name, kind) in enumerate(fields)]
-
-    # planar kinds gather x and v with one index array; rotation kinds (x ≠ v) with two
-    gather = ("    gather_x_v(q, qd, qfix, xdofs, dofs, xe, ve, nx, nv)" if lie
-              else "    gather_xv(q, qd, qfix, dofs, xe, ve, nv)")
-    gather_v = ("    gather_x_v(q, v, qfix, xdofs, dofs, xe, ve, nx, nv)" if lie
-                else "    gather_xv(q, v, qfix, dofs, xe, ve, nv)")
-    for role, gi, fn, has_c in roles:
-        k = imports[_kernel_ref(fn)[:2]]
-        if role == "force":
-            lines += unpack("force", gi) + [
-                      gather,
-                      "    gather_tf(tfv, tfi, tf)",
-                      "    zero2(fe)",
-                      "    if jac:", "        zero3(fq)", "        zero3(fv)",
-                      f"    {k}(P, t, tf, xe, ve, jac, fe, fq, fv)",
-                      "    scale = scatter_force(fe, dofs, r, nv, wext, scale)",
-                      "    if jac:"]
-            if lie:
-                lines.append("        apply_tangent(fq, tblk, Tn, cK)")
-            lines.append("        scatter_matrix(fq, tnn, ABf, -cK)")
-            if has_c:
-                lines.append("        scatter_matrix(fv, tnn, ABf, -cC)")
-        elif role == "constraint":
-            lines += unpack("constraint", gi) + [
-                      gather,
-                      "    gather_lam(lam, lamidx, le)",
-                      "    gather_tf(tfv, tfi, tf)",
-                      "    zero2(Phe)", "    zero3(Be)",
-                      "    if jac:", "        zero3(He)",
-                      f"    {k}(P, t, tf, xe, le, jac, Phe, Be, He)",
-                      "    scale = scatter_constraint(Phe, Be, le, dofs, lamidx, active, Phi, r, nv, wext, scale)",
-                      "    if jac:"]
-            if lie:
-                lines += ["        scatter_B_tangent(Be, tblk, Tn, cK, tB, tBt, ABf)",
-                          "        apply_tangent(He, tblk, Tn, cK)"]
-            else:
-                lines.append("        scatter_B(Be, tB, tBt, ABf)")
-            lines.append("        scatter_matrix(He, tnn, ABf, cK)")
-    lines.append("    return scale")
-    # rates: Φ_t and γ of every constraint, for consistent starts and error estimates
-    lines += ["", "", "@njit(cache=True, **ENTRY)",
-              "def rates(G, C, t, q, qd, Phi_t, gam):",
-              '    """Φ_t and γ (B q̈ = −γ) of all constraints at (t, q, q̇)."""',
-              "    nv = qd.shape[0]", "    nx = q.shape[0]", "    qfix = fview1(C, 5)", "    tfv = fview2(C, 13)",
-              "    active = iview1(C, 15)", "    zero1(Phi_t)", "    zero1(gam)"]
-    for role, gi, fn, _ in roles:
-        if role == "rates":
-            k = imports[_kernel_ref(fn)[:2]]
-            lines += unpack("constraint", gi) + [
-                      gather,
-                      "    gather_tf(tfv, tfi, tf)",
-                      "    zero2(Pt)", "    zero2(gm)",
-                      f"    {k}(P, t, tf, xe, ve, Pt, gm)",
-                      "    for e in range(lamidx.shape[0]):",
-                      "        for j in range(lamidx.shape[1]):",
-                      "            c = lamidx[e, j]",
-                      "            if active[c] != 0:",
-                      "                Phi_t[c] = Pt[e, j]",
-                      "                gam[c] = gm[e, j]"]
-    lines.append("    return 0")
-    # B v (constraint Jacobian times a vector), for velocity projections
-    lines += ["", "", "@njit(cache=True, **ENTRY)",
-              "def jacobian_times(G, C, t, q, v, out):",
-              '    """out = B(q, t) v for all constraints."""',
-              "    nv = v.shape[0]", "    nx = q.shape[0]", "    qfix = fview1(C, 5)", "    tfv = fview2(C, 13)",
-              "    zero1(out)"]
-    for role, gi, fn, _ in roles:
-        if role == "constraint":
-            k = imports[_kernel_ref(fn)[:2]]
-            lines += unpack("constraint", gi) + [
-                      gather_v,
-                      "    gather_tf(tfv, tfi, tf)",
-                      "    zero2(Phe)", "    zero3(Be)",
-                      f"    {k}(P, t, tf, xe, le, nv < 0, Phe, Be, He)",
-                      "    for e in range(lamidx.shape[0]):",
-                      "        for j in range(lamidx.shape[1]):",
-                      "            s = 0.0",
-                      "            for i in range(dofs.shape[1]):",
-                      "                s += Be[e, j, i] * ve[e, i]",
-                      "            out[lamidx[e, j]] = s"]
-    lines.append("    return 0")
-    # B as a flat list of the element blocks (batch by batch, element, row, column), for the
-    # stabilized index-2 step: at a configuration (kernel calls), or copied from the blocks of the
-    # last ``evaluate``
-    lines += ["", "", "@njit(cache=True, **ENTRY)",
-              "def constraint_B(G, C, t, q, qd, out):",
-              '    """out = the element blocks of B(q, t), flat (see ``copy_blocks`` in femb/step.py)."""',
-              "    nv = qd.shape[0]", "    nx = q.shape[0]", "    qfix = fview1(C, 5)", "    tfv = fview2(C, 13)",
-              "    o = 0"]
-    for role, gi, fn, _ in roles:
-        if role == "constraint":
-            k = imports[_kernel_ref(fn)[:2]]
-            lines += unpack("constraint", gi) + [
-                      gather,
-                      "    gather_tf(tfv, tfi, tf)",
-                      "    zero2(Phe)", "    zero3(Be)",
-                      f"    {k}(P, t, tf, xe, le, nv < 0, Phe, Be, He)",
-                      "    o = copy_blocks(Be, out, o)"]
-    lines.append("    return o")
-    lines += ["", "", "@njit(cache=True, **ENTRY)",
-              "def copy_B(G, out):",
-              '    """out = the element blocks of B left by the last ``evaluate``, flat."""',
-              "    o = 0"]
-    for role, gi, fn, _ in roles:
-        if role == "constraint":
-            k = len(FORCE_FIELDS) * nF + len(CONSTRAINT_FIELDS) * gi + CONSTRAINT_FIELDS.index(("Be", "f3"))
-            lines.append(f"    o = copy_blocks(fview3(G, {k}), out, o)")
-    lines.append("    return o")
-    # cached entry points of every kernel, for Python-side evaluations (femb.kernels)
-    for (mod, name), alias in imports.items():
-        lines += ["", "", "@njit(cache=True, **ENTRY)", f"def w_{alias}(*args):",
-                  f'    """Cached entry point of {mod}.{name}."""', f"    return {alias}(*args)"]
-    step_text = _STEP_SOURCE.read_text()
-    # a kernel compiled with reference counting (``@kernel(allocates=True)`` or a plain
-    # ``numba.njit``, e.g. a user's first version of an element) can only be called from code
-    # compiled likewise: such kinds get the slower KERNEL_OPTIONS for the whole loop
-    allocating = sorted({f"{_kernel_ref(fn)[0]}.{_kernel_ref(fn)[1]}" for fn in wrapped
-                         if getattr(fn, "targetoptions", {}).get("_nrt", True)})
-    if allocating:
-        step_text = step_text.replace("from femb.jit import OPTIONS,",
-                                      "from femb.jit import KERNEL_OPTIONS as OPTIONS,")
-        lines = [ln.replace("from femb.jit import OPTIONS,", "from femb.jit import KERNEL_OPTIONS as OPTIONS,")
-                 for ln in lines]
-    body = "\n".join(lines) + "\n\n\n" + step_text
-    # every source file beside a kernel (kernels call helpers in sibling modules, e.g. the clamp
-    # calls the hinge's rates): an edit in any of them gives a new module
-    for f in list(files):
-        if f not in (str(_STEP_SOURCE), str(_JIT_SOURCE)):
-            files.update(str(p) for p in Path(f).parent.glob("*.py"))
-    files.add(str(_ROTATIONS_SOURCE))      # the group operations the time loop calls
-    h = hashlib.sha256(body.encode())
-    for f in sorted(files):
-        h.update(Path(f).read_bytes())
-    h.update(f"{numba.__version__} {np.__version__} {sys.version}".encode())
-    return "femb_kind_" + h.hexdigest()[:20], body
-
-
-def load_kind(model, verbose=True, ggl=False, dense=None):
-    """Import (writing it first if needed) the generated module of ``model``'s kind (see :func:`generate_source`)."""
-    name, body = generate_source(model, ggl, dense)
-    mod = _loaded.get(name)
-    if mod is not None:
-        return mod, False, mod.__file__
-    d = cache_dir() / "kinds"
-    d.mkdir(parents=True, exist_ok=True)
-    path = d / f"{name}.py"
-    if not path.exists() or path.read_text() != body:
-        tmp = path.with_suffix(f".tmp{id(body)}")
-        tmp.write_text(body)
-        tmp.replace(path)
-    fresh = not any((d / "__pycache__").glob(f"{name}.*.nbi")) and not jit_disabled()
-    spec = importlib.util.spec_from_file_location(name, path)
-    mod = importlib.util.module_from_spec(spec)
-    sys.modules[name] = mod
-    spec.loader.exec_module(mod)
-    mod.FRESH = fresh
-    mod.LOADED_AT = time.perf_counter()
-    mod.ANNOUNCED = False
-    if fresh and verbose:
-        kinds = ", ".join(sorted({g.name for g in model.groups}))
-        print(f"femb: compiling the time loop for a new combination of elements ({kinds}); "
-              f"first run only, cached in {d}", file=sys.stderr, flush=True)
-    _loaded[name] = mod
-    return mod, fresh, str(path)
+                  "i1", "i1", "i2", "f3", "i1", "i2", "f2", "f1", "i2", "i2", "i1", "f2", "f2", "i2", "i1"]
 
 
 # --------------------------------------------------------------------------
@@ -519,37 +272,37 @@ class Compiled:
              # in the velocity rows), the products of B(q) B(q_n)ᵀ (entry, entry, target), the η
              # diagonal of active constraints, work: B(q_n), B(q) and B(q) T(D) flat, and η, g, Φ_t, γ
              np.ascontiguousarray(np.stack((fl_c, fl_d, tG), axis=1).astype(np.int64)), pairs,
-             _i64(tEta), np.zeros((3, nB)), np.zeros((4, nc if ggl else 0)))
+             _i64(tEta), np.zeros((3, nB)), np.zeros((4, nc if ggl else 0)),
+             # the batch table (femb/step.py, B_ROLE ...): role, first array in G, 1 if the forces
+             # depend on q̇, the addresses of the batch's kernels
+             self.batch_table(model),
+             np.array([1 if getattr(model, "lie", False) else 0], dtype=np.int64))
         for k, (a, kind) in enumerate(zip(C, CONSTANT_KINDS)):
             assert a.ndim == int(kind[1]) and (a.dtype.kind == "f") == (kind[0] == "f"), (k, a.dtype, a.shape)
         #: the constants as one pack (F, I, L) for the compiled code, and as numpy views (Cv[k])
         self.C, self.Cv = pack(C)
         self.tfv = self.Cv[13]
         self.python_tf = tf["python"]
-        self.mod, fresh, self.cache_path = load_kind(model, ggl=ggl, dense=self.dense)
-        if not all(hasattr(g, "compiled_kernels") for g in model.groups):
-            # (models from Model.compile have them from the module of their kind for either
-            # storage: keep those, whose cache entries a warm start loads)
-            _attach_entry_points(model, self.mod)
-        self.fresh = fresh
+        from femb import step
+        step.ensure_engine()
+        #: the engine (femb/step.py): entry points ``run``, ``evaluate``, ``rates``, ...
+        self.mod = step
         self.setup_time = time.perf_counter() - t0
 
-
-def _attach_entry_points(model, mod):
-    """Give every batch the cached entry points of its kernels (used by :mod:`femb.kernels`)."""
-    for g in model.groups:
-        ks = getattr(g.cls, "kernels", None) or {}
-        eps = {}
-        for role, fn in ks.items():
-            m, n, _ = _kernel_ref(fn)
-            for alias in _aliases(mod):
-                if alias[0] == (m, n):
-                    eps[role] = getattr(mod, "w_" + alias[1])
-        g.compiled_kernels = eps
-
-
-def _aliases(mod):
-    return mod.KERNEL_ALIASES
+    @staticmethod
+    def batch_table(model):
+        """(nbatch, 5) int64: per batch its role, first array in G, q̇ flag and kernel addresses."""
+        from femb.kernels import compiled_kernel
+        rows = []
+        nF = len(model.force_groups)
+        for gi, g in enumerate(model.force_groups):
+            _, addr = compiled_kernel(g.cls.__name__, "force", g.cls.kernels["force"])
+            rows.append((0, len(FORCE_FIELDS) * gi, int(bool(g.traits["force_depends_on_qd"])), addr, 0))
+        for gi, g in enumerate(model.constraint_groups):
+            _, ac = compiled_kernel(g.cls.__name__, "constraint", g.cls.kernels["constraint"])
+            _, ar = compiled_kernel(g.cls.__name__, "rates", g.cls.kernels["rates"])
+            rows.append((1, len(FORCE_FIELDS) * nF + len(CONSTRAINT_FIELDS) * gi, 0, ac, ar))
+        return np.array(rows, dtype=np.int64).reshape(-1, 5)
 
 
 def _envelope(pr, pc, N, kl, ku):
@@ -661,7 +414,7 @@ def evaluate_dense(model, state, h, alpha, scaled=True, ordering="rcm", formulat
     if formulation == "index2":
         Bw = cp.Cv[26]
         cp.mod.constraint_B(cp.G, cp.C, float(state.t), _f64(state.q), _f64(state.qd), Bw[0])
-        cp.mod.copy_B(cp.G, Bw[1])
+        cp.mod.copy_B(cp.G, cp.C, Bw[1])
         cp.mod.ggl_matrix(cp.C, AB, 1.0 if scaled else gp)
     perm = cp.Cv[1]
     S = np.zeros((N, N))

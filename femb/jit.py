@@ -19,6 +19,7 @@ arrays through a chain of six functions: 6.6 s against 1.1 s for three arrays).
 """
 from __future__ import annotations
 
+import inspect
 import os
 from pathlib import Path
 
@@ -171,3 +172,318 @@ def _view_intrinsic(which, nd):
 
 fview1, fview2, fview3 = (_view_intrinsic(0, nd) for nd in (1, 2, 3))
 iview1, iview2, iview3 = (_view_intrinsic(1, nd) for nd in (1, 2, 3))
+
+
+# --------------------------------------------------------------------------
+# kernels compiled once per element type, called by address from the engine
+# --------------------------------------------------------------------------
+_F2 = types.Array(types.float64, 2, "C")
+_F3 = types.Array(types.float64, 3, "C")
+#: the signature of each kernel role (docs/kernels.md): every kernel of a role is compiled
+#: for exactly this signature, so the one engine calls any of them through a function pointer
+ROLE_SIGNATURES = {
+    "mass": types.void(_F2, _F2, _F3),
+    "force": types.void(_F2, types.float64, _F3, _F2, _F2, types.boolean, _F2, _F3, _F3),
+    "constraint": types.void(_F2, types.float64, _F3, _F2, _F2, types.boolean, _F2, _F3, _F3),
+    "rates": types.void(_F2, types.float64, _F3, _F2, _F2, _F2, _F2),
+}
+#: the arguments of each role, by name (for error messages)
+ROLE_ARGUMENTS = {
+    "mass": ("P", "xe", "Me"),
+    "force": ("P", "t", "tf", "xe", "ve", "jac", "fe", "fq", "fv"),
+    "constraint": ("P", "t", "tf", "xe", "le", "jac", "Phi", "B", "H"),
+    "rates": ("P", "t", "tf", "xe", "ve", "Phi_t", "gam"),
+}
+#: with the JIT disabled, kernel "addresses" index this list of Python functions
+_PY_KERNELS = []
+
+
+def _call_codegen(role, args):
+    """Typing and code generation of a call of a ``role`` kernel through its address."""
+    ksig = ROLE_SIGNATURES[role]
+    n = len(ksig.args)
+    addr, args = args[0], args[1:]
+    if not isinstance(addr, types.Integer) or len(args) != n:
+        return None
+    for have, want in zip(args, ksig.args):
+        if isinstance(want, types.Array):
+            if not (isinstance(have, types.Array) and have.dtype == want.dtype and have.ndim == want.ndim
+                    and have.layout == "C"):
+                return None
+        elif not isinstance(have, (types.Number, types.Boolean)):
+            return None
+    sig = types.none(addr, *args)
+
+    def codegen(context, builder, sig_, llargs):
+        vals = [context.cast(builder, v, have, want) for v, have, want in zip(llargs[1:], args, ksig.args)]
+        fnty = context.call_conv.get_function_type(types.void, ksig.args)
+        fptr = builder.inttoptr(llargs[0], fnty.as_pointer())
+        status, _ = context.call_conv.call_function(builder, fptr, types.void, ksig.args, vals)
+        with cgutils.if_unlikely(builder, status.is_error):
+            context.call_conv.return_status_propagate(builder, status)
+        return context.get_dummy_value()
+
+    return sig, codegen
+
+
+def _py_call(addr, *args):
+    _PY_KERNELS[addr](*args)
+
+
+@intrinsic
+def call_force(typingctx, addr, P, t, tf, xe, ve, jac, fe, fq, fv):
+    """Call the compiled force kernel at address ``addr`` (numba's native calling convention)."""
+    return _call_codegen("force", (addr, P, t, tf, xe, ve, jac, fe, fq, fv))
+
+
+@intrinsic
+def call_constraint(typingctx, addr, P, t, tf, xe, le, jac, Phi, B, H):
+    """Call the compiled constraint kernel at address ``addr``."""
+    return _call_codegen("constraint", (addr, P, t, tf, xe, le, jac, Phi, B, H))
+
+
+@intrinsic
+def call_rates(typingctx, addr, P, t, tf, xe, ve, Phi_t, gam):
+    """Call the compiled rates kernel at address ``addr``."""
+    return _call_codegen("rates", (addr, P, t, tf, xe, ve, Phi_t, gam))
+
+
+if jit_disabled():
+    call_force = call_constraint = call_rates = _py_call      # noqa: F811
+
+
+# --------------------------------------------------------------------------
+# femb's compile cache: one directory per source key, CPU-specific entries inside
+# --------------------------------------------------------------------------
+import contextlib as _contextlib
+import hashlib as _hashlib
+import sys as _sys
+import warnings as _warnings
+
+from numba.core import caching as _caching
+
+_file_hashes = {}
+_cache_state = {"warned": False}
+
+
+def _file_hash(path):
+    h = _file_hashes.get(path)
+    if h is None:
+        try:
+            h = _hashlib.sha256(Path(path).read_bytes()).hexdigest()
+        except OSError:
+            h = "missing"
+        _file_hashes[path] = h
+    return h
+
+
+def _code_names(code):
+    names = set(code.co_names)
+    for c in code.co_consts:
+        if hasattr(c, "co_names"):
+            names |= _code_names(c)
+    return names
+
+
+def _is_library_file(path):
+    p = str(path)
+    return "site-packages" in p or "dist-packages" in p or p.startswith(_sys.base_prefix)
+
+
+def dependency_files(py_func, _seen=None):
+    """Source files a compiled function depends on: its own, and those of the compiled
+    functions and femb intrinsics it calls (through its globals, transitively).
+
+    numba's own cache checks only the file of the function it compiles; a kernel that calls
+    a helper in another file must be recompiled when that file changes, and must not be when
+    an unrelated file in the same folder changes.
+    """
+    seen = set() if _seen is None else _seen
+    try:
+        own = inspect.getsourcefile(py_func)
+    except TypeError:
+        own = None
+    if own:
+        seen.add(str(own))
+    glb = getattr(py_func, "__globals__", {})
+    names = _code_names(py_func.__code__)
+    for name in sorted(names):
+        obj = glb.get(name)
+        if obj is None:
+            continue
+        mods = [obj] if inspect.ismodule(obj) else []
+        for m in mods:       # module.attr: the attributes named in the code
+            f = getattr(m, "__file__", None)
+            if not f or _is_library_file(f):
+                continue
+            for attr in names:
+                sub = getattr(m, attr, None)
+                inner = getattr(sub, "py_func", None)
+                if inner is not None and inspect.getsourcefile(inner) not in seen:
+                    dependency_files(inner, seen)
+        inner = getattr(obj, "py_func", None)
+        if inner is not None:
+            f = inspect.getsourcefile(inner)
+            if f and str(f) not in seen and not _is_library_file(f):
+                dependency_files(inner, seen)
+        elif not inspect.ismodule(obj):
+            mod = _sys.modules.get(getattr(obj, "__module__", "") or "")
+            f = getattr(mod, "__file__", None)
+            if f and not _is_library_file(f):
+                seen.add(str(f))
+    return seen
+
+
+def source_key(py_func, extra=""):
+    """Hash of everything a compiled function's machine code depends on (but the CPU,
+    which numba's index records per entry): the sources of its dependency files, the
+    numba, llvmlite, numpy and Python versions, and ``extra`` (compile options)."""
+    import llvmlite
+    h = _hashlib.sha256()
+    for f in sorted(dependency_files(py_func)):
+        h.update(Path(f).name.encode())
+        h.update(_file_hash(f).encode())
+    h.update(f"{numba.__version__} {llvmlite.__version__} {np.__version__} {_sys.version} {extra}".encode())
+    return h.hexdigest()[:20]
+
+
+class CacheWarning(UserWarning):
+    """femb's compile cache cannot be written: compiled code is kept in memory only."""
+
+
+def _warn_unwritable(where, err):
+    if not _cache_state["warned"]:
+        _cache_state["warned"] = True
+        _warnings.warn(f"femb: the compile cache {where} is not writable ({err}); compiling in memory "
+                       f"for this process only. Set FEMB_CACHE_DIR to a writable directory to keep "
+                       f"compiled code between runs.", CacheWarning, stacklevel=3)
+
+
+def numba_cache_dir():
+    """Directory of femb's numba cache entries, or None if it cannot be created/written."""
+    try:
+        d = cache_dir() / "numba"
+        d.mkdir(parents=True, exist_ok=True)
+    except OSError as e:
+        _warn_unwritable(os.environ.get("FEMB_CACHE_DIR") or "directory", e)
+        return None
+    if not os.access(d, os.W_OK):
+        _warn_unwritable(str(d), "permission denied")
+        return None
+    return d
+
+
+class _FembLocator(_caching._CacheLocator):
+    """Cache entries of femb-compiled functions in ``<cache>/numba/<module>-<key>``."""
+
+    _pending = {}
+
+    def __init__(self, py_func, py_file, key, root):
+        self._lineno = py_func.__code__.co_firstlineno
+        mod = Path(py_file).stem
+        self._path = str(root / f"{mod}-{key}")
+        self._key = key
+
+    def ensure_cache_path(self):
+        os.makedirs(self._path, exist_ok=True)
+
+    def get_cache_path(self):
+        return self._path
+
+    def get_source_stamp(self):
+        return self._key
+
+    def get_disambiguator(self):
+        return str(self._lineno)
+
+    @classmethod
+    def from_function(cls, py_func, py_file):
+        key, root = cls._pending[id(py_func)]
+        return cls(py_func, py_file, key, root)
+
+
+class _FembCacheImpl(_caching.CompileResultCacheImpl):
+    _locator_classes = [_FembLocator]
+
+
+class _FembCache(_caching.FunctionCache):
+    _impl_class = _FembCacheImpl
+
+    def load_overload(self, sig, target_context):
+        try:
+            return super().load_overload(sig, target_context)
+        except OSError:
+            return None
+
+    def save_overload(self, sig, data):
+        try:
+            super().save_overload(sig, data)
+        except OSError as e:
+            _warn_unwritable(self.cache_path, e)
+
+    def has(self, sig, target_context):
+        """Whether an entry for ``sig`` on this CPU is on disk (without loading it)."""
+        try:
+            key = self._index_key(sig, target_context.codegen())
+            return key in self._cache_file._load_index()
+        except Exception:
+            return False
+
+
+def use_cache(disp, extra=""):
+    """Give a numba dispatcher femb's disk cache (keyed by :func:`source_key`); returns it.
+
+    Without a writable cache directory the dispatcher compiles in memory (one warning).
+    """
+    if jit_disabled():
+        return disp
+    root = numba_cache_dir()
+    if root is None:
+        return disp
+    key = source_key(disp.py_func, extra)
+    _FembLocator._pending[id(disp.py_func)] = (key, root)
+    try:
+        disp._cache = _FembCache(disp.py_func)
+    finally:
+        _FembLocator._pending.pop(id(disp.py_func), None)
+    return disp
+
+
+def is_cached(disp, sig):
+    """Whether ``disp`` has ``sig`` compiled in this process or on disk."""
+    if jit_disabled():
+        return True
+    if tuple(sig) in disp.overloads:
+        return True
+    c = getattr(disp, "_cache", None)
+    return isinstance(c, _FembCache) and c.has(tuple(sig), disp.targetctx)
+
+
+@_contextlib.contextmanager
+def compile_lock(name):
+    """An exclusive lock (``<cache>/numba/<name>.lock``) held while compiling, so that several
+    processes that need the same code (test workers, Dask workers) compile it once while the
+    others wait, then load it from the cache. No lock without a writable cache."""
+    root = None if jit_disabled() else numba_cache_dir()
+    if root is None:
+        yield
+        return
+    import fcntl
+    try:
+        fh = open(root / f"{name}.lock", "a+")
+    except OSError:
+        yield
+        return
+    with fh:
+        fcntl.flock(fh, fcntl.LOCK_EX)
+        try:
+            yield
+        finally:
+            fcntl.flock(fh, fcntl.LOCK_UN)
+
+
+def engine(**opts):
+    """Decorator of the engine's entry points (femb/step.py): ``numba.njit`` with femb's disk cache."""
+    def deco(fn):
+        return use_cache(numba.njit(**opts)(fn))
+    return deco

@@ -8,20 +8,151 @@ the finite-difference tests of the kernels. The arrays follow the contract of
 """
 from __future__ import annotations
 
+import inspect
+import os
+import sys
+import time
+
+import numba
 import numpy as np
+from numba.core import types
+
+from femb.errors import ModelError
+from femb.jit import (KERNEL_OPTIONS, ROLE_ARGUMENTS, ROLE_SIGNATURES, _PY_KERNELS, compile_lock, is_cached,
+                      jit_disabled, use_cache)
 
 
 def _f(a):
     return np.ascontiguousarray(a, dtype=np.float64)
 
 
+# --------------------------------------------------------------------------
+# kernels compiled once per element type (and cached on disk)
+# --------------------------------------------------------------------------
+_compiled = {}
+_announced = set()
+
+
+def debug_mode() -> bool:
+    """Whether kernels run bounds-checked (``FEMB_DEBUG=1``): an out-of-bounds index in a
+    kernel raises an error naming the element type instead of corrupting memory."""
+    return os.environ.get("FEMB_DEBUG", "") not in ("", "0")
+
+
+def _check_kernel(owner, role, fn):
+    """The checks of a kernel before it is compiled: a function of the role's arity."""
+    py = getattr(fn, "py_func", fn)
+    args = ", ".join(ROLE_ARGUMENTS[role])
+    if not inspect.isfunction(py):
+        raise ModelError(f"element type {owner}: kernels['{role}'] is {fn!r}, not a function; expected "
+                         f"a function {role}({args}) (docs/kernels.md)")
+    try:
+        params = inspect.signature(py).parameters.values()
+    except (TypeError, ValueError):
+        params = []
+    positional = [p for p in params if p.kind in (p.POSITIONAL_ONLY, p.POSITIONAL_OR_KEYWORD)]
+    if len(positional) != len(ROLE_ARGUMENTS[role]) or any(p.kind == p.VAR_POSITIONAL for p in params):
+        have = ", ".join(p.name for p in params)
+        raise ModelError(f"element type {owner}: kernel {py.__name__}({have}) for the role '{role}' must take "
+                         f"{len(ROLE_ARGUMENTS[role])} arguments ({args}); it takes {len(positional)} "
+                         f"(docs/kernels.md)")
+    outputs = {"mass": 1, "force": 3, "constraint": 3, "rates": 2}[role]
+    out_names = [p.name for p in positional][-outputs:]
+    used = _loaded_names(py.__code__)
+    if not any(n in used for n in out_names):
+        raise ModelError(f"element type {owner}: kernel {py.__name__} never uses its output arrays "
+                         f"({', '.join(out_names)}); kernels write their results into them (they are zeroed "
+                         f"before the call) and return nothing (docs/kernels.md)")
+    return py
+
+
+def _loaded_names(code):
+    import dis
+    names = set()
+    for ins in dis.get_instructions(code):
+        if ins.opname.startswith("LOAD_FAST") or ins.opname in ("LOAD_DEREF", "LOAD_CLOSURE"):
+            v = ins.argval
+            names.update(v if isinstance(v, tuple) else (v,))
+    for c in code.co_consts:
+        if hasattr(c, "co_code"):
+            names |= _loaded_names(c)
+    return names
+
+
+def compiled_kernel(owner, role, fn, boundscheck=None):
+    """``(dispatcher, address)`` of ``fn`` compiled for ``role``'s signature (``femb.jit.ROLE_SIGNATURES``).
+
+    Compiled once per kernel and process, loaded from femb's disk cache when an earlier
+    process compiled it (the key hashes the kernel's file and the files of the compiled
+    functions it calls, see :func:`femb.jit.source_key`). The engine calls the kernel
+    through ``address``; Python calls ``dispatcher``.
+
+    Raises
+    ------
+    ModelError
+        The kernel is not a function of the role's arity, never writes its outputs, does not
+        compile for the role's argument types, or returns a value.
+    """
+    debug = debug_mode() if boundscheck is None else bool(boundscheck)
+    py = _check_kernel(owner, role, fn)
+    key = (py, role, debug)
+    hit = _compiled.get(key)
+    if hit is not None:
+        return hit
+    sig = ROLE_SIGNATURES[role]
+    if jit_disabled():
+        _PY_KERNELS.append(py)
+        out = (py, len(_PY_KERNELS) - 1)
+        _compiled[key] = out
+        return out
+    opts = dict(getattr(fn, "targetoptions", None) or KERNEL_OPTIONS)
+    if not hasattr(fn, "targetoptions"):
+        opts = dict(KERNEL_OPTIONS)          # a plain Python function: may allocate
+    opts.pop("nopython", None)
+    opts["boundscheck"] = debug
+    disp = use_cache(numba.njit(**opts)(py), extra=f"{sorted(opts.items())}")
+    args = sig.args
+    fresh = not is_cached(disp, args)
+    t0 = time.perf_counter()
+    try:
+        with compile_lock("kernels"):
+            disp.compile(args)
+    except numba.core.errors.NumbaError as e:
+        first = str(e).strip().splitlines()
+        msg = next((ln for ln in first if ln.strip()), "")
+        raise ModelError(f"element type {owner}: kernel {py.__name__} does not compile for the role '{role}' "
+                         f"with the argument types {role}({', '.join(ROLE_ARGUMENTS[role])}) = {args} "
+                         f"(docs/kernels.md): {msg}") from None
+    cres = disp.overloads[args]
+    if cres.signature.return_type != types.none:
+        raise ModelError(f"element type {owner}: kernel {py.__name__} returns a value "
+                         f"({cres.signature.return_type}); kernels write their results into the output "
+                         f"arrays ({', '.join(ROLE_ARGUMENTS[role][-2:])}, ...) and return nothing (docs/kernels.md)")
+    addr = cres.library.get_pointer_to_function(cres.fndesc.llvm_func_name)
+    if fresh:
+        _fresh.append((owner, role, time.perf_counter() - t0))
+    out = (disp, int(addr))
+    _compiled[key] = out
+    return out
+
+
+_fresh = []
+
+
+def announce_compiled():
+    """One line on stderr for the kernels compiled (not loaded from the cache) since the last call."""
+    if _fresh:
+        owners = sorted({o for o, _, _ in _fresh})
+        dt = sum(d for _, _, d in _fresh)
+        print(f"femb: compiled {len(_fresh)} kernel{'s' if len(_fresh) > 1 else ''} of "
+              f"{', '.join(owners)} in {dt:.1f} s (first use of these element types; cached)",
+              file=sys.stderr, flush=True)
+        _fresh.clear()
+
+
 def _kernel(group, role):
-    """The batch's compiled kernel for ``role``: the cached entry point of its model kind's
-    generated module when the model has been compiled for simulation, else the kernel itself."""
-    eps = getattr(group, "compiled_kernels", None)
-    if eps and role in eps:
-        return eps[role]
-    return group.cls.kernels[role]
+    """The batch's kernel for ``role``, compiled for its role's signature (cached)."""
+    return compiled_kernel(group.cls.__name__, role, group.cls.kernels[role])[0]
 
 
 def time_values(group, t):
@@ -85,3 +216,63 @@ def rates(group, t, xe, ve):
     gam = np.zeros((nel, nc))
     _kernel(group, "rates")(group.P, float(t), time_values(group, t), xe, ve, Phi_t, gam)
     return Phi_t, gam
+
+
+def is_builtin(cls):
+    """Whether ``cls`` is one of femb's own element types (their kernels are tested by femb)."""
+    return (cls.__module__ or "").startswith(("femb.", "elements."))
+
+
+def contract_check(group, xe, ve, t=0.0):
+    """Run a batch's kernels once, bounds-checked, on the batch's own array shapes.
+
+    For element types that are not femb's own, when a model is compiled: an index out of
+    bounds in a kernel (which in the compiled loop would overwrite memory it does not own)
+    is reported as a :class:`ModelError` naming the element type and the kernel, and a force
+    that depends on the velocities without ``force_depends_on_qd`` is warned about (its
+    damping would be left out of the iteration matrix).
+    """
+    import warnings
+    owner = group.cls.__name__
+    ks = getattr(group.cls, "kernels", None) or {}
+    nel, ndv = group.dofs.shape
+    tf = time_values(group, t)
+    P = group.P
+    xe = _f(xe)
+    ve = _f(ve)
+
+    def run(role, *args):
+        fn = compiled_kernel(owner, role, ks[role], boundscheck=True)[0]
+        try:
+            fn(*args)
+        except IndexError as e:
+            raise ModelError(f"element type {owner}: kernel {getattr(ks[role], '__name__', role)} ('{role}') "
+                             f"indexes an array out of bounds ({e}) on batch '{group.name}' with {nel} "
+                             f"elements of {ndv} coordinates: P {P.shape}, xe {xe.shape}, outputs "
+                             f"(nel, ndv) = ({nel}, {ndv}); see docs/kernels.md for the shapes") from None
+
+    if "mass" in ks and group.traits.get("has_mass"):
+        run("mass", P, xe, np.zeros((nel, ndv, ndv)))
+    if "force" in ks and group.traits.get("has_force"):
+        fe = np.zeros((nel, ndv))
+        run("force", P, float(t), tf, xe, ve, True, fe, np.zeros((nel, ndv, ndv)), np.zeros((nel, ndv, ndv)))
+        if not group.traits.get("force_depends_on_qd", False):
+            rng = np.random.default_rng(1)
+            fe2 = np.zeros((nel, ndv))
+            z = np.zeros((nel, ndv, ndv))
+            run("force", P, float(t), tf, xe, ve + rng.uniform(-1.0, 1.0, ve.shape), False, fe2, z, z.copy())
+            if not np.allclose(fe, fe2, rtol=1e-12, atol=1e-300):
+                warnings.warn(f"element type {owner}: its force changes with the velocities, but the type does "
+                              f"not declare force_depends_on_qd = True: the damping is left out of the iteration "
+                              f"matrix (Newton converges slower, or not at all). Declare it, and return ∂f/∂v "
+                              f"in fv (docs/kernels.md).", ContractWarning, stacklevel=4)
+    nc = group.nc
+    if nc and "constraint" in ks:
+        run("constraint", P, float(t), tf, xe, np.zeros((nel, nc)), True, np.zeros((nel, nc)),
+            np.zeros((nel, nc, ndv)), np.zeros((nel, ndv, ndv)))
+        if "rates" in ks:
+            run("rates", P, float(t), tf, xe, ve, np.zeros((nel, nc)), np.zeros((nel, nc)))
+
+
+class ContractWarning(UserWarning):
+    """An element type's kernels break a rule of docs/kernels.md that does not make results wrong."""

@@ -435,21 +435,25 @@ def compile_model(mech, *, length_scale=None):
             raise ModelError(f"{g.name}: a configuration-dependent mass matrix is not supported by the "
                              "compiled time loop (every femb element has constant mass)")
 
-    # ---- the generated module of this combination of element types: its cached entry points
-    # serve every Python-side kernel call (constant mass and forces below, assembly functions,
-    # initialization), so a warm start compiles nothing
-    from types import SimpleNamespace
-    from femb import codegen
-    kind = SimpleNamespace(groups=groups, mass_groups=mass_groups, force_groups=force_groups,
-                           constraint_groups=constraint_groups, lie=lie)
-    kind_mod, _, _ = codegen.load_kind(kind, verbose=False)   # the time loop's module announces itself
-    codegen._attach_entry_points(kind, kind_mod)
+    # ---- every kernel of every batch, compiled once per element type for its role's signature
+    # (or loaded from the disk cache): a kernel that breaks its contract is refused here, naming
+    # its element type, and nothing compiles later, unannounced
+    for g in groups:
+        for role, fn in (getattr(g.cls, "kernels", None) or {}).items():
+            if role in ("mass", "force", "constraint", "rates"):
+                _kernels.compiled_kernel(g.cls.__name__, role, fn)
+    _kernels.announce_compiled()
 
     # ---- residual weights: moments (rows of non-translational coordinates) are
     # divided by the length scale so the force-residual test mixes N with N, not
     # N with N·m (unit-invariant Newton stopping); computed after the length scale.
     qx0 = np.concatenate((q0, q_fixed))
     qdx0 = np.concatenate((qd0, np.zeros(nfix_v)))
+    # ---- element types that are not femb's own: their kernels run once, bounds-checked, on
+    # this model's shapes (an out-of-bounds write is a ModelError here, not a crash later)
+    for g in groups:
+        if not _kernels.is_builtin(g.cls) or _kernels.debug_mode():
+            _kernels.contract_check(g, qx0[g.xdofs], qdx0[g.dofs])
 
     # ---- constant mass and constant forces
     constant_mass = all(g.traits["constant_mass"] for g in mass_groups)

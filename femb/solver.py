@@ -460,12 +460,9 @@ class GeneralizedAlphaSolver:
         return b
 
     def _compile(self):
-        """Compile the loop, or load it from the cache, before any timing starts (a call of 0 steps)."""
-        mod = self.cp.mod
+        """Load the engine before any timing starts (it is compiled once per installation,
+        :func:`femb.step.ensure_engine`; a call of 0 steps)."""
         self.advance(0)
-        if getattr(mod, "FRESH", False) and not mod.ANNOUNCED:
-            mod.ANNOUNCED = True
-            print(f"femb: compiled in {time.perf_counter() - mod.LOADED_AT:.1f} s", file=sys.stderr, flush=True)
 
     def advance(self, n_chunk):
         """Run the compiled loop for up to ``n_chunk`` accepted steps.

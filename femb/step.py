@@ -1,18 +1,22 @@
-"""The time step: Newton iteration and time loop of the generalized-α scheme, compiled.
+"""The engine: Newton iteration and time loop of the generalized-α scheme, compiled once.
 
-This file is the whole time step in one place. It is not imported as a module:
-:mod:`femb.codegen` appends its text to the module it generates for each
-combination of element types, after the model-kind specific functions
-``evaluate(...)`` (residual and iteration matrix of one iterate) and
-``kkt_evaluate(...)`` (the matrix [[M, Bᵀ], [B, 0]] and right-hand side
-[f; −γ] of the constrained accelerations). numba compiles the result once per
-model kind and caches it on disk (:mod:`femb.jit`).
+This module is the whole time step in one place, and the one engine of every model:
+it is compiled once per installation (femb's disk cache, :func:`femb.jit.engine`) and
+serves any combination of element types. It learns a model's element types at run
+time: the batch table of the model (``C_BATCHES``: role, first array in the pack ``G``,
+flags and the addresses of the batch's kernels) drives :func:`evaluate`, which gathers
+each batch's coordinates, calls its kernels through their addresses
+(:func:`femb.jit.call_force` and its siblings; each kernel is compiled once per element
+type for its role's signature, :func:`femb.kernels.compiled_kernel`) and scatters the
+results into the residual and the iteration matrix. Index 3 and index 2
+(``ip[IP_GGL]``), planar and Lie-group updates (rotation nodes present), dense and band
+storage (``ip[IP_DENSE]``) are run-time branches.
 
 The iteration matrix is stored and factorized as a band matrix after a
 bandwidth-reducing symmetric permutation (computed once per model by
 :mod:`femb.codegen`): ``AB[j, d + i − j]`` holds entry (i, j) of the permuted
 matrix, ``d = kl + ku``, leaving room for the fill of partial pivoting (LAPACK's
-``gbtrf`` storage, transposed).
+``gbtrf`` storage, transposed); small systems are stored densely.
 
 References
 ----------
@@ -25,20 +29,32 @@ import math
 
 from numba import njit
 
-from femb.jit import OPTIONS, fview1, fview2, fview3, iview1, iview2, iview3
+from femb.jit import (OPTIONS, call_constraint, call_force, call_rates, engine, fview1, fview2, fview3, iview1,
+                      iview2, iview3)
 #: functions called from Python: no C-callable wrapper (``cfunc``), whose argument list is
-#: the flattened tuples G, C and W (hundreds of scalars)
+#: the flattened packs G, C and W
 ENTRY = dict(OPTIONS, no_cfunc_wrapper=True)
 #: functions called from compiled code only: no Python wrapper either, and no cache entry of
 #: their own (their code is compiled into, and cached with, every entry point that calls them)
 INNER = dict(ENTRY, no_cpython_wrapper=True)
 from femb.rotations import s2, s3, s7
 
-# ``evaluate``, ``rates`` and ``jacobian_times`` are defined by the generated module this text is appended to,
-# and the constants ``GGL`` (True for the module of the index-2 layout, which runs newton_step_ggl) and
-# ``LIE`` (True for kinds with rotation nodes; planar kinds do not compile the group update) and
-# ``STORAGE`` (1: the module's models store the iteration matrix densely, 2: as a band, 0: either,
-# chosen at run time by ``ip[IP_DENSE]``; a module for one storage does not compile the other's LU).
+# ---- the model constants in the pack C (femb/codegen.py, Compiled), by name ----------------
+C_MP, C_PERM, C_IPERM, C_W, C_WEXT, C_QFIX, C_FCONST, C_MI = 0, 1, 2, 3, 4, 5, 6, 7
+C_TFKIND, C_TFOFF, C_TFCOEF, C_MX, C_TM, C_TFV, C_SCALE0, C_ACTIVE, C_TI, C_ENV = 8, 9, 10, 11, 12, 13, 14, 15, 16, 17
+C_TN, C_XMAP, C_ROT, C_PN, C_D, C_FL, C_PAIRS, C_TETA, C_BW, C_GGLW, C_BATCHES, C_LIE = (
+    18, 19, 20, 21, 22, 23, 24, 25, 26, 27, 28, 29)
+# ---- the batch table C_BATCHES: one row per batch ------------------------------------------
+#: role of the batch (ROLE_FORCE or ROLE_CONSTRAINT), its first array in G, the count of arrays,
+#: 1 if its forces depend on q̇, the kernel addresses (force or constraint; rates)
+B_ROLE, B_BASE, B_HASC, B_KERNEL, B_RATES = 0, 1, 2, 3, 4
+NB = 5
+ROLE_FORCE, ROLE_CONSTRAINT = 0, 1
+# ---- a force batch's arrays in G, from its base (femb/codegen.py, FORCE_FIELDS) -----------
+F_P, F_DOFS, F_TFI, F_TNN, F_XE, F_VE, F_TF, F_FE, F_FQ, F_FV, F_XDOFS, F_TBLK = range(12)
+# ---- a constraint batch's arrays in G, from its base (CONSTRAINT_FIELDS) --------------------
+(K_P, K_DOFS, K_LAMIDX, K_TFI, K_TNN, K_TB, K_TBT, K_XE, K_VE, K_LE, K_TF, K_PHE, K_BE, K_HE, K_PT, K_GM,
+ K_XDOFS, K_TBLK) = range(18)
 
 # ---- status codes returned to Python (femb/solver.py raises femb's errors) -------------
 ST_CHUNK = 0          # requested number of steps done
@@ -143,7 +159,7 @@ def newton_first_accept(eta0, size, phi_ratio, fresh):
     return fresh and eta0 >= 0.0 and eta0 * size <= 1.0 and eta0 * phi_ratio <= 1.0
 
 
-@njit(cache=True, **ENTRY)
+@engine(**ENTRY)
 def band_lu(ABf, N, kl, ku, env, ipiv, rel_tol):
     """LU with partial pivoting of a band matrix in place (LAPACK ``dgbtf2`` logic, variable band).
 
@@ -198,7 +214,7 @@ def band_lu(ABf, N, kl, ku, env, ipiv, rel_tol):
     return 0
 
 
-@njit(cache=True, **ENTRY)
+@engine(**ENTRY)
 def band_solve(ABf, N, kl, ku, env, ipiv, b):
     """Solve with the factors of :func:`band_lu`, in place on ``b`` (permuted order)."""
     d = kl + ku
@@ -324,7 +340,7 @@ def dense_solve(Af, N, ipiv, b):
         b[k] = s / A[k, k]
 
 
-@njit(cache=True, **ENTRY)
+@engine(**ENTRY)
 def dense_lu_solve(Af, N, ipiv, rel_tol, b):
     """:func:`dense_lu` then, if regular, :func:`dense_solve` on ``b``; returns the LU's status (for tests)."""
     st = dense_lu(Af, N, ipiv, rel_tol)
@@ -336,10 +352,6 @@ def dense_lu_solve(Af, N, ipiv, rel_tol, b):
 @njit(**INNER)
 def factor(Af, ip, env, ipiv, rel_tol):
     """Factorize the iteration matrix in its storage (dense or band, fixed per model)."""
-    if STORAGE == 1:
-        return dense_lu(Af, ip[IP_N], ipiv, rel_tol)
-    if STORAGE == 2:
-        return band_lu(Af, ip[IP_N], ip[IP_KL], ip[IP_KU], env, ipiv, rel_tol)
     if ip[IP_DENSE] != 0:
         return dense_lu(Af, ip[IP_N], ipiv, rel_tol)
     return band_lu(Af, ip[IP_N], ip[IP_KL], ip[IP_KU], env, ipiv, rel_tol)
@@ -348,17 +360,13 @@ def factor(Af, ip, env, ipiv, rel_tol):
 @njit(**INNER)
 def solve(Af, ip, env, ipiv, b):
     """Solve with the factors of :func:`factor`, in place on ``b`` (permuted order)."""
-    if STORAGE == 1:
-        dense_solve(Af, ip[IP_N], ipiv, b)
-    elif STORAGE == 2:
-        band_solve(Af, ip[IP_N], ip[IP_KL], ip[IP_KU], env, ipiv, b)
-    elif ip[IP_DENSE] != 0:
+    if ip[IP_DENSE] != 0:
         dense_solve(Af, ip[IP_N], ipiv, b)
     else:
         band_solve(Af, ip[IP_N], ip[IP_KL], ip[IP_KU], env, ipiv, b)
 
 
-@njit(cache=True, **ENTRY)
+@engine(**ENTRY)
 def eval_time_functions(t, kind, off, coef, tfv):
     """Values (f, f', f'') of the compiled time functions at t into ``tfv (ntf, 3)``."""
     for k in range(kind.shape[0]):
@@ -415,6 +423,7 @@ def newton_step(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam, t1,
        η₀·‖Δ₁‖ ≤ 1 with the contraction estimate η₀ carried over from the previous steps
        (:func:`newton_first_accept`, Hairer & Wanner's Radau5 test).
     """
+    lie = iview1(C, C_LIE)[0] != 0
     nv = ip[IP_NV]
     nc = ip[IP_NC]
     N = ip[IP_N]
@@ -472,7 +481,7 @@ def newton_step(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam, t1,
             D[i] = h * qd[i] + (h * h * (0.5 - beta)) * a[i] + (h * h * beta) * a_pred
         qd[i] = qd_new
         qdd[i] = g
-    if LIE:
+    if lie:
         lie_update(q, C)
     for j in range(nc):
         if pred == 0:
@@ -582,7 +591,7 @@ def newton_step(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam, t1,
             v = abs(dq) / wq[i]
             if v > dqw:
                 dqw = v
-        if LIE:
+        if lie:
             lie_update(q, C)
         for j in range(nc):
             lam[j] += rhs[iperm[nv + j]] * inv_c
@@ -654,7 +663,7 @@ def copy_blocks(Be, out, o):
     return o
 
 
-@njit(cache=True, **ENTRY)
+@engine(**ENTRY)
 def ggl_matrix(C, ABf, sg):
     """The rows and columns of the index-2 layout that ``evaluate`` leaves out, into ABf.
 
@@ -671,7 +680,7 @@ def ggl_matrix(C, ABf, sg):
     Bn = Bw[0]
     Bq = Bw[1]
     # rotation kinds: ∂Φ(q_n ∘ exp(Δ + B_nᵀη))/∂η = B(q) T(D) B_nᵀ, with B T in row 2 of C's array 26
-    BT = Bw[2] if LIE else Bw[1]
+    BT = Bw[2] if iview1(C, C_LIE)[0] != 0 else Bw[1]
     for c in range(tEta.shape[0]):
         if tEta[c] >= 0:
             ABf[tEta[c]] = 0.0
@@ -682,7 +691,7 @@ def ggl_matrix(C, ABf, sg):
         ABf[pairs[p, 2]] += BT[pairs[p, 0]] * Bn[pairs[p, 1]]
 
 
-@njit(cache=True, **OPTIONS)
+@njit(**INNER)
 def newton_step_ggl(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam, t1, h, h_prev,
                     AB, ipiv, r, Phi, rhs, x, info, wq):
     """One step of the stabilized index-2 (GGL-type) generalized-α scheme, in place.
@@ -711,6 +720,7 @@ def newton_step_ggl(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam,
     ``evaluate``) and B T(D) B_nᵀ in the η columns, D = Δ + B_nᵀη on the rotation
     entries. On planar kinds (``LIE`` false) this is the update above, unchanged.
     """
+    lie = iview1(C, C_LIE)[0] != 0
     nv = ip[IP_NV]
     nc = ip[IP_NC]
     am = fp[FP_AM]
@@ -777,7 +787,7 @@ def newton_step_ggl(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam,
             D[i] = h * qd[i] + (h * h * (0.5 - beta)) * a[i] + (h * h * beta) * a_pred
         qd[i] = qd_new
         qdd[i] = gi
-    if LIE:
+    if lie:
         lie_update(q, C)
     for j in range(nc):
         if pred == 0:
@@ -811,12 +821,12 @@ def newton_step_ggl(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam,
         # the velocity constraint g = B(q) q̇ + Φ_t, from the blocks evaluate() left; rotation
         # kinds: evaluate() left B T(D) when it built the matrix (kept for ggl_matrix), and B
         # itself comes from the kernels
-        if LIE:
+        if lie:
             if jac:
-                copy_B(G, Bw[2])
+                copy_B(G, C, Bw[2])
             constraint_B(G, C, t1, q, qd, Bq)
         else:
-            copy_B(G, Bq)
+            copy_B(G, C, Bq)
         rates(G, C, t1, q, qd, Pt, gam)
         for j in range(nc):
             g_[j] = Pt[j]
@@ -914,7 +924,7 @@ def newton_step_ggl(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam,
             v = abs(dq) / wq[i]
             if v > dqw:
                 dqw = v
-        if LIE:
+        if lie:
             lie_update(q, C)
         k += 1
         if ntest == 0:
@@ -958,7 +968,7 @@ def newton_step_ggl(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam,
     return k
 
 
-@njit(cache=True, **ENTRY)
+@engine(**ENTRY)
 def kkt_accelerations(G, C, ip, fp, si, sf, stats, t, q, qd, qdd, lam, h, hbar, AB, ipiv, Phi, W, KB, kpiv, out,
                       mode):
     """Constrained accelerations q̈ᵖᵖ of [[M, Bᵀ], [B, 0]] [q̈; λ] = [f; −γ] at (t, q, q̇) into ``out``.
@@ -1060,7 +1070,7 @@ def kkt_accelerations(G, C, ip, fp, si, sf, stats, t, q, qd, qdd, lam, h, hbar, 
     return 0
 
 
-@njit(cache=True, **ENTRY)
+@engine(**ENTRY)
 def project_normal_velocity(G, C, ip, t, q, qd, target, KB, kpiv, kx, Bv):
     """q̇ ← q̇ + δ with B δ = target − B q̇ and δ M-orthogonal to the constraint manifold.
 
@@ -1101,7 +1111,7 @@ def error_norm(ip, fp, xm, q0, q1, qd0, qd1, eq, ev, atolv, use_v):
     return math.sqrt(s / n)
 
 
-@njit(cache=True, **ENTRY)
+@engine(**ENTRY)
 def run(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam, tfv, AB, ipiv, r, Phi, rhs, x, info,
         W, n_chunk, out_t, out_q, out_qd, out_qdd, out_lam, out_h, out_it, out_err):
     """Advance up to ``n_chunk`` accepted steps: the one time loop, fixed or adaptive.
@@ -1255,10 +1265,8 @@ def run(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam, tfv, AB, ip
             for i in range(nv):
                 j = xm[i]
                 wq[i] = max(fp[FP_TOLQ] * ((abs(q[j]) if j >= 0 else 0.0) + fp[FP_L] * wC[i]), floor)
-        # GGL is a constant of the generated module: index-3 modules do not compile the
-        # index-2 step at all (numba prunes the branch)
         k = -1
-        if GGL:
+        if ip[IP_GGL] != 0:
             k = newton_step_ggl(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam, t1, h,
                                 h_prev if h_prev > 0.0 else h, AB, ipiv, r, Phi, rhs, x, info, wq)
         else:
@@ -1373,7 +1381,193 @@ def run(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam, tfv, AB, ip
     return ST_CHUNK
 
 
-# ---- gather / scatter helpers called by the generated evaluate() ---------------------------
+# ---- the model's element batches: residual, iteration matrix, rates, B -------------------
+@engine(**ENTRY)
+def evaluate(G, C, t, q, qd, qdd, lam, jac, cM, cC, cK, ABf, r, Phi):
+    """Residual r = M q̈ − f + Bᵀλ, Φ, and (jac) the iteration matrix into ABf; returns the force scale.
+
+    ``cM``, ``cC``, ``cK`` multiply M, C_t = −∂f/∂q̇ and K_t = −∂f/∂q + ∂(Bᵀλ)/∂q in the
+    matrix (Newton: the scaled β', γ' and 1). Batches run in the order of the batch table:
+    forces first, then constraints.
+    """
+    batches = iview2(C, C_BATCHES)
+    scale = mass_residual(C, qdd, r, ABf, jac, cM)
+    for b in range(batches.shape[0]):
+        if batches[b, B_ROLE] == ROLE_FORCE:
+            scale = force_batch(G, C, batches[b], t, q, qd, jac, cC, cK, ABf, r, scale)
+        else:
+            scale = constraint_batch(G, C, batches[b], t, q, qd, lam, jac, cK, ABf, r, Phi, scale)
+    return scale
+
+
+@njit(**INNER)
+def gather_batch(G, C, base, xdofs_k, dofs_k, xe_k, ve_k, q, v):
+    """Element coordinates xe and velocities ve (from v) of the batch whose arrays start at ``base``."""
+    qfix = fview1(C, C_QFIX)
+    dofs = iview2(G, base + dofs_k)
+    xe = fview2(G, base + xe_k)
+    ve = fview2(G, base + ve_k)
+    if iview1(C, C_LIE)[0] != 0:
+        gather_x_v(q, v, qfix, iview2(G, base + xdofs_k), dofs, xe, ve, q.shape[0], v.shape[0])
+    else:
+        gather_xv(q, v, qfix, dofs, xe, ve, v.shape[0])
+
+
+@njit(**INNER)
+def force_batch(G, C, row, t, q, qd, jac, cC, cK, ABf, r, scale):
+    """One force batch: f_e and its Jacobians from the kernel, −f into r, −cK ∂f/∂q − cC ∂f/∂q̇ into ABf."""
+    base = row[B_BASE]
+    gather_batch(G, C, base, F_XDOFS, F_DOFS, F_XE, F_VE, q, qd)
+    tf = fview3(G, base + F_TF)
+    gather_tf(fview2(C, C_TFV), iview2(G, base + F_TFI), tf)
+    fe = fview2(G, base + F_FE)
+    fq = fview3(G, base + F_FQ)
+    fv = fview3(G, base + F_FV)
+    zero2(fe)
+    if jac:
+        zero3(fq)
+        zero3(fv)
+    call_force(row[B_KERNEL], fview2(G, base + F_P), t, tf, fview2(G, base + F_XE), fview2(G, base + F_VE),
+               jac, fe, fq, fv)
+    scale = scatter_force(fe, iview2(G, base + F_DOFS), r, qd.shape[0], fview1(C, C_WEXT), scale)
+    if jac:
+        tnn = iview3(G, base + F_TNN)
+        if iview1(C, C_LIE)[0] != 0:
+            apply_tangent(fq, iview3(G, base + F_TBLK), fview3(C, C_TN), cK)
+        scatter_matrix(fq, tnn, ABf, -cK)
+        if row[B_HASC] != 0:
+            scatter_matrix(fv, tnn, ABf, -cC)
+    return scale
+
+
+@njit(**INNER)
+def constraint_batch(G, C, row, t, q, qd, lam, jac, cK, ABf, r, Phi, scale):
+    """One constraint batch: Φ_e, B_e and H_e from the kernel; Φ, Bᵀλ into r, [B, Bᵀ, cK H] into ABf."""
+    base = row[B_BASE]
+    gather_batch(G, C, base, K_XDOFS, K_DOFS, K_XE, K_VE, q, qd)
+    lamidx = iview2(G, base + K_LAMIDX)
+    le = fview2(G, base + K_LE)
+    gather_lam(lam, lamidx, le)
+    tf = fview3(G, base + K_TF)
+    gather_tf(fview2(C, C_TFV), iview2(G, base + K_TFI), tf)
+    Phe = fview2(G, base + K_PHE)
+    Be = fview3(G, base + K_BE)
+    He = fview3(G, base + K_HE)
+    zero2(Phe)
+    zero3(Be)
+    if jac:
+        zero3(He)
+    call_constraint(row[B_KERNEL], fview2(G, base + K_P), t, tf, fview2(G, base + K_XE), le, jac, Phe, Be, He)
+    scale = scatter_constraint(Phe, Be, le, iview2(G, base + K_DOFS), lamidx, iview1(C, C_ACTIVE), Phi, r,
+                               qd.shape[0], fview1(C, C_WEXT), scale)
+    if jac:
+        tB = iview3(G, base + K_TB)
+        tBt = iview3(G, base + K_TBT)
+        if iview1(C, C_LIE)[0] != 0:
+            tblk = iview3(G, base + K_TBLK)
+            Tn = fview3(C, C_TN)
+            scatter_B_tangent(Be, tblk, Tn, cK, tB, tBt, ABf)
+            apply_tangent(He, tblk, Tn, cK)
+        else:
+            scatter_B(Be, tB, tBt, ABf)
+        scatter_matrix(He, iview3(G, base + K_TNN), ABf, cK)
+    return scale
+
+
+@njit(**INNER)
+def constraint_blocks(G, C, row, t, q, v):
+    """Run the batch's constraint kernel at (t, q) without Jacobian; its B_e blocks stay in G.
+    The velocities gathered into the batch's ``ve`` are those of ``v``."""
+    base = row[B_BASE]
+    gather_batch(G, C, base, K_XDOFS, K_DOFS, K_XE, K_VE, q, v)
+    tf = fview3(G, base + K_TF)
+    gather_tf(fview2(C, C_TFV), iview2(G, base + K_TFI), tf)
+    Phe = fview2(G, base + K_PHE)
+    Be = fview3(G, base + K_BE)
+    zero2(Phe)
+    zero3(Be)
+    call_constraint(row[B_KERNEL], fview2(G, base + K_P), t, tf, fview2(G, base + K_XE), fview2(G, base + K_LE),
+                    v.shape[0] < 0, Phe, Be, fview3(G, base + K_HE))
+
+
+@engine(**ENTRY)
+def rates(G, C, t, q, qd, Phi_t, gam):
+    """Φ_t and γ (B q̈ = −γ) of all constraints at (t, q, q̇)."""
+    batches = iview2(C, C_BATCHES)
+    active = iview1(C, C_ACTIVE)
+    zero1(Phi_t)
+    zero1(gam)
+    for b in range(batches.shape[0]):
+        if batches[b, B_ROLE] != ROLE_CONSTRAINT:
+            continue
+        base = batches[b, B_BASE]
+        gather_batch(G, C, base, K_XDOFS, K_DOFS, K_XE, K_VE, q, qd)
+        tf = fview3(G, base + K_TF)
+        gather_tf(fview2(C, C_TFV), iview2(G, base + K_TFI), tf)
+        Pt = fview2(G, base + K_PT)
+        gm = fview2(G, base + K_GM)
+        zero2(Pt)
+        zero2(gm)
+        call_rates(batches[b, B_RATES], fview2(G, base + K_P), t, tf, fview2(G, base + K_XE),
+                   fview2(G, base + K_VE), Pt, gm)
+        lamidx = iview2(G, base + K_LAMIDX)
+        for e in range(lamidx.shape[0]):
+            for j in range(lamidx.shape[1]):
+                c = lamidx[e, j]
+                if active[c] != 0:
+                    Phi_t[c] = Pt[e, j]
+                    gam[c] = gm[e, j]
+    return 0
+
+
+@engine(**ENTRY)
+def jacobian_times(G, C, t, q, v, out):
+    """out = B(q, t) v for all constraints."""
+    batches = iview2(C, C_BATCHES)
+    zero1(out)
+    for b in range(batches.shape[0]):
+        if batches[b, B_ROLE] != ROLE_CONSTRAINT:
+            continue
+        constraint_blocks(G, C, batches[b], t, q, v)
+        base = batches[b, B_BASE]
+        Be = fview3(G, base + K_BE)
+        ve = fview2(G, base + K_VE)
+        lamidx = iview2(G, base + K_LAMIDX)
+        dofs = iview2(G, base + K_DOFS)
+        for e in range(lamidx.shape[0]):
+            for j in range(lamidx.shape[1]):
+                s = 0.0
+                for i in range(dofs.shape[1]):
+                    s += Be[e, j, i] * ve[e, i]
+                out[lamidx[e, j]] = s
+    return 0
+
+
+@engine(**ENTRY)
+def constraint_B(G, C, t, q, qd, out):
+    """out = the element blocks of B(q, t), flat (batch by batch, element, row, column; see ``copy_blocks``)."""
+    batches = iview2(C, C_BATCHES)
+    o = 0
+    for b in range(batches.shape[0]):
+        if batches[b, B_ROLE] != ROLE_CONSTRAINT:
+            continue
+        constraint_blocks(G, C, batches[b], t, q, qd)
+        o = copy_blocks(fview3(G, batches[b, B_BASE] + K_BE), out, o)
+    return o
+
+
+@engine(**ENTRY)
+def copy_B(G, C, out):
+    """out = the element blocks of B left by the last ``evaluate``, flat."""
+    batches = iview2(C, C_BATCHES)
+    o = 0
+    for b in range(batches.shape[0]):
+        if batches[b, B_ROLE] == ROLE_CONSTRAINT:
+            o = copy_blocks(fview3(G, batches[b, B_BASE] + K_BE), out, o)
+    return o
+
+
+# ---- gather / scatter helpers called by evaluate() -------------------------------------------
 @njit(**INNER)
 def gather_xv(q, qd, qfix, dofs, xe, ve, nv):
     """xe[e, i] = [q, q_fixed][dofs[e, i]], ve likewise with zero fixed velocities."""
@@ -1545,7 +1739,7 @@ def lie_update(q, C):
         Tn[b, 2, 1] -= c2 * t0
 
 
-@njit(cache=True, **ENTRY)
+@engine(**ENTRY)
 def lie_reset(C):
     """T = I for every rotation (between steps: evaluations outside Newton use no tangent operator)."""
     Tn = fview3(C, 18)
@@ -1642,3 +1836,62 @@ def zero3(a):
         for j in range(a.shape[1]):
             for k in range(a.shape[2]):
                 a[i, j, k] = 0.0
+
+
+# ---- the engine's entry points and their one signature each -----------------------------------
+def engine_signatures():
+    """``{entry point: argument types}``: every entry point of the engine has one signature,
+    whatever the model (its data come as packs and arrays of fixed rank and dtype)."""
+    from numba import types as T
+    f1, i1, i2, f2, f3 = T.float64[::1], T.int64[::1], T.int64[:, ::1], T.float64[:, ::1], T.float64[:, :, ::1]
+    P = T.Tuple((f1, i1, i2))
+    f, i, b = T.float64, T.int64, T.boolean
+    loop = (P, P, i1, f1, i1, f1, i1)
+    return {
+        run: loop + (f1,) * 7 + (f2, f1, i1, f1, f1, f1, f1, f1, P, i, f1, f2, f2, f2, f2, f1,
+                                  T.int32[::1], f1),
+        evaluate: (P, P, f, f1, f1, f1, f1, b, f, f, f, f1, f1, f1),
+        kkt_accelerations: loop + (f, f1, f1, f1, f1, f, f, f1, i1, f1, P, f1, i1, f1, i),
+        project_normal_velocity: (P, P, i1, f, f1, f1, f1, f1, i1, f1, f1),
+        rates: (P, P, f, f1, f1, f1, f1),
+        jacobian_times: (P, P, f, f1, f1, f1),
+        constraint_B: (P, P, f, f1, f1, f1),
+        copy_B: (P, P, f1),
+        ggl_matrix: (P, f1, f),
+        lie_reset: (P,),
+        eval_time_functions: (f, i1, i1, f1, f2),
+        band_lu: (f1, i, i, i, i2, i1, f),
+        band_solve: (f1, i, i, i, i2, i1, f1),
+        dense_lu_solve: (f1, i, i1, f, f1),
+    }
+
+
+_ENGINE = {"ready": False}
+
+
+def ensure_engine(verbose=True):
+    """Compile the engine, or load it from femb's disk cache: once per installation and CPU.
+
+    Several processes that need it at once compile it once (a file lock), the others load it.
+    Says so on stderr, with the time it took, when it has to compile.
+    """
+    import sys
+    import time
+    from femb.jit import compile_lock, is_cached, jit_disabled
+    if _ENGINE["ready"] or jit_disabled():
+        return
+    sigs = engine_signatures()
+    with compile_lock("engine"):
+        missing = [d for d, sg in sigs.items() if not is_cached(d, sg)]
+        t0 = time.perf_counter()
+        if missing and verbose:
+            print(f"femb: compiling the engine (once per installation; {len(missing)} entry points)",
+                  file=sys.stderr, flush=True)
+        for d, sg in sigs.items():
+            d.compile(sg)
+            # any other argument types are a bug of the caller, not a reason to compile again
+            d.disable_compile()
+    if missing and verbose:
+        print(f"femb: engine compiled in {time.perf_counter() - t0:.1f} s, cached for later runs",
+              file=sys.stderr, flush=True)
+    _ENGINE["ready"] = True
