@@ -624,6 +624,9 @@ def build_parser():
     from femb.cli_sweep import add_parser as add_sweep_parser
 
     add_sweep_parser(sub)
+    from femb.cli_cache import add_parser as add_cache_parser
+
+    add_cache_parser(sub, _Parser)
     return p
 
 

@@ -1,0 +1,115 @@
+"""femb's compile cache: build it ahead of time, show it, clear it.
+
+femb compiles two things, once each, and keeps the machine code on disk
+(:func:`femb.jit.cache_dir`, ``$FEMB_CACHE_DIR``; default ``~/.cache/femb``):
+
+* the **engine** (:mod:`femb.step`: Newton iteration, LU, error estimate,
+  consistent start, time loop, gather/scatter of the element batches), shared by
+  every model;
+* the **kernels of each element type** (:func:`femb.kernels.compiled_kernel`),
+  built-in or the user's own, each for its role's one signature.
+
+Entries live in ``<cache>/numba/<module>-<key>``; the key hashes the source files
+the code depends on and the numba, llvmlite, numpy and Python versions, and each
+entry records the CPU it was compiled for (numba's index), so one cache on a
+shared file system serves machines with different CPUs (each compiles its own
+entries once; ``NUMBA_CPU_NAME=generic`` makes the entries portable instead).
+"""
+from __future__ import annotations
+
+import importlib
+import inspect
+import pkgutil
+import shutil
+import time
+from pathlib import Path
+
+from femb.jit import cache_dir
+
+
+def builtin_element_types():
+    """Every element type of :mod:`femb.elements` that has compiled kernels, sorted by name."""
+    import femb.elements as pkg
+    seen = {}
+    for info in pkgutil.iter_modules(pkg.__path__):
+        mod = importlib.import_module(f"{pkg.__name__}.{info.name}")
+        for _, cls in inspect.getmembers(mod, inspect.isclass):
+            ks = getattr(cls, "kernels", None)
+            if isinstance(ks, dict) and ks and cls.__module__.startswith(pkg.__name__):
+                seen[f"{cls.__module__}.{cls.__qualname__}"] = cls
+    return [seen[k] for k in sorted(seen)]
+
+
+def build(progress=True, stream=None):
+    """Compile the engine and the kernels of every built-in element type (or load them).
+
+    For a Docker image, a cluster node or CI: afterwards no built-in mechanism compiles.
+
+    Returns
+    -------
+    dict
+        ``{"engine_s": float, "kernels": int, "kernels_s": float, "total_s": float}``.
+    """
+    import sys
+
+    from femb import kernels, step
+    from femb.io.progress import progress as bar
+    out = sys.stderr if stream is None else stream
+    t0 = time.perf_counter()
+    step.ensure_engine(verbose=progress)
+    t1 = time.perf_counter()
+    todo = [(cls, role, fn) for cls in builtin_element_types()
+            for role, fn in cls.kernels.items() if role in ("mass", "force", "constraint", "rates")]
+    n = 0
+    pb = bar(len(todo), desc="femb cache build: kernels", enabled=progress)
+    for cls, role, fn in todo:
+        kernels.compiled_kernel(cls.__name__, role, fn)
+        n += 1
+        pb.update(1)
+    pb.close()
+    kernels._fresh.clear()
+    t2 = time.perf_counter()
+    if progress:
+        print(f"femb cache build: engine {t1 - t0:.1f} s, {n} kernels {t2 - t1:.1f} s, in {cache_dir()}",
+              file=out, flush=True)
+    return {"engine_s": t1 - t0, "kernels": n, "kernels_s": t2 - t1, "total_s": t2 - t0}
+
+
+def info():
+    """Where the cache is, its size and what is in it.
+
+    Returns
+    -------
+    dict
+        ``{"path": str, "bytes": int, "entries": [(name, files, bytes), ...]}``: one entry per
+        compiled module and source key (``step-<key>`` is the engine).
+    """
+    root = cache_dir()
+    entries = []
+    total = 0
+    base = root / "numba"
+    if base.is_dir():
+        for d in sorted(p for p in base.iterdir() if p.is_dir()):
+            files = [f for f in d.rglob("*") if f.is_file()]
+            size = sum(f.stat().st_size for f in files)
+            total += size
+            entries.append((d.name, len(files), size))
+    for f in root.rglob("*"):
+        if f.is_file() and base not in f.parents:
+            total += f.stat().st_size
+    return {"path": str(root), "bytes": total, "entries": entries}
+
+
+def clear():
+    """Delete everything in the cache directory; returns the number of bytes freed."""
+    root = cache_dir()
+    size = info()["bytes"]
+    for p in list(Path(root).iterdir()):
+        if p.is_dir():
+            shutil.rmtree(p, ignore_errors=True)
+        else:
+            try:
+                p.unlink()
+            except OSError:
+                pass
+    return size
