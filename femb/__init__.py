@@ -13,6 +13,7 @@ from femb.model import Model, State
 from femb.result import Result
 from femb.initial import consistent_initial_state
 from femb.solver import GeneralizedAlphaSolver, simulate
+from femb.checks import JacobianReport, check_jacobians
 
 __version__ = "0.1.0"
 
@@ -21,6 +22,7 @@ __all__ = [
     "simulate", "consistent_initial_state", "FembError", "ModelError", "ParameterError",
     "InitializationError", "SolverError", "ConvergenceError", "SingularMatrixError", "OutputError",
     "ParameterWarning", "AccuracyWarning", "InitialMoveWarning", "RedundantConstraintWarning", "sweep",
+    "check_jacobians", "JacobianReport",
 ]
 
 

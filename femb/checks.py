@@ -1,0 +1,202 @@
+"""Checks of element kernels against finite differences on the configuration manifold.
+
+:func:`check_jacobians` compares every Jacobian a model's kernels return (∂f/∂x,
+∂f/∂v, B = Φ_x, H = ∂(Bᵀλ)/∂x, Φ_t, γ) with central differences of the kernels'
+own outputs, perturbing the model's coordinates as the time loop does:
+x ∘ exp(εw) (additive coordinates x + εw; rotations R exp(εw̃), in body axes).
+A sign error in a Jacobian only slows Newton down, and a damping force whose
+type does not declare ``force_depends_on_qd`` is silently left out of the
+iteration matrix: neither shows in the results. Run this on every element type
+you write (``docs/kernels.md``).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from femb import kernels as K
+
+
+@dataclass
+class JacobianCheck:
+    """One compared Jacobian: element type, batch, role, what, relative error, verdict."""
+    element_type: str
+    batch: str
+    what: str
+    error: float
+    scale: float
+    ok: bool
+    note: str = ""
+
+
+@dataclass
+class JacobianReport:
+    """The result of :func:`check_jacobians`: one :class:`JacobianCheck` per Jacobian and batch."""
+    checks: list = field(default_factory=list)
+    rtol: float = 1e-6
+
+    @property
+    def ok(self):
+        return all(c.ok for c in self.checks)
+
+    @property
+    def failures(self):
+        return [c for c in self.checks if not c.ok]
+
+    def __str__(self):
+        rows = [f"{'element type':<24s} {'batch':<20s} {'Jacobian':<28s} {'rel. error':>10s}  verdict"]
+        for c in self.checks:
+            rows.append(f"{c.element_type:<24s} {c.batch[:20]:<20s} {c.what:<28s} {c.error:10.2e}  "
+                        f"{'ok' if c.ok else 'WRONG'}{(' — ' + c.note) if c.note else ''}")
+        rows.append("all Jacobians agree with finite differences" if self.ok else
+                    f"{len(self.failures)} Jacobian(s) disagree with finite differences (rtol = {self.rtol:g})")
+        return "\n".join(rows)
+
+    __repr__ = __str__
+
+
+def _rel(A, B):
+    scale = max(float(np.max(np.abs(A), initial=0.0)), float(np.max(np.abs(B), initial=0.0)))
+    if scale == 0.0:
+        return 0.0, 0.0
+    return float(np.max(np.abs(A - B))) / scale, scale
+
+
+def check_jacobians(model, state=None, t=None, rtol=1e-5, eps=None, seed=0, perturb=True):
+    """Compare every kernel Jacobian of ``model`` with central finite differences.
+
+    Parameters
+    ----------
+    model : femb.model.Model
+    state : femb.model.State, optional
+        Where to check (default: the initial state, moved by a small random
+        increment so that no Jacobian vanishes by symmetry, with random
+        velocities and multipliers).
+    t : float, optional
+        Time of the check (default the state's).
+    rtol : float
+        Largest accepted ``max|J − J_fd| / max(|J|, |J_fd|)``.
+    eps : float, optional
+        Finite-difference step (default 1e-6 times the model's length scale for
+        coordinates, 1e-6 for times).
+    seed : int
+        Seed of the random state.
+    perturb : bool
+        Move the state randomly (default True).
+
+    Returns
+    -------
+    JacobianReport
+        ``report.ok``; ``print(report)`` lists every check; ``report.failures``.
+    """
+    rng = np.random.default_rng(seed)
+    st = model.initial_state() if state is None else state
+    t = float(st.t if t is None else t)
+    q = np.array(st.q, dtype=float)
+    L = float(getattr(model, "length_scale", 1.0) or 1.0)
+    nv = model.nq
+    if perturb:
+        d = rng.uniform(-1.0, 1.0, nv) * 0.05 * L
+        for _, vs in getattr(model, "rot_blocks", np.zeros((0, 2), dtype=int)):
+            d[vs:vs + 3] = rng.uniform(-0.3, 0.3, 3)
+        q = model.compose(q, d)
+    qd = rng.uniform(-1.0, 1.0, nv) if perturb or state is None else np.array(st.qd, dtype=float)
+    lam = rng.uniform(-1.0, 1.0, model.nc)
+    h = (1e-6 * L) if eps is None else float(eps)
+    report = JacobianReport(rtol=rtol)
+
+    def gather(group, qq, vv):
+        return model.ext(qq)[group.xdofs], model.ext_velocity(vv)[group.dofs]
+
+    def columns(group, fun, what, wrt):
+        """FD of fun(q or v) per free global coordinate, mapped to the element columns."""
+        dofs = group.dofs
+        nel, nd = dofs.shape
+        f0 = fun(q, qd)
+        J = np.zeros(f0.shape + (nd,))
+        for d_ in np.unique(dofs[dofs < nv]):
+            e_ = np.zeros(nv)
+            e_[d_] = 1.0
+            if wrt == "x":
+                step = h if (getattr(model, "xmap", None) is None or model.xmap[d_] >= 0) else 1e-6
+                fp_, fm_ = fun(model.compose(q, step * e_), qd), fun(model.compose(q, -step * e_), qd)
+            else:
+                step = 1e-6
+                fp_, fm_ = fun(q, qd + step * e_), fun(q, qd - step * e_)
+            col = (fp_ - fm_) / (2.0 * step)
+            for e in range(nel):
+                hits = np.nonzero(dofs[e] == d_)[0]
+                if hits.size:
+                    J[e, ..., hits[0]] = col[e]
+        return J
+
+    def free_cols(group, A):
+        mask = group.dofs < nv
+        return np.where(mask[:, None, :], A, 0.0) if A.ndim == 3 else A
+
+    def add(group, what, A, B, note=""):
+        err, scale = _rel(free_cols(group, A), free_cols(group, B))
+        ok = err <= rtol
+        report.checks.append(JacobianCheck(group.cls.__name__, group.name, what, err, scale, ok,
+                                           note if not ok else ""))
+
+    for g in model.force_groups:
+        xe, ve = gather(g, q, qd)
+        fe, fq, fv = K.force(g, t, xe, ve, jac=True, raw=True)
+
+        def f_of(qq, vv, g=g):
+            x_, v_ = gather(g, qq, vv)
+            return K.force(g, t, x_, v_, jac=False)[0]
+
+        add(g, "force: df/dx (fq)", fq, columns(g, f_of, "fq", "x"),
+            "the force kernel's fq disagrees with finite differences of fe")
+        fd_v = columns(g, f_of, "fv", "v")
+        if g.traits.get("force_depends_on_qd", False):
+            add(g, "force: df/dv (fv)", fv, fd_v, "the force kernel's fv disagrees with finite differences of fe")
+        else:
+            err, scale = _rel(free_cols(g, fd_v), np.zeros_like(fd_v))
+            big = float(np.max(np.abs(free_cols(g, fd_v)), initial=0.0))
+            fscale = max(float(np.max(np.abs(fe), initial=0.0)), 1e-300)
+            ok = big <= rtol * max(fscale, 1.0)
+            report.checks.append(JacobianCheck(
+                g.cls.__name__, g.name, "force: depends on v?", big / max(fscale, 1.0), big, ok,
+                "" if ok else "the force depends on the velocities but the element type does not declare "
+                              "force_depends_on_qd = True: its damping is left out of the iteration matrix"))
+    for g in model.constraint_groups:
+        xe, ve = gather(g, q, qd)
+        le = lam[g.lam]
+        Phi, B, H = K.constraint(g, t, xe, le, jac=True)
+
+        def phi_of(qq, vv, g=g):
+            x_, _ = gather(g, qq, vv)
+            return K.constraint(g, t, x_, None, jac=False)[0]
+
+        def btl_of(qq, vv, g=g, le=le):
+            x_, _ = gather(g, qq, vv)
+            _, B_, _ = K.constraint(g, t, x_, le, jac=False)
+            return np.einsum("ejd,ej->ed", B_, le)
+
+        add(g, "constraint: dPhi/dx (B)", B, columns(g, phi_of, "B", "x"),
+            "the constraint kernel's B disagrees with finite differences of Phi")
+        add(g, "constraint: d(B^T lam)/dx (H)", H, columns(g, btl_of, "H", "x"),
+            "the constraint kernel's H disagrees with finite differences of B^T lam")
+        Pt, gam = K.rates(g, t, xe, ve)
+        ht = 1e-6 * max(1.0, abs(t))
+        Pp = K.constraint(g, t + ht, xe, None, jac=False)[0]
+        Pm = K.constraint(g, t - ht, xe, None, jac=False)[0]
+        add(g, "rates: dPhi/dt (Phi_t)", Pt, (Pp - Pm) / (2.0 * ht),
+            "the rates kernel's Phi_t disagrees with finite differences of Phi in t")
+
+        def psi(s, g=g):
+            # ψ(s) = B(x(s), t + s) v + Φ_t(x(s), t + s) along x(s) = x ∘ exp(s v): dψ/ds = γ
+            qs = model.compose(q, s * qd)
+            x_, v_ = gather(g, qs, qd)
+            _, B_, _ = K.constraint(g, t + s, x_, None, jac=False)
+            Pt_, _ = K.rates(g, t + s, x_, v_)
+            return np.einsum("ejd,ed->ej", B_, v_) + Pt_
+
+        hs = 1e-5
+        add(g, "rates: gamma", gam, (psi(hs) - psi(-hs)) / (2.0 * hs),
+            "the rates kernel's gam disagrees with d/dt (B v + Phi_t) along the motion")
+    return report
