@@ -368,8 +368,8 @@ def numba_cache_dir():
         _warn_unwritable(os.environ.get("FEMB_CACHE_DIR") or "directory", e)
         return None
     if not os.access(d, os.W_OK):
+        # read-only (a shared, prebuilt cache): its entries load, new code compiles in memory
         _warn_unwritable(str(d), "permission denied")
-        return None
     return d
 
 

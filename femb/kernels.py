@@ -112,10 +112,11 @@ def compiled_kernel(owner, role, fn, boundscheck=None):
     opts["boundscheck"] = debug
     disp = use_cache(numba.njit(**opts)(py), extra=f"{sorted(opts.items())}")
     args = sig.args
-    fresh = not is_cached(disp, args)
     t0 = time.perf_counter()
     try:
-        with compile_lock("kernels"):
+        # one process compiles, the others wait for the lock and load its cache entry
+        with compile_lock(f"kernel-{py.__module__}.{py.__qualname__}"):
+            fresh = not is_cached(disp, args)
             disp.compile(args)
     except numba.core.errors.NumbaError as e:
         first = str(e).strip().splitlines()

@@ -31,7 +31,7 @@ import warnings
 import numpy as np
 
 from femb.alpha import GeneralizedAlpha
-from femb.errors import SINGULAR_HINT_DIVERGED, ConvergenceError, ParameterError, SingularMatrixError
+from femb.errors import SINGULAR_HINT_DIVERGED, ConvergenceError, ModelError, ParameterError, SingularMatrixError
 from femb.initial import consistent_initial_state, singular_hint  # noqa: F401  (re-exported)
 from femb.jit import pack
 from femb.model import State
@@ -484,15 +484,35 @@ class GeneralizedAlphaSolver:
         m = 0
         while True:
             k = int(self.si[0]) - before
-            status = cp.mod.run(cp.G, cp.C, self.ip, self.fp, self.si, self.sf, self.stats_arr,
-                                self.q, self.qd, self.qdd, self.lam, self.a, self.pqdd, self.plam,
-                                cp.tfv, self.AB, self.ipiv, self.r, self.Phi, self.rhs, self.x, self.info, self.W,
-                                n_chunk - k, bt[m:], bq[m:], bqd[m:], bqdd[m:], bl[m:], bh[k:], bit[k:], berr[k:])
+            try:
+                status = cp.mod.run(cp.G, cp.C, self.ip, self.fp, self.si, self.sf, self.stats_arr,
+                                    self.q, self.qd, self.qdd, self.lam, self.a, self.pqdd, self.plam,
+                                    cp.tfv, self.AB, self.ipiv, self.r, self.Phi, self.rhs, self.x, self.info,
+                                    self.W, n_chunk - k, bt[m:], bq[m:], bqd[m:], bqdd[m:], bl[m:], bh[k:],
+                                    bit[k:], berr[k:])
+            except IndexError as exc:      # a kernel's bounds check (FEMB_DEBUG=1)
+                raise self._kernel_bounds_error(exc) from None
             m += int(self.si[3])
             if status == 2:                      # Python time functions needed at info[0]
                 self._fill_python_tf(float(self.info[0]))
                 continue
             return status, m, int(self.si[0]) - before
+
+    def _kernel_bounds_error(self, exc):
+        """The ModelError of an index out of bounds in a kernel during the run: which element type."""
+        from femb import kernels as _k
+        t = float(self.sf[2])
+        n = int(self.si[0]) + 1
+        model = self.model
+        xq, xv = model.ext(self.q), model.ext_velocity(self.qd)
+        h = float(self.sf[3]) if self.adaptive else float(self.h)
+        for tt in (t, t + h):
+            for g in model.groups:
+                try:
+                    _k.contract_check(g, xq[g.xdofs], xv[g.dofs], t=tt)
+                except ModelError as e:
+                    return ModelError(f"{e} (during the run, near t = {tt:.6g} s, step {n})")
+        return ModelError(f"a kernel indexed an array out of bounds near t = {t:.6g} s (step {n}): {exc}")
 
     def raise_status(self, status):
         """Raise the femb error of a negative status of the compiled loop."""

@@ -1,0 +1,184 @@
+"""femb's compile cache: what it is keyed on, several processes at once, an unwritable directory."""
+import os
+import shutil
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
+
+import pytest
+
+from femb import jit
+
+
+USER_MODULE = textwrap.dedent('''
+    import numpy as np
+    from femb.element import Element
+    from femb.jit import kernel
+    from {helpers} import stiffness
+
+
+    @kernel
+    def pull_force(P, t, tf, xe, ve, jac, fe, fq, fv):
+        for e in range(xe.shape[0]):
+            k = stiffness(P[e, 0])
+            fe[e, 0] = -k * xe[e, 0]
+            fe[e, 1] = -k * xe[e, 1]
+            if jac:
+                fq[e, 0, 0] = -k
+                fq[e, 1, 1] = -k
+
+
+    class Pull(Element):
+        has_force = True
+        kernels = {{"force": pull_force}}
+
+        def __init__(self, name, body, k):
+            super().__init__(name)
+            self.body, self.k = body, float(k)
+
+        def resolve(self, lookup):
+            self.body = lookup(self.body, "body")
+
+        def nodes(self):
+            return [self.body.node]
+
+        @classmethod
+        def pack(cls, elements):
+            return {{"P": np.array([[e.k] for e in elements], dtype=float).reshape(-1, 1)}}
+''')
+
+HELPERS = textwrap.dedent('''
+    from femb.jit import kernel
+
+
+    @kernel
+    def stiffness(k):
+        return {factor} * k
+''')
+
+RUN = textwrap.dedent('''
+    import sys
+    sys.path.insert(0, {folder!r})
+    import femb
+    from femb.elements import RigidBody
+    from {module} import Pull
+    m = femb.Mechanism("pull")
+    b = m.add(RigidBody("b", mass=1.0, inertia=0.1, position=(0.1, 0.0)))
+    m.add(Pull("pull", b, 40.0))
+    r = femb.simulate(m.compile(), t_end=0.05, h=1e-3)
+    print("x =", r.body("b")[-1, 0])
+''')
+
+
+def _write_user_package(folder, tag, factor=1.0):
+    folder = Path(folder)
+    folder.mkdir(parents=True, exist_ok=True)
+    (folder / f"helpers_{tag}.py").write_text(HELPERS.format(factor=factor))
+    (folder / f"user_{tag}.py").write_text(USER_MODULE.format(helpers=f"helpers_{tag}"))
+    (folder / "unrelated.py").write_text("X = 1\n")
+    return folder
+
+
+def _import_fresh(folder, name):
+    import importlib
+    sys.path.insert(0, str(folder))
+    try:
+        for mod in [m for m in sys.modules if m.startswith(("user_", "helpers_"))]:
+            del sys.modules[mod]
+        importlib.invalidate_caches()
+        return importlib.import_module(name)
+    finally:
+        sys.path.remove(str(folder))
+
+
+def test_the_key_follows_the_kernels_own_files_and_not_unrelated_ones(tmp_path):
+    folder = _write_user_package(tmp_path / "pkg", "a")
+    mod = _import_fresh(folder, "user_a")
+    key0 = jit.source_key(mod.pull_force.py_func)
+    files = {Path(f).name for f in jit.dependency_files(mod.pull_force.py_func)}
+    assert {"user_a.py", "helpers_a.py"} <= files
+    assert "unrelated.py" not in files
+    # an edit of an unrelated file beside the kernel: same key
+    (folder / "unrelated.py").write_text("X = 2  # edited\n")
+    jit._file_hashes.clear()
+    assert jit.source_key(_import_fresh(folder, "user_a").pull_force.py_func) == key0
+    # an edit of the helper the kernel calls (another file): a new key
+    (folder / "helpers_a.py").write_text(HELPERS.format(factor=2.0))
+    jit._file_hashes.clear()
+    assert jit.source_key(_import_fresh(folder, "user_a").pull_force.py_func) != key0
+
+
+def test_the_key_does_not_depend_on_the_user_or_the_cache_location(tmp_path, monkeypatch):
+    from femb import step
+    key = jit.source_key(step.run.py_func)
+    monkeypatch.setenv("HOME", str(tmp_path))
+    monkeypatch.setenv("USER", "somebody-else")
+    monkeypatch.setenv("FEMB_CACHE_DIR", str(tmp_path / "elsewhere"))
+    assert jit.source_key(step.run.py_func) == key
+
+
+def _engine_only_cache(dst):
+    """A cache directory holding this process's compiled engine only (no kernels)."""
+    from femb import step
+    step.ensure_engine(verbose=False)
+    src = jit.cache_dir() / "numba"
+    (dst / "numba").mkdir(parents=True)
+    for d in src.iterdir():
+        if d.is_dir() and d.name.startswith("step-"):
+            shutil.copytree(d, dst / "numba" / d.name)
+    return dst
+
+
+def _env(cache):
+    env = dict(os.environ, FEMB_CACHE_DIR=str(cache))
+    env.pop("FEMB_DEBUG", None)
+    return env
+
+
+def test_two_processes_compile_a_new_kernel_once_and_both_run(tmp_path):
+    cache = _engine_only_cache(tmp_path / "cache")
+    folder = _write_user_package(tmp_path / "pkg", "b")
+    script = RUN.format(folder=str(folder), module="user_b")
+    procs = [subprocess.Popen([sys.executable, "-c", script], env=_env(cache), stdout=subprocess.PIPE,
+                              stderr=subprocess.PIPE, text=True) for _ in range(2)]
+    outs = [p.communicate(timeout=600) for p in procs]
+    for p, (out, err) in zip(procs, outs):
+        assert p.returncode == 0, err
+        assert "x =" in out
+        assert "compiling the engine" not in err      # the engine came from the cache
+    compiled = [err for _, err in outs if "compiled" in err and "Pull" in err]
+    assert len(compiled) == 1, [e for _, e in outs]
+    assert outs[0][0] == outs[1][0]
+    # a third process loads everything: nothing compiles
+    out = subprocess.run([sys.executable, "-c", script], env=_env(cache), capture_output=True, text=True,
+                         timeout=600)
+    assert out.returncode == 0 and "compiled" not in out.stderr, out.stderr
+
+
+def test_an_unwritable_cache_runs_in_memory_with_one_warning(tmp_path):
+    blocker = tmp_path / "a-file"
+    blocker.write_text("not a directory")
+    folder = _write_user_package(tmp_path / "pkg", "c")
+    script = "import warnings\nwarnings.simplefilter('always')\n" + RUN.format(folder=str(folder), module="user_c")
+    # the engine compiles in memory here (about 20 s): the price of an unwritable cache
+    out = subprocess.run([sys.executable, "-c", script], env=_env(blocker / "cache"), capture_output=True,
+                         text=True, timeout=900)
+    assert out.returncode == 0, out.stderr
+    assert "x =" in out.stdout
+    assert out.stderr.count("CacheWarning") == 1, out.stderr
+    assert "not writable" in out.stderr
+    assert "Traceback" not in out.stderr
+
+
+@pytest.mark.skipif(jit.jit_disabled(), reason="no compilation without the JIT")
+def test_cache_commands_show_and_clear(tmp_path):
+    env = _env(_engine_only_cache(tmp_path / "cache"))
+    info = subprocess.run([sys.executable, "-m", "femb.cli", "cache", "info"], env=env, capture_output=True,
+                          text=True, timeout=300)
+    assert info.returncode == 0, info.stderr
+    assert str(tmp_path / "cache") in info.stdout and "engine: compiled" in info.stdout
+    clear = subprocess.run([sys.executable, "-m", "femb.cli", "cache", "clear"], env=env, capture_output=True,
+                           text=True, timeout=300)
+    assert clear.returncode == 0 and "cleared" in clear.stdout
+    assert not any((tmp_path / "cache").iterdir())
