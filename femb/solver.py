@@ -33,6 +33,7 @@ import numpy as np
 from femb.alpha import GeneralizedAlpha
 from femb.errors import SINGULAR_HINT_DIVERGED, ConvergenceError, ModelError, ParameterError, SingularMatrixError
 from femb.initial import consistent_initial_state, singular_hint  # noqa: F401  (re-exported)
+from femb import step as S
 from femb.jit import pack
 from femb.model import State
 from femb.result import Result
@@ -356,7 +357,7 @@ class GeneralizedAlphaSolver:
         cp = self.cp
         if cp.python_tf:
             self._fill_python_tf(t)
-        cp.mod.eval_time_functions(float(t), cp.Cv[8], cp.Cv[9], cp.Cv[10], cp.tfv)
+        cp.mod.eval_time_functions(float(t), cp.Cv[S.C_TFKIND], cp.Cv[S.C_TFOFF], cp.Cv[S.C_TFCOEF], cp.tfv)
 
     def _fill_python_tf(self, t):
         for k, fn in self.cp.python_tf:
@@ -407,9 +408,9 @@ class GeneralizedAlphaSolver:
             am_ = self._qpp(t0 - dl, cmp(q0, -dl * v0 + 0.5 * dl * dl * a0), v0 - dl * a0, KBt, kp)
             j0 = (ap - am_) / (2.0 * dl)
             # the factorization at the initial state, for re-synchronisations
-            qpp0 = self._qpp(t0, self.q, self.qd, self.Wv[12], self.Wv[14])
-            self.Wv[7][:] = qpp0
-            self.Wv[9][:] = j0
+            qpp0 = self._qpp(t0, self.q, self.qd, self.Wv[S.W_KBACC], self.Wv[S.W_KPIVACC])
+            self.Wv[S.W_QPP][:] = qpp0
+            self.Wv[S.W_JN][:] = j0
             self.si[8] = 1
             self.si[cp.mod.SI_PROJ] = 2        # that factorization serves the first re-synchronisation
             if self.adaptive:
@@ -444,7 +445,7 @@ class GeneralizedAlphaSolver:
                                               self.model.bracket(self.qd, self.qdd), Bb)
                         target = target + (h0 * h0 / 12.0) * Bb
                     cp.mod.project_normal_velocity(cp.G, cp.C, self.ip, float(t0), self.q, self.qd, target,
-                                                   self.Wv[12], self.Wv[14], self.Wv[16], self.Wv[21])
+                                                   self.Wv[S.W_KBACC], self.Wv[S.W_KPIVACC], self.Wv[S.W_KX], self.Wv[S.W_BV])
         elif not self.adaptive and self.check_every:
             pass
         if not self.adaptive:

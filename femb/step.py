@@ -44,6 +44,12 @@ C_MP, C_PERM, C_IPERM, C_W, C_WEXT, C_QFIX, C_FCONST, C_MI = 0, 1, 2, 3, 4, 5, 6
 C_TFKIND, C_TFOFF, C_TFCOEF, C_MX, C_TM, C_TFV, C_SCALE0, C_ACTIVE, C_TI, C_ENV = 8, 9, 10, 11, 12, 13, 14, 15, 16, 17
 C_TN, C_XMAP, C_ROT, C_PN, C_D, C_FL, C_PAIRS, C_TETA, C_BW, C_GGLW, C_BATCHES, C_LIE = (
     18, 19, 20, 21, 22, 23, 24, 25, 26, 27, 28, 29)
+# ---- the loop's work arrays in the pack W (femb/solver.py), by name: the accepted state, the
+# constrained accelerations and jerks, the KKT factorizations, error-estimate work, ...
+W_Q_S, W_QD_S, W_QDD_S, W_LAM_S, W_A_S, W_PQDD_S, W_PLAM_S, W_QPP = 0, 1, 2, 3, 4, 5, 6, 7
+W_QPP_NEW, W_JN, W_JNEW, W_KB, W_KBACC, W_KPIV, W_KPIVACC, W_KR = 8, 9, 10, 11, 12, 13, 14, 15
+W_KX, W_GAM, W_PT, W_ZQ, W_ZL, W_BV, W_TGT, W_EQ = 16, 17, 18, 19, 20, 21, 22, 23
+W_EV, W_ATOLV, W_WQ, W_DU, W_LK = 24, 25, 26, 27, 28
 # ---- the batch table C_BATCHES: one row per batch ------------------------------------------
 #: role of the batch (ROLE_FORCE or ROLE_CONSTRAINT), its first array in G, the count of arrays,
 #: 1 if its forces depend on q̇, the kernel addresses (force or constraint; rates)
@@ -437,8 +443,8 @@ def newton_step(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam, t1,
     gp = gamma / (h * beta)
     c = beta * h * h if fp[FP_SCALED] != 0.0 else 1.0
     ka = (1.0 - af) / (1.0 - am)
-    iperm = iview1(C, 2)
-    w = fview1(C, 3)
+    iperm = iview1(C, C_IPERM)
+    w = fview1(C, C_W)
     full = ip[IP_FULL] != 0
     tol_phi = fp[FP_PHITOL] * fp[FP_L]
     rtol = fp[FP_RTOL]
@@ -451,11 +457,11 @@ def newton_step(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam, t1,
     rho = h / h_prev if h_prev > 0.0 else 1.0
     # rotation nodes (Brüls & Cardona 2010, Algorithm 2): q = q_n ∘ exp(Δ); additive entries
     # are updated in place (as on Rⁿ), rotations rebuilt from q_n and the increment D
-    xm = iview1(C, 19)
-    rot = iview2(C, 20)
+    xm = iview1(C, C_XMAP)
+    rot = iview2(C, C_ROT)
     nrot = rot.shape[0]
-    pn = fview2(C, 21)
-    D = fview1(C, 22)
+    pn = fview2(C, C_PN)
+    D = fview1(C, C_D)
     for b in range(nrot):
         for m in range(4):
             pn[b, m] = q[rot[b, 0] + m]
@@ -554,7 +560,7 @@ def newton_step(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam, t1,
                         continue
         redo = False
         if jac:
-            if factor(AB, ip, iview2(C, 17), ipiv, fp[FP_SINGTOL]) != 0:
+            if factor(AB, ip, iview2(C, C_ENV), ipiv, fp[FP_SINGTOL]) != 0:
                 si[SI_LUVALID] = 0
                 return ST_DIVERGED_SINGULAR if k > 0 else ST_SINGULAR
             si[SI_LUVALID] = 1
@@ -566,7 +572,7 @@ def newton_step(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam, t1,
             rhs[iperm[i]] = -c * r[i]
         for j in range(nc):
             rhs[iperm[nv + j]] = -Phi[j]
-        solve(AB, ip, iview2(C, 17), ipiv, rhs)
+        solve(AB, ip, iview2(C, C_ENV), ipiv, rhs)
         stats[NS_SOLVE] += 1
         dqmax = 0.0
         qmax = 0.0
@@ -673,10 +679,10 @@ def ggl_matrix(C, ABf, sg):
     there for the constrained-acceleration solves). Kinds with rotation nodes use
     B T(D) (row 2, the blocks ``evaluate`` scattered) in the Φ rows.
     """
-    fl = iview2(C, 23)
-    pairs = iview2(C, 24)
-    tEta = iview1(C, 25)
-    Bw = fview2(C, 26)
+    fl = iview2(C, C_FL)
+    pairs = iview2(C, C_PAIRS)
+    tEta = iview1(C, C_TETA)
+    Bw = fview2(C, C_BW)
     Bn = Bw[0]
     Bq = Bw[1]
     # rotation kinds: ∂Φ(q_n ∘ exp(Δ + B_nᵀη))/∂η = B(q) T(D) B_nᵀ, with B T in row 2 of C's array 26
@@ -734,8 +740,8 @@ def newton_step_ggl(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam,
     sg = 1.0 if scaled else gp
     sr = 1.0 / gp if scaled else 1.0
     ka = (1.0 - af) / (1.0 - am)
-    iperm = iview1(C, 2)
-    w = fview1(C, 3)
+    iperm = iview1(C, C_IPERM)
+    w = fview1(C, C_W)
     full = ip[IP_FULL] != 0
     tol_phi = fp[FP_PHITOL] * fp[FP_L]
     rtol = fp[FP_RTOL]
@@ -743,11 +749,11 @@ def newton_step_ggl(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam,
     L = fp[FP_L]
     ntest = ip[IP_NTEST]
     eps = 2.220446049250313e-16
-    fl = iview2(C, 23)
-    Bw = fview2(C, 26)
+    fl = iview2(C, C_FL)
+    Bw = fview2(C, C_BW)
     Bn = Bw[0]
     Bq = Bw[1]
-    E = fview2(C, 27)
+    E = fview2(C, C_GGLW)
     eta = E[0]
     g_ = E[1]
     Pt = E[2]
@@ -759,10 +765,10 @@ def newton_step_ggl(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam,
     rho = h / h_prev if h_prev > 0.0 else 1.0
     # rotation nodes: q = q_n ∘ exp(Δ + B_nᵀη), additive entries in place, rotations from
     # p_n and the increment D (as in newton_step)
-    xm = iview1(C, 19)
-    rot = iview2(C, 20)
-    pn = fview2(C, 21)
-    D = fview1(C, 22)
+    xm = iview1(C, C_XMAP)
+    rot = iview2(C, C_ROT)
+    pn = fview2(C, C_PN)
+    D = fview1(C, C_D)
     for b in range(rot.shape[0]):
         for m in range(4):
             pn[b, m] = q[rot[b, 0] + m]
@@ -876,7 +882,7 @@ def newton_step_ggl(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam,
         redo = False
         if jac:
             ggl_matrix(C, AB, sg)
-            if factor(AB, ip, iview2(C, 17), ipiv, fp[FP_SINGTOL]) != 0:
+            if factor(AB, ip, iview2(C, C_ENV), ipiv, fp[FP_SINGTOL]) != 0:
                 si[SI_LUVALID] = 0
                 return ST_DIVERGED_SINGULAR if k > 0 else ST_SINGULAR
             si[SI_LUVALID] = 1
@@ -889,7 +895,7 @@ def newton_step_ggl(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam,
         for j in range(nc):
             rhs[iperm[nv + j]] = -Phi[j]
             rhs[iperm[nv + nc + j]] = -sr * g_[j]
-        solve(AB, ip, iview2(C, 17), ipiv, rhs)
+        solve(AB, ip, iview2(C, C_ENV), ipiv, rhs)
         stats[NS_SOLVE] += 1
         dqmax = 0.0
         qmax = 0.0
@@ -994,21 +1000,21 @@ def kkt_accelerations(G, C, ip, fp, si, sf, stats, t, q, qd, qdd, lam, h, hbar, 
     large steps) the KKT matrix is factorized, as in mode 0, until the next check.
     """
     # work arrays: views into the pack W (femb/solver.py, W_FIELDS)
-    kr = fview1(W, 15)
-    kx = fview1(W, 16)
-    gam = fview1(W, 17)
-    Pt = fview1(W, 18)
-    zq = fview1(W, 19)
-    zl = fview1(W, 20)
-    Bu = fview1(W, 21)
-    eq = fview1(W, 23)
-    ev = fview1(W, 24)
-    atolv = fview1(W, 25)
-    du = fview1(W, 27)
-    lk = fview1(W, 28)
+    kr = fview1(W, W_KR)
+    kx = fview1(W, W_KX)
+    gam = fview1(W, W_GAM)
+    Pt = fview1(W, W_PT)
+    zq = fview1(W, W_ZQ)
+    zl = fview1(W, W_ZL)
+    Bu = fview1(W, W_BV)
+    eq = fview1(W, W_EQ)
+    ev = fview1(W, W_EV)
+    atolv = fview1(W, W_ATOLV)
+    du = fview1(W, W_DU)
+    lk = fview1(W, W_LK)
     nv = ip[IP_NV]
     nc = ip[IP_NC]
-    iperm = iview1(C, 2)
+    iperm = iview1(C, C_IPERM)
     if mode != KKT_FACTOR and ip[IP_GGL] == 0 and si[SI_LUVALID] != 0:
         due = si[SI_RCOUNT] <= 0 or h > REFINE_HGROW * sf[SF_RCHECKH]
         if not due:
@@ -1021,7 +1027,7 @@ def kkt_accelerations(G, C, ip, fp, si, sf, stats, t, q, qd, qdd, lam, h, hbar, 
                 kappa = (1.0 - fp[FP_AM]) / (1.0 - fp[FP_AF])
             else:
                 kappa = (1.0 - fp[FP_AM]) / (h * h * fp[FP_BETA] * (1.0 - fp[FP_AF]))
-            active = iview1(C, 15)
+            active = iview1(C, C_ACTIVE)
             ncorr = 2 if due else 1
             for it in range(ncorr):
                 evaluate(G, C, t, q, qd, out, lk, nv < 0, 0.0, 0.0, 0.0, AB, kr, Phi)
@@ -1030,7 +1036,7 @@ def kkt_accelerations(G, C, ip, fp, si, sf, stats, t, q, qd, qdd, lam, h, hbar, 
                     kx[iperm[i]] = -kr[i]
                 for j in range(nc):
                     kx[iperm[nv + j]] = -(Bu[j] + gam[j]) / kappa if active[j] != 0 else 0.0
-                solve(AB, ip, iview2(C, 17), ipiv, kx)
+                solve(AB, ip, iview2(C, C_ENV), ipiv, kx)
                 for i in range(nv):
                     d = kappa * kx[iperm[i]]
                     du[i] = d
@@ -1046,7 +1052,7 @@ def kkt_accelerations(G, C, ip, fp, si, sf, stats, t, q, qd, qdd, lam, h, hbar, 
             for i in range(nv):
                 eq[i] = Cq * h * h * du[i]
                 ev[i] = Cv * h * h * du[i] / hbar
-            share = error_norm(ip, fp, iview1(C, 19), q, q, qd, qd, eq, ev, atolv, mode == KKT_EST_QV)
+            share = error_norm(ip, fp, iview1(C, C_XMAP), q, q, qd, qd, eq, ev, atolv, mode == KKT_EST_QV)
             if mode == KKT_EST_QV and fp[FP_EPUS] != 0.0:
                 share /= h
             si[SI_RCOUNT] = REFINE_CHECK
@@ -1056,14 +1062,14 @@ def kkt_accelerations(G, C, ip, fp, si, sf, stats, t, q, qd, qdd, lam, h, hbar, 
                 return 0
             si[SI_RMODE] = 1
     evaluate(G, C, t, q, qd, zq, zl, nv >= 0, 1.0, 0.0, 0.0, KB, kr, Phi)
-    if factor(KB, ip, iview2(C, 17), kpiv, 1e-13) != 0:
+    if factor(KB, ip, iview2(C, C_ENV), kpiv, 1e-13) != 0:
         return 1
     rates(G, C, t, q, qd, Pt, gam)
     for i in range(nv):
         kx[iperm[i]] = -kr[i]                 # r = −f with q̈ = λ = 0
     for j in range(nc):
         kx[iperm[nv + j]] = -gam[j]
-    solve(KB, ip, iview2(C, 17), kpiv, kx)
+    solve(KB, ip, iview2(C, C_ENV), kpiv, kx)
     for i in range(nv):
         out[i] = kx[iperm[i]]
     stats[NS_KKT] += 1
@@ -1079,14 +1085,14 @@ def project_normal_velocity(G, C, ip, t, q, qd, target, KB, kpiv, kx, Bv):
     """
     nv = ip[IP_NV]
     nc = ip[IP_NC]
-    iperm = iview1(C, 2)
-    active = iview1(C, 15)
+    iperm = iview1(C, C_IPERM)
+    active = iview1(C, C_ACTIVE)
     jacobian_times(G, C, t, q, qd, Bv)
     for i in range(nv):
         kx[iperm[i]] = 0.0
     for j in range(nc):
         kx[iperm[nv + j]] = target[j] - Bv[j] if active[j] != 0 else 0.0
-    solve(KB, ip, iview2(C, 17), kpiv, kx)
+    solve(KB, ip, iview2(C, C_ENV), kpiv, kx)
     for i in range(nv):
         qd[i] += kx[iperm[i]]
 
@@ -1143,35 +1149,35 @@ def run(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam, tfv, AB, ip
     Cv = fp[FP_CV]
     kexp = fp[FP_KEXP]
     delta = fp[FP_AM] - fp[FP_AF]
-    tf_kind = iview1(C, 8)
-    tf_off = iview1(C, 9)
-    tf_coef = fview1(C, 10)
+    tf_kind = iview1(C, C_TFKIND)
+    tf_off = iview1(C, C_TFOFF)
+    tf_coef = fview1(C, C_TFCOEF)
     # work arrays: views into the pack W (femb/solver.py, W_FIELDS)
-    q_s = fview1(W, 0)
-    qd_s = fview1(W, 1)
-    qdd_s = fview1(W, 2)
-    lam_s = fview1(W, 3)
-    a_s = fview1(W, 4)
-    pqdd_s = fview1(W, 5)
-    plam_s = fview1(W, 6)
-    qpp = fview1(W, 7)
-    qpp_new = fview1(W, 8)
-    jn = fview1(W, 9)
-    jnew = fview1(W, 10)
-    KB = fview1(W, 11)
-    KBacc = fview1(W, 12)
-    kpiv = iview1(W, 13)
-    kpivacc = iview1(W, 14)
-    kx = fview1(W, 16)
-    gam = fview1(W, 17)
-    Pt = fview1(W, 18)
-    Bv = fview1(W, 21)
-    tgt = fview1(W, 22)
-    eq = fview1(W, 23)
-    ev = fview1(W, 24)
-    atolv = fview1(W, 25)
-    wq = fview1(W, 26)
-    xm = iview1(C, 19)
+    q_s = fview1(W, W_Q_S)
+    qd_s = fview1(W, W_QD_S)
+    qdd_s = fview1(W, W_QDD_S)
+    lam_s = fview1(W, W_LAM_S)
+    a_s = fview1(W, W_A_S)
+    pqdd_s = fview1(W, W_PQDD_S)
+    plam_s = fview1(W, W_PLAM_S)
+    qpp = fview1(W, W_QPP)
+    qpp_new = fview1(W, W_QPP_NEW)
+    jn = fview1(W, W_JN)
+    jnew = fview1(W, W_JNEW)
+    KB = fview1(W, W_KB)
+    KBacc = fview1(W, W_KBACC)
+    kpiv = iview1(W, W_KPIV)
+    kpivacc = iview1(W, W_KPIVACC)
+    kx = fview1(W, W_KX)
+    gam = fview1(W, W_GAM)
+    Pt = fview1(W, W_PT)
+    Bv = fview1(W, W_BV)
+    tgt = fview1(W, W_TGT)
+    eq = fview1(W, W_EQ)
+    ev = fview1(W, W_EV)
+    atolv = fview1(W, W_ATOLV)
+    wq = fview1(W, W_WQ)
+    xm = iview1(C, C_XMAP)
     # a run-time 0 added to the mode constants: numba compiles a function once per literal argument
     nc0 = 0 * nc
     si[SI_STORED] = 0
@@ -1255,7 +1261,7 @@ def run(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam, tfv, AB, ip
         else:
             # fixed steps: 1e-13 relative, but never below the round-off that a chain of nv
             # coordinates accumulates in a correction (≈ √nv · c ε |q|, stepsize.md §5)
-            wC = fview1(C, 3)
+            wC = fview1(C, C_W)
             qmax_ = 0.0
             for i in range(nv):
                 j = xm[i]
@@ -1660,13 +1666,13 @@ def scatter_B(Be, tB, tBt, ABf):
 @njit(**INNER)
 def mass_residual(C, qdd, r, ABf, jac, cM):
     """r = M q̈ − f_const (constant M in CSR), M into the matrix; returns the force scale."""
-    Mp = iview1(C, 0)
-    w = fview1(C, 3)
-    fconst = fview1(C, 6)
-    Mi = iview1(C, 7)
-    Mx = fview1(C, 11)
-    tM = iview1(C, 12)
-    scale = fview1(C, 14)[0]
+    Mp = iview1(C, C_MP)
+    w = fview1(C, C_W)
+    fconst = fview1(C, C_FCONST)
+    Mi = iview1(C, C_MI)
+    Mx = fview1(C, C_MX)
+    tM = iview1(C, C_TM)
+    scale = fview1(C, C_SCALE0)[0]
     for i in range(r.shape[0]):
         s = 0.0
         for k in range(Mp[i], Mp[i + 1]):
@@ -1680,7 +1686,7 @@ def mass_residual(C, qdd, r, ABf, jac, cM):
             ABf[k] = 0.0
         for k in range(tM.shape[0]):
             ABf[tM[k]] += cM * Mx[k]
-        tI = iview1(C, 16)
+        tI = iview1(C, C_TI)
         for k in range(tI.shape[0]):
             ABf[tI[k]] = 1.0
     return scale
@@ -1695,10 +1701,10 @@ def lie_update(q, C):
     renormalised, θ = D[vs:vs+3], φ = |θ|; C's array 18 [b] = T(θ) = I − s2 θ~ + s3 θ~²
     (Brüls & Cardona 2010; femb/rotations.py for the coefficient functions).
     """
-    Tn = fview3(C, 18)
-    rot = iview2(C, 20)
-    pn = fview2(C, 21)
-    D = fview1(C, 22)
+    Tn = fview3(C, C_TN)
+    rot = iview2(C, C_ROT)
+    pn = fview2(C, C_PN)
+    D = fview1(C, C_D)
     for b in range(rot.shape[0]):
         xs = rot[b, 0]
         vs = rot[b, 1]
@@ -1742,7 +1748,7 @@ def lie_update(q, C):
 @engine(**ENTRY)
 def lie_reset(C):
     """T = I for every rotation (between steps: evaluations outside Newton use no tangent operator)."""
-    Tn = fview3(C, 18)
+    Tn = fview3(C, C_TN)
     for b in range(Tn.shape[0]):
         for r in range(3):
             for k in range(3):
@@ -1801,13 +1807,13 @@ def scatter_B_tangent(Be, tblk, Tn, cK, tB, tBt, ABf):
 @njit(**INNER)
 def restore_state(q, qd, qdd, lam, a, pqdd, plam, W):
     """Back to the accepted state saved at the start of the trial step (work arrays 0 to 6 of W)."""
-    copy_into(q, fview1(W, 0))
-    copy_into(qd, fview1(W, 1))
-    copy_into(qdd, fview1(W, 2))
-    copy_into(lam, fview1(W, 3))
-    copy_into(a, fview1(W, 4))
-    copy_into(pqdd, fview1(W, 5))
-    copy_into(plam, fview1(W, 6))
+    copy_into(q, fview1(W, W_Q_S))
+    copy_into(qd, fview1(W, W_QD_S))
+    copy_into(qdd, fview1(W, W_QDD_S))
+    copy_into(lam, fview1(W, W_LAM_S))
+    copy_into(a, fview1(W, W_A_S))
+    copy_into(pqdd, fview1(W, W_PQDD_S))
+    copy_into(plam, fview1(W, W_PLAM_S))
 
 
 @njit(**INNER)
