@@ -37,20 +37,26 @@ OPTIONS = dict(KERNEL_OPTIONS, _nrt=False)
 
 
 def kernel(fn=None, *, allocates=False, **kw):
-    """Decorator for element kernels: ``numba.njit`` with femb's options, no cache.
+    """Decorator for element kernels and their helpers: ``numba.njit`` with femb's options.
 
-    Kernels run without reference counting of arrays (as the time loop): they
+    Kernels run without reference counting of arrays (as the engine): they
     must not create arrays (tuples of floats are fine). ``allocates=True``
     compiles a function that does (e.g. the array-returning functions of
-    :mod:`femb.rotations`, called from Python); a model whose element kernels
-    allocate still runs, with the whole time loop of its kind compiled with
-    reference counting (slower; :mod:`femb.codegen`).
+    :mod:`femb.rotations`, called from Python); an element kernel that
+    allocates still runs (the engine calls it through its address), a little
+    slower. What Python calls directly is kept in femb's disk cache
+    (:func:`use_cache`); the engine uses each element kernel's own compilation
+    for its role (:func:`femb.kernels.compiled_kernel`).
     """
     opts = dict(KERNEL_OPTIONS if allocates else OPTIONS)
     opts.update(kw)
+
+    def deco(f):
+        return use_cache(numba.njit(**opts)(f), extra=str(sorted(opts.items())))
+
     if fn is None:
-        return lambda f: numba.njit(**opts)(f)
-    return numba.njit(**opts)(fn)
+        return deco
+    return deco(fn)
 
 
 def cache_dir() -> Path:
