@@ -11,7 +11,8 @@ where a fixed step of 0.04 s fails in Newton and adaptive runs pass.
 
 femb's element library has no central-force element, so this scene defines
 one, :class:`PointAttractor`, through the public element contract
-(:mod:`femb.element`): its force kernel is plain numpy.
+(:mod:`femb.element`, ``docs/kernels.md``): its force kernel is a compiled
+``@femb.jit.kernel`` function, checked by ``femb.check_jacobians``.
 
 Outputs (:func:`outputs`)
 -------------------------
