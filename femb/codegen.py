@@ -18,7 +18,7 @@ import scipy.sparse as sp
 from scipy.sparse.csgraph import reverse_cuthill_mckee
 
 from femb.errors import ModelError
-from femb import step as S
+from femb import step as _S
 from femb.jit import pack
 
 #: largest system stored densely (its LU skips zeros); larger ones always use the band storage
@@ -68,7 +68,7 @@ class Compiled:
         permuted iteration matrix.
     layout : {"index3", "index2"}
         "index2" adds nc rows and columns for the stabilized index-2 step
-        (``newton_step_ggl`` in femb/step.py): the velocity constraint rows
+        (``newton_step`` in femb/step.py, index 2): the velocity constraint rows
         (B in the q̇ columns) and the unknowns η, coupled to the Φ rows by
         B(q) B(q_n)ᵀ. Its ``evaluate`` puts the identity on the η block, so
         that the constrained-acceleration solves of the index-3 layout work
@@ -282,7 +282,7 @@ class Compiled:
             assert a.ndim == int(kind[1]) and (a.dtype.kind == "f") == (kind[0] == "f"), (k, a.dtype, a.shape)
         #: the constants as one pack (F, I, L) for the compiled code, and as numpy views (Cv[k])
         self.C, self.Cv = pack(C)
-        self.tfv = self.Cv[S.C_TFV]
+        self.tfv = self.Cv[_S.C_TFV]
         self.python_tf = tf["python"]
         from femb import step
         step.ensure_engine()
@@ -389,7 +389,7 @@ def evaluate_dense(model, state, h, alpha, scaled=True, ordering="rcm", formulat
     For checks and debugging: runs the generated ``evaluate`` once and unpacks
     the band storage into a dense (N, N) array in the model's numbering.
     ``formulation="index2"``: the matrix of the stabilized index-2 step
-    (``newton_step_ggl``), N = nq + 2 nc, with the state's q as both q_n and
+    (``newton_step``, index 2), N = nq + 2 nc, with the state's q as both q_n and
     the iterate.
 
     Returns
@@ -403,7 +403,7 @@ def evaluate_dense(model, state, h, alpha, scaled=True, ordering="rcm", formulat
     nv, N = model.nq, cp.N
     for k, fn in cp.python_tf:
         cp.tfv[k] = (fn.f(state.t), fn.df(state.t), fn.ddf(state.t))
-    cp.mod.eval_time_functions(float(state.t), cp.Cv[S.C_TFKIND], cp.Cv[S.C_TFOFF], cp.Cv[S.C_TFCOEF], cp.tfv)
+    cp.mod.eval_time_functions(float(state.t), cp.Cv[_S.C_TFKIND], cp.Cv[_S.C_TFOFF], cp.Cv[_S.C_TFCOEF], cp.tfv)
     bp, gp = alpha.newton_factors(h)
     c = alpha.beta * h * h if scaled else 1.0
     AB = np.zeros(cp.storage_size)
@@ -413,11 +413,11 @@ def evaluate_dense(model, state, h, alpha, scaled=True, ordering="rcm", formulat
     scale = cp.mod.evaluate(cp.G, cp.C, float(state.t), _f64(state.q), _f64(state.qd), _f64(state.qdd),
                             _f64(state.lam), True, c * bp, c * gp, c, AB, r, Phi)
     if formulation == "index2":
-        Bw = cp.Cv[S.C_BW]
+        Bw = cp.Cv[_S.C_BW]
         cp.mod.constraint_B(cp.G, cp.C, float(state.t), _f64(state.q), _f64(state.qd), Bw[0])
         cp.mod.copy_B(cp.G, cp.C, Bw[1])
         cp.mod.ggl_matrix(cp.C, AB, 1.0 if scaled else gp)
-    perm = cp.Cv[S.C_PERM]
+    perm = cp.Cv[_S.C_PERM]
     S = np.zeros((N, N))
     if cp.dense:
         S[np.ix_(perm, perm)] = AB.reshape(N, N)

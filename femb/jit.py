@@ -52,6 +52,9 @@ def kernel(fn=None, *, allocates=False, **kw):
     opts.update(kw)
 
     def deco(f):
+        if jit_disabled():
+            f.py_func = f        # plain Python: the same attribute as a dispatcher's
+            return f
         return use_cache(numba.njit(**opts)(f), extra=str(sorted(opts.items())))
 
     if fn is None:

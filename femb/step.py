@@ -402,105 +402,76 @@ def eval_time_functions(t, kind, off, coef, tfv):
 @njit(**INNER)
 def newton_step(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam, t1, h, h_prev,
                 AB, ipiv, r, Phi, rhs, x, info, wq):
-    """One step of Algorithm 1 (Arnold & Brüls 2007) from t1 − h to t1, in place.
+    """One step t1 − h → t1 of the generalized-α scheme, in place: index 3 or stabilized index 2.
 
-    On success the arrays q, qd, qdd, lam, a hold the new step and the number of
-    Newton iterations is returned (≥ 0). A negative return is a status code;
-    ``info`` then holds (t1, ‖r_q‖, ‖Φ‖, iteration, index of the largest |Φ_i|,
-    tolerance of r_q, tolerance of Φ).
+    **Index 3** (``ip[IP_GGL] == 0``): Algorithm 1 of Arnold & Brüls (2007), Newton on
+    (Δq, Δλ) for r_q(q, q̇, q̈, λ) = 0 and Φ(q, t) = 0 at t_{n+1}, with the scaled iteration
+    matrix [[c(Mβ' + C_tγ' + K_t), Bᵀ], [B, 0]] (c = βh², β' = (1 − α_m)/(h²β(1 − α_f)),
+    γ' = γ/(hβ); Bottasso, Dopico & Trainelli 2008).
 
-    Two stopping rules (``ip[IP_NTEST]``):
+    **Stabilized index 2** (``ip[IP_GGL] != 0``): Gear, Gupta & Leimkuhler (1985) with the
+    generalized-α discretization of Arnold & Brüls (2007, §5): with the Newmark increment
+    Δ = h q̇_n + h²(½ − β) a_n + h²β a_{n+1} and nc more unknowns η,
 
-    0. residual (the seed reproduction's rule): ‖W r_q‖∞ ≤ rtol·F + atol and
-       ‖Φ‖∞ ≤ phi_tol·L, with at least ``min_iter`` corrections and a round-off
-       floor on the correction;
-    1. correction (default, stepsize.md §5): after each correction Δq,
-       max_i |Δq_i|/wq_i ≤ 1 in q units and ‖β'Δq‖∞ ≤ 1e-8(1 + ‖q̈‖∞) +
-       c ε (1 + ‖q‖∞) β' in acceleration units, where ``wq`` is the q tolerance
-       per coordinate; the iteration matrix of the first iterate is reused while
-       Newton contracts (θ = ‖Δ_k‖/‖Δ_{k−1}‖ < 0.5), an iterate is accepted early
-       once θ/(1 − θ)·‖Δ_k‖ passes the same tests, and Newton gives up when θ ≥ 1
-       twice for corrections of freshly factored matrices. The matrix is also refreshed when the frozen iteration would still
-       need more than ``NEWTON_FROZEN_MAX`` corrections at the observed rate θ
-       (n = log((1 − θ)/‖Δ_k‖)/log θ, the estimate of Hairer & Wanner, *Solving
-       ODEs II*, §IV.8): a stiff beam at a large step contracts at θ ≈ 0.46 with
-       a frozen matrix and in three iterations with fresh ones. The Φ test of rule 0 must hold at the last evaluated iterate,
-       except for the first correction of a step, accepted without a second evaluation when
-       η₀·‖Δ₁‖ ≤ 1 with the contraction estimate η₀ carried over from the previous steps
-       (:func:`newton_first_accept`, Hairer & Wanner's Radau5 test).
+        q_{n+1} = q_n + Δ + B(q_n)ᵀ η,   q̇_{n+1}, q̈_{n+1} from Δ as in Algorithm 1,
+        r_q(q_{n+1}, q̇_{n+1}, q̈_{n+1}, λ) = 0,  Φ(q_{n+1}, t) = 0,  B(q_{n+1}) q̇_{n+1} + Φ_t = 0.
+
+    Newton on (δΔ, δλ, δη) with the scaled matrix
+
+        [ c(Mβ' + C_tγ' + K_t)   Bᵀ   0      ]   [δΔ     ]     [ c r_q    ]
+        [ B                      0    B B_nᵀ ] · [δλ / c ] = − [ Φ        ]
+        [ B                      0    0      ]   [δη     ]     [ g / γ'   ]
+
+    (g = B q̇ + Φ_t; unscaled runs: c = 1 and the velocity rows γ'B, g). It drops
+    c K_t B_nᵀ (O(h²)) and ∂(B q̇)/∂q (O(h) after the row scaling): Newton converges
+    linearly at a rate O(h), to the solution of the exact equations. The constraint test
+    holds for Φ and for g/γ' (a position-sized velocity residual).
+
+    **Rotation nodes** (Lie group, docs/spatial.md §2; Brüls & Cardona 2010): q = q_n ∘ exp(D)
+    with D = Δ (+ B_nᵀη), additive entries updated in place, rotations rebuilt from q_n and D
+    (:func:`lie_update`); B T(D) in the Φ rows.
+
+    Stopping rules (``ip[IP_NTEST]``), :func:`correction_test`: 0 the residual rule of the seed
+    reproduction, 1 the correction rule (default, stepsize.md §5).
+
+    Returns
+    -------
+    int
+        Newton iterations (≥ 0) on success, then q, qd, qdd, lam, a hold the new step; a
+        negative status code otherwise, with ``info`` = (t1, ‖r_q‖, ‖Φ‖, iteration, index of
+        the largest |Φ_i|, tolerance of r_q, tolerance of Φ).
     """
+    ggl = ip[IP_GGL] != 0
     lie = iview1(C, C_LIE)[0] != 0
     nv = ip[IP_NV]
     nc = ip[IP_NC]
-    N = ip[IP_N]
-    kl = ip[IP_KL]
-    ku = ip[IP_KU]
-    am = fp[FP_AM]
-    af = fp[FP_AF]
     beta = fp[FP_BETA]
     gamma = fp[FP_GAMMA]
-    bp = (1.0 - am) / (h * h * beta * (1.0 - af))
+    bp = (1.0 - fp[FP_AM]) / (h * h * beta * (1.0 - fp[FP_AF]))
     gp = gamma / (h * beta)
-    c = beta * h * h if fp[FP_SCALED] != 0.0 else 1.0
-    ka = (1.0 - af) / (1.0 - am)
+    scaled = fp[FP_SCALED] != 0.0
+    c = beta * h * h if scaled else 1.0
+    sg = 1.0 if scaled else gp          # index 2: the velocity rows' factor in the matrix
+    sr = 1.0 / gp if scaled else 1.0    # and in the right-hand side
+    ka = (1.0 - fp[FP_AF]) / (1.0 - fp[FP_AM])
     iperm = iview1(C, C_IPERM)
-    w = fview1(C, C_W)
+    env = iview2(C, C_ENV)
     full = ip[IP_FULL] != 0
     tol_phi = fp[FP_PHITOL] * fp[FP_L]
     rtol = fp[FP_RTOL]
     atol = fp[FP_ATOL]
-    L = fp[FP_L]
     ntest = ip[IP_NTEST]
-    eps = 2.220446049250313e-16
-    # predictor and (3)-(5) of Algorithm 1 for that guess of (q̈_{n+1}, λ_{n+1})
-    pred = ip[IP_PRED]
-    rho = h / h_prev if h_prev > 0.0 else 1.0
-    # rotation nodes (Brüls & Cardona 2010, Algorithm 2): q = q_n ∘ exp(Δ); additive entries
-    # are updated in place (as on Rⁿ), rotations rebuilt from q_n and the increment D
-    xm = iview1(C, C_XMAP)
-    rot = iview2(C, C_ROT)
-    nrot = rot.shape[0]
-    pn = fview2(C, C_PN)
-    D = fview1(C, C_D)
-    for b in range(nrot):
-        for m in range(4):
-            pn[b, m] = q[rot[b, 0] + m]
-    for i in range(nv):
-        a_base = (af * qdd[i] - am * a[i]) / (1.0 - am)
-        if pred == 0:
-            g = 0.0
-            a_pred = a_base
-        else:
-            if pred == 2 and si[SI_HASPREV] != 0:
-                g = (1.0 + rho) * qdd[i] - rho * pqdd[i]
-            else:
-                g = qdd[i]
-            a_pred = a_base + ka * g
-        pqdd[i] = qdd[i]
-        # x[:nv] keeps a_base until the step is accepted (eq. (3) needs it)
-        x[i] = a_base
-        qd_new = qd[i] + (h * (1.0 - gamma)) * a[i] + (h * gamma) * a_pred
-        j = xm[i]
-        if j >= 0:
-            q[j] = q[j] + h * qd[i] + (h * h * (0.5 - beta)) * a[i] + (h * h * beta) * a_pred
-        else:
-            D[i] = h * qd[i] + (h * h * (0.5 - beta)) * a[i] + (h * h * beta) * a_pred
-        qd[i] = qd_new
-        qdd[i] = g
-    if lie:
-        lie_update(q, C)
-    for j in range(nc):
-        if pred == 0:
-            g = 0.0
-        elif pred == 2 and si[SI_HASPREV] != 0:
-            g = (1.0 + rho) * lam[j] - rho * plam[j]
-        else:
-            g = lam[j]
-        plam[j] = lam[j]
-        lam[j] = g
+    E = fview2(C, C_GGLW)            # index 2: η, g, Φ_t, γ
+    Bn = fview2(C, C_BW)[0]          # index 2: B(q_n), flat element blocks
+    if ggl:
+        # B(q_n) for the step (time functions at t_{n+1}: they are evaluated before the step)
+        constraint_B(G, C, t1, q, qd, Bn)
+    predict(C, ip, fp, si, q, qd, qdd, lam, a, pqdd, plam, x, h, h_prev, lie)
+    if ggl:
+        zero1(E[0])
     F_ref = sf[SF_FREF]
-    # correction rule: the contraction estimate carried over from the previous step
-    eta0 = newton_rate_start(sf) if ntest != 0 else -1.0
+    # correction rule, index 3: the contraction estimate carried over from the previous step
+    eta0 = newton_rate_start(sf) if (ntest != 0 and not ggl) else -1.0
     theta_first = -1.0
     prev_norm = -1.0
     theta_prev_bad = 0
@@ -520,20 +491,12 @@ def newton_step(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam, t1,
             jac = not have_lu
         scale = evaluate(G, C, t1, q, qd, qdd, lam, jac, c * bp, c * gp, c, AB, r, Phi)
         stats[NS_EVAL] += 1
+        if ggl:
+            velocity_residual(G, C, t1, q, qd, jac, lie, E[1])
         if not redo:
             F = scale if scale > F_ref else F_ref
-            err_f = 0.0
-            for i in range(nv):
-                v = abs(r[i] * w[i])
-                if not (v <= err_f):
-                    err_f = v if v == v else math.inf
-            err_phi = 0.0
-            iphi = -1
-            for j in range(nc):
-                v = abs(Phi[j])
-                if not (v <= err_phi):
-                    err_phi = v if v == v else math.inf
-                    iphi = j
+            err_f = residual_norm(r, fview1(C, C_W))
+            err_phi, iphi = constraint_norm(Phi, E[1], gp, ggl)
             info[0] = t1
             info[1] = err_f
             info[2] = err_phi
@@ -560,7 +523,9 @@ def newton_step(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam, t1,
                         continue
         redo = False
         if jac:
-            if factor(AB, ip, iview2(C, C_ENV), ipiv, fp[FP_SINGTOL]) != 0:
+            if ggl:
+                ggl_matrix(C, AB, sg)
+            if factor(AB, ip, env, ipiv, fp[FP_SINGTOL]) != 0:
                 si[SI_LUVALID] = 0
                 return ST_DIVERGED_SINGULAR if k > 0 else ST_SINGULAR
             si[SI_LUVALID] = 1
@@ -572,90 +537,313 @@ def newton_step(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam, t1,
             rhs[iperm[i]] = -c * r[i]
         for j in range(nc):
             rhs[iperm[nv + j]] = -Phi[j]
-        solve(AB, ip, iview2(C, C_ENV), ipiv, rhs)
+        if ggl:
+            for j in range(nc):
+                rhs[iperm[nv + nc + j]] = -sr * E[1][j]
+        solve(AB, ip, env, ipiv, rhs)
         stats[NS_SOLVE] += 1
-        dqmax = 0.0
-        qmax = 0.0
-        dqw = 0.0          # max |Δq_i| / wq_i
-        qddmax = 0.0
-        inv_c = 1.0 / c
-        for i in range(nv):
-            dq = rhs[iperm[i]]
-            j = xm[i]
-            if j >= 0:
-                q[j] += dq
-                if abs(q[j]) > qmax:
-                    qmax = abs(q[j])
-            else:
-                D[i] += dq
-            qd[i] += gp * dq
-            qdd[i] += bp * dq
-            if abs(dq) > dqmax:
-                dqmax = abs(dq)
-            if abs(qdd[i]) > qddmax:
-                qddmax = abs(qdd[i])
-            v = abs(dq) / wq[i]
-            if v > dqw:
-                dqw = v
-        if lie:
-            lie_update(q, C)
-        for j in range(nc):
-            lam[j] += rhs[iperm[nv + j]] * inv_c
+        if ggl:
+            dqmax, qmax, dqw, qddmax = apply_correction_ggl(C, ip, q, qd, qdd, lam, rhs, wq, bp, gp, c, lie)
+        else:
+            dqmax, qmax, dqw, qddmax = apply_correction(C, ip, q, qd, qdd, lam, rhs, wq, bp, gp, c, lie)
         k += 1
         if ntest == 0:
             # round-off floor: a correction at the level of the coordinates' own round-off
             # cannot improve the iterate (stiff elements nearly at rest)
             if (err_phi <= tol_phi and err_f <= 1e4 * (rtol * F + atol)
-                    and dqmax <= fp[FP_XTOL] * (qmax + L)):
+                    and dqmax <= fp[FP_XTOL] * (qmax + fp[FP_L])):
                 stats[NS_ROUNDOFF] += 1
                 break
         else:
-            # the correction in q units (dqw ≤ 1) and in acceleration units
-            acc_tol = 1e-8 * (1.0 + qddmax) + fp[FP_NEWTC] * eps * (1.0 + qmax) * bp * math.sqrt(max(1.0, nv / 100.0))
-            acc_ratio = bp * dqmax / acc_tol
-            size = max(dqw, acc_ratio)
-            if k == 1 and k >= ip[IP_MINIT] and newton_first_accept(eta0, size, err_phi / tol_phi, jac):
+            action, size, theta = correction_test(ip, fp, k, jac, dqmax, qmax, dqw, qddmax, bp, eta0, prev_norm,
+                                                  err_phi / tol_phi, theta_prev_bad)
+            if theta_first < 0.0 and theta >= 0.0:
+                theta_first = theta
+            if action == NT_ROUNDOFF:
+                stats[NS_ROUNDOFF] += 1
                 break
-            if prev_norm > 0.0:
-                theta = size / prev_norm
-                if theta_first < 0.0:
-                    theta_first = theta
-                if theta > 0.5 and size <= 1e3 and err_phi <= tol_phi and k >= ip[IP_MINIT]:
-                    # the corrections stopped contracting within a factor 1e3 of the tolerance:
-                    # round-off of the linear solve (large stiff models), not divergence
-                    stats[NS_ROUNDOFF] += 1
-                    break
-                if theta >= 1.0:
-                    # a growing correction of a frozen matrix only says the matrix is stale;
-                    # Newton gives up when corrections of fresh matrices grow twice
-                    if jac:
-                        theta_prev_bad += 1
-                    if theta_prev_bad >= 2:
-                        info[3] = k
-                        return ST_MAXITER
-                    have_lu = False          # diverging: refresh the iteration matrix
-                elif theta > 0.5:
-                    have_lu = False          # slow contraction: refresh the iteration matrix
-                elif theta > 0.0 and size > 1.0:
-                    # iterations the frozen matrix still needs at this rate (θ^n·size/(1−θ) ≤ 1);
-                    # a fresh matrix converges quadratically in two or three
-                    n_pred = math.log((1.0 - theta) / size) / math.log(theta)
-                    if n_pred > NEWTON_FROZEN_MAX or k + n_pred > maxit:
-                        have_lu = False
-                if theta < 1.0 and theta / (1.0 - theta) * size <= 1.0 and err_phi <= tol_phi \
-                        and k >= ip[IP_MINIT]:
-                    break
-            if size <= 1.0 and err_phi <= tol_phi and k >= max(ip[IP_MINIT], 1):
+            if action == NT_ACCEPT:
                 break
+            if action == NT_FAIL:
+                info[3] = k
+                return ST_MAXITER
+            if theta >= 1.0 and jac:
+                theta_prev_bad += 1
+            if action == NT_REFRESH:
+                have_lu = False          # slow or no contraction: refresh the iteration matrix
             prev_norm = size
     for i in range(nv):
         a[i] = x[i] + ka * qdd[i]
     if F > F_ref:
         sf[SF_FREF] = F
-    if ntest != 0:
+    if ntest != 0 and not ggl:
         newton_rate_end(sf, eta0, theta_first)
     si[SI_HASPREV] = 1
     return k
+
+
+# ---- the parts of a Newton step ---------------------------------------------------------------
+#: actions of the correction rule (:func:`correction_test`)
+NT_CONTINUE, NT_ACCEPT, NT_ROUNDOFF, NT_REFRESH, NT_FAIL = 0, 1, 2, 3, 4
+
+
+@njit(**INNER)
+def predict(C, ip, fp, si, q, qd, qdd, lam, a, pqdd, plam, x, h, h_prev, lie):
+    """The predictor and (3)–(5) of Algorithm 1 (Arnold & Brüls 2007) for it, in place.
+
+    q̈ and λ are guessed (``ip[IP_PRED]``: 0 zero, 1 previous, 2 extrapolated from the last
+    two steps, scaled to the step ratio); a, q̇ and q follow from the Newmark formulas
+    (rotations: q_n ∘ exp(D), the quaternions p_n saved in C's ``C_PN``). ``x[:nv]`` keeps
+    a_base = (α_f q̈_n − α_m a_n)/(1 − α_m) until the step is accepted (eq. (3) needs it).
+    """
+    nv = ip[IP_NV]
+    nc = ip[IP_NC]
+    am = fp[FP_AM]
+    af = fp[FP_AF]
+    beta = fp[FP_BETA]
+    gamma = fp[FP_GAMMA]
+    ka = (1.0 - af) / (1.0 - am)
+    pred = ip[IP_PRED]
+    rho = h / h_prev if h_prev > 0.0 else 1.0
+    xm = iview1(C, C_XMAP)
+    rot = iview2(C, C_ROT)
+    pn = fview2(C, C_PN)
+    D = fview1(C, C_D)
+    for b in range(rot.shape[0]):
+        for m in range(4):
+            pn[b, m] = q[rot[b, 0] + m]
+    for i in range(nv):
+        a_base = (af * qdd[i] - am * a[i]) / (1.0 - am)
+        if pred == 0:
+            g = 0.0
+            a_pred = a_base
+        else:
+            if pred == 2 and si[SI_HASPREV] != 0:
+                g = (1.0 + rho) * qdd[i] - rho * pqdd[i]
+            else:
+                g = qdd[i]
+            a_pred = a_base + ka * g
+        pqdd[i] = qdd[i]
+        x[i] = a_base
+        qd_new = qd[i] + (h * (1.0 - gamma)) * a[i] + (h * gamma) * a_pred
+        j = xm[i]
+        if j >= 0:
+            q[j] = q[j] + h * qd[i] + (h * h * (0.5 - beta)) * a[i] + (h * h * beta) * a_pred
+        else:
+            D[i] = h * qd[i] + (h * h * (0.5 - beta)) * a[i] + (h * h * beta) * a_pred
+        qd[i] = qd_new
+        qdd[i] = g
+    if lie:
+        lie_update(q, C)
+    for j in range(nc):
+        if pred == 0:
+            g = 0.0
+        elif pred == 2 and si[SI_HASPREV] != 0:
+            g = (1.0 + rho) * lam[j] - rho * plam[j]
+        else:
+            g = lam[j]
+        plam[j] = lam[j]
+        lam[j] = g
+
+
+@njit(**INNER)
+def velocity_residual(G, C, t1, q, qd, jac, lie, g):
+    """Index 2: g = B(q) q̇ + Φ_t, from the blocks the last ``evaluate`` left (rotation nodes:
+    ``evaluate`` left B T(D) when it built the matrix, kept for :func:`ggl_matrix`, and B itself
+    comes from the kernels)."""
+    fl = iview2(C, C_FL)
+    Bw = fview2(C, C_BW)
+    Bq = Bw[1]
+    E = fview2(C, C_GGLW)
+    if lie:
+        if jac:
+            copy_B(G, C, Bw[2])
+        constraint_B(G, C, t1, q, qd, Bq)
+    else:
+        copy_B(G, C, Bq)
+    rates(G, C, t1, q, qd, E[2], E[3])
+    for j in range(g.shape[0]):
+        g[j] = E[2][j]
+    for kk in range(fl.shape[0]):
+        cj = fl[kk, 0]
+        if cj >= 0:
+            g[cj] += Bq[kk] * qd[fl[kk, 1]]
+
+
+@njit(**INNER)
+def residual_norm(r, w):
+    """‖W r_q‖∞ (moments divided by the length scale); inf if not finite."""
+    err = 0.0
+    for i in range(r.shape[0]):
+        v = abs(r[i] * w[i])
+        if not (v <= err):
+            err = v if v == v else math.inf
+    return err
+
+
+@njit(**INNER)
+def constraint_norm(Phi, g, gp, ggl):
+    """(‖Φ‖∞, index of the largest |Φ_j|); index 2: each row's larger of |Φ_j| and |g_j|/γ'."""
+    err = 0.0
+    iphi = -1
+    for j in range(Phi.shape[0]):
+        v = abs(Phi[j])
+        if ggl:
+            vg = abs(g[j]) / gp
+            if vg > v or not (vg == vg):
+                v = vg
+        if not (v <= err):
+            err = v if v == v else math.inf
+            iphi = j
+    return err, iphi
+
+
+@njit(**INNER)
+def apply_correction(C, ip, q, qd, qdd, lam, rhs, wq, bp, gp, c, lie):
+    """Index 3: q ∘ exp(Δq), q̇ += γ'Δq, q̈ += β'Δq, λ += Δλ/c from the solved ``rhs``.
+
+    Returns (max |Δq_i|, max |q_i| of additive entries, max |Δq_i|/wq_i, max |q̈_i|).
+    """
+    nv = ip[IP_NV]
+    nc = ip[IP_NC]
+    iperm = iview1(C, C_IPERM)
+    xm = iview1(C, C_XMAP)
+    D = fview1(C, C_D)
+    dqmax = 0.0
+    qmax = 0.0
+    dqw = 0.0
+    qddmax = 0.0
+    for i in range(nv):
+        dq = rhs[iperm[i]]
+        j = xm[i]
+        if j >= 0:
+            q[j] += dq
+            if abs(q[j]) > qmax:
+                qmax = abs(q[j])
+        else:
+            D[i] += dq
+        qd[i] += gp * dq
+        qdd[i] += bp * dq
+        if abs(dq) > dqmax:
+            dqmax = abs(dq)
+        if abs(qdd[i]) > qddmax:
+            qddmax = abs(qdd[i])
+        v = abs(dq) / wq[i]
+        if v > dqw:
+            dqw = v
+    if lie:
+        lie_update(q, C)
+    inv_c = 1.0 / c
+    for j in range(nc):
+        lam[j] += rhs[iperm[nv + j]] * inv_c
+    return dqmax, qmax, dqw, qddmax
+
+
+@njit(**INNER)
+def apply_correction_ggl(C, ip, q, qd, qdd, lam, rhs, wq, bp, gp, c, lie):
+    """Index 2: λ += δλ/c, η += δη, q̇ += γ'δΔ, q̈ += β'δΔ, q ∘ exp(δΔ + B_nᵀδη).
+
+    Returns as :func:`apply_correction` (the q̇/q̈ increments measured on δΔ, the q ones on δq).
+    """
+    nv = ip[IP_NV]
+    nc = ip[IP_NC]
+    iperm = iview1(C, C_IPERM)
+    xm = iview1(C, C_XMAP)
+    D = fview1(C, C_D)
+    fl = iview2(C, C_FL)
+    Bn = fview2(C, C_BW)[0]
+    eta = fview2(C, C_GGLW)[0]
+    dqmax = 0.0
+    qmax = 0.0
+    dqw = 0.0
+    qddmax = 0.0
+    inv_c = 1.0 / c
+    for j in range(nc):
+        lam[j] += rhs[iperm[nv + j]] * inv_c
+        eta[j] += rhs[iperm[nv + nc + j]]
+    for i in range(nv):
+        dD = rhs[iperm[i]]
+        qd[i] += gp * dD
+        qdd[i] += bp * dD
+        if abs(dD) > dqmax:
+            dqmax = abs(dD)
+        if abs(qdd[i]) > qddmax:
+            qddmax = abs(qdd[i])
+    # δq = δΔ + B_nᵀ δη, accumulated in rhs's Δ entries (their values are used above)
+    for kk in range(fl.shape[0]):
+        cj = fl[kk, 0]
+        if cj >= 0:
+            rhs[iperm[fl[kk, 1]]] += Bn[kk] * rhs[iperm[nv + nc + cj]]
+    for i in range(nv):
+        dq = rhs[iperm[i]]
+        j = xm[i]
+        if j >= 0:
+            q[j] += dq
+            if abs(q[j]) > qmax:
+                qmax = abs(q[j])
+        else:
+            D[i] += dq
+        v = abs(dq) / wq[i]
+        if v > dqw:
+            dqw = v
+    if lie:
+        lie_update(q, C)
+    return dqmax, qmax, dqw, qddmax
+
+
+@njit(**INNER)
+def correction_test(ip, fp, k, jac, dqmax, qmax, dqw, qddmax, bp, eta0, prev_norm, phi_ratio, theta_prev_bad):
+    """The correction rule (stepsize.md §5) after correction k: what Newton does next.
+
+    The correction is measured in q units (max_i |Δq_i|/wq_i) and in acceleration units
+    (‖β'Δq‖∞ against 1e-8(1 + ‖q̈‖∞) + c ε (1 + ‖q‖∞) β'); ``size`` is the larger. An
+    iterate is accepted once the size is ≤ 1, or early once θ/(1 − θ)·size passes (θ the
+    contraction rate), or at the first correction when η₀·size ≤ 1 with the rate η₀
+    carried from the previous steps (:func:`newton_first_accept`, Hairer & Wanner's Radau5
+    test); always with the constraints within tolerance (``phi_ratio`` ≤ 1). The matrix is
+    refreshed when the corrections contract slowly (θ > 0.5), grow (θ ≥ 1; Newton gives up
+    when corrections of fresh matrices grow twice), or when the frozen iteration would still
+    need more than ``NEWTON_FROZEN_MAX`` corrections at the observed rate
+    (n = log((1 − θ)/size)/log θ, Hairer & Wanner, *Solving ODEs II*, §IV.8).
+
+    Returns
+    -------
+    (action, size, theta)
+        ``NT_ACCEPT``, ``NT_ROUNDOFF`` (accepted: the corrections stopped contracting within
+        a factor 1e3 of the tolerance, round-off of the linear solve), ``NT_FAIL``,
+        ``NT_REFRESH`` (go on with a fresh matrix) or ``NT_CONTINUE``; the size of the
+        correction; θ (−1 at the first correction).
+    """
+    nv = ip[IP_NV]
+    minit = ip[IP_MINIT]
+    eps = 2.220446049250313e-16
+    acc_tol = 1e-8 * (1.0 + qddmax) + fp[FP_NEWTC] * eps * (1.0 + qmax) * bp * math.sqrt(max(1.0, nv / 100.0))
+    size = max(dqw, bp * dqmax / acc_tol)
+    if k == 1 and k >= minit and newton_first_accept(eta0, size, phi_ratio, jac):
+        return NT_ACCEPT, size, -1.0
+    theta = -1.0
+    action = NT_CONTINUE
+    if prev_norm > 0.0:
+        theta = size / prev_norm
+        if theta > 0.5 and size <= 1e3 and phi_ratio <= 1.0 and k >= minit:
+            return NT_ROUNDOFF, size, theta
+        if theta >= 1.0:
+            if theta_prev_bad + (1 if jac else 0) >= 2:
+                return NT_FAIL, size, theta
+            action = NT_REFRESH
+        elif theta > 0.5:
+            action = NT_REFRESH
+        elif theta > 0.0 and size > 1.0:
+            # iterations the frozen matrix still needs at this rate (θ^n·size/(1−θ) ≤ 1);
+            # a fresh matrix converges quadratically in two or three
+            n_pred = math.log((1.0 - theta) / size) / math.log(theta)
+            if n_pred > NEWTON_FROZEN_MAX or k + n_pred > ip[IP_MAXIT]:
+                action = NT_REFRESH
+        if theta < 1.0 and theta / (1.0 - theta) * size <= 1.0 and phi_ratio <= 1.0 and k >= minit:
+            return NT_ACCEPT, size, theta
+    if size <= 1.0 and phi_ratio <= 1.0 and k >= max(minit, 1):
+        return NT_ACCEPT, size, theta
+    return action, size, theta
 
 
 @njit(**INNER)
@@ -695,283 +883,6 @@ def ggl_matrix(C, ABf, sg):
             ABf[fl[k, 2]] += sg * Bq[k]
     for p in range(pairs.shape[0]):
         ABf[pairs[p, 2]] += BT[pairs[p, 0]] * Bn[pairs[p, 1]]
-
-
-@njit(**INNER)
-def newton_step_ggl(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam, t1, h, h_prev,
-                    AB, ipiv, r, Phi, rhs, x, info, wq):
-    """One step of the stabilized index-2 (GGL-type) generalized-α scheme, in place.
-
-    Gear, Gupta & Leimkuhler (1985) with the generalized-α discretization of
-    Arnold & Brüls (2007, §5): with the Newmark increment
-    Δ = h q̇_n + h²(½ − β) a_n + h²β a_{n+1} and nc more unknowns η,
-
-        q_{n+1} = q_n + Δ + B(q_n)ᵀ η,   q̇_{n+1}, q̈_{n+1} from Δ as in Algorithm 1,
-        r_q(q_{n+1}, q̇_{n+1}, q̈_{n+1}, λ) = 0,  Φ(q_{n+1}, t) = 0,  B(q_{n+1}) q̇_{n+1} + Φ_t = 0.
-
-    Newton on (δΔ, δλ, δη) with the scaled matrix (c = βh², γ' = γ/(hβ))
-
-        [ c(Mβ' + C_tγ' + K_t)   Bᵀ   0      ]   [δΔ     ]     [ c r_q    ]
-        [ B                      0    B B_nᵀ ] · [δλ / c ] = − [ Φ        ]
-        [ B                      0    0      ]   [δη     ]     [ g / γ'   ]
-
-    (g = B q̇ + Φ_t; unscaled runs: c = 1 and the velocity rows γ'B, g). It drops
-    c K_t B_nᵀ (O(h²)) and ∂(B q̇)/∂q (O(h) after the row scaling): Newton
-    converges linearly at a rate O(h), to the solution of the exact equations.
-    Stopping rules as :func:`newton_step`; the constraint test holds for Φ and
-    for g/γ' (a position-sized velocity residual). Returns as :func:`newton_step`.
-
-    Rotation nodes (Lie group, docs/spatial.md §2): q_{n+1} = q_n ∘ exp(Δ + B_nᵀη)
-    with B in velocity coordinates; the Φ rows get B T(D) in the Δ columns (from
-    ``evaluate``) and B T(D) B_nᵀ in the η columns, D = Δ + B_nᵀη on the rotation
-    entries. On planar kinds (``LIE`` false) this is the update above, unchanged.
-    """
-    lie = iview1(C, C_LIE)[0] != 0
-    nv = ip[IP_NV]
-    nc = ip[IP_NC]
-    am = fp[FP_AM]
-    af = fp[FP_AF]
-    beta = fp[FP_BETA]
-    gamma = fp[FP_GAMMA]
-    bp = (1.0 - am) / (h * h * beta * (1.0 - af))
-    gp = gamma / (h * beta)
-    scaled = fp[FP_SCALED] != 0.0
-    c = beta * h * h if scaled else 1.0
-    sg = 1.0 if scaled else gp
-    sr = 1.0 / gp if scaled else 1.0
-    ka = (1.0 - af) / (1.0 - am)
-    iperm = iview1(C, C_IPERM)
-    w = fview1(C, C_W)
-    full = ip[IP_FULL] != 0
-    tol_phi = fp[FP_PHITOL] * fp[FP_L]
-    rtol = fp[FP_RTOL]
-    atol = fp[FP_ATOL]
-    L = fp[FP_L]
-    ntest = ip[IP_NTEST]
-    eps = 2.220446049250313e-16
-    fl = iview2(C, C_FL)
-    Bw = fview2(C, C_BW)
-    Bn = Bw[0]
-    Bq = Bw[1]
-    E = fview2(C, C_GGLW)
-    eta = E[0]
-    g_ = E[1]
-    Pt = E[2]
-    gam = E[3]
-    nB = fl.shape[0]
-    # B(q_n) for the step (time functions at t_{n+1}: they are evaluated before the step)
-    constraint_B(G, C, t1, q, qd, Bn)
-    pred = ip[IP_PRED]
-    rho = h / h_prev if h_prev > 0.0 else 1.0
-    # rotation nodes: q = q_n ∘ exp(Δ + B_nᵀη), additive entries in place, rotations from
-    # p_n and the increment D (as in newton_step)
-    xm = iview1(C, C_XMAP)
-    rot = iview2(C, C_ROT)
-    pn = fview2(C, C_PN)
-    D = fview1(C, C_D)
-    for b in range(rot.shape[0]):
-        for m in range(4):
-            pn[b, m] = q[rot[b, 0] + m]
-    for i in range(nv):
-        a_base = (af * qdd[i] - am * a[i]) / (1.0 - am)
-        if pred == 0:
-            gi = 0.0
-            a_pred = a_base
-        else:
-            if pred == 2 and si[SI_HASPREV] != 0:
-                gi = (1.0 + rho) * qdd[i] - rho * pqdd[i]
-            else:
-                gi = qdd[i]
-            a_pred = a_base + ka * gi
-        pqdd[i] = qdd[i]
-        x[i] = a_base
-        qd_new = qd[i] + (h * (1.0 - gamma)) * a[i] + (h * gamma) * a_pred
-        j = xm[i]
-        if j >= 0:
-            q[j] = q[j] + h * qd[i] + (h * h * (0.5 - beta)) * a[i] + (h * h * beta) * a_pred
-        else:
-            D[i] = h * qd[i] + (h * h * (0.5 - beta)) * a[i] + (h * h * beta) * a_pred
-        qd[i] = qd_new
-        qdd[i] = gi
-    if lie:
-        lie_update(q, C)
-    for j in range(nc):
-        if pred == 0:
-            gj = 0.0
-        elif pred == 2 and si[SI_HASPREV] != 0:
-            gj = (1.0 + rho) * lam[j] - rho * plam[j]
-        else:
-            gj = lam[j]
-        plam[j] = lam[j]
-        lam[j] = gj
-        eta[j] = 0.0
-    F_ref = sf[SF_FREF]
-    prev_norm = -1.0
-    theta_prev_bad = 0
-    k = 0
-    maxit = ip[IP_MAXIT]
-    F = F_ref
-    have_lu = False
-    err_f = 0.0
-    err_phi = 0.0
-    redo = False
-    while True:
-        if redo:
-            jac = True
-        elif ntest == 0:
-            jac = (full and k == 0) or si[SI_LUVALID] == 0
-        else:
-            jac = not have_lu
-        scale = evaluate(G, C, t1, q, qd, qdd, lam, jac, c * bp, c * gp, c, AB, r, Phi)
-        stats[NS_EVAL] += 1
-        # the velocity constraint g = B(q) q̇ + Φ_t, from the blocks evaluate() left; rotation
-        # kinds: evaluate() left B T(D) when it built the matrix (kept for ggl_matrix), and B
-        # itself comes from the kernels
-        if lie:
-            if jac:
-                copy_B(G, C, Bw[2])
-            constraint_B(G, C, t1, q, qd, Bq)
-        else:
-            copy_B(G, C, Bq)
-        rates(G, C, t1, q, qd, Pt, gam)
-        for j in range(nc):
-            g_[j] = Pt[j]
-        for kk in range(nB):
-            cj = fl[kk, 0]
-            if cj >= 0:
-                g_[cj] += Bq[kk] * qd[fl[kk, 1]]
-        if not redo:
-            F = scale if scale > F_ref else F_ref
-            err_f = 0.0
-            for i in range(nv):
-                v = abs(r[i] * w[i])
-                if not (v <= err_f):
-                    err_f = v if v == v else math.inf
-            err_phi = 0.0
-            iphi = -1
-            for j in range(nc):
-                v = abs(Phi[j])
-                vg = abs(g_[j]) / gp
-                if vg > v or not (vg == vg):
-                    v = vg
-                if not (v <= err_phi):
-                    err_phi = v if v == v else math.inf
-                    iphi = j
-            info[0] = t1
-            info[1] = err_f
-            info[2] = err_phi
-            info[3] = k
-            info[4] = iphi
-            info[5] = rtol * F + atol
-            info[6] = tol_phi
-            if not (math.isfinite(err_f) and math.isfinite(err_phi)):
-                return ST_NONFINITE
-            if ntest == 0 and k >= ip[IP_MINIT] and err_f <= rtol * F + atol and err_phi <= tol_phi:
-                break
-            if k == maxit:
-                return ST_MAXITER
-            if ntest == 0 and not jac:
-                if full:
-                    redo = True
-                    continue
-                if prev_norm >= 0.0 and si[SI_LUVALID] != 0:
-                    cur = max(err_f / max(F, 1e-300), err_phi / max(tol_phi, 1e-300))
-                    if cur > 0.25 * prev_norm:
-                        redo = True
-                        continue
-        redo = False
-        if jac:
-            ggl_matrix(C, AB, sg)
-            if factor(AB, ip, iview2(C, C_ENV), ipiv, fp[FP_SINGTOL]) != 0:
-                si[SI_LUVALID] = 0
-                return ST_DIVERGED_SINGULAR if k > 0 else ST_SINGULAR
-            si[SI_LUVALID] = 1
-            have_lu = True
-            stats[NS_FACT] += 1
-        if ntest == 0 and not full:
-            prev_norm = max(err_f / max(F, 1e-300), err_phi / max(tol_phi, 1e-300))
-        for i in range(nv):
-            rhs[iperm[i]] = -c * r[i]
-        for j in range(nc):
-            rhs[iperm[nv + j]] = -Phi[j]
-            rhs[iperm[nv + nc + j]] = -sr * g_[j]
-        solve(AB, ip, iview2(C, C_ENV), ipiv, rhs)
-        stats[NS_SOLVE] += 1
-        dqmax = 0.0
-        qmax = 0.0
-        dqw = 0.0
-        qddmax = 0.0
-        inv_c = 1.0 / c
-        for j in range(nc):
-            lam[j] += rhs[iperm[nv + j]] * inv_c
-            eta[j] += rhs[iperm[nv + nc + j]]
-        for i in range(nv):
-            dD = rhs[iperm[i]]
-            qd[i] += gp * dD
-            qdd[i] += bp * dD
-            if abs(dD) > dqmax:
-                dqmax = abs(dD)
-            if abs(qdd[i]) > qddmax:
-                qddmax = abs(qdd[i])
-        # δq = δΔ + B_nᵀ δη, accumulated in rhs's Δ entries (their values are used above)
-        for kk in range(nB):
-            cj = fl[kk, 0]
-            if cj >= 0:
-                rhs[iperm[fl[kk, 1]]] += Bn[kk] * rhs[iperm[nv + nc + cj]]
-        for i in range(nv):
-            dq = rhs[iperm[i]]
-            j = xm[i]
-            if j >= 0:
-                q[j] += dq
-                if abs(q[j]) > qmax:
-                    qmax = abs(q[j])
-            else:
-                D[i] += dq
-            v = abs(dq) / wq[i]
-            if v > dqw:
-                dqw = v
-        if lie:
-            lie_update(q, C)
-        k += 1
-        if ntest == 0:
-            if (err_phi <= tol_phi and err_f <= 1e4 * (rtol * F + atol)
-                    and dqmax <= fp[FP_XTOL] * (qmax + L)):
-                stats[NS_ROUNDOFF] += 1
-                break
-        else:
-            acc_tol = 1e-8 * (1.0 + qddmax) + fp[FP_NEWTC] * eps * (1.0 + qmax) * bp * math.sqrt(max(1.0, nv / 100.0))
-            acc_ratio = bp * dqmax / acc_tol
-            size = max(dqw, acc_ratio)
-            if prev_norm > 0.0:
-                theta = size / prev_norm
-                if theta > 0.5 and size <= 1e3 and err_phi <= tol_phi and k >= ip[IP_MINIT]:
-                    stats[NS_ROUNDOFF] += 1
-                    break
-                if theta >= 1.0:
-                    if jac:
-                        theta_prev_bad += 1
-                    if theta_prev_bad >= 2:
-                        info[3] = k
-                        return ST_MAXITER
-                    have_lu = False
-                elif theta > 0.5:
-                    have_lu = False
-                elif theta > 0.0 and size > 1.0:
-                    n_pred = math.log((1.0 - theta) / size) / math.log(theta)
-                    if n_pred > NEWTON_FROZEN_MAX or k + n_pred > maxit:
-                        have_lu = False
-                if theta < 1.0 and theta / (1.0 - theta) * size <= 1.0 and err_phi <= tol_phi \
-                        and k >= ip[IP_MINIT]:
-                    break
-            if size <= 1.0 and err_phi <= tol_phi and k >= max(ip[IP_MINIT], 1):
-                break
-            prev_norm = size
-    for i in range(nv):
-        a[i] = x[i] + ka * qdd[i]
-    if F > F_ref:
-        sf[SF_FREF] = F
-    si[SI_HASPREV] = 1
-    return k
 
 
 @engine(**ENTRY)
@@ -1271,13 +1182,8 @@ def run(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam, tfv, AB, ip
             for i in range(nv):
                 j = xm[i]
                 wq[i] = max(fp[FP_TOLQ] * ((abs(q[j]) if j >= 0 else 0.0) + fp[FP_L] * wC[i]), floor)
-        k = -1
-        if ip[IP_GGL] != 0:
-            k = newton_step_ggl(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam, t1, h,
-                                h_prev if h_prev > 0.0 else h, AB, ipiv, r, Phi, rhs, x, info, wq)
-        else:
-            k = newton_step(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam, t1, h,
-                            h_prev if h_prev > 0.0 else h, AB, ipiv, r, Phi, rhs, x, info, wq)
+        k = newton_step(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam, t1, h,
+                        h_prev if h_prev > 0.0 else h, AB, ipiv, r, Phi, rhs, x, info, wq)
         if k < 0:
             if not adaptive:
                 return k
