@@ -56,7 +56,7 @@ def build(progress=True, stream=None):
     from femb.io.progress import progress as bar
     out = sys.stderr if stream is None else stream
     t0 = time.perf_counter()
-    step.ensure_engine(verbose=progress)
+    step.ensure_engine(verbose=progress, background=False)
     t1 = time.perf_counter()
     todo = [(cls, role, fn) for cls in builtin_element_types()
             for role, fn in cls.kernels.items() if role in ("mass", "force", "constraint", "rates")]
@@ -73,6 +73,45 @@ def build(progress=True, stream=None):
         print(f"femb cache build: engine {t1 - t0:.1f} s, {n} kernels {t2 - t1:.1f} s, in {cache_dir()}",
               file=out, flush=True)
     return {"engine_s": t1 - t0, "kernels": n, "kernels_s": t2 - t1, "total_s": t2 - t0}
+
+
+def start_background_build(verbose=True):
+    """After a fresh compilation of the engine: compile the kernels of every built-in element
+    type in a background process (lower priority), so that the next mechanism, whatever its
+    element types, starts without compiling.
+
+    Once per installation (it follows the engine's first compilation). A process that needs a
+    kernel the background build is compiling waits for it (a lock per kernel) and loads it.
+    ``FEMB_BACKGROUND_BUILD=0`` turns it off (femb's test suite does); ``femb cache build``
+    does the same in the foreground.
+
+    Returns
+    -------
+    subprocess.Popen or None
+    """
+    import os
+    import subprocess
+    import sys
+
+    from femb.jit import jit_disabled, numba_cache_dir
+    if os.environ.get("FEMB_BACKGROUND_BUILD", "1") in ("0", "", "no", "off") or jit_disabled():
+        return None
+    root = numba_cache_dir()
+    if root is None or not os.access(root, os.W_OK):
+        return None
+    log = root / "background-build.log"
+    try:
+        with open(log, "w") as fh:
+            proc = subprocess.Popen([sys.executable, "-m", "femb.cache", "--background"], stdout=fh, stderr=fh,
+                                    stdin=subprocess.DEVNULL, start_new_session=True,
+                                    env=dict(os.environ, FEMB_BACKGROUND_BUILD="0"))
+    except OSError:
+        return None
+    if verbose:
+        print(f"femb: compiling the kernels of the other built-in element types in the background "
+              f"(pid {proc.pid}, log {log}); 'femb cache build' does it in the foreground",
+              file=sys.stderr, flush=True)
+    return proc
 
 
 def info():
@@ -113,3 +152,14 @@ def clear():
             except OSError:
                 pass
     return size
+
+
+if __name__ == "__main__":       # the background build (start_background_build)
+    import os
+    import sys
+    if "--background" in sys.argv:
+        try:
+            os.nice(10)
+        except OSError:
+            pass
+    build(progress=True, stream=sys.stdout)

@@ -30,13 +30,13 @@ from numba.extending import intrinsic
 from numba.np.arrayobj import make_array, populate_array
 
 #: numba options of the element kernels
-KERNEL_OPTIONS = dict(nogil=True, error_model="numpy", boundscheck=False)
+KERNEL_OPTIONS = dict(nogil=True, error_model="numpy", boundscheck=False, no_cfunc_wrapper=True)
 #: options of the time loop (femb/step.py and the generated modules): no reference counting of
 #: arrays (the loop allocates nothing; this removes atomic increments from every call)
 OPTIONS = dict(KERNEL_OPTIONS, _nrt=False)
 
 
-def kernel(fn=None, *, allocates=False, **kw):
+def kernel(fn=None, *, allocates=False, inner=False, **kw):
     """Decorator for element kernels and their helpers: ``numba.njit`` with femb's options.
 
     Kernels run without reference counting of arrays (as the engine): they
@@ -46,9 +46,14 @@ def kernel(fn=None, *, allocates=False, **kw):
     allocates still runs (the engine calls it through its address), a little
     slower. What Python calls directly is kept in femb's disk cache
     (:func:`use_cache`); the engine uses each element kernel's own compilation
-    for its role (:func:`femb.kernels.compiled_kernel`).
+    for its role (:func:`femb.kernels.compiled_kernel`). ``inner=True`` marks a helper that
+    only compiled code calls: it gets no Python wrapper (which halves the compile time of
+    helper-heavy kernels such as the spatial joints and bushings).
     """
     opts = dict(KERNEL_OPTIONS if allocates else OPTIONS)
+    if inner:
+        # called from compiled code only (kernel helpers): no Python wrapper to compile
+        opts["no_cpython_wrapper"] = True
     opts.update(kw)
 
     def deco(f):
@@ -389,6 +394,7 @@ class _FembLocator(_caching._CacheLocator):
 
     def __init__(self, py_func, py_file, key, root):
         self._lineno = py_func.__code__.co_firstlineno
+        self._py_file = py_file
         mod = Path(py_file).stem
         self._path = str(root / f"{mod}-{key}")
         self._key = key

@@ -1781,11 +1781,13 @@ def engine_signatures():
 _ENGINE = {"ready": False}
 
 
-def ensure_engine(verbose=True):
+def ensure_engine(verbose=True, background=True):
     """Compile the engine, or load it from femb's disk cache: once per installation and CPU.
 
     Several processes that need it at once compile it once (a file lock), the others load it.
-    Says so on stderr, with the time it took, when it has to compile.
+    Says so on stderr, with the time it took, when it has to compile; after a fresh compilation
+    the kernels of the built-in element types are compiled in a background process
+    (``background``; :func:`femb.cache.start_background_build`).
     """
     import sys
     import time
@@ -1807,3 +1809,6 @@ def ensure_engine(verbose=True):
         print(f"femb: engine compiled in {time.perf_counter() - t0:.1f} s, cached for later runs",
               file=sys.stderr, flush=True)
     _ENGINE["ready"] = True
+    if missing and background:
+        from femb.cache import start_background_build
+        start_background_build(verbose=verbose)
