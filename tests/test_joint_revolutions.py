@@ -33,8 +33,8 @@ from femb import Mechanism
 from femb import rotations as rt
 from femb.elements.spatial_bodies import SpatialRigidBody
 from femb.elements.spatial_forces import SpatialGravity
-from femb.elements.spatial_joints import (CylindricalJoint, DistanceJoint, DrivenRevoluteAngle, PrismaticJoint,
-                                          RevoluteJoint, joint_frame)
+from femb.elements.spatial_joints import (CylindricalJoint, DistanceJoint, DrivenRevoluteAngle, FixedJoint,
+                                          PrismaticJoint, RevoluteJoint, joint_frame)
 from femb.functions import Linear, Polynomial
 
 G = 9.81
@@ -115,13 +115,15 @@ def _check(name, got, want, tol):
     return err
 
 
-@pytest.mark.parametrize("stepping, formulation", STEPPING)
-def test_revolute_rotor_turns_and_carries_its_bearing_moments(stepping, formulation):
+@pytest.mark.parametrize("stepping, formulation, redundant",
+                         [pytest.param(*p.values, None, id=p.id) for p in STEPPING]
+                         + [pytest.param(dict(h=1e-3), "index3", "eliminate", id="h1e-3-index3-eliminate")])
+def test_revolute_rotor_turns_and_carries_its_bearing_moments(stepping, formulation, redundant):
     """Free unbalanced rotor on a revolute joint at 1 rev/s: uniform rotation, rotating bearing moments."""
     mech = Mechanism("rotor")
     rotor = _rotor(mech, "rotor", ECC, W)
     mech.add(RevoluteJoint("pin", "ground", rotor, at=P, axis=N), SpatialGravity(-G * N))
-    r = _simulate(mech, stepping, formulation)
+    r = _simulate(mech, stepping, formulation, **({"redundant": redundant} if redundant else {}))
     t = r.t
     R, x, F, M = _exact(t, W * t, np.full_like(t, W), np.zeros_like(t), ECC)
     lam = r.reaction("pin")
@@ -221,6 +223,119 @@ def test_prismatic_joint_on_a_turntable(stepping, formulation):
     _check("locks", lam[:, 2:5], -gyro[None, :], 3e-6)
     # the turntable's bearings carry the slider's moment too (table balanced, no unbalance of its own)
     _check("table locks", r.reaction("pin")[:, 3:5], np.column_stack((-M @ E[:, 0], -M @ E[:, 1])), 3e-4)
+
+
+# ---------------------------------------------------------------------------
+# the rows themselves, at every rotation about the axis (compiled kernels, no time loop)
+# ---------------------------------------------------------------------------
+def _pair(rng, joint):
+    """Two bodies in random poses and ``joint(a, b, at, axis)`` between them, resolved and validated."""
+    mech = Mechanism("rows")
+    a = mech.add(SpatialRigidBody("A", 1.0, (1.0, 2.0, 2.5), position=rng.standard_normal(3),
+                                  rotation=rt.quat_exp(rng.uniform(-3.0, 3.0) * rng.standard_normal(3))))
+    b = mech.add(SpatialRigidBody("B", 2.0, (1.0, 1.5, 2.0), position=rng.standard_normal(3),
+                                  rotation=rt.quat_exp(rng.uniform(-3.0, 3.0) * rng.standard_normal(3))))
+    at, axis = rng.standard_normal(3), rng.standard_normal(3)
+    j = joint(a, b, at, axis)
+    j.resolve(lambda ref, role: mech[ref] if isinstance(ref, str) else ref)
+    j.validate()
+    return j, at
+
+
+def _turned(j, at, theta, rng):
+    """(r_a, p_a, r_b, p_b) with b turned by theta about the joint axis through ``at``, a in a new pose."""
+    Q0 = rt.expm(np.ascontiguousarray(rng.standard_normal(3)))     # a rigid motion of the whole pair
+    s0 = rng.standard_normal(3)
+    Q = rt.expm(np.ascontiguousarray(theta * j.E[:, 2]))
+    out = []
+    for node, turn in ((j.a.node, np.eye(3)), (j.b.node, Q)):
+        x = Q0 @ (at + turn @ (node.q0[:3] - at)) + s0
+        R = Q0 @ turn @ node.rotation0
+        out.append(np.concatenate((x, rt.matrix_to_quat(np.ascontiguousarray(R)))))
+    return np.concatenate(out)[None], Q0
+
+
+def _rows(j, x, lam, t=0.0):
+    nc = j.n_constraints
+    fns = type(j).time_functions(j)
+    tf = np.array([[[fn.f(t), fn.df(t), fn.ddf(t)] for fn in fns]]).reshape(1, len(fns), 3)
+    Phi, B, H = np.zeros((1, nc)), np.zeros((1, nc, 12)), np.zeros((1, 12, 12))
+    j.kernels["constraint"](type(j).pack([j])["P"], t, tf, x, np.atleast_2d(lam), False, Phi, B, H)
+    return Phi[0], B[0]
+
+
+ANGLES = np.concatenate((np.arange(-8, 9) * math.pi / 2, np.linspace(-7.0, 7.0, 57)))
+
+
+@pytest.mark.parametrize("kind", ["revolute", "cylindrical"])
+def test_axis_locks_are_independent_and_give_the_bearing_moments_at_every_angle(kind):
+    """At every rotation of b about the axis (multiples of 90° included, several turns) the rows of the
+    joint hold, B has full rank with its smallest singular value bounded away from zero, and the
+    generalized force −Bᵀλ of the two locks is the moment −λ_1 u1 − λ_2 u2 on b."""
+    rng = np.random.default_rng(20)
+    if kind == "revolute":
+        j, at = _pair(rng, lambda a, b, at, axis: RevoluteJoint("hinge", a, b, at=at, axis=axis))
+        locks = [3, 4]
+    else:
+        j, at = _pair(rng, lambda a, b, at, axis: CylindricalJoint("sleeve", a, b, at=at, axis=axis))
+        locks = [2, 3]
+    smin = []
+    for theta in ANGLES:
+        x, Q0 = _turned(j, at, theta, rng)
+        lam = np.zeros(j.n_constraints)
+        lam[locks] = rng.standard_normal(2)
+        Phi, B = _rows(j, x, lam)
+        np.testing.assert_allclose(Phi, 0.0, atol=1e-13)
+        smin.append(np.linalg.svd(B, compute_uv=False)[-1])
+        Rb = rt.quat_to_matrix(np.ascontiguousarray(x[0, 10:14]))
+        f = -B.T @ lam
+        u = Q0 @ j.E                                            # u1, u2, u3 in space (a's axes turned by Q0)
+        np.testing.assert_allclose(f[6:9], 0.0, atol=1e-14)     # the locks apply a pure moment
+        np.testing.assert_allclose(Rb @ f[9:12], -lam[locks[0]] * u[:, 0] - lam[locks[1]] * u[:, 1], atol=1e-13)
+        # per unit λ, the locks' moments on b are −u1, −u2 at every angle: orthonormal, never dependent
+        G = np.array([Rb @ (-B[k, 9:12]) for k in locks])
+        np.testing.assert_allclose(G, -u[:, :2].T, atol=1e-13)
+    # full rank at every angle (the earlier locks: smallest singular value 0 at ±90°)
+    assert min(smin) > 0.5, min(smin)
+
+
+def test_driven_angle_row_is_independent_of_the_locks_at_every_angle():
+    """Revolute + driven angle (θ* = θ) stacked: 6 independent rows at every angle, the drive's gradient ±u3."""
+    rng = np.random.default_rng(21)
+    j, at = _pair(rng, lambda a, b, at, axis: RevoluteJoint("hinge", a, b, at=at, axis=axis))
+    drives = []
+    for theta in ANGLES:
+        d = DrivenRevoluteAngle("motor", j.a, j.b, Linear(1.0), at=at, axis=j.E[:, 2], axis1=j.E[:, 0])
+        d.validate()
+        x, Q0 = _turned(j, at, theta, rng)
+        _, Bj = _rows(j, x, np.zeros(5))
+        Phi_d, Bd = _rows(d, x, np.zeros(1), t=theta)         # θ*(t) = t = θ: the drive holds
+        assert abs(Phi_d[0]) < 1e-13
+        drives.append(np.linalg.svd(np.vstack((Bj, Bd)), compute_uv=False)[-1])
+        Rb = rt.quat_to_matrix(np.ascontiguousarray(x[0, 10:14]))
+        np.testing.assert_allclose(Rb @ (-Bd[0, 9:12]), -(Q0 @ j.E[:, 2]), atol=1e-13)   # moment −λē3 on b, λ = 1
+    assert min(drives) > 0.2, min(drives)
+
+
+@pytest.mark.parametrize("kind", ["prismatic", "fixed"])
+def test_locked_rotation_rows_are_the_frame_orthogonality_triad(kind):
+    """Prismatic and fixed joints: at the reference the three locks are −u2·w3, u1·w3, u2·w1 with the
+    independent gradients −u1, −u2, −u3 (the moment on b is −Σ λ_k u_k), for any pose of the pair."""
+    rng = np.random.default_rng(22)
+    cls = PrismaticJoint if kind == "prismatic" else FixedJoint
+    j, at = _pair(rng, lambda a, b, at, axis: cls("weld", a, b, at=at, axis=axis))
+    locks = [2, 3, 4] if kind == "prismatic" else [3, 4, 5]
+    for _ in range(5):
+        x, Q0 = _turned(j, at, 0.0, rng)
+        lam = np.zeros(j.n_constraints)
+        lam[locks] = rng.standard_normal(3)
+        Phi, B = _rows(j, x, lam)
+        np.testing.assert_allclose(Phi, 0.0, atol=1e-13)
+        Rb = rt.quat_to_matrix(np.ascontiguousarray(x[0, 10:14]))
+        u = Q0 @ j.E
+        np.testing.assert_allclose(Rb @ (-B.T @ lam)[9:12], -u @ lam[locks], atol=1e-13)
+        G = np.array([Rb @ (-B[k, 9:12]) for k in locks])     # the moment on b per unit λ_k: −u_k
+        np.testing.assert_allclose(G, -u.T, atol=1e-13)
 
 
 # ---------------------------------------------------------------------------
