@@ -437,6 +437,7 @@ class SphericalJoint(SpatialPairElement):
 
     n_constraints = 3
     constraint_names = ("x", "y", "z")
+    constraint_units = ("N", "N", "N")
     kernels = JOINT_KERNELS
 
     def program(self):
@@ -487,6 +488,7 @@ class RevoluteJoint(SpatialPairElement):
 
     n_constraints = 5
     constraint_names = ("x", "y", "z", "lock_1", "lock_2")
+    constraint_units = ("N", "N", "N", "N·m", "N·m")
     kernels = JOINT_KERNELS
 
     def program(self):
@@ -514,6 +516,7 @@ class UniversalJoint(SpatialPairElement):
 
     n_constraints = 4
     constraint_names = ("x", "y", "z", "cross")
+    constraint_units = ("N", "N", "N", "N·m")
     kernels = JOINT_KERNELS
 
     def __init__(self, name, a, b, axis_a, axis_b, at=None, point_a=None, point_b=None):
@@ -554,6 +557,7 @@ class CylindricalJoint(_LineJoint):
 
     n_constraints = 4
     constraint_names = ("line_1", "line_2", "lock_1", "lock_2")
+    constraint_units = ("N", "N", "N·m", "N·m")
     kernels = JOINT_KERNELS
 
     def program(self):
@@ -573,6 +577,7 @@ class PrismaticJoint(_LineJoint):
 
     n_constraints = 5
     constraint_names = ("line_1", "line_2", "lock_1", "lock_2", "lock_3")
+    constraint_units = ("N", "N", "N·m", "N·m", "N·m")
     kernels = JOINT_KERNELS
 
     def program(self):
@@ -591,6 +596,7 @@ class FixedJoint(SpatialPairElement):
 
     n_constraints = 6
     constraint_names = ("x", "y", "z", "lock_1", "lock_2", "lock_3")
+    constraint_units = ("N", "N", "N", "N·m", "N·m", "N·m")
     kernels = JOINT_KERNELS
 
     def program(self):
@@ -612,6 +618,7 @@ class DistanceJoint(SpatialPairElement):
 
     n_constraints = 1
     constraint_names = ("length",)
+    constraint_units = ("N",)
     kernels = JOINT_KERNELS
 
     def __init__(self, name, a, b, point_a=None, point_b=None, length=None):
@@ -662,6 +669,7 @@ class DrivenRevoluteAngle(SpatialPairElement):
     n_constraints = 1
     rheonomic = True
     constraint_names = ("angle",)
+    constraint_units = ("N·m",)
     kernels = JOINT_KERNELS
 
     def __init__(self, name, a, b, angle, at=None, point_a=None, point_b=None, axis=None, axis1=None,
@@ -694,6 +702,7 @@ class DrivenPrismaticDisplacement(_LineJoint):
     n_constraints = 1
     rheonomic = True
     constraint_names = ("displacement",)
+    constraint_units = ("N",)
     kernels = JOINT_KERNELS
 
     def __init__(self, name, a, b, displacement, at=None, point_a=None, point_b=None, axis=None,

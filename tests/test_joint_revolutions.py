@@ -139,6 +139,10 @@ def test_revolute_rotor_turns_and_carries_its_bearing_moments(stepping, formulat
     react = r.reaction_at("pin")
     _check("reaction_at force", react[:, :3], F, tol["force"])
     _check("reaction_at moment", react[:, 3:], M, tol["moment"])
+    # the named outputs carry their units: forces in N, bearing moments in N·m
+    for k, (eq, unit) in enumerate(zip(("x", "y", "z", "lock_1", "lock_2"), ("N",) * 3 + ("N·m",) * 2)):
+        values, u = r.series(f"pin.{eq}")
+        assert u == unit and np.array_equal(values, lam[:, k])
 
 
 @pytest.mark.parametrize("stepping, formulation", STEPPING)
