@@ -10,18 +10,27 @@ Sign convention: M v̇ = f − Bᵀλ, Φ = 0 (Arnold & Brüls 2007). What each 
 
 * point rows (spherical, revolute, universal, fixed): Φ = p_a − p_b, λ (3) is
   the **force on body b** at the joint point, space axes, N (−λ on a);
-* rotation-lock rows u3·w2, u1·w3, u2·w1 (≈ ψ1, ψ2, ψ3, the small rotation of b
-  relative to a in joint axes): λ_k ≈ −(moment on b about joint axis k), N m;
-  exactly, the row Φ = u·w acts on b with the moment λ (u × w) (space axes);
+* rotation-lock rows −u2·w3, u1·w3 (the axis locks of the revolute,
+  cylindrical, prismatic and fixed joints, :func:`axis_locks`) and u2·w1
+  (≈ ψ1, ψ2, ψ3, the small rotation of b relative to a about the joint axes
+  ē1, ē2, ē3 carried by a): λ_k = −(moment on b about u_k = R_a ē_ak), N m,
+  exact whenever the rows hold, at every rotation about a free axis; in
+  general a row Φ = σ u·w acts on b with the moment σλ (u × w) (space axes);
 * line rows u_k·d (cylindrical, prismatic): the joint acts on b at p_b with the
   force −λ u_k (space), N;
 * distance: λ is the tension (N; positive pulls the points together);
 * driven revolute angle: λ is the driving torque, the moment on b is −λ ē3
   (space), N m; driven prismatic displacement: the force on b is −λ u3, N.
 
-Rotation-lock rows (dot products) hold only near the reference orientation
-(they also vanish at a relative half turn): enough for joints, whose relative
-rotation about the locked axes stays near zero.
+The axis locks −u2·w3 = 0, u1·w3 = 0 (the axis of b perpendicular to the two
+axes of a across the joint axis) have the gradients −u1, −u2 whatever the angle
+about the axis, so they stay independent through whole turns (the earlier pair
+u3·w2, u1·w3 lost rank at ±90°). Locks of a rotation that is not free (u2·w1 of
+the prismatic and fixed joints) only need to hold near the reference, where the
+three rows are the orthogonality conditions of the two joint frames with
+independent gradients −u1, −u2, −u3 (they also vanish at a relative half turn,
+which a joint held at the reference never reaches). docs/spatial.md,
+"Rotation locks that hold at every angle".
 
 References
 ----------
@@ -30,6 +39,9 @@ O. Brüls, A. Cardona, M. Arnold, Lie group generalized-α time integration of
 constrained flexible multibody systems, Mech. Mach. Theory 48:121–137, 2012.
 P. E. Nikravesh, Computer-Aided Analysis of Mechanical Systems, 1988, Ch. 11
 (spatial joints from dot-1 and dot-2 constraints).
+E. J. Haug, Computer-Aided Kinematics and Dynamics of Mechanical Systems, Vol. I,
+Allyn and Bacon, 1989, Sect. 9.2 (dot-1, dot-2 and parallel constraints; section
+number to be checked against the book).
 M. Arnold, O. Brüls, Convergence of the generalized-α scheme for constrained
 mechanical systems, Multibody Syst. Dyn. 18:185–202, 2007.
 """
@@ -305,7 +317,8 @@ def joint_ev(P, tf, x, lam, jac, Phi, B, H, rates, v, gam):
     """One element's rows from its row program.
 
     P = (frame (24), n, entries (n × 6)); entry = (kind, row, ia, ib, value, k):
-    POINT: 3 rows Φ = p_a − p_b; DOT1: Φ = (R_a P[ia:ia+3])·(R_b P[ib:ib+3]);
+    POINT: 3 rows Φ = p_a − p_b; DOT1: Φ = value (R_a P[ia:ia+3])·(R_b P[ib:ib+3])
+    (value = ±1: the sign that makes the row ≈ +ψ_k);
     DOT2: Φ = (R_a P[ia:ia+3])·d − value (− φ_k(t) if k ≥ 0); DISTANCE: L = value;
     DRIVEN_DOT1: ā(t) = −sin θ* ē_a1 + cos θ* ē_a2 with ē_a1 = P[ia:ia+3],
     ē_a2 = P[ia+3:ia+6], θ* = value + φ_k(t), b̄ = P[ib:ib+3].
@@ -339,7 +352,7 @@ def joint_ev(P, tf, x, lam, jac, Phi, B, H, rates, v, gam):
             continue
         c = 0.0 if rates else lam[r]
         if kind == DOT1:
-            phi, g, hv = sp.dot1(sp.vec3(P, ia), sp.vec3(P, ib), F, H, add, c, vv)
+            phi, g, hv = sp.dot1(sp.scale3(val, sp.vec3(P, ia)), sp.vec3(P, ib), F, H, add, c, vv)
         elif kind == DOT2:
             off = val + (tf[k, 0] if k >= 0 else 0.0)
             phi, g, hv = sp.dot2(sp.vec3(P, ia), off, F, H, add, c, vv)
@@ -424,25 +437,62 @@ class SphericalJoint(SpatialPairElement):
 
     n_constraints = 3
     constraint_names = ("x", "y", "z")
+    constraint_units = ("N", "N", "N")
     kernels = JOINT_KERNELS
 
     def program(self):
         return [(POINT, 0, 0, 0, 0.0, -1)]
 
 
-class RevoluteJoint(SpatialPairElement):
-    """Revolute (hinge) joint about ē3 = ``axis`` (5 rows: point; u3·w2; u1·w3).
+def axis_locks(row):
+    """Row program of the two locks that keep the axis ē3 of b parallel to ē3 of a.
 
-    λ[0:3]: force on b (space axes, N); λ[3], λ[4]: the rotation locks about
-    ē1 and ē2 (≈ −moment on b about them, N m).
+    Rows ``row``, ``row + 1``: Φ = (−u2·w3, u1·w3), the axis w3 of b perpendicular to
+    the two axes u1, u2 of a that are perpendicular to a's axis u3 (the "parallel"
+    condition as a pair of dot-1 constraints; Haug 1989, Sect. 9.2, and Nikravesh
+    1988, Ch. 11 — section numbers to be checked against the books). Their
+    gradients c = −u2 × w3 and u1 × w3 are −u1 and −u2 when w3 = u3: fixed in a and
+    perpendicular, whatever the rotation of b about the axis, so the rows are
+    independent through whole turns. Each row ≈ ψ1, ψ2 (the small rotation of b
+    relative to a about u1, u2) at every angle about the axis, and the joint acts on
+    b with the moment −λ_row u1 − λ_{row+1} u2 (exact when w3 = u3).
+
+    Parameters
+    ----------
+    row : int
+        Index of the first of the two rows in the joint's λ.
+
+    Returns
+    -------
+    list of tuple
+        Two DOT1 entries of the row program (ā = ∓ē_a2, ē_a1 scaled by the
+        entry's value σ = −1, +1; b̄ = ē_b3).
+    """
+    return [(DOT1, row, A2, B3, -1.0, -1), (DOT1, row + 1, A1, B3, 1.0, -1)]
+
+
+class RevoluteJoint(SpatialPairElement):
+    """Revolute (hinge) joint about ē3 = ``axis`` (5 rows: point; −u2·w3; u1·w3).
+
+    The two rotation locks keep the axis of b (w3 = R_b ē_b3) perpendicular to
+    the axes u1 = R_a ē_a1, u2 = R_a ē_a2 of a (see :func:`axis_locks`); they
+    stay independent at every rotation about the axis, also through many turns.
+
+    λ[0:3]: force on b at the joint point (space axes, N). λ[3], λ[4]: the
+    bearing moments, N m: the joint acts on b with the moment
+    −λ[3] u1 − λ[4] u2, i.e. λ[3] and λ[4] are minus the moment on b about the
+    joint axes ē1, ē2 carried by body a (sign as planar ``Slider``/``Clamp``:
+    each lock row ≈ the small rotation of b relative to a about that axis).
+    Exact whenever the locks hold (w3 = u3), at any angle.
     """
 
     n_constraints = 5
     constraint_names = ("x", "y", "z", "lock_1", "lock_2")
+    constraint_units = ("N", "N", "N", "N·m", "N·m")
     kernels = JOINT_KERNELS
 
     def program(self):
-        return [(POINT, 0, 0, 0, 0.0, -1), (DOT1, 3, A3, B2, 0.0, -1), (DOT1, 4, A1, B3, 0.0, -1)]
+        return [(POINT, 0, 0, 0, 0.0, -1)] + axis_locks(3)
 
 
 class UniversalJoint(SpatialPairElement):
@@ -450,8 +500,11 @@ class UniversalJoint(SpatialPairElement):
 
     Free rotations about ``axis_a`` (fixed in a) and ``axis_b`` (fixed in b),
     perpendicular at t0; the joint frame is ē1 = axis_b, ē2 = axis_a,
-    ē3 = ē1 × ē2. λ[0:3]: force on b (space axes, N); λ[3]: the cross-lock
-    (≈ −moment on b about ē3, N m).
+    ē3 = ē1 × ē2. λ[0:3]: force on b (space axes, N); λ[3]: the cross-lock: the
+    joint acts on b with the moment λ[3] (u2 × w1), u2 = R_a ē_a2, w1 = R_b ē_b1;
+    u2 × w1 is a unit vector whenever the row holds (u2 ⟂ w1), at every
+    rotation about the two free axes (−ē3 at t0), so the single lock row never
+    degenerates.
 
     Parameters
     ----------
@@ -463,6 +516,7 @@ class UniversalJoint(SpatialPairElement):
 
     n_constraints = 4
     constraint_names = ("x", "y", "z", "cross")
+    constraint_units = ("N", "N", "N", "N·m")
     kernels = JOINT_KERNELS
 
     def __init__(self, name, a, b, axis_a, axis_b, at=None, point_a=None, point_b=None):
@@ -481,7 +535,7 @@ class UniversalJoint(SpatialPairElement):
         return np.column_stack((e1, e2, np.cross(e1, e2)))
 
     def program(self):
-        return [(POINT, 0, 0, 0, 0.0, -1), (DOT1, 3, A2, B1, 0.0, -1)]
+        return [(POINT, 0, 0, 0, 0.0, -1), (DOT1, 3, A2, B1, 1.0, -1)]
 
 
 class _LineJoint(SpatialPairElement):
@@ -495,49 +549,58 @@ class _LineJoint(SpatialPairElement):
 class CylindricalJoint(_LineJoint):
     """Cylindrical joint: b slides along and turns about ē3 = ``axis`` of a (4 rows).
 
-    Rows u1·d, u2·d (λ: force −λu_k on b at p_b, N), u3·w2, u1·w3 (rotation
-    locks, ≈ −moment on b about ē1, ē2, N m).
+    Rows u1·d, u2·d (λ: force −λu_k on b at p_b, N) and the revolute's axis
+    locks −u2·w3, u1·w3 (:func:`axis_locks`; independent at every rotation
+    about the axis): the joint acts on b with the moment −λ[2] u1 − λ[3] u2
+    (N m, u_k = R_a ē_ak; minus the bearing moments about ē1, ē2 of a).
     """
 
     n_constraints = 4
     constraint_names = ("line_1", "line_2", "lock_1", "lock_2")
+    constraint_units = ("N", "N", "N·m", "N·m")
     kernels = JOINT_KERNELS
 
     def program(self):
-        return [(DOT2, 0, A1, 0, self.offsets[0], -1), (DOT2, 1, A2, 0, self.offsets[1], -1),
-                (DOT1, 2, A3, B2, 0.0, -1), (DOT1, 3, A1, B3, 0.0, -1)]
+        return [(DOT2, 0, A1, 0, self.offsets[0], -1), (DOT2, 1, A2, 0, self.offsets[1], -1)] + axis_locks(2)
 
 
 class PrismaticJoint(_LineJoint):
     """Prismatic (slider) joint along ē3 = ``axis`` of a (5 rows: cylindrical + u2·w1).
 
-    λ[0:2]: line rows (force −λu_k on b, N); λ[2:5] ≈ −moment on b about ē1, ē2,
-    ē3 (N m).
+    The three rotation locks −u2·w3, u1·w3, u2·w1 (≈ ψ1, ψ2, ψ3, the small
+    rotation of b relative to a) are the orthogonality conditions of the two
+    frames; the relative rotation stays at the reference (identity), where their
+    gradients are −u1, −u2, −u3: independent. λ[0:2]: line rows (force −λu_k on
+    b, N); λ[2:5]: the joint acts on b with the moment −λ[2] u1 − λ[3] u2 −
+    λ[4] u3 (N m; exact when the locks hold).
     """
 
     n_constraints = 5
     constraint_names = ("line_1", "line_2", "lock_1", "lock_2", "lock_3")
+    constraint_units = ("N", "N", "N·m", "N·m", "N·m")
     kernels = JOINT_KERNELS
 
     def program(self):
-        return [(DOT2, 0, A1, 0, self.offsets[0], -1), (DOT2, 1, A2, 0, self.offsets[1], -1),
-                (DOT1, 2, A3, B2, 0.0, -1), (DOT1, 3, A1, B3, 0.0, -1), (DOT1, 4, A2, B1, 0.0, -1)]
+        return ([(DOT2, 0, A1, 0, self.offsets[0], -1), (DOT2, 1, A2, 0, self.offsets[1], -1)]
+                + axis_locks(2) + [(DOT1, 4, A2, B1, 1.0, -1)])
 
 
 class FixedJoint(SpatialPairElement):
     """Weld: point and three rotation locks (6 rows).
 
-    λ[0:3]: force on b (space axes, N); λ[3:6] ≈ −moment on b about ē1, ē2, ē3
-    (N m; the rows are u3·w2, u1·w3, u2·w1).
+    λ[0:3]: force on b (space axes, N). The rows −u2·w3, u1·w3, u2·w1 (≈ ψ1,
+    ψ2, ψ3, as the prismatic joint's) hold the relative rotation at the
+    reference, where their gradients −u1, −u2, −u3 are independent; the joint
+    acts on b with the moment −λ[3] u1 − λ[4] u2 − λ[5] u3 (N m).
     """
 
     n_constraints = 6
     constraint_names = ("x", "y", "z", "lock_1", "lock_2", "lock_3")
+    constraint_units = ("N", "N", "N", "N·m", "N·m", "N·m")
     kernels = JOINT_KERNELS
 
     def program(self):
-        return [(POINT, 0, 0, 0, 0.0, -1), (DOT1, 3, A3, B2, 0.0, -1), (DOT1, 4, A1, B3, 0.0, -1),
-                (DOT1, 5, A2, B1, 0.0, -1)]
+        return [(POINT, 0, 0, 0, 0.0, -1)] + axis_locks(3) + [(DOT1, 5, A2, B1, 1.0, -1)]
 
 
 class DistanceJoint(SpatialPairElement):
@@ -555,6 +618,7 @@ class DistanceJoint(SpatialPairElement):
 
     n_constraints = 1
     constraint_names = ("length",)
+    constraint_units = ("N",)
     kernels = JOINT_KERNELS
 
     def __init__(self, name, a, b, point_a=None, point_b=None, length=None):
@@ -587,6 +651,12 @@ class DrivenRevoluteAngle(SpatialPairElement):
     driving torque: the moment on b is −λ ē3 (space axes), N m. Multi-turn drives
     need no unwrapping.
 
+    The row is the sin/cos form of the angle error, Φ = cos θ* (u2·w1) −
+    sin θ* (u1·w1): smooth, without a branch cut, and ∂Φ/∂θ = cos(θ − θ*) = 1
+    on the solution for every θ*, so it is equally well conditioned at every
+    angle; its gradient there is −u3, independent of the revolute's axis locks
+    (−u1, −u2) through whole turns (docs/spatial.md, "Driven angle").
+
     Parameters
     ----------
     name, a, b, at, point_a, point_b, axis, axis1, frame : see :class:`SpatialPairElement`
@@ -599,6 +669,7 @@ class DrivenRevoluteAngle(SpatialPairElement):
     n_constraints = 1
     rheonomic = True
     constraint_names = ("angle",)
+    constraint_units = ("N·m",)
     kernels = JOINT_KERNELS
 
     def __init__(self, name, a, b, angle, at=None, point_a=None, point_b=None, axis=None, axis1=None,
@@ -631,6 +702,7 @@ class DrivenPrismaticDisplacement(_LineJoint):
     n_constraints = 1
     rheonomic = True
     constraint_names = ("displacement",)
+    constraint_units = ("N",)
     kernels = JOINT_KERNELS
 
     def __init__(self, name, a, b, displacement, at=None, point_a=None, point_b=None, axis=None,

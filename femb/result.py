@@ -426,7 +426,9 @@ class Result:
             :meth:`point_acceleration`).
         ``"<joint>.<equation>"``
             A multiplier (``"pivot.x"``; equation names as in
-            ``constraint_names`` of the joint type).
+            ``constraint_names`` of the joint type; unit from its
+            ``constraint_units`` when the type declares them, e.g. N·m for the
+            lock rows of spatial joints, else ``"λ"``).
         ``"<joint>.Fx"``, ``".Fy"``, ``".M"``
             Reaction force and moment on body b at the joint's point (:meth:`reaction_at`).
         ``"energy.<kind>"``
@@ -473,7 +475,7 @@ class Result:
                 labels = constraint_labels(m)
                 for i in idx:
                     if labels[i][1] == base:
-                        return self.lam[:, i].copy(), "λ"
+                        return self.lam[:, i].copy(), _multiplier_unit(m, i)
                 if base in ("Fx", "Fy", "M"):
                     r = self.reaction_at(owner)
                     return r[:, ("Fx", "Fy", "M").index(base)], ("N", "N", "N·m")[("Fx", "Fy", "M").index(base)]
@@ -546,3 +548,14 @@ class Result:
                 from femb.errors import OutputError
                 raise OutputError(f"Result.plot: cannot write '{file}': {err}") from err
         return fig
+
+
+def _multiplier_unit(model, i):
+    """Unit of multiplier i: the joint type's ``constraint_units`` entry, or ``"λ"`` when it declares none."""
+    for g in model.constraint_groups:
+        units = tuple(getattr(g.cls, "constraint_units", ()) or ())
+        for row in g.lam:
+            for k, j in enumerate(row):
+                if int(j) == i:
+                    return units[k] if k < len(units) else "λ"
+    return "λ"
