@@ -73,6 +73,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
 
@@ -790,3 +791,173 @@ class SpatialBeam(Element):
         sig = cls.resultants(p, qe)
         cd = {k: [sig[:, i].copy()] for i, k in enumerate(("N", "V2", "V3", "T", "M2", "M3"))}
         return [GeometryBlock(cls.__name__, pts, [("line", conn)], cell_data=cd)]
+
+
+# ---------------------------------------------------------------------------
+# meshing
+# ---------------------------------------------------------------------------
+@dataclass
+class SpatialBeamMesh:
+    """What :func:`spatial_beam` added to a mechanism.
+
+    Attributes
+    ----------
+    name : str
+    nodes : list of SpatialBody
+        The n + 1 node bodies from start to end (:class:`SpatialBeamNode`, or the body
+        given as a ``"shared"`` end).
+    elements : list of SpatialBeam
+    joints : dict
+        ``{"start": FixedJoint or None, "end": FixedJoint or None}``.
+    section : SpatialSection
+    arc_length : ndarray (n + 1,)
+        Reference arc length of the nodes (sum of element lengths |U0|).
+    """
+
+    name: str
+    nodes: list
+    elements: list
+    joints: dict
+    section: Any
+    arc_length: np.ndarray = field(repr=False)
+
+    @property
+    def node_names(self):
+        return [b.node.name for b in self.nodes]
+
+    @property
+    def length(self):
+        return float(self.arc_length[-1])
+
+    def positions(self, model, q):
+        """Node positions for q (..., nx): shape (..., n + 1, 3)."""
+        return np.stack([model.node_coordinates(nm, q)[..., 0:3] for nm in self.node_names], axis=-2)
+
+    def quaternions(self, model, q):
+        """Node quaternions (..., n + 1, 4)."""
+        return np.stack([model.node_coordinates(nm, q)[..., 3:7] for nm in self.node_names], axis=-2)
+
+
+def _frame_from(t, normal):
+    e1 = np.asarray(t, dtype=float)
+    e1 = e1 / np.linalg.norm(e1)
+    if normal is None:
+        normal = (0.0, 0.0, 1.0) if abs(e1[2]) < 0.9 else (0.0, 1.0, 0.0)
+        # default: axis 2 horizontal-ish, axis 3 "up" where possible
+        n = np.asarray(normal, dtype=float)
+        e3 = n - (n @ e1) * e1
+        e3 /= np.linalg.norm(e3)
+        return np.column_stack((e1, np.cross(e3, e1), e3))
+    n = np.asarray(normal, dtype=float)
+    e2 = n - (n @ e1) * e1
+    if np.linalg.norm(e2) < 1e-9 * np.linalg.norm(n):
+        raise ModelError(f"spatial_beam: section axis 2 hint {normal!r} is parallel to the beam axis")
+    e2 /= np.linalg.norm(e2)
+    return np.column_stack((e1, e2, np.cross(e1, e2)))
+
+
+def spatial_beam(mech, name, section, path, n_elements, *, normal=None, frames=None, start=None, end=None,
+                 mass="consistent"):
+    """Mesh a spatial beam along a line, a polyline or a curve and add it to ``mech``.
+
+    Parameters
+    ----------
+    mech : Mechanism
+    name : str
+        Prefix: nodes ``{name}.n0`` …, elements ``{name}.e0`` …, joints ``{name}.start``,
+        ``{name}.end``.
+    section : SpatialSection
+    path : (m, 3) array_like or callable
+        A polyline through m ≥ 2 points (straight segments; a corner is a rigid elbow:
+        one node, each segment's elements with their own section axes), or a curve
+        ``path(s)`` → (3,), s ∈ [0, 1] (nodes at s = k/n).
+    n_elements : int or sequence of int
+        Elements in total (a curve), per segment (int: each segment of a polyline), or
+        a list with one count per segment.
+    normal : (3,), optional
+        Direction of section axis 2 (made normal to the axis); default: axis 3 towards +z
+        (+y for beams along z).
+    frames : callable, optional
+        For a curve: ``frames(s)`` → (3, 3) section axes at s (columns e1 = unit tangent,
+        e2, e3); default: the tangent by central differences of ``path`` (step 1e-6,
+        error O(1e-12)) and ``normal``.
+    start, end : None, "clamp", SpatialBody or name, or (body, "shared")
+        Free end; clamped to the ground (the node's coordinates are fixed); welded to a
+        body by a :class:`~femb.elements.spatial_joints.FixedJoint` at the node; or the
+        body's own frame node is the end node (``"shared"``; its axes need not be the
+        section axes).
+    mass : {"consistent", "lumped"}
+
+    Returns
+    -------
+    SpatialBeamMesh
+    """
+    from .spatial_joints import FixedJoint
+    if callable(path):
+        n = int(n_elements)
+        if n < 1:
+            raise ModelError(f"spatial_beam '{name}': n_elements must be ≥ 1")
+        s = np.linspace(0.0, 1.0, n + 1)
+        X = np.array([np.asarray(path(si), dtype=float) for si in s])
+        if frames is not None:
+            F = [np.asarray(frames(si), dtype=float) for si in s]
+        else:
+            h = 1e-6
+            F = [_frame_from((np.asarray(path(si + h), float) - np.asarray(path(si - h), float)) / (2 * h), normal)
+                 for si in s]
+        pts, fa, fb = X, F[:-1], F[1:]
+        node_frames = F
+    else:
+        P = np.asarray(path, dtype=float)
+        if P.ndim != 2 or P.shape[1] != 3 or len(P) < 2:
+            raise ModelError(f"spatial_beam '{name}': path must be (m ≥ 2, 3) points or a callable")
+        nseg = len(P) - 1
+        counts = [int(n_elements)] * nseg if np.ndim(n_elements) == 0 else [int(c) for c in n_elements]
+        if len(counts) != nseg or min(counts) < 1:
+            raise ModelError(f"spatial_beam '{name}': need one element count ≥ 1 per segment ({nseg})")
+        pts, fa, fb, node_frames = [P[0]], [], [], []
+        for k in range(nseg):
+            Fk = _frame_from(P[k + 1] - P[k], normal)
+            if k == 0:
+                node_frames.append(Fk)
+            for j in range(1, counts[k] + 1):
+                pts.append(P[k] + (P[k + 1] - P[k]) * j / counts[k])
+                node_frames.append(Fk)
+                fa.append(Fk)
+                fb.append(Fk)
+        pts = np.array(pts)
+    n = len(pts) - 1
+    nodes = []
+    joints = {"start": None, "end": None}
+    for k in range(n + 1):
+        spec = start if k == 0 else (end if k == n else None)
+        shared = isinstance(spec, tuple) and len(spec) == 2 and spec[1] == "shared"
+        if shared:
+            body = mech[spec[0]] if isinstance(spec[0], str) else spec[0]
+            if not isinstance(body, SpatialBody):
+                raise ModelError(f"spatial_beam '{name}': {spec[0]!r} is not a spatial body")
+            if np.linalg.norm(body.node.q0[:3] - pts[k]) > 1e-9 * max(1.0, np.abs(pts).max()):
+                raise ModelError(f"spatial_beam '{name}': the shared body '{body.name}' has its node at "
+                                 f"{body.node.q0[:3]}, not at the beam end {pts[k]}")
+            nodes.append(body)
+            continue
+        clamp = isinstance(spec, str) and spec == "clamp"
+        nd = SpatialBeamNode(f"{name}.n{k}", pts[k], node_frames[k],
+                             fixed_translation=(clamp, clamp, clamp), fixed_rotation=clamp)
+        mech.add(nd)
+        nodes.append(nd)
+        if spec is not None and not clamp:
+            body = spec
+            if isinstance(body, str) and body != "ground" and body not in mech:
+                raise ModelError(f"spatial_beam '{name}': no body named '{body}'")
+            which = "start" if k == 0 else "end"
+            joints[which] = mech.add(FixedJoint(f"{name}.{which}", body, nd, at=pts[k]))
+    elements = []
+    for k in range(n):
+        elements.append(mech.add(SpatialBeam(f"{name}.e{k}", nodes[k], nodes[k + 1], section, mass=mass,
+                                             frame_a=fa[k], frame_b=fb[k])))
+    arc = np.zeros(n + 1)
+    for k, e in enumerate(elements):
+        e.validate()
+        arc[k + 1] = arc[k] + e.L
+    return SpatialBeamMesh(name, nodes, elements, joints, section, arc)
