@@ -54,7 +54,8 @@ class ModalResult:
         Circular eigenfrequencies (rad/s), ascending; a negative value −√|ω²|
         flags a negative eigenvalue ω² (an unstable equilibrium).
     modes : ndarray, shape (k, nq)
-        Mode shapes, mass normalized (φᵀ M φ = 1), satisfying Φ_q φ = 0.
+        Mode shapes, mass normalized (φᵀ M φ = 1), satisfying Φ_q φ = 0; in the tangent
+        coordinates (on rotation nodes δθ in body axes: q = q_ref ∘ exp(δq)).
     method : str
         ``"dense"`` (null space) or ``"sparse"`` (shift-invert).
     asymmetry : float
@@ -76,9 +77,13 @@ class ModalResult:
         return self.omega / (2.0 * np.pi)
 
     def node_mode(self, name, k):
-        """Components of mode ``k`` at node ``name`` (fixed coordinates are 0), shape (ncoord,)."""
+        """Components of mode ``k`` at node ``name`` (fixed coordinates are 0), shape (ncoord,).
+
+        Modes live in the velocity (tangent) coordinates: for a frame node the 6 components
+        (δx in space axes, δθ in body axes).
+        """
         try:
-            idx = self.model.node_index[name]
+            idx = self.model.node_vindex[name]
         except KeyError:
             raise ModelError(f"no node named '{name}'") from None
         phi = self.modes[k]
@@ -92,8 +97,8 @@ def _reference_state(model, state, t):
     st = getattr(state, "state", state)        # a StaticResult gives its last equilibrium
     st = State(float(st.t if t is None else t), np.asarray(st.q, float).copy(), np.zeros(model.nq),
                np.zeros(model.nq), np.asarray(st.lam, float).copy())
-    if st.q.shape != (model.nq,) or st.lam.shape != (model.nc,):
-        raise ParameterError(f"state does not fit model '{model.name}' (nq = {model.nq}, nc = {model.nc})")
+    if st.q.shape != model.q0.shape or st.lam.shape != (model.nc,):
+        raise ParameterError(f"state does not fit model '{model.name}' (nx = {model.q0.size}, nc = {model.nc})")
     return st
 
 
@@ -123,7 +128,6 @@ def modal_analysis(model, state=None, n_modes=6, *, t=None, method="auto", sigma
     -------
     ModalResult
     """
-    model.require_vector_space("modal analysis")
     st = _reference_state(model, state, t)
     nq, nc = model.nq, model.nc
     k = int(n_modes)
