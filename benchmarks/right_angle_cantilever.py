@@ -41,10 +41,11 @@ PARAMETERS = {
 OUTPUTS = {
     "tip_x": ("free tip x", "m"), "tip_y": ("free tip y", "m"), "tip_z": ("free tip z (out of plane)", "m"),
     "elbow_z": ("elbow z (out of plane)", "m"),
+    "root_Fz": ("z force of the ground on the beam root", "N"),
 }
 
 CONVERGENCE = {"t_end": 4.0, "h": [0.1, 0.05, 0.025, 0.0125], "q": ["tip_z", "elbow_z", "tip_x"],
-               "lambda": []}
+               "lambda": ["root_Fz"]}
 
 
 def load_pulse(F=DATA["F"]):
@@ -59,15 +60,16 @@ def load_pulse(F=DATA["F"]):
 
 
 def build(n_elements=10, *, mass="consistent", damping=0.0):
-    """The scene: beam ``beam`` with nodes ``beam.n0`` (clamped) … ``beam.n{2n}`` (free tip);
-    the elbow is ``beam.n{n}``, loaded by ``load``."""
+    """The scene: beam ``beam`` with nodes ``beam.n0`` (welded to the ground by ``beam.start``) …
+    ``beam.n{2n}`` (free tip); the elbow is ``beam.n{n}``, loaded by ``load``."""
     D = DATA
     sec = SpatialSection.from_properties(D["EA"], D["GA"], D["GA"], D["GJ"], D["EI"], D["EI"],
                                          rhoA=D["rhoA"], rhoJ=D["rhoJ"], damping=damping)
     mech = Mechanism("right_angle_cantilever")
     n = int(n_elements)
-    b = spatial_beam(mech, "beam", sec, [(0, 0, 0), (D["L"], 0, 0), (D["L"], D["L"], 0)], n, start="clamp",
-                     mass=mass)
+    # the clamp is a weld to the ground (FixedJoint "beam.start"), so its reactions are outputs
+    b = spatial_beam(mech, "beam", sec, [(0, 0, 0), (D["L"], 0, 0), (D["L"], D["L"], 0)], n,
+                     start=mech.ground, mass=mass)
     mech.add(SpatialForce("load", b.nodes[n], (0.0, 0.0, 1.0), function=load_pulse()))
     return mech
 
@@ -78,11 +80,16 @@ def _nodes(model):
 
 
 def outputs(result):
-    """Tip position (x, y, z) and elbow z over the stored steps, each (nt,)."""
+    """Tip position (x, y, z), elbow z and the root's z reaction over the stored steps, each (nt,).
+
+    ``root_Fz``: z component of the weld's force on the beam root (λ[0:3] of a FixedJoint is the
+    force on its body b, space axes).
+    """
     elbow, tip = _nodes(result.model)
     xt = result.body(tip)
     xe = result.body(elbow)
-    return {"tip_x": xt[:, 0], "tip_y": xt[:, 1], "tip_z": xt[:, 2], "elbow_z": xe[:, 2]}
+    return {"tip_x": xt[:, 0], "tip_y": xt[:, 1], "tip_z": xt[:, 2], "elbow_z": xe[:, 2],
+            "root_Fz": result.reaction("beam.start")[:, 2]}
 
 
 def main(argv=None):
