@@ -99,3 +99,28 @@ def test_no_shear_locking(slenderness):
     assert abs(w / exact - 1.0) < 5e-3
     bending = P * L ** 3 / (3 * EI) / exact
     assert abs(w / exact - 1.0 + bending / (4 * 64)) < 1e-5
+
+
+@pytest.mark.parametrize("attach", ["shared", "welded"])
+def test_cantilever_carrying_a_rigid_body_under_gravity(attach):
+    """A rigid body at the tip (its own node as the beam end, or welded with its centre of mass
+    e beyond the tip) and the beam's own weight: tip deflection of linear Timoshenko theory,
+    w = W L³/3EI + W L/kGA + W e L²/2EI + q L⁴/8EI + q L²/2kGA (W = m g, q = ρA g)."""
+    from femb.elements.spatial_bodies import SpatialRigidBody
+    from femb.elements.spatial_forces import SpatialGravity
+    E, G, L, g = 2.1e11, 8.1e10, 1.0, 9.81
+    sec = SpatialSection.rectangle(E, G, 0.05, 0.05, 7850.0)
+    EI, kGA, q = sec.C[4, 4], sec.C[2, 2], sec.rhoA * g
+    mass, e = 50.0, (0.0 if attach == "shared" else 0.2)
+    m = Mechanism("tipmass")
+    body = m.add(SpatialRigidBody("tip", mass, (1.0, 1.0, 1.0), position=(L + e, 0.0, 0.0)))
+    end = (body, "shared") if attach == "shared" else body
+    b = spatial_beam(m, "b", sec, [(0, 0, 0), (L, 0, 0)], 32, start="clamp", end=end)
+    m.add(SpatialGravity((0.0, 0.0, -g)))
+    model = m.compile()
+    res = solve_static(model)
+    w = -b.positions(model, res.q[-1])[-1][2]
+    W = mass * g
+    exact = (W * L ** 3 / (3 * EI) + W * L / kGA + W * e * L ** 2 / (2 * EI)
+             + q * L ** 4 / (8 * EI) + q * L ** 2 / (2 * kGA))
+    assert abs(w / exact - 1.0) < 1e-3
