@@ -284,15 +284,6 @@ def _qcol(j, U, W, s, RsA, RsB, Pe):
 
 
 @kernel
-def _fill_q(Q, U, W, s, RsA, RsB, Pe):
-    """Q (6 × 12) into rows 0–5 of the array Q."""
-    for j in range(12):
-        c = _qcol(j, U, W, s, RsA, RsB, Pe)
-        for i in range(6):
-            Q[i, j] = c[i]
-
-
-@kernel
 def _rbar(Pe, o):
     """R̄ (9-tuple) of the offset quaternion at P[o:o+4]."""
     return rt.quat_to_matrix_t(Pe[o], Pe[o + 1], Pe[o + 2], Pe[o + 3])
@@ -347,13 +338,56 @@ def spatial_beam_mass(P, xe, Me):
 
 
 @kernel
+def _cstep3(a, k):
+    """a + i h e_k (a 3-tuple; k outside 0..2: no step), complex."""
+    h = 1j * CSTEP
+    return (a[0] + (h if k == 0 else 0j), a[1] + (h if k == 1 else 0j), a[2] + (h if k == 2 else 0j))
+
+
+@kernel
+def _cdot3(W, k):
+    """|W + i h e_k|² (complex; k outside 0..2: |W|²)."""
+    w = _cstep3(W, k)
+    return w[0] * w[0] + w[1] * w[1] + w[2] * w[2]
+
+
+@kernel
+def _im3(a):
+    """Im(a)/h of a complex 3-tuple."""
+    return (a[0].imag / CSTEP, a[1].imag / CSTEP, a[2].imag / CSTEP)
+
+
+@kernel
+def _ecol(k, U, W, vA, vB):
+    """Column k of E = ∂ḋ/∂d at fixed section velocities (complex step), a 6-tuple."""
+    Uk = _cstep3(U, k)
+    Wk = _cstep3(W, k - 3)
+    sk = sfun(Wk[0] * Wk[0] + Wk[1] * Wk[1] + Wk[2] * Wk[2])
+    ek = _ddot(Uk, Wk, sk, sk, vA, vB)
+    return (ek[0].imag / CSTEP, ek[1].imag / CSTEP, ek[2].imag / CSTEP,
+            ek[3].imag / CSTEP, ek[4].imag / CSTEP, ek[5].imag / CSTEP)
+
+
+@kernel
+def _material(Pe, Qt, L, beta, fq, fv, e):
+    """fq −= Qᵀ(C/L)Q and fv = −β Qᵀ(C/L)Q (material stiffness and its damping twin)."""
+    for j in range(12):
+        cq = _c6(Pe, Qt[j])
+        for i in range(12):
+            qi = Qt[i]
+            m = (qi[0] * cq[0] + qi[1] * cq[1] + qi[2] * cq[2] + qi[3] * cq[3] + qi[4] * cq[4]
+                 + qi[5] * cq[5]) / L
+            fq[e, i, j] -= m
+            if beta != 0.0:
+                fv[e, i, j] -= beta * m
+
+
+@kernel
 def spatial_beam_force(P, t, tf, xe, ve, jac, fe, fq, fv):
     """Elastic, damping and gyroscopic forces of the SE(3) beam (module docstring).
 
     P (nel, 72): d0 (6), L, C (36, row-major), m_d, m_o, J_nA (9), β, p̄_A (4), p̄_B (4), J_nB (9).
     xe (nel, 14) = (x_A, p_A, x_B, p_B); ve (nel, 12) = (ẋ_A, Ω_A, ẋ_B, Ω_B).
-    If ``jac``, fv is used as work space (Q in rows 0–5, the damping part of the strain
-    variation in rows 6–11) before its value is written.
     """
     for e in range(xe.shape[0]):
         Pe = P[e]
@@ -393,77 +427,84 @@ def spatial_beam_force(P, t, tf, xe, ve, jac, fe, fq, fv):
             fe[e, 9 + i] = -ftb[i] + mgB[i]
         if not jac:
             continue
-        F = fq[e]
-        V = fv[e]
-        _fill_q(V, U, W, s, RsA, RsB, Pe)
-        # rows 6..11: Y = Q (+ β(E Q + P V) below)
-        for i in range(6):
-            for j in range(12):
-                V[6 + i, j] = V[i, j]
-        if beta != 0.0:
-            # P V: columns θ_A, θ_B: Q[:, x] ẋ~ R (δθ changes R_sᵀẋ)
-            for j in range(3):
-                ca = sp.cross3(xdA, (RA[j], RA[3 + j], RA[6 + j]))
-                cb = sp.cross3(xdB, (RB[j], RB[3 + j], RB[6 + j]))
-                for i in range(6):
-                    V[6 + i, 3 + j] += beta * (V[i, 0] * ca[0] + V[i, 1] * ca[1] + V[i, 2] * ca[2])
-                    V[6 + i, 9 + j] += beta * (V[i, 6] * cb[0] + V[i, 7] * cb[1] + V[i, 8] * cb[2])
-        # complex step along each d_k: G (12 × 6) and E (6 × 6)
+        # Q = ∂d/∂(δx, δθ) as twelve columns (6-tuples), C Q likewise
+        Qt = (_qcol(0, U, W, s, RsA, RsB, Pe), _qcol(1, U, W, s, RsA, RsB, Pe),
+              _qcol(2, U, W, s, RsA, RsB, Pe), _qcol(3, U, W, s, RsA, RsB, Pe),
+              _qcol(4, U, W, s, RsA, RsB, Pe), _qcol(5, U, W, s, RsA, RsB, Pe),
+              _qcol(6, U, W, s, RsA, RsB, Pe), _qcol(7, U, W, s, RsA, RsB, Pe),
+              _qcol(8, U, W, s, RsA, RsB, Pe), _qcol(9, U, W, s, RsA, RsB, Pe),
+              _qcol(10, U, W, s, RsA, RsB, Pe), _qcol(11, U, W, s, RsA, RsB, Pe))
+        _material(Pe, Qt, L, beta, fq, fv, e)
+        # complex step along each d_k: G (12 × 6) at fixed σ → −Aᵀ G Q
+        # steps in U leave φ² = |Θ|² real: reuse s (as complex) instead of complex sin/cos
+        sc = (s[0] + 0j, s[1] + 0j, s[2] + 0j, s[3] + 0j, s[4] + 0j)
         for k in range(6):
-            dk = (U[0] + (1j * CSTEP if k == 0 else 0j), U[1] + (1j * CSTEP if k == 1 else 0j),
-                  U[2] + (1j * CSTEP if k == 2 else 0j))
-            wk = (W[0] + (1j * CSTEP if k == 3 else 0j), W[1] + (1j * CSTEP if k == 4 else 0j),
-                  W[2] + (1j * CSTEP if k == 5 else 0j))
-            sk = sfun(sp.dot3(wk, wk))
-            hAk, hBk = _forces(dk, wk, sk, sig)
-            gxa = sp.mv(RsA, (hAk[0][0].imag / CSTEP, hAk[0][1].imag / CSTEP, hAk[0][2].imag / CSTEP))
-            gta = sp.mv(RbA, (hAk[1][0].imag / CSTEP, hAk[1][1].imag / CSTEP, hAk[1][2].imag / CSTEP))
-            gxb = sp.mv(RsB, (hBk[0][0].imag / CSTEP, hBk[0][1].imag / CSTEP, hBk[0][2].imag / CSTEP))
-            gtb = sp.mv(RbB, (hBk[1][0].imag / CSTEP, hBk[1][1].imag / CSTEP, hBk[1][2].imag / CSTEP))
+            sk = sc if k < 3 else sfun(_cdot3(W, k - 3))
+            hAk, hBk = _forces(_cstep3(U, k), _cstep3(W, k - 3), sk, sig)
+            gxa = sp.mv(RsA, _im3(hAk[0]))
+            gta = sp.mv(RbA, _im3(hAk[1]))
+            gxb = sp.mv(RsB, _im3(hBk[0]))
+            gtb = sp.mv(RbB, _im3(hBk[1]))
             for j in range(12):
-                qk = V[k, j]
+                qk = Qt[j][k]
                 for i in range(3):
-                    F[i, j] -= gxa[i] * qk
-                    F[3 + i, j] -= gta[i] * qk
-                    F[6 + i, j] -= gxb[i] * qk
-                    F[9 + i, j] -= gtb[i] * qk
-            if beta != 0.0:
-                ek = _ddot(dk, wk, sk, sk, vA, vB)
-                for i in range(6):
-                    c = beta * ek[i].imag / CSTEP
-                    for j in range(12):
-                        V[6 + i, j] += c * V[k, j]
-        # −Qᵀ (C/L) Y
-        for a in range(6):
-            for b in range(6):
-                c = Pe[CM + 6 * a + b] / L
-                if c == 0.0:
-                    continue
+                    fq[e, i, j] -= gxa[i] * qk
+                    fq[e, 3 + i, j] -= gta[i] * qk
+                    fq[e, 6 + i, j] -= gxb[i] * qk
+                    fq[e, 9 + i, j] -= gtb[i] * qk
+        if beta != 0.0:
+            # −β Qᵀ (C/L)(E Q + P V): E = ∂ḋ/∂d at fixed section velocities (complex step),
+            # P V the change of R_sᵀẋ under δθ (columns θ_A, θ_B: Q[:, x] ẋ~ R)
+            E = (_ecol(0, U, W, vA, vB), _ecol(1, U, W, vA, vB), _ecol(2, U, W, vA, vB),
+                 _ecol(3, U, W, vA, vB), _ecol(4, U, W, vA, vB), _ecol(5, U, W, vA, vB))
+            for j in range(12):
+                q = Qt[j]
+                z0 = 0.0
+                z1 = 0.0
+                z2 = 0.0
+                z3 = 0.0
+                z4 = 0.0
+                z5 = 0.0
+                for k in range(6):
+                    c = q[k]
+                    Ek = E[k]
+                    z0 += Ek[0] * c
+                    z1 += Ek[1] * c
+                    z2 += Ek[2] * c
+                    z3 += Ek[3] * c
+                    z4 += Ek[4] * c
+                    z5 += Ek[5] * c
+                blk = j // 3
+                if blk == 1 or blk == 3:
+                    m = j - 3 * blk
+                    if blk == 1:
+                        cr = sp.cross3(xdA, (RA[m], RA[3 + m], RA[6 + m]))
+                        o = 0
+                    else:
+                        cr = sp.cross3(xdB, (RB[m], RB[3 + m], RB[6 + m]))
+                        o = 6
+                    for n in range(3):
+                        qn = Qt[o + n]
+                        z0 += qn[0] * cr[n]
+                        z1 += qn[1] * cr[n]
+                        z2 += qn[2] * cr[n]
+                        z3 += qn[3] * cr[n]
+                        z4 += qn[4] * cr[n]
+                        z5 += qn[5] * cr[n]
+                cz = _c6(Pe, (z0, z1, z2, z3, z4, z5))
+                c = beta / L
                 for i in range(12):
-                    qi = c * V[a, i]
-                    if qi == 0.0:
-                        continue
-                    for j in range(12):
-                        F[i, j] -= qi * V[6 + b, j]
+                    qi = Qt[i]
+                    fq[e, i, j] -= c * (qi[0] * cz[0] + qi[1] * cz[1] + qi[2] * cz[2] + qi[3] * cz[3]
+                                        + qi[4] * cz[4] + qi[5] * cz[5])
         # the rotation of the force directions: ∂(−R R̄ h_U)/∂δθ = R (R̄ h_U)~
         ma = sp.rskew(RA, sp.mv(RbA, hA[0]))
         mb = sp.rskew(RB, sp.mv(RbB, hB[0]))
         for i in range(3):
             for j in range(3):
-                F[i, 3 + j] += ma[3 * i + j]
-                F[6 + i, 9 + j] += mb[3 * i + j]
-        # fv: −(β/L) Qᵀ C Q and the gyroscopic parts (the work space is cleared first)
-        for i in range(12):
-            for j in range(12):
-                V[i, j] = 0.0
-        if beta != 0.0:
-            c = -beta / L
-            for j in range(12):
-                cq = _c6(Pe, _qcol(j, U, W, s, RsA, RsB, Pe))
-                for i in range(12):
-                    qi = _qcol(i, U, W, s, RsA, RsB, Pe)
-                    V[i, j] = c * (qi[0] * cq[0] + qi[1] * cq[1] + qi[2] * cq[2] + qi[3] * cq[3]
-                                   + qi[4] * cq[4] + qi[5] * cq[5])
+                fq[e, i, 3 + j] += ma[3 * i + j]
+                fq[e, 6 + i, 9 + j] += mb[3 * i + j]
+        V = fv[e]
         _gyro_jac(Pe, JN, wA, gA, V, 3)
         _gyro_jac(Pe, JNB, wB, gB, V, 9)
 
