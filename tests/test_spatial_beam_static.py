@@ -124,3 +124,39 @@ def test_cantilever_carrying_a_rigid_body_under_gravity(attach):
     exact = (W * L ** 3 / (3 * EI) + W * L / kGA + W * e * L ** 2 / (2 * EI)
              + q * L ** 4 / (8 * EI) + q * L ** 2 / (2 * kGA))
     assert abs(w / exact - 1.0) < 1e-3
+
+
+def test_large_deflection_against_the_elastica():
+    """Cantilever under a dead tip load P L²/EI = 3 (EA = GA = 1e7 EI/L²), in the x–y plane:
+    tip (x, y, θ) against the elastica (0.745580, −0.603253, −0.986017) (docs/beams.md, Validation 3;
+    Bisshopp & Drucker 1945), errors O(1/n²)."""
+    from femb import rotations as rt
+    L, EI = 1.0, 1.0
+    ref = np.array([0.745580, -0.603253, -0.986017])
+    errs = []
+    for n in (8, 16, 32):
+        sec = SpatialSection.from_properties(1e7, 1e7, 1e7, 1.0, EI, EI)
+        m = Mechanism("elastica")
+        b = spatial_beam(m, "b", sec, [(0, 0, 0), (L, 0, 0)], n, start="clamp")
+        m.add(SpatialForce("P", b.nodes[-1], (0.0, -3.0 * EI / L ** 2, 0.0)))
+        model = m.compile()
+        res = solve_static(model, load_steps=3)
+        x = b.positions(model, res.q[-1])[-1]
+        th = rt.quat_log(np.ascontiguousarray(b.quaternions(model, res.q[-1])[-1]))[2]
+        errs.append(np.abs(np.array([x[0], x[1], th]) - ref).max())
+    assert errs[1] < 1e-3
+    assert np.all(np.log2(np.array(errs[:-1]) / np.array(errs[1:])) > 1.9)
+
+
+def test_load_unload_returns_to_the_start():
+    """Path independence: load the 45° bend to F = 600 and back to 0 (8 elements)."""
+    E = 1e7
+    sec = SpatialSection.from_properties(E, E / 2, E / 2, E / 12, E / 12, E / 12)
+    m = Mechanism("loadunload")
+    R = 100.0
+    b = spatial_beam(m, "b", sec, lambda s: np.array([R - R * math.cos(s * math.pi / 4), R * math.sin(s * math.pi / 4), 0.0]),
+                     8, start="clamp")
+    m.add(SpatialForce("F", b.nodes[-1], (0.0, 0.0, 600.0)))
+    model = m.compile()
+    res = solve_static(model, load_factors=[0.25, 0.5, 0.75, 1.0, 0.5, 0.0])
+    assert np.abs(res.q[-1] - model.q0).max() < 1e-9 * R
