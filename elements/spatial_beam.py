@@ -306,6 +306,15 @@ def _gyro(Pe, o, w):
 
 
 @kernel
+def _nonzero9(Pe, o):
+    """Some entry of P[o:o+9] is non-zero."""
+    for i in range(9):
+        if Pe[o + i] != 0.0:
+            return True
+    return False
+
+
+@kernel
 def _gyro_jac(Pe, oj, w, h, fv, o):
     """fv[o:o+3, o:o+3] += −(Ω~J − (JΩ)~), J at P[oj:oj+9]."""
     for j in range(3):
@@ -504,9 +513,10 @@ def spatial_beam_force(P, t, tf, xe, ve, jac, fe, fq, fv):
             for j in range(3):
                 fq[e, i, 3 + j] += ma[3 * i + j]
                 fq[e, 6 + i, 9 + j] += mb[3 * i + j]
-        V = fv[e]
-        _gyro_jac(Pe, JN, wA, gA, V, 3)
-        _gyro_jac(Pe, JNB, wB, gB, V, 9)
+        if _nonzero9(Pe, JN) or _nonzero9(Pe, JNB):     # fv is touched only by types that declare it
+            V = fv[e]
+            _gyro_jac(Pe, JN, wA, gA, V, 3)
+            _gyro_jac(Pe, JNB, wB, gB, V, 9)
 
 
 # ---------------------------------------------------------------------------
@@ -780,8 +790,10 @@ class SpatialBeam(Element):
 
     @classmethod
     def traits(cls, elements):
+        """``force_depends_on_qd`` only when some element has damping or rotary inertia (gyroscopic)."""
         t = super().traits(elements)
-        t["force_depends_on_qd"] = True
+        t["force_depends_on_qd"] = any(e.section.damping != 0.0 or np.any(e.section.rhoJ != 0.0)
+                                       for e in elements)
         return t
 
     # ---------------------------------------------------------------- output
