@@ -54,7 +54,8 @@ class ModalResult:
         Circular eigenfrequencies (rad/s), ascending; a negative value −√|ω²|
         flags a negative eigenvalue ω² (an unstable equilibrium).
     modes : ndarray, shape (k, nq)
-        Mode shapes, mass normalized (φᵀ M φ = 1), satisfying Φ_q φ = 0.
+        Mode shapes, mass normalized (φᵀ M φ = 1), satisfying Φ_q φ = 0; in the tangent
+        coordinates (on rotation nodes δθ in body axes: q = q_ref ∘ exp(δq)).
     method : str
         ``"dense"`` (null space) or ``"sparse"`` (shift-invert).
     asymmetry : float
@@ -76,9 +77,13 @@ class ModalResult:
         return self.omega / (2.0 * np.pi)
 
     def node_mode(self, name, k):
-        """Components of mode ``k`` at node ``name`` (fixed coordinates are 0), shape (ncoord,)."""
+        """Components of mode ``k`` at node ``name`` (fixed coordinates are 0), shape (ncoord,).
+
+        Modes live in the velocity (tangent) coordinates: for a frame node the 6 components
+        (δx in space axes, δθ in body axes).
+        """
         try:
-            idx = self.model.node_index[name]
+            idx = self.model.node_vindex[name]
         except KeyError:
             raise ModelError(f"no node named '{name}'") from None
         phi = self.modes[k]
@@ -92,8 +97,8 @@ def _reference_state(model, state, t):
     st = getattr(state, "state", state)        # a StaticResult gives its last equilibrium
     st = State(float(st.t if t is None else t), np.asarray(st.q, float).copy(), np.zeros(model.nq),
                np.zeros(model.nq), np.asarray(st.lam, float).copy())
-    if st.q.shape != (model.nq,) or st.lam.shape != (model.nc,):
-        raise ParameterError(f"state does not fit model '{model.name}' (nq = {model.nq}, nc = {model.nc})")
+    if st.q.shape != model.q0.shape or st.lam.shape != (model.nc,):
+        raise ParameterError(f"state does not fit model '{model.name}' (nx = {model.q0.size}, nc = {model.nc})")
     return st
 
 
@@ -123,7 +128,6 @@ def modal_analysis(model, state=None, n_modes=6, *, t=None, method="auto", sigma
     -------
     ModalResult
     """
-    model.require_vector_space("modal analysis")
     st = _reference_state(model, state, t)
     nq, nc = model.nq, model.nc
     k = int(n_modes)
@@ -181,3 +185,75 @@ def modal_analysis(model, state=None, n_modes=6, *, t=None, method="auto", sigma
     omega = np.sign(w2) * np.sqrt(np.abs(w2))
     return ModalResult(model=model, state=st, omega=omega, modes=Phi, method=method, asymmetry=asym,
                        info=info)
+
+
+@dataclass
+class BucklingResult:
+    """Linearized buckling load factors and modes.
+
+    Attributes
+    ----------
+    model : Model
+    factors : ndarray, shape (k,)
+        Load factors μ (multiples of the applied loads) at which K_0 + μ K_G is singular,
+        the k smallest in magnitude, real ones only, ascending by |μ|; negative values are
+        the critical factors of the reversed loads.
+    modes : ndarray, shape (k, nq)
+        Buckling modes (tangent coordinates, max-abs normalized), Φ_q φ = 0.
+    delta : float
+        The load factor of the two equilibria that gave K_G.
+    """
+
+    model: object
+    factors: np.ndarray
+    modes: np.ndarray
+    delta: float
+
+
+def buckling_analysis(model, n_modes=4, *, t=0.0, load_types=None, delta=1e-3):
+    """Linearized (eigenvalue) buckling about the unloaded initial configuration.
+
+    The tangent stiffness along the equilibrium path q(μ) of the load factor μ
+    (:func:`femb.static.solve_static`) is linearized at μ = 0,
+    K_t(μ) ≈ K_0 + μ K_G, and the critical factors solve (K_0 + μ K_G) φ = 0 on the
+    admissible motions (Φ_q φ = 0; null-space basis as in :func:`modal_analysis`).
+    K_G = dK_t/dμ at μ = 0 is the central difference of the tangents at the two
+    equilibria μ = ±δ, (K_t(q(δ), δ) − K_t(q(−δ), −δ))/(2δ), accurate to O(δ²): it holds
+    the stress (geometric) stiffness of the pre-buckling state, the load stiffness and the
+    change of the material stiffness with the pre-buckling displacements (Crisfield 1991,
+    Vol. 1, Sect. 9.9 and Vol. 2, Ch. 17; Géradin & Cardona 2001, Ch. 10). Classical
+    linear buckling: valid where the pre-buckling path is nearly linear.
+
+    Parameters
+    ----------
+    model : Model
+    n_modes : int
+    t : float
+    load_types : tuple of element classes, optional
+        The loads scaled by μ (as :func:`femb.static.solve_static`).
+    delta : float
+        Load factor of the two equilibria (small compared with the critical factor).
+
+    Returns
+    -------
+    BucklingResult
+    """
+    from femb.static import solve_static
+
+    z = np.zeros(model.nq)
+    K = []
+    for mu in (delta, -delta):
+        r = solve_static(model, load_factors=[mu], t=t, load_types=load_types)
+        K.append(assembly.tangent_stiffness(model, State(t, r.q[-1], z, z, r.lam[-1])).toarray())
+    st = State(t, model.q0.copy(), z, z, np.zeros(model.nc))
+    K0 = assembly.tangent_stiffness(model, st).toarray()
+    KG = (K[0] - K[1]) / (2.0 * delta)
+    B = assembly.constraint_jacobian(model, t, model.q0).toarray()
+    Nb = sla.null_space(B) if model.nc else np.eye(model.nq)
+    mu, Y = sla.eig(Nb.T @ K0 @ Nb, -(Nb.T @ KG @ Nb))
+    ok = np.isfinite(mu) & (np.abs(mu.imag) <= 1e-8 * np.abs(mu))
+    mu, Y = mu[ok].real, Y[:, ok].real
+    order = np.argsort(np.abs(mu))[:int(n_modes)]
+    modes = (Nb @ Y[:, order]).T
+    modes /= np.abs(modes).max(axis=1, keepdims=True)
+    return BucklingResult(model=model, factors=mu[order], modes=modes, delta=float(delta))

@@ -141,7 +141,8 @@ class StaticResult(Result):
 def _load_groups(model, load_types):
     if load_types is None:
         from femb.elements import Force, Torque
-        load_types = (Force, Torque)
+        from femb.elements.spatial_forces import SpatialForce, SpatialTorque
+        load_types = (Force, Torque, SpatialForce, SpatialTorque)
     load_types = tuple(load_types)
     return [g for g in model.force_groups if issubclass(g.cls, load_types)]
 
@@ -357,7 +358,7 @@ class _Newton:
                     return None, rec, singular
             dq, dlam, damped = step
             rec["damped"] += int(damped)
-            q = q + dq
+            q = self.model.compose(q, dq)          # q ∘ exp(Δq) on rotation nodes, q + Δq otherwise
             lam = lam + dlam
             last = np.abs(dq).max(initial=0.0)
         return None, rec, singular
@@ -379,7 +380,7 @@ class _Newton:
         dq, dl = self._split(x)
         alpha = 1.0
         while alpha >= min_alpha:
-            r, Phi, _ = self.residual(mu, q + alpha * dq, lam + alpha * dl)
+            r, Phi, _ = self.residual(mu, self.model.compose(q, alpha * dq), lam + alpha * dl)
             mt = merit(r, Phi)
             if np.isfinite(mt) and mt <= (1.0 - 2e-4 * alpha) * m0:
                 return alpha * dq, alpha * dl, alpha < 1.0
@@ -417,7 +418,7 @@ class _Newton:
                         return dq, dl, True
                     nu *= 10.0
                     continue
-                r, Phi, _ = self.residual(mu, q + dq, lam + dl)
+                r, Phi, _ = self.residual(mu, self.model.compose(q, dq), lam + dl)
                 mt = merit(r, Phi)
                 if np.isfinite(mt) and mt < m0:
                     return dq, dl, True
@@ -531,7 +532,6 @@ def solve_static(model, *, load_steps=None, load_factors=None, t=0.0, state=None
     >>> round(float(res.body("p")[-1, 1]), 6), res.strategy
     (-1.1, 'direct')
     """
-    model.require_vector_space("static analysis")
     asked = load_steps is not None or load_factors is not None
     if load_steps is not None and load_factors is not None:
         raise ParameterError("give either load_steps or load_factors, not both")
@@ -605,7 +605,10 @@ def solve_static(model, *, load_steps=None, load_factors=None, t=0.0, state=None
                     trial = mu + dmu
                     if predictor == "secant" and len(mus) >= 2 and mus[-1] != mus[-2]:
                         s = (trial - mus[-1]) / (mus[-1] - mus[-2])
-                        sol, rec = attempt(trial, Q[-1] + s * (Q[-1] - Q[-2]), L[-1] + s * (L[-1] - L[-2]), "secant")
+                        # Q[-1] ∘ exp(s log(Q[-2]⁻¹Q[-1])): the secant on the group (Q[-1] + s(Q[-1] − Q[-2])
+                        # on vector spaces)
+                        qs = model.compose(Q[-1], s * model.difference(Q[-1], Q[-2]))
+                        sol, rec = attempt(trial, qs, L[-1] + s * (L[-1] - L[-2]), "secant")
                         if sol is None:
                             sol, rec = attempt(trial, q, lam, "previous")
                     else:

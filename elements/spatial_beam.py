@@ -1,0 +1,1021 @@
+"""Spatial geometrically exact beam: the two-node SE(3) element on frame nodes.
+
+Formulation (Sonneville, Cardona & Brüls 2014; ``../shared/docs/spatial.md`` §6).
+Each end of an element carries a *section frame* H = (R R̄, x) ∈ SE(3): the
+frame node's rotation R (body to space) times a constant offset rotation R̄
+(node axes to section axes, fixed at t0), and the node position x (the
+centroid). The element's deformation is the SE(3) relative motion of its two
+section frames,
+
+    d = log(H_A⁻¹ H_B) = (U, Θ),   ε = (d − d0)/L = (Γ − Γ0, κ − κ0)   (6,),
+
+with d0 the same quantity in the reference configuration and L = |U0| its arc
+length. The strain ε is constant along the element; the element represents
+exactly every configuration of constant strain (helices, circles, straight
+lines), is objective, path independent and free of shear locking.
+The log of SE(3) is log(R, x) = (T⁻¹(−Θ) x, Θ), Θ = log R. With
+T_SE3 the SE(3) tangent operator (spatial.md §1; exp(d + δ) = exp(d) exp(T(d)δ)),
+the variation of d under right increments ξ of the section frames is
+
+    δd = −T_SE3⁻¹(−d) ξ_A + T_SE3⁻¹(d) ξ_B,    ξ = (R_sᵀ δx, R̄ᵀ δθ),
+
+where (δx, δθ) are femb's tangent increments of a frame node (right-perturbed
+rotation) and R_s = R R̄. The strain energy V = ½ L εᵀ C ε gives the section
+wrench σ = C (ε + β ε̇) (β: stiffness-proportional damping) and the nodal
+forces h_A = −T_SE3⁻ᵀ(−d) σ, h_B = T_SE3⁻ᵀ(d) σ on the section frames, i.e.
+
+    f_x = −R_s h_U,   f_θ = −R̄ h_Ω        (each node; M v̇ = f − Bᵀλ).
+
+Tangent: with Q = ∂d/∂(δx, δθ) (6 × 12),
+
+    ∂f/∂q = −Qᵀ (C/L)(Q + β(E Q + P V)) − Aᵀ G Q + blockdiag(R (R̄ h_U)~ at (x, θ)),
+
+G = ∂(h_A, h_B)/∂d at fixed σ (12 × 6), E = ∂ḋ/∂d at fixed section velocities,
+P V the change of the section velocities R_sᵀẋ under δθ. G and E are
+derivatives of the closed form of T_SE3⁻¹ (spatial.md §1), taken here by
+complex-step differentiation (Squire & Trapp 1998, SIAM Rev. 40:110–112;
+Martins, Sturdza & Alonso 2003, ACM TOMS 29:245–262): the closed form is
+evaluated at d + i h e_k, h = 1e-20, and Im(·)/h is its derivative to
+round-off (no subtraction, so no step-size error); the s-functions switch to
+their series in φ² (analytic in φ²). ``fv = −(β/L) Qᵀ C Q`` plus the
+gyroscopic part below.
+
+Inertia: **consistent translational mass** for linear interpolation of the
+centroid, ρA L/6 [2 1; 1 2] ⊗ I₃ in (ẋ_A, ẋ_B), and **lumped rotary inertia**
+ρJ L/2 at each node (body axes of the node, J_n = R̄ ρJ R̄ᵀ L/2) with its
+gyroscopic moment −Ω × J_n Ω in the force kernel, as for
+:class:`SpatialRigidBody`. In femb's velocity coordinates (ẋ in space axes, Ω
+in body axes) this mass matrix is **constant**, as the compiled time loop
+requires (``femb/model.py`` refuses configuration-dependent masses); the
+consistent rotary inertia of the SE(3) interpolation would depend on the
+relative rotation of the two nodes. ``mass="lumped"`` gives ρA L/2 I₃ per
+node; ``mass="averaged"`` their mean. Gravity (``SpatialGravity``, M ĝ) is then the work-equivalent load of
+uniform distributed gravity ρA g.
+
+Section frame conventions: section axis 1 is the beam axis (tangent), 2 and 3
+the cross-section axes; the resultants σ = C ε = (N, V2, V3, T, M2, M3) are
+the force and moment that the part of the element beyond a section (towards
+node B) exerts on the part before it, in section axes (N > 0 tension).
+
+References
+----------
+V. Sonneville, A. Cardona, O. Brüls, Geometrically exact beam finite element
+formulated on the special Euclidean group SE(3), Comput. Methods Appl. Mech.
+Eng. 268:451–474, 2014.
+J. C. Simo, L. Vu-Quoc, A three-dimensional finite-strain rod model. Part II,
+Comput. Methods Appl. Mech. Eng. 58:79–116, 1986.
+G. R. Cowper, The shear coefficient in Timoshenko's beam theory, J. Appl.
+Mech. 33:335–340, 1966 (shear factors).
+W. C. Young, R. G. Budynas, Roark's Formulas for Stress and Strain, 7th ed.,
+McGraw-Hill, 2002, Table 10.7 (torsion constant of a rectangle).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from femb import rotations as rt
+from femb.element import Element
+from femb.errors import ModelError
+from femb.geometry import GeometryBlock
+from femb.jit import kernel
+
+from . import _spatial as sp
+from .bodies import _check_scalar
+from .spatial_bodies import FrameNode, SpatialBody, rotation_input, vector3
+
+# parameter layout of P (per element)
+D0, LEN, CM, MD, MO, JN, BETA, QA, QB, JNB, NPAR = 0, 6, 7, 43, 44, 45, 54, 55, 59, 63, 72
+CSTEP = 1e-20
+
+
+# ---------------------------------------------------------------------------
+# SE(3) operators (generic scalars: float64 or complex128 for the complex step)
+# ---------------------------------------------------------------------------
+@kernel
+def sfun(phi2):
+    """(s2, s3, s4, s5, s6) of spatial.md §1 from φ² (series below φ² = 0.01; analytic in φ²)."""
+    x = phi2
+    if abs(x) < 0.01:
+        s2 = 1.0 / 2.0 - x / 24.0 + x * x / 720.0 - x * x * x / 40320.0 + x * x * x * x / 3628800.0
+        s3 = 1.0 / 6.0 - x / 120.0 + x * x / 5040.0 - x * x * x / 362880.0 + x * x * x * x / 39916800.0
+        s4 = 1.0 / 12.0 + x / 720.0 + x * x / 30240.0 + x * x * x / 1209600.0 + x * x * x * x / 47900160.0
+        s5 = 1.0 / 12.0 - x / 180.0 + x * x / 6720.0 - x * x * x / 453600.0 + x * x * x * x / 47900160.0
+        s6 = 1.0 / 60.0 - x / 1260.0 + x * x / 60480.0 - x * x * x / 4989600.0 + x * x * x * x / 622702080.0
+        return s2, s3, s4, s5, s6
+    phi = np.sqrt(x)
+    s = np.sin(phi)
+    c = np.cos(phi)
+    s2 = (1.0 - c) / x
+    s3 = (phi - s) / (x * phi)
+    s4 = (1.0 - 0.5 * phi * s / (1.0 - c)) / x
+    s5 = (2.0 - 2.0 * c - phi * s) / (x * x)
+    s6 = (phi * (2.0 + c) - 3.0 * s) / (x * x * phi)
+    return s2, s3, s4, s5, s6
+
+
+@kernel
+def _tinv3(W, s4, a):
+    """T⁻¹(W) a = a + ½ W × a + s4 W × (W × a)."""
+    wa = sp.cross3(W, a)
+    wwa = sp.cross3(W, wa)
+    return (a[0] + 0.5 * wa[0] + s4 * wwa[0], a[1] + 0.5 * wa[1] + s4 * wwa[1],
+            a[2] + 0.5 * wa[2] + s4 * wwa[2])
+
+
+@kernel
+def _tuw(U, W, s, a, sgn):
+    """T_UΩ a (sgn = 1) or T_UΩᵀ a (sgn = −1); s = sfun(|Ω|²)."""
+    s2, s3, s4, s5, s6 = s
+    wu = sp.dot3(W, U)
+    ua = sp.cross3(U, a)
+    wa = sp.cross3(W, a)
+    uwa = sp.cross3(U, wa)
+    wua = sp.cross3(W, ua)
+    wwa = sp.cross3(W, wa)
+    c1 = -sgn * s2
+    c5 = sgn * s5 * wu
+    c6 = -s6 * wu
+    return (c1 * ua[0] + s3 * (uwa[0] + wua[0]) + c5 * wa[0] + c6 * wwa[0],
+            c1 * ua[1] + s3 * (uwa[1] + wua[1]) + c5 * wa[1] + c6 * wwa[1],
+            c1 * ua[2] + s3 * (uwa[2] + wua[2]) + c5 * wa[2] + c6 * wwa[2])
+
+
+@kernel
+def tinv_se3(U, W, s, aU, aW):
+    """T_SE3⁻¹(d) a for d = (U, Ω), a = (aU, aW): returns (bU, bW) (3-tuples)."""
+    bW = _tinv3(W, s[2], aW)
+    t = _tuw(U, W, s, bW, 1.0)
+    bU = _tinv3(W, s[2], sp.sub3(aU, t))
+    return bU, bW
+
+
+@kernel
+def tinvt_se3(U, W, s, aU, aW):
+    """T_SE3⁻ᵀ(d) a for d = (U, Ω), a = (aU, aW): returns (bU, bW)."""
+    mW = sp.scale3(-1.0, W)
+    bU = _tinv3(mW, s[2], aU)
+    t = _tuw(U, W, s, bU, -1.0)
+    bW = _tinv3(mW, s[2], sp.sub3(aW, t))
+    return bU, bW
+
+
+@kernel
+def _neg3(a):
+    return (-a[0], -a[1], -a[2])
+
+
+@kernel
+def _qmul(a0, a1, a2, a3, b0, b1, b2, b3):
+    """Quaternion product a ⊗ b (scalar first)."""
+    return (a0 * b0 - a1 * b1 - a2 * b2 - a3 * b3,
+            a0 * b1 + b0 * a1 + a2 * b3 - a3 * b2,
+            a0 * b2 + b0 * a2 + a3 * b1 - a1 * b3,
+            a0 * b3 + b0 * a3 + a1 * b2 - a2 * b1)
+
+
+@kernel
+def _qlog(q):
+    """Rotation vector of a quaternion (sign flipped to q0 ≥ 0, normalised; spatial.md §1)."""
+    n = math.sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3])
+    sg = 1.0 if q[0] >= 0.0 else -1.0
+    p0 = sg * q[0] / n
+    v0, v1, v2 = sg * q[1] / n, sg * q[2] / n, sg * q[3] / n
+    s = math.sqrt(v0 * v0 + v1 * v1 + v2 * v2)
+    if s < 1e-4:
+        c = (2.0 / p0) * (1.0 - s * s / (3.0 * p0 * p0))
+    else:
+        c = 2.0 * math.atan2(s, p0) / s
+    return (c * v0, c * v1, c * v2)
+
+
+@kernel
+def section_frames(Pe, x):
+    """Section frames of one element: (R_A, R_B (node), R_sA, R_sB (section), x_A, x_B, U, Θ).
+
+    Section rotations R_s = R R̄ with R̄ from the offset quaternions in P; d = (U, Θ) =
+    log(H_A⁻¹ H_B) with Θ = log(R_sAᵀ R_sB), U = T⁻¹(−Θ) R_sAᵀ (x_B − x_A).
+    """
+    qa = _qmul(x[3], x[4], x[5], x[6], Pe[QA], Pe[QA + 1], Pe[QA + 2], Pe[QA + 3])
+    qb = _qmul(x[10], x[11], x[12], x[13], Pe[QB], Pe[QB + 1], Pe[QB + 2], Pe[QB + 3])
+    na = 1.0 / math.sqrt(qa[0] * qa[0] + qa[1] * qa[1] + qa[2] * qa[2] + qa[3] * qa[3])
+    nb = 1.0 / math.sqrt(qb[0] * qb[0] + qb[1] * qb[1] + qb[2] * qb[2] + qb[3] * qb[3])
+    qa = (qa[0] * na, qa[1] * na, qa[2] * na, qa[3] * na)
+    qb = (qb[0] * nb, qb[1] * nb, qb[2] * nb, qb[3] * nb)
+    rel = _qmul(qa[0], -qa[1], -qa[2], -qa[3], qb[0], qb[1], qb[2], qb[3])
+    Th = _qlog(rel)
+    RA = rt.quat_to_matrix_t(x[3], x[4], x[5], x[6])
+    RB = rt.quat_to_matrix_t(x[10], x[11], x[12], x[13])
+    RsA = rt.quat_to_matrix_t(qa[0], qa[1], qa[2], qa[3])
+    RsB = rt.quat_to_matrix_t(qb[0], qb[1], qb[2], qb[3])
+    xA = sp.vec3(x, 0)
+    xB = sp.vec3(x, 7)
+    xab = sp.mtv(RsA, sp.sub3(xB, xA))
+    s = sfun(sp.dot3(Th, Th))
+    U = _tinv3(_neg3(Th), s[2], xab)
+    return RA, RB, RsA, RsB, xA, xB, U, Th
+
+
+@kernel
+def _c6(Pe, a):
+    """C a (C row-major at P[CM:CM+36]); a a 6-tuple."""
+    r0 = 0.0
+    r1 = 0.0
+    r2 = 0.0
+    r3 = 0.0
+    r4 = 0.0
+    r5 = 0.0
+    for j in range(6):
+        aj = a[j]
+        r0 += Pe[CM + j] * aj
+        r1 += Pe[CM + 6 + j] * aj
+        r2 += Pe[CM + 12 + j] * aj
+        r3 += Pe[CM + 18 + j] * aj
+        r4 += Pe[CM + 24 + j] * aj
+        r5 += Pe[CM + 30 + j] * aj
+    return (r0, r1, r2, r3, r4, r5)
+
+
+@kernel
+def _ddot(U, W, s, sm, vA, vB):
+    """ḋ = −T_SE3⁻¹(−d) ξ̇_A + T_SE3⁻¹(d) ξ̇_B (vA, vB pairs of 3-tuples; sm = sfun at −d, same)."""
+    a = tinv_se3(_neg3(U), _neg3(W), sm, vA[0], vA[1])
+    b = tinv_se3(U, W, s, vB[0], vB[1])
+    return (b[0][0] - a[0][0], b[0][1] - a[0][1], b[0][2] - a[0][2],
+            b[1][0] - a[1][0], b[1][1] - a[1][1], b[1][2] - a[1][2])
+
+
+@kernel
+def _forces(U, W, s, sig):
+    """(h_A, h_B) = (−T_SE3⁻ᵀ(−d) σ, T_SE3⁻ᵀ(d) σ), each a pair of 3-tuples."""
+    sU = (sig[0], sig[1], sig[2])
+    sW = (sig[3], sig[4], sig[5])
+    a = tinvt_se3(_neg3(U), _neg3(W), s, sU, sW)
+    b = tinvt_se3(U, W, s, sU, sW)
+    return (_neg3(a[0]), _neg3(a[1])), b
+
+
+@kernel
+def _qcol(j, U, W, s, RsA, RsB, Pe):
+    """Column j of Q = ∂d/∂(δx_A, δθ_A, δx_B, δθ_B) (6-tuple).
+
+    δx_A e_m gives the section increment ξ_U = R_sAᵀ e_m (row m of R_sA), δθ_A e_m gives
+    ξ_Ω = R̄_Aᵀ e_m (row m of R̄_A); δd = −T_SE3⁻¹(−d) ξ_A + T_SE3⁻¹(d) ξ_B.
+    """
+    z = (0.0, 0.0, 0.0)
+    blk = j // 3
+    m = j - 3 * blk
+    if blk == 0:
+        c = tinv_se3(_neg3(U), _neg3(W), s, (RsA[3 * m], RsA[3 * m + 1], RsA[3 * m + 2]), z)
+        sg = -1.0
+    elif blk == 1:
+        c = tinv_se3(_neg3(U), _neg3(W), s, z, _rbar_row(Pe, QA, m))
+        sg = -1.0
+    elif blk == 2:
+        c = tinv_se3(U, W, s, (RsB[3 * m], RsB[3 * m + 1], RsB[3 * m + 2]), z)
+        sg = 1.0
+    else:
+        c = tinv_se3(U, W, s, z, _rbar_row(Pe, QB, m))
+        sg = 1.0
+    return (sg * c[0][0], sg * c[0][1], sg * c[0][2], sg * c[1][0], sg * c[1][1], sg * c[1][2])
+
+
+@kernel
+def _rbar(Pe, o):
+    """R̄ (9-tuple) of the offset quaternion at P[o:o+4]."""
+    return rt.quat_to_matrix_t(Pe[o], Pe[o + 1], Pe[o + 2], Pe[o + 3])
+
+
+@kernel
+def _rbar_row(Pe, o, j):
+    """Row j of R̄ = R̄ᵀ e_j."""
+    R = _rbar(Pe, o)
+    return (R[3 * j], R[3 * j + 1], R[3 * j + 2])
+
+
+@kernel
+def _gyro(Pe, o, w):
+    """(J_n Ω, −Ω × J_n Ω) with J_n at P[o:o+9]."""
+    h = (Pe[o] * w[0] + Pe[o + 1] * w[1] + Pe[o + 2] * w[2],
+         Pe[o + 3] * w[0] + Pe[o + 4] * w[1] + Pe[o + 5] * w[2],
+         Pe[o + 6] * w[0] + Pe[o + 7] * w[1] + Pe[o + 8] * w[2])
+    return h, _neg3(sp.cross3(w, h))
+
+
+@kernel
+def _nonzero9(Pe, o):
+    """Some entry of P[o:o+9] is non-zero."""
+    for i in range(9):
+        if Pe[o + i] != 0.0:
+            return True
+    return False
+
+
+@kernel
+def _gyro_jac(Pe, oj, w, h, fv, o):
+    """fv[o:o+3, o:o+3] += −(Ω~J − (JΩ)~), J at P[oj:oj+9]."""
+    for j in range(3):
+        Jc = (Pe[oj + j], Pe[oj + 3 + j], Pe[oj + 6 + j])
+        c = sp.cross3(w, Jc)
+        for i in range(3):
+            fv[o + i, o + j] -= c[i]
+    fv[o + 0, o + 1] += -h[2]
+    fv[o + 0, o + 2] += h[1]
+    fv[o + 1, o + 0] += h[2]
+    fv[o + 1, o + 2] += -h[0]
+    fv[o + 2, o + 0] += -h[1]
+    fv[o + 2, o + 1] += h[0]
+
+
+@kernel
+def spatial_beam_mass(P, xe, Me):
+    """Constant mass: translational m_d I, m_o I (A–B), rotary J_n at each node (body axes)."""
+    for e in range(xe.shape[0]):
+        md = P[e, MD]
+        mo = P[e, MO]
+        for i in range(3):
+            Me[e, i, i] = md
+            Me[e, 6 + i, 6 + i] = md
+            Me[e, i, 6 + i] = mo
+            Me[e, 6 + i, i] = mo
+            for j in range(3):
+                Me[e, 3 + i, 3 + j] = P[e, JN + 3 * i + j]
+                Me[e, 9 + i, 9 + j] = P[e, JNB + 3 * i + j]
+
+
+@kernel
+def _cstep3(a, k):
+    """a + i h e_k (a 3-tuple; k outside 0..2: no step), complex."""
+    h = 1j * CSTEP
+    return (a[0] + (h if k == 0 else 0j), a[1] + (h if k == 1 else 0j), a[2] + (h if k == 2 else 0j))
+
+
+@kernel
+def _cdot3(W, k):
+    """|W + i h e_k|² (complex; k outside 0..2: |W|²)."""
+    w = _cstep3(W, k)
+    return w[0] * w[0] + w[1] * w[1] + w[2] * w[2]
+
+
+@kernel
+def _im3(a):
+    """Im(a)/h of a complex 3-tuple."""
+    return (a[0].imag / CSTEP, a[1].imag / CSTEP, a[2].imag / CSTEP)
+
+
+@kernel
+def _ecol(k, U, W, vA, vB):
+    """Column k of E = ∂ḋ/∂d at fixed section velocities (complex step), a 6-tuple."""
+    Uk = _cstep3(U, k)
+    Wk = _cstep3(W, k - 3)
+    sk = sfun(Wk[0] * Wk[0] + Wk[1] * Wk[1] + Wk[2] * Wk[2])
+    ek = _ddot(Uk, Wk, sk, sk, vA, vB)
+    return (ek[0].imag / CSTEP, ek[1].imag / CSTEP, ek[2].imag / CSTEP,
+            ek[3].imag / CSTEP, ek[4].imag / CSTEP, ek[5].imag / CSTEP)
+
+
+@kernel
+def _material(Pe, Qt, L, beta, fq, fv, e):
+    """fq −= Qᵀ(C/L)Q and fv = −β Qᵀ(C/L)Q (material stiffness and its damping twin)."""
+    for j in range(12):
+        cq = _c6(Pe, Qt[j])
+        for i in range(12):
+            qi = Qt[i]
+            m = (qi[0] * cq[0] + qi[1] * cq[1] + qi[2] * cq[2] + qi[3] * cq[3] + qi[4] * cq[4]
+                 + qi[5] * cq[5]) / L
+            fq[e, i, j] -= m
+            if beta != 0.0:
+                fv[e, i, j] -= beta * m
+
+
+@kernel
+def spatial_beam_force(P, t, tf, xe, ve, jac, fe, fq, fv):
+    """Elastic, damping and gyroscopic forces of the SE(3) beam (module docstring).
+
+    P (nel, 72): d0 (6), L, C (36, row-major), m_d, m_o, J_nA (9), β, p̄_A (4), p̄_B (4), J_nB (9).
+    xe (nel, 14) = (x_A, p_A, x_B, p_B); ve (nel, 12) = (ẋ_A, Ω_A, ẋ_B, Ω_B).
+    """
+    for e in range(xe.shape[0]):
+        Pe = P[e]
+        x = xe[e]
+        v = ve[e]
+        RA, RB, RsA, RsB, xA, xB, U, W = section_frames(Pe, x)
+        s = sfun(sp.dot3(W, W))
+        L = Pe[LEN]
+        beta = Pe[BETA]
+        d = (U[0], U[1], U[2], W[0], W[1], W[2])
+        eps = ((d[0] - Pe[0]) / L, (d[1] - Pe[1]) / L, (d[2] - Pe[2]) / L,
+               (d[3] - Pe[3]) / L, (d[4] - Pe[4]) / L, (d[5] - Pe[5]) / L)
+        xdA = sp.vec3(v, 0)
+        xdB = sp.vec3(v, 6)
+        wA = sp.vec3(v, 3)
+        wB = sp.vec3(v, 9)
+        RbA = _rbar(Pe, QA)
+        RbB = _rbar(Pe, QB)
+        vA = (sp.mtv(RsA, xdA), sp.mtv(RbA, wA))
+        vB = (sp.mtv(RsB, xdB), sp.mtv(RbB, wB))
+        dd = _ddot(U, W, s, s, vA, vB)
+        if beta != 0.0:
+            eps = (eps[0] + beta * dd[0] / L, eps[1] + beta * dd[1] / L, eps[2] + beta * dd[2] / L,
+                   eps[3] + beta * dd[3] / L, eps[4] + beta * dd[4] / L, eps[5] + beta * dd[5] / L)
+        sig = _c6(Pe, eps)
+        hA, hB = _forces(U, W, s, sig)
+        fxa = sp.mv(RsA, hA[0])
+        fta = sp.mv(RbA, hA[1])
+        fxb = sp.mv(RsB, hB[0])
+        ftb = sp.mv(RbB, hB[1])
+        gA, mgA = _gyro(Pe, JN, wA)
+        gB, mgB = _gyro(Pe, JNB, wB)
+        for i in range(3):
+            fe[e, i] = -fxa[i]
+            fe[e, 3 + i] = -fta[i] + mgA[i]
+            fe[e, 6 + i] = -fxb[i]
+            fe[e, 9 + i] = -ftb[i] + mgB[i]
+        if not jac:
+            continue
+        # Q = ∂d/∂(δx, δθ) as twelve columns (6-tuples), C Q likewise
+        Qt = (_qcol(0, U, W, s, RsA, RsB, Pe), _qcol(1, U, W, s, RsA, RsB, Pe),
+              _qcol(2, U, W, s, RsA, RsB, Pe), _qcol(3, U, W, s, RsA, RsB, Pe),
+              _qcol(4, U, W, s, RsA, RsB, Pe), _qcol(5, U, W, s, RsA, RsB, Pe),
+              _qcol(6, U, W, s, RsA, RsB, Pe), _qcol(7, U, W, s, RsA, RsB, Pe),
+              _qcol(8, U, W, s, RsA, RsB, Pe), _qcol(9, U, W, s, RsA, RsB, Pe),
+              _qcol(10, U, W, s, RsA, RsB, Pe), _qcol(11, U, W, s, RsA, RsB, Pe))
+        _material(Pe, Qt, L, beta, fq, fv, e)
+        # complex step along each d_k: G (12 × 6) at fixed σ → −Aᵀ G Q
+        # steps in U leave φ² = |Θ|² real: reuse s (as complex) instead of complex sin/cos
+        sc = (s[0] + 0j, s[1] + 0j, s[2] + 0j, s[3] + 0j, s[4] + 0j)
+        for k in range(6):
+            sk = sc if k < 3 else sfun(_cdot3(W, k - 3))
+            hAk, hBk = _forces(_cstep3(U, k), _cstep3(W, k - 3), sk, sig)
+            gxa = sp.mv(RsA, _im3(hAk[0]))
+            gta = sp.mv(RbA, _im3(hAk[1]))
+            gxb = sp.mv(RsB, _im3(hBk[0]))
+            gtb = sp.mv(RbB, _im3(hBk[1]))
+            for j in range(12):
+                qk = Qt[j][k]
+                for i in range(3):
+                    fq[e, i, j] -= gxa[i] * qk
+                    fq[e, 3 + i, j] -= gta[i] * qk
+                    fq[e, 6 + i, j] -= gxb[i] * qk
+                    fq[e, 9 + i, j] -= gtb[i] * qk
+        if beta != 0.0:
+            # −β Qᵀ (C/L)(E Q + P V): E = ∂ḋ/∂d at fixed section velocities (complex step),
+            # P V the change of R_sᵀẋ under δθ (columns θ_A, θ_B: Q[:, x] ẋ~ R)
+            E = (_ecol(0, U, W, vA, vB), _ecol(1, U, W, vA, vB), _ecol(2, U, W, vA, vB),
+                 _ecol(3, U, W, vA, vB), _ecol(4, U, W, vA, vB), _ecol(5, U, W, vA, vB))
+            for j in range(12):
+                q = Qt[j]
+                z0 = 0.0
+                z1 = 0.0
+                z2 = 0.0
+                z3 = 0.0
+                z4 = 0.0
+                z5 = 0.0
+                for k in range(6):
+                    c = q[k]
+                    Ek = E[k]
+                    z0 += Ek[0] * c
+                    z1 += Ek[1] * c
+                    z2 += Ek[2] * c
+                    z3 += Ek[3] * c
+                    z4 += Ek[4] * c
+                    z5 += Ek[5] * c
+                blk = j // 3
+                if blk == 1 or blk == 3:
+                    m = j - 3 * blk
+                    if blk == 1:
+                        cr = sp.cross3(xdA, (RA[m], RA[3 + m], RA[6 + m]))
+                        o = 0
+                    else:
+                        cr = sp.cross3(xdB, (RB[m], RB[3 + m], RB[6 + m]))
+                        o = 6
+                    for n in range(3):
+                        qn = Qt[o + n]
+                        z0 += qn[0] * cr[n]
+                        z1 += qn[1] * cr[n]
+                        z2 += qn[2] * cr[n]
+                        z3 += qn[3] * cr[n]
+                        z4 += qn[4] * cr[n]
+                        z5 += qn[5] * cr[n]
+                cz = _c6(Pe, (z0, z1, z2, z3, z4, z5))
+                c = beta / L
+                for i in range(12):
+                    qi = Qt[i]
+                    fq[e, i, j] -= c * (qi[0] * cz[0] + qi[1] * cz[1] + qi[2] * cz[2] + qi[3] * cz[3]
+                                        + qi[4] * cz[4] + qi[5] * cz[5])
+        # the rotation of the force directions: ∂(−R R̄ h_U)/∂δθ = R (R̄ h_U)~
+        ma = sp.rskew(RA, sp.mv(RbA, hA[0]))
+        mb = sp.rskew(RB, sp.mv(RbB, hB[0]))
+        for i in range(3):
+            for j in range(3):
+                fq[e, i, 3 + j] += ma[3 * i + j]
+                fq[e, 6 + i, 9 + j] += mb[3 * i + j]
+        if _nonzero9(Pe, JN) or _nonzero9(Pe, JNB):     # fv is touched only by types that declare it
+            V = fv[e]
+            _gyro_jac(Pe, JN, wA, gA, V, 3)
+            _gyro_jac(Pe, JNB, wB, gB, V, 9)
+
+
+# ---------------------------------------------------------------------------
+# sections
+# ---------------------------------------------------------------------------
+def _cowper_nu(E, G):
+    return E / (2.0 * G) - 1.0
+
+
+@dataclass
+class SpatialSection:
+    """Cross-section of a spatial beam: stiffness C (6 × 6) and inertia per unit length.
+
+    Section axes: 1 along the beam, 2 and 3 in the cross-section. Strain
+    ε = (Γ1 − 1, Γ2, Γ3, κ1, κ2, κ3) (extension, shears, twist, curvatures), resultants
+    σ = C ε = (N, V2, V3, T, M2, M3).
+
+    Parameters
+    ----------
+    C : (6, 6) array_like
+        Symmetric positive definite section stiffness; diagonal
+        (EA, k2 GA, k3 GA, GJ, EI2, EI3) for principal, shear-centre = centroid sections.
+    rhoA : float
+        Mass per unit length (kg/m).
+    rhoJ : (3,) or (3, 3) array_like
+        Mass moment of inertia per unit length in section axes (kg m); (ρ(I2 + I3), ρI2, ρI3)
+        for a homogeneous section.
+    damping : float, optional
+        β (s): stiffness-proportional damping, σ = C (ε + β ε̇).
+    """
+
+    C: np.ndarray
+    rhoA: float = 0.0
+    rhoJ: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    damping: float = 0.0
+
+    def __post_init__(self):
+        C = np.asarray(self.C, dtype=float)
+        if C.shape == (6,):
+            C = np.diag(C)
+        if C.shape != (6, 6) or not np.all(np.isfinite(C)):
+            raise ModelError(f"SpatialSection: C must be 6 numbers or a finite 6×6 matrix, got shape {C.shape}")
+        if not np.allclose(C, C.T, rtol=1e-12, atol=1e-14 * np.abs(C).max()):
+            raise ModelError("SpatialSection: C must be symmetric (the strain energy is ½εᵀCε)")
+        if np.linalg.eigvalsh(C)[0] <= 0.0:
+            raise ModelError("SpatialSection: C must be positive definite")
+        self.C = 0.5 * (C + C.T)
+        self.rhoA = _check_scalar("SpatialSection", "rhoA", self.rhoA)
+        if self.rhoA < 0.0:
+            raise ModelError(f"SpatialSection: rhoA must be ≥ 0, got {self.rhoA}")
+        J = np.asarray(self.rhoJ, dtype=float)
+        if J.shape == (3,):
+            J = np.diag(J)
+        if J.shape != (3, 3) or not np.all(np.isfinite(J)) or not np.allclose(J, J.T):
+            raise ModelError("SpatialSection: rhoJ must be 3 numbers or a symmetric 3×3 matrix")
+        if np.linalg.eigvalsh(J)[0] < 0.0:
+            raise ModelError("SpatialSection: rhoJ must be positive semi-definite")
+        self.rhoJ = J
+        self.damping = _check_scalar("SpatialSection", "damping", self.damping)
+        if self.damping < 0.0:
+            raise ModelError(f"SpatialSection: damping must be ≥ 0, got {self.damping}")
+
+    @classmethod
+    def from_properties(cls, EA, GA2, GA3, GJ, EI2, EI3, rhoA=0.0, rhoJ=(0.0, 0.0, 0.0), damping=0.0):
+        """Diagonal C = diag(EA, GA2, GA3, GJ, EI2, EI3) (shear stiffnesses include the shear factors)."""
+        return cls(np.diag([EA, GA2, GA3, GJ, EI2, EI3]), rhoA, rhoJ, damping)
+
+    @classmethod
+    def rectangle(cls, E, G, width, height, density=0.0, shear_factor=5.0 / 6.0, damping=0.0):
+        """Solid rectangle, ``width`` along section axis 2, ``height`` along axis 3.
+
+        I2 = w h³/12 (bending about axis 2), I3 = h w³/12; shear factor k (default 5/6;
+        Cowper 1966: 10(1+ν)/(12+11ν)) on both shears; St-Venant torsion constant
+        J = a b³ (1/3 − 0.21 (b/a)(1 − b⁴/(12 a⁴))), a ≥ b the sides (Roark, Table 10.7,
+        within 4 % for all ratios, exact as a/b → ∞).
+        """
+        w, h = float(width), float(height)
+        A = w * h
+        I2 = w * h ** 3 / 12.0
+        I3 = h * w ** 3 / 12.0
+        a, b = max(w, h), min(w, h)
+        J = a * b ** 3 * (1.0 / 3.0 - 0.21 * (b / a) * (1.0 - b ** 4 / (12.0 * a ** 4)))
+        k = float(shear_factor)
+        return cls.from_properties(E * A, k * G * A, k * G * A, G * J, E * I2, E * I3,
+                                   density * A, density * np.array([I2 + I3, I2, I3]), damping)
+
+    @classmethod
+    def circle(cls, E, G, diameter, density=0.0, shear_factor=None, damping=0.0):
+        """Solid circle: I = π d⁴/64, J = π d⁴/32; shear factor default Cowper's 6(1+ν)/(7+6ν), ν = E/2G − 1."""
+        d = float(diameter)
+        A = math.pi * d * d / 4.0
+        I = math.pi * d ** 4 / 64.0
+        nu = _cowper_nu(E, G)
+        k = 6.0 * (1.0 + nu) / (7.0 + 6.0 * nu) if shear_factor is None else float(shear_factor)
+        return cls.from_properties(E * A, k * G * A, k * G * A, G * 2.0 * I, E * I, E * I,
+                                   density * A, density * np.array([2.0 * I, I, I]), damping)
+
+    @classmethod
+    def tube(cls, E, G, outer_diameter, inner_diameter, density=0.0, shear_factor=None, damping=0.0):
+        """Circular tube: I = π(D⁴ − d⁴)/64, J = 2I; shear factor default Cowper's
+        6(1+ν)(1+m²)²/((7+6ν)(1+m²)² + (20+12ν)m²), m = d/D."""
+        Do, Di = float(outer_diameter), float(inner_diameter)
+        if not 0.0 <= Di < Do:
+            raise ModelError(f"SpatialSection.tube: need 0 ≤ inner < outer diameter, got {Di}, {Do}")
+        A = math.pi * (Do * Do - Di * Di) / 4.0
+        I = math.pi * (Do ** 4 - Di ** 4) / 64.0
+        nu = _cowper_nu(E, G)
+        m2 = (Di / Do) ** 2
+        k = (6.0 * (1.0 + nu) * (1.0 + m2) ** 2 / ((7.0 + 6.0 * nu) * (1.0 + m2) ** 2 + (20.0 + 12.0 * nu) * m2)
+             if shear_factor is None else float(shear_factor))
+        return cls.from_properties(E * A, k * G * A, k * G * A, G * 2.0 * I, E * I, E * I,
+                                   density * A, density * np.array([2.0 * I, I, I]), damping)
+
+
+# ---------------------------------------------------------------------------
+# nodes and the element
+# ---------------------------------------------------------------------------
+class SpatialBeamNode(SpatialBody, Element):
+    """A frame node of a spatial beam (no mass of its own); joints attach to it as to a body.
+
+    Parameters
+    ----------
+    name : str
+    position : (3,)
+    rotation : (4,) quaternion or (3, 3) matrix, optional
+        Node axes (body to space) at t0; :func:`spatial_beam` makes them the section axes.
+    velocity, omega : (3,), optional
+        Initial ṙ (space axes) and Ω (node axes).
+    fixed_translation, fixed_rotation : optional
+        As :class:`FrameNode` (a clamp).
+    """
+
+    def __init__(self, name, position, rotation=None, velocity=(0.0, 0.0, 0.0), omega=(0.0, 0.0, 0.0),
+                 fixed_translation=(False, False, False), fixed_rotation=False, points=None, axes=None):
+        Element.__init__(self, name)
+        node = FrameNode(name, position, rotation, velocity, omega, fixed_translation, fixed_rotation)
+        self._init_body(name, node, points, axes, None)
+
+    def nodes(self):
+        return [self.node]
+
+
+def _quat(R):
+    return rt.matrix_to_quat(np.ascontiguousarray(R, dtype=float))
+
+
+def _qmul_np(a, b):
+    return np.array(_qmul.py_func(*a, *b))
+
+
+def _se3_log_np(qa, xa, qb, xb):
+    """d = log(H_A⁻¹ H_B) (6,) of section frames given by unit quaternions and positions."""
+    rel = _qmul_np(np.array([qa[0], -qa[1], -qa[2], -qa[3]]), qb)
+    Th = np.array(_qlog.py_func(rel))
+    RsA = rt.quat_to_matrix(np.ascontiguousarray(qa))
+    xab = RsA.T @ (np.asarray(xb) - np.asarray(xa))
+    s = sfun.py_func(float(Th @ Th))
+    U = np.array(_tinv3.py_func(tuple(-Th), s[2], tuple(xab)))
+    return np.concatenate((U, Th))
+
+
+class SpatialBeam(Element):
+    """Two-node geometrically exact (Simo–Reissner) spatial beam, SE(3) formulation.
+
+    See the module docstring for the formulation. The element's section axes at
+    each end are the node's axes times a constant offset R̄ fixed at t0: by default
+    (``frame=None``) the section frame at t0 has axis 1 along the chord x_B − x_A
+    and axes 2, 3 from the nodes (the node's axis 2 projected normal to the chord),
+    so a node may carry several elements in different directions (a rigid elbow)
+    and may be any frame node (a rigid body's centre of mass, a beam node).
+
+    Parameters
+    ----------
+    name : str
+    a, b : SpatialBody or str
+        The bodies whose frame nodes are the element's ends.
+    section : SpatialSection
+    mass : {"consistent", "lumped", "averaged"}
+        Translational mass: consistent ρAL/6 [2 1; 1 2], lumped ρAL/2 [1 0; 0 1], or their
+        average ρAL/12 [5 1; 1 5] (the most accurate bending frequencies with 20 elements,
+        tests/test_spatial_beam_modal.py). Rotary inertia is always lumped.
+    frame_a, frame_b : (3, 3) array_like, optional
+        Section axes at t0 in space (columns e1, e2, e3) at each end; default: e1 along
+        the chord, e2 the node's axis 2 made normal to e1 (or its axis 3 if parallel).
+        For a curved reference give the exact tangent frames (the element then holds the
+        circular/helical arc through them).
+    """
+
+    has_mass = True
+    constant_mass = True
+    has_force = True
+    force_depends_on_qd = True
+    kernels = {"mass": spatial_beam_mass, "force": spatial_beam_force}
+
+    def __init__(self, name, a, b, section, mass="consistent", frame_a=None, frame_b=None):
+        super().__init__(name)
+        if not isinstance(section, SpatialSection):
+            raise ModelError(f"SpatialBeam '{name}': section must be a SpatialSection, got {section!r}")
+        if mass not in ("consistent", "lumped", "averaged"):
+            raise ModelError(f"SpatialBeam '{name}': mass must be 'consistent', 'lumped' or 'averaged', "
+                             f"got {mass!r}")
+        self.a, self.b = a, b
+        self.section = section
+        self.mass_kind = mass
+        self.frame_a = None if frame_a is None else np.asarray(frame_a, dtype=float)
+        self.frame_b = None if frame_b is None else np.asarray(frame_b, dtype=float)
+
+    def resolve(self, lookup):
+        from .spatial_joints import _resolve_spatial
+        self.a = _resolve_spatial(self, self.a, lookup, "a")
+        self.b = _resolve_spatial(self, self.b, lookup, "b")
+        if self.a is self.b:
+            raise ModelError(f"SpatialBeam '{self.name}': ends a and b are the same body ('{self.a.name}')")
+
+    def nodes(self):
+        return [self.a.node, self.b.node]
+
+    def _default_frame(self, node, chord):
+        e1 = chord / np.linalg.norm(chord)
+        R0 = node.rotation0
+        for c in (R0[:, 1], R0[:, 2], R0[:, 0]):
+            e2 = c - (c @ e1) * e1
+            if np.linalg.norm(e2) > 1e-6:
+                e2 /= np.linalg.norm(e2)
+                return np.column_stack((e1, e2, np.cross(e1, e2)))
+        raise ModelError(f"SpatialBeam '{self.name}': cannot build a section frame")  # pragma: no cover
+
+    def validate(self):
+        xa, xb = self.a.node.q0[:3], self.b.node.q0[:3]
+        chord = xb - xa
+        if np.linalg.norm(chord) == 0.0:
+            raise ModelError(f"SpatialBeam '{self.name}': its two nodes coincide at t0 (zero length)")
+        Fa = self.frame_a if self.frame_a is not None else self._default_frame(self.a.node, chord)
+        Fb = self.frame_b if self.frame_b is not None else self._default_frame(self.b.node, chord)
+        pa, pb = (rotation_input(f"SpatialBeam '{self.name}'", w, F) for w, F in (("frame_a", Fa), ("frame_b", Fb)))
+        # offsets R̄ = Rᵀ R_s (node axes to section axes)
+        self.qbar_a = _qmul_np(np.array([1, -1, -1, -1.0]) * self.a.node.q0[3:7], pa)
+        self.qbar_b = _qmul_np(np.array([1, -1, -1, -1.0]) * self.b.node.q0[3:7], pb)
+        self.qbar_a /= np.linalg.norm(self.qbar_a)
+        self.qbar_b /= np.linalg.norm(self.qbar_b)
+        self.d0 = _se3_log_np(pa, xa, pb, xb)
+        self.L = float(np.linalg.norm(self.d0[:3]))
+        if np.linalg.norm(self.d0[3:]) > 0.75 * math.pi:
+            raise ModelError(f"SpatialBeam '{self.name}': the section frames at its ends differ by "
+                             f"{np.linalg.norm(self.d0[3:]):.3g} rad at t0 (more than 3π/4): refine the mesh")
+
+    @classmethod
+    def pack(cls, elements):
+        """``P`` (nel, 72): d0, L, C, m_d, m_o, J_nA, β, p̄_A, p̄_B, J_nB (see :func:`spatial_beam_force`)."""
+        P = np.zeros((len(elements), NPAR))
+        for k, e in enumerate(elements):
+            s = e.section
+            m = s.rhoA * e.L
+            P[k, D0:D0 + 6] = e.d0
+            P[k, LEN] = e.L
+            P[k, CM:CM + 36] = s.C.reshape(-1)
+            if e.mass_kind == "consistent":
+                P[k, MD], P[k, MO] = m / 3.0, m / 6.0
+            elif e.mass_kind == "averaged":
+                P[k, MD], P[k, MO] = 5.0 * m / 12.0, m / 12.0
+            else:
+                P[k, MD], P[k, MO] = m / 2.0, 0.0
+            # rotary inertia at each node, in node axes: R̄ ρJ R̄ᵀ L/2 (each end its own offset)
+            for o, qb in ((JN, e.qbar_a), (JNB, e.qbar_b)):
+                Rb = rt.quat_to_matrix(np.ascontiguousarray(qb))
+                P[k, o:o + 9] = (Rb @ s.rhoJ @ Rb.T * (0.5 * e.L)).reshape(-1)
+            P[k, BETA] = s.damping
+            P[k, QA:QA + 4] = e.qbar_a
+            P[k, QB:QB + 4] = e.qbar_b
+        return {"P": P, "L": P[:, LEN].copy()}
+
+    @classmethod
+    def traits(cls, elements):
+        """``force_depends_on_qd`` only when some element has damping or rotary inertia (gyroscopic)."""
+        t = super().traits(elements)
+        t["force_depends_on_qd"] = any(e.section.damping != 0.0 or np.any(e.section.rhoJ != 0.0)
+                                       for e in elements)
+        return t
+
+    # ---------------------------------------------------------------- output
+    @classmethod
+    def strains(cls, p, qe, qde=None):
+        """Strains ε = (d − d0)/L (nel, 6) = (Γ1 − Γ1⁰, Γ2 − Γ2⁰, Γ3 − Γ3⁰, κ − κ⁰) in section axes.
+
+        With ``qde`` (nel, 12) the strain rates ε̇ are returned too.
+        """
+        P = p["P"]
+        qe = np.asarray(qe, dtype=float)
+        eps = np.empty((len(P), 6))
+        rate = np.empty((len(P), 6))
+        for e in range(len(P)):
+            RA, RB, RsA, RsB, xA, xB, U, W = section_frames.py_func(P[e], qe[e])
+            eps[e] = (np.array([*U, *W]) - P[e, D0:D0 + 6]) / P[e, LEN]
+            if qde is not None:
+                v = np.asarray(qde[e], dtype=float)
+                s = sfun.py_func(float(np.dot(W, W)))
+                RbA = rt.quat_to_matrix(np.ascontiguousarray(P[e, QA:QA + 4]))
+                RbB = rt.quat_to_matrix(np.ascontiguousarray(P[e, QB:QB + 4]))
+                vA = (tuple(np.reshape(RsA, (3, 3)).T @ v[0:3]), tuple(RbA.T @ v[3:6]))
+                vB = (tuple(np.reshape(RsB, (3, 3)).T @ v[6:9]), tuple(RbB.T @ v[9:12]))
+                rate[e] = np.array(_ddot.py_func(U, W, s, s, vA, vB)) / P[e, LEN]
+        return eps if qde is None else (eps, rate)
+
+    @classmethod
+    def resultants(cls, p, qe, qde=None):
+        """Section resultants σ = C(ε + βε̇) (nel, 6) = (N, V2, V3, T, M2, M3) in section axes."""
+        P = p["P"]
+        if qde is None:
+            eps = cls.strains(p, qe)
+        else:
+            eps, rate = cls.strains(p, qe, qde)
+            eps = eps + P[:, BETA:BETA + 1] * rate
+        return np.einsum("eij,ej->ei", P[:, CM:CM + 36].reshape(-1, 6, 6), eps)
+
+    @classmethod
+    def strain_energy(cls, p, qe):
+        """½ L εᵀ C ε per element (nel,)."""
+        P = p["P"]
+        eps = cls.strains(p, qe)
+        C = P[:, CM:CM + 36].reshape(-1, 6, 6)
+        return 0.5 * P[:, LEN] * np.einsum("ei,eij,ej->e", eps, C, eps)
+
+    @classmethod
+    def geometry(cls, p, t, qe, qde, lame, names):
+        """The centre lines: one line per element through its two nodes (cell data: resultants N … M3)."""
+        qe = np.asarray(qe, dtype=float)
+        n = qe.shape[0]
+        pts = np.concatenate((qe[:, 0:3], qe[:, 7:10]))
+        conn = np.column_stack((np.arange(n), n + np.arange(n))).astype(np.int64)
+        sig = cls.resultants(p, qe)
+        cd = {k: [sig[:, i].copy()] for i, k in enumerate(("N", "V2", "V3", "T", "M2", "M3"))}
+        return [GeometryBlock(cls.__name__, pts, [("line", conn)], cell_data=cd)]
+
+
+# ---------------------------------------------------------------------------
+# meshing
+# ---------------------------------------------------------------------------
+@dataclass
+class SpatialBeamMesh:
+    """What :func:`spatial_beam` added to a mechanism.
+
+    Attributes
+    ----------
+    name : str
+    nodes : list of SpatialBody
+        The n + 1 node bodies from start to end (:class:`SpatialBeamNode`, or the body
+        given as a ``"shared"`` end).
+    elements : list of SpatialBeam
+    joints : dict
+        ``{"start": FixedJoint or None, "end": FixedJoint or None}``.
+    section : SpatialSection
+    arc_length : ndarray (n + 1,)
+        Reference arc length of the nodes (sum of element lengths |U0|).
+    """
+
+    name: str
+    nodes: list
+    elements: list
+    joints: dict
+    section: Any
+    arc_length: np.ndarray = field(repr=False)
+
+    @property
+    def node_names(self):
+        return [b.node.name for b in self.nodes]
+
+    @property
+    def length(self):
+        return float(self.arc_length[-1])
+
+    def positions(self, model, q):
+        """Node positions for q (..., nx): shape (..., n + 1, 3)."""
+        return np.stack([model.node_coordinates(nm, q)[..., 0:3] for nm in self.node_names], axis=-2)
+
+    def quaternions(self, model, q):
+        """Node quaternions (..., n + 1, 4)."""
+        return np.stack([model.node_coordinates(nm, q)[..., 3:7] for nm in self.node_names], axis=-2)
+
+
+def _frame_from(t, normal):
+    e1 = np.asarray(t, dtype=float)
+    e1 = e1 / np.linalg.norm(e1)
+    if normal is None:
+        normal = (0.0, 0.0, 1.0) if abs(e1[2]) < 0.9 else (0.0, 1.0, 0.0)
+        # default: axis 2 horizontal-ish, axis 3 "up" where possible
+        n = np.asarray(normal, dtype=float)
+        e3 = n - (n @ e1) * e1
+        e3 /= np.linalg.norm(e3)
+        return np.column_stack((e1, np.cross(e3, e1), e3))
+    n = np.asarray(normal, dtype=float)
+    e2 = n - (n @ e1) * e1
+    if np.linalg.norm(e2) < 1e-9 * np.linalg.norm(n):
+        raise ModelError(f"spatial_beam: section axis 2 hint {normal!r} is parallel to the beam axis")
+    e2 /= np.linalg.norm(e2)
+    return np.column_stack((e1, e2, np.cross(e1, e2)))
+
+
+def spatial_beam(mech, name, section, path, n_elements, *, normal=None, frames=None, start=None, end=None,
+                 mass="consistent"):
+    """Mesh a spatial beam along a line, a polyline or a curve and add it to ``mech``.
+
+    Parameters
+    ----------
+    mech : Mechanism
+    name : str
+        Prefix: nodes ``{name}.n0`` …, elements ``{name}.e0`` …, joints ``{name}.start``,
+        ``{name}.end``.
+    section : SpatialSection
+    path : (m, 3) array_like or callable
+        A polyline through m ≥ 2 points (straight segments; a corner is a rigid elbow:
+        one node, each segment's elements with their own section axes), or a curve
+        ``path(s)`` → (3,), s ∈ [0, 1] (nodes at s = k/n).
+    n_elements : int or sequence of int
+        Elements in total (a curve), per segment (int: each segment of a polyline), or
+        a list with one count per segment.
+    normal : (3,), optional
+        Direction of section axis 2 (made normal to the axis); default: axis 3 towards +z
+        (+y for beams along z).
+    frames : callable, optional
+        For a curve: ``frames(s)`` → (3, 3) section axes at s (columns e1 = unit tangent,
+        e2, e3); default: the tangent by central differences of ``path`` (step 1e-6,
+        error O(1e-12)) and ``normal``.
+    start, end : None, "clamp", SpatialBody or name, or (body, "shared")
+        Free end; clamped to the ground (the node's coordinates are fixed); welded to a
+        body by a :class:`~femb.elements.spatial_joints.FixedJoint` at the node; or the
+        body's own frame node is the end node (``"shared"``; its axes need not be the
+        section axes).
+    mass : {"consistent", "lumped", "averaged"}
+
+    Returns
+    -------
+    SpatialBeamMesh
+    """
+    from .spatial_joints import FixedJoint
+    if callable(path):
+        n = int(n_elements)
+        if n < 1:
+            raise ModelError(f"spatial_beam '{name}': n_elements must be ≥ 1")
+        s = np.linspace(0.0, 1.0, n + 1)
+        X = np.array([np.asarray(path(si), dtype=float) for si in s])
+        if frames is not None:
+            F = [np.asarray(frames(si), dtype=float) for si in s]
+        else:
+            h = 1e-6
+            F = [_frame_from((np.asarray(path(si + h), float) - np.asarray(path(si - h), float)) / (2 * h), normal)
+                 for si in s]
+        pts, fa, fb = X, F[:-1], F[1:]
+        node_frames = F
+    else:
+        P = np.asarray(path, dtype=float)
+        if P.ndim != 2 or P.shape[1] != 3 or len(P) < 2:
+            raise ModelError(f"spatial_beam '{name}': path must be (m ≥ 2, 3) points or a callable")
+        nseg = len(P) - 1
+        counts = [int(n_elements)] * nseg if np.ndim(n_elements) == 0 else [int(c) for c in n_elements]
+        if len(counts) != nseg or min(counts) < 1:
+            raise ModelError(f"spatial_beam '{name}': need one element count ≥ 1 per segment ({nseg})")
+        pts, fa, fb, node_frames = [P[0]], [], [], []
+        for k in range(nseg):
+            Fk = _frame_from(P[k + 1] - P[k], normal)
+            if k == 0:
+                node_frames.append(Fk)
+            for j in range(1, counts[k] + 1):
+                pts.append(P[k] + (P[k + 1] - P[k]) * j / counts[k])
+                node_frames.append(Fk)
+                fa.append(Fk)
+                fb.append(Fk)
+        pts = np.array(pts)
+    n = len(pts) - 1
+    nodes = []
+    joints = {"start": None, "end": None}
+    for k in range(n + 1):
+        spec = start if k == 0 else (end if k == n else None)
+        shared = isinstance(spec, tuple) and len(spec) == 2 and spec[1] == "shared"
+        if shared:
+            body = mech[spec[0]] if isinstance(spec[0], str) else spec[0]
+            if not isinstance(body, SpatialBody):
+                raise ModelError(f"spatial_beam '{name}': {spec[0]!r} is not a spatial body")
+            if np.linalg.norm(body.node.q0[:3] - pts[k]) > 1e-9 * max(1.0, np.abs(pts).max()):
+                raise ModelError(f"spatial_beam '{name}': the shared body '{body.name}' has its node at "
+                                 f"{body.node.q0[:3]}, not at the beam end {pts[k]}")
+            nodes.append(body)
+            continue
+        clamp = isinstance(spec, str) and spec == "clamp"
+        nd = SpatialBeamNode(f"{name}.n{k}", pts[k], node_frames[k],
+                             fixed_translation=(clamp, clamp, clamp), fixed_rotation=clamp)
+        mech.add(nd)
+        nodes.append(nd)
+        if spec is not None and not clamp:
+            body = spec
+            if isinstance(body, str) and body != "ground" and body not in mech:
+                raise ModelError(f"spatial_beam '{name}': no body named '{body}'")
+            which = "start" if k == 0 else "end"
+            joints[which] = mech.add(FixedJoint(f"{name}.{which}", body, nd, at=pts[k]))
+    elements = []
+    for k in range(n):
+        elements.append(mech.add(SpatialBeam(f"{name}.e{k}", nodes[k], nodes[k + 1], section, mass=mass,
+                                             frame_a=fa[k], frame_b=fb[k])))
+    arc = np.zeros(n + 1)
+    for k, e in enumerate(elements):
+        e.validate()
+        arc[k + 1] = arc[k] + e.L
+    return SpatialBeamMesh(name, nodes, elements, joints, section, arc)
