@@ -10,8 +10,10 @@ ratios are taken against a reference run in the same process.
 * ``beam``: ms per step of the spin-up beam for n elements (h = 5 ms, a run from
   rest over [0, 1] s with the defaults, the whole ``simulate`` call timed) and the
   fitted exponent of cost against n for n ≥ 10³.
-* ``process``: whole-process wall time of ``femb run andrews`` with an empty
-  compile cache and of ``femb run andrews --t-end 0.003`` with a warm one.
+* ``process``: whole-process wall times of the first run: ``femb cache build`` and
+  ``femb run andrews`` with an empty compile cache, each spatial scene with only the
+  engine cached and after ``femb cache build``, a user-defined element type, and
+  ``femb run andrews --t-end 0.003`` with a warm cache.
 
 Usage::
 
@@ -119,26 +121,121 @@ def beam(runs=3, ns=(10, 100, 1000, 3000, 10000), t_end=1.0, h=5e-3):
     return rows
 
 
-def process(runs=3):
+USER_SCENE = """
+import math
+import numpy as np
+import femb
+from femb.element import Element
+from femb.elements import RigidBody, Hinge, Gravity
+from femb.jit import kernel
+
+
+@kernel
+def pull_force(P, t, tf, xe, ve, jac, fe, fq, fv):
+    for e in range(xe.shape[0]):
+        k = P[e, 0]
+        fe[e, 0] = -k * xe[e, 0]
+        fe[e, 1] = -k * xe[e, 1]
+        if jac:
+            fq[e, 0, 0] = -k
+            fq[e, 1, 1] = -k
+
+
+class Pull(Element):
+    has_force = True
+    kernels = {"force": pull_force}
+
+    def __init__(self, name, body, k):
+        super().__init__(name)
+        self.body, self.k = body, float(k)
+
+    def resolve(self, lookup):
+        self.body = lookup(self.body, "body")
+
+    def nodes(self):
+        return [self.body.node]
+
+    @classmethod
+    def pack(cls, elements):
+        return {"P": np.array([[e.k] for e in elements]).reshape(-1, 1)}
+
+
+def build():
+    m = femb.Mechanism("user_pull")
+    b = m.add(RigidBody("bar", 1.0, 1 / 12, (0.5, 0.0), points={"O": (-0.5, 0.0)}))
+    m.add(Hinge("pivot", "ground", b, point_b="O"))
+    m.add(Gravity((0.0, -9.81)))
+    m.add(Pull("pull", b, 20.0))
+    return m
+
+
+DEFAULTS = {"t_end": 0.1, "h": 1e-3}
+
+
+def outputs(result):
+    return {"x": result.body("bar")[:, 0]}
+"""
+
+
+def _whole(cmd, env):
+    t = time.perf_counter()
+    p = subprocess.run(cmd, env=env, capture_output=True, text=True)
+    if p.returncode != 0:
+        raise RuntimeError(f"{' '.join(cmd)} failed: {p.stderr[-2000:]}")
+    return time.perf_counter() - t, p.stderr
+
+
+def process(runs=3, scenes=("heavy_top", "bricard", "spatial_slider_crank", "spatial_double_pendulum")):
+    """Whole-process figures of the first run (issue table of the one engine).
+
+    Each run uses a new cache directory, filled as the row says: empty; the engine only
+    (copied from a cache that compiled it once); or everything (``femb cache build``).
+    The background build after a fresh engine compilation is off (FEMB_BACKGROUND_BUILD=0)
+    except where said, so that each row measures what its own process compiles.
+    """
+    import shutil
     exe = [sys.executable, "-m", "femb.cli"]
-    cold = []
-    for _ in range(runs):
-        with tempfile.TemporaryDirectory() as d:
-            env = dict(os.environ, FEMB_CACHE_DIR=d)
-            t = time.perf_counter()
-            subprocess.run(exe + ["run", "andrews"], env=env, check=True, capture_output=True)
-            cold.append(time.perf_counter() - t)
-    subprocess.run(exe + ["run", "andrews", "--t-end", "0.003"], check=True, capture_output=True)
-    warm = []
-    for _ in range(runs):
-        t = time.perf_counter()
-        subprocess.run(exe + ["run", "andrews", "--t-end", "0.003"], check=True, capture_output=True)
-        warm.append(time.perf_counter() - t)
-    print(f"femb run andrews, empty cache: {statistics.median(cold):.1f} s (median of {runs}; "
-          f"{', '.join(f'{x:.1f}' for x in cold)})")
-    print(f"femb run andrews --t-end 0.003, warm cache: {statistics.median(warm):.2f} s (median of {runs}; "
-          f"{', '.join(f'{x:.2f}' for x in warm)})")
-    return cold, warm
+    base = dict(os.environ, FEMB_BACKGROUND_BUILD="0")
+    rows = []
+    with tempfile.TemporaryDirectory() as root:
+        eng = os.path.join(root, "engine")
+        full = os.path.join(root, "full")
+        t_build, _ = _whole(exe + ["cache", "build"], dict(base, FEMB_CACHE_DIR=full))
+        rows.append(("femb cache build, empty cache (engine and every built-in kernel)", [t_build]))
+        os.makedirs(os.path.join(eng, "numba"))
+        for d in os.listdir(os.path.join(full, "numba")):
+            if d.startswith(("step-", "rotations-")):
+                shutil.copytree(os.path.join(full, "numba", d), os.path.join(eng, "numba", d))
+
+        def fresh(kind, tag):
+            d = os.path.join(root, f"{tag}-{len(os.listdir(root))}")
+            if kind == "engine":
+                shutil.copytree(eng, d)
+            elif kind == "full":
+                shutil.copytree(full, d)
+            return dict(base, FEMB_CACHE_DIR=d)
+
+        cold = [_whole(exe + ["run", "andrews"], fresh("empty", "cold"))[0] for _ in range(runs)]
+        rows.append(("femb run andrews, empty cache (engine and its kernels)", cold))
+        for sc in scenes:
+            t_eng = [_whole(exe + ["run", sc, "--t-end", "0.01"], fresh("engine", sc))[0] for _ in range(runs)]
+            rows.append((f"femb run {sc} --t-end 0.01, engine cached, its kernels not", t_eng))
+            t_full = [_whole(exe + ["run", sc, "--t-end", "0.01"], fresh("full", sc))[0] for _ in range(runs)]
+            rows.append((f"femb run {sc} --t-end 0.01, after femb cache build (new combination)", t_full))
+        scene_file = os.path.join(root, "user_pull.py")
+        with open(scene_file, "w") as fh:
+            fh.write(USER_SCENE)
+        t_user = [_whole(exe + ["run", scene_file], fresh("full", "user"))[0] for _ in range(runs)]
+        rows.append(("femb run <user element type>, first run (engine cached)", t_user))
+        env_w = dict(base, FEMB_CACHE_DIR=full)
+        _whole(exe + ["run", "andrews", "--t-end", "0.003"], env_w)
+        warm = [_whole(exe + ["run", "andrews", "--t-end", "0.003"], env_w)[0] for _ in range(runs)]
+        rows.append(("femb run andrews --t-end 0.003, warm cache", warm))
+    w = max(len(r[0]) for r in rows)
+    print(f"{'whole process':<{w}}  median [s]  runs [s]")
+    for name, ts in rows:
+        print(f"{name:<{w}}  {statistics.median(ts):9.2f}   {', '.join(f'{x:.2f}' for x in ts)}")
+    return rows
 
 
 def main(argv=None):

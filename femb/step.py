@@ -1059,18 +1059,12 @@ def run(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam, tfv, AB, ip
     Cq = fp[FP_CQ]
     Cv = fp[FP_CV]
     kexp = fp[FP_KEXP]
-    delta = fp[FP_AM] - fp[FP_AF]
     tf_kind = iview1(C, C_TFKIND)
     tf_off = iview1(C, C_TFOFF)
     tf_coef = fview1(C, C_TFCOEF)
-    # work arrays: views into the pack W (femb/solver.py, W_FIELDS)
+    # work arrays: views into the pack W (femb/solver.py)
     q_s = fview1(W, W_Q_S)
     qd_s = fview1(W, W_QD_S)
-    qdd_s = fview1(W, W_QDD_S)
-    lam_s = fview1(W, W_LAM_S)
-    a_s = fview1(W, W_A_S)
-    pqdd_s = fview1(W, W_PQDD_S)
-    plam_s = fview1(W, W_PLAM_S)
     qpp = fview1(W, W_QPP)
     qpp_new = fview1(W, W_QPP_NEW)
     jn = fview1(W, W_JN)
@@ -1079,11 +1073,6 @@ def run(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam, tfv, AB, ip
     KBacc = fview1(W, W_KBACC)
     kpiv = iview1(W, W_KPIV)
     kpivacc = iview1(W, W_KPIVACC)
-    kx = fview1(W, W_KX)
-    gam = fview1(W, W_GAM)
-    Pt = fview1(W, W_PT)
-    Bv = fview1(W, W_BV)
-    tgt = fview1(W, W_TGT)
     eq = fview1(W, W_EQ)
     ev = fview1(W, W_EV)
     atolv = fview1(W, W_ATOLV)
@@ -1125,39 +1114,14 @@ def run(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam, tfv, AB, ip
             return ST_NEED_TF
         if adaptive and si[SI_SAVED] == 0:
             # save the accepted state: a rejected or failed trial restarts from it
-            copy_into(q_s, q)
-            copy_into(qd_s, qd)
-            copy_into(qdd_s, qdd)
-            copy_into(lam_s, lam)
-            copy_into(a_s, a)
-            copy_into(pqdd_s, pqdd)
-            copy_into(plam_s, plam)
+            save_state(q, qd, qdd, lam, a, pqdd, plam, W)
             si[SI_HASPREV_S] = si[SI_HASPREV]
             sf[SF_FREF_S] = sf[SF_FREF]
             if h != h_prev and si[SI_HAVEJ] != 0:
-                # re-synchronise a and the normal velocity with the new step (stepsize.md §2)
-                for i in range(nv):
-                    a[i] += delta * (h - h_prev) * jn[i]
-                # (the index-2 step keeps B q̇ + Φ_t = 0: no normal velocity to re-synchronise)
-                if nc > 0 and ip[IP_GGL] == 0:
-                    # Φ_t at t: the time functions at t (Python ones were asked for above)
-                    eval_time_functions(t, tf_kind, tf_off, tf_coef, tfv)
-                    jacobian_times(G, C, t, q, jn, Bv)
-                    rates(G, C, t, q, qd, Pt, gam)
-                    for j in range(nc):
-                        tgt[j] = -Pt[j] + h * h * Cq * Bv[j]
-                    if si[SI_PROJ] == 1:
-                        # the Newton matrix of the accepted step: its constraint rows are B
-                        project_normal_velocity(G, C, ip, t, q, qd, tgt, AB, ipiv, kx, Bv)
-                    else:
-                        if si[SI_PROJ] != 2:
-                            # no factorization at the accepted state (a trial was rejected): one here
-                            if kkt_accelerations(G, C, ip, fp, si, sf, stats, t, q, qd, qdd, lam, h, h, AB, ipiv,
-                                                 Phi, W, KBacc, kpivacc, qpp_new, KKT_FACTOR + nc0) != 0:
-                                info[0] = t
-                                return ST_KKT_SINGULAR
-                            si[SI_PROJ] = 2
-                        project_normal_velocity(G, C, ip, t, q, qd, tgt, KBacc, kpivacc, kx, Bv)
+                if resynchronise(G, C, ip, fp, si, sf, stats, t, h, h_prev, q, qd, qdd, lam, a, tfv, AB, ipiv, Phi,
+                                 W, nc0) != 0:
+                    info[0] = t
+                    return ST_KKT_SINGULAR
             si[SI_SAVED] = 1
         if ip[IP_PYTF] != 0:
             if sf[SF_TFTIME] != t1:
@@ -1166,33 +1130,14 @@ def run(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam, tfv, AB, ip
         eval_time_functions(t1, tf_kind, tf_off, tf_coef, tfv)
         if adaptive:
             si[SI_SAVED] = 0
-            for i in range(nv):
-                j = xm[i]
-                wq[i] = fp[FP_TOLQ] * (atolv[i] + (fp[FP_ERTOL] * abs(q[j]) if j >= 0 else 0.0))
-        else:
-            # fixed steps: 1e-13 relative, but never below the round-off that a chain of nv
-            # coordinates accumulates in a correction (≈ √nv · c ε |q|, stepsize.md §5)
-            wC = fview1(C, C_W)
-            qmax_ = 0.0
-            for i in range(nv):
-                j = xm[i]
-                if j >= 0 and abs(q[j]) > qmax_:
-                    qmax_ = abs(q[j])
-            floor = fp[FP_NEWTC] * 2.220446049250313e-16 * (1.0 + qmax_) * math.sqrt(max(1.0, nv / 100.0))
-            for i in range(nv):
-                j = xm[i]
-                wq[i] = max(fp[FP_TOLQ] * ((abs(q[j]) if j >= 0 else 0.0) + fp[FP_L] * wC[i]), floor)
+        newton_weights(C, fp, q, atolv, adaptive, wq)
         k = newton_step(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam, t1, h,
                         h_prev if h_prev > 0.0 else h, AB, ipiv, r, Phi, rhs, x, info, wq)
         if k < 0:
             if not adaptive:
                 return k
             # Newton failed: retry from the accepted state with h/4, no growth next step
-            restore_state(q, qd, qdd, lam, a, pqdd, plam, W)
-            si[SI_HASPREV] = si[SI_HASPREV_S]
-            sf[SF_FREF] = sf[SF_FREF_S]
-            if si[SI_PROJ] == 1:
-                si[SI_PROJ] = 0          # the Newton matrix of the accepted step is gone
+            back_to_accepted(si, sf, q, qd, qdd, lam, a, pqdd, plam, W)
             si[SI_NFAIL] += 1
             si[SI_LASTFAIL] = k
             si[SI_NOGROW] = 1
@@ -1239,27 +1184,13 @@ def run(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam, tfv, AB, ip
         if adaptive:
             if err > 1.0:
                 # rejected: back to the accepted state with a smaller step
-                restore_state(q, qd, qdd, lam, a, pqdd, plam, W)
-                si[SI_HASPREV] = si[SI_HASPREV_S]
-                sf[SF_FREF] = sf[SF_FREF_S]
-                if si[SI_PROJ] == 1:
-                    si[SI_PROJ] = 0
+                back_to_accepted(si, sf, q, qd, qdd, lam, a, pqdd, plam, W)
                 si[SI_REJECTED] += 1
                 si[SI_NOGROW] = 1
                 sf[SF_HNEXT] = h * max(0.2, 0.9 * err ** (-1.0 / kexp))
                 continue
             # accepted: next step size (PI controller)
-            e = max(err, 1e-10)
-            if si[SI_NOGROW] != 0 or sf[SF_ERRPREV] <= 0.0:
-                fac = 0.9 * e ** (-1.0 / kexp)
-            else:
-                fac = 0.9 * e ** (-0.7 / kexp) * (sf[SF_ERRPREV] / e) ** (0.4 / kexp)
-            fac = min(2.0, max(0.2, fac))
-            if si[SI_NOGROW] != 0:
-                fac = min(fac, 1.0)
-            si[SI_NOGROW] = 0
-            sf[SF_ERRPREV] = e
-            sf[SF_HNEXT] = h * fac
+            sf[SF_HNEXT] = h * step_factor(si, sf, err, kexp)
             if si[SI_RMODE] == 0 and ip[IP_GGL] == 0:
                 si[SI_PROJ] = 1          # projections at the next step change use the Newton matrix
             else:
@@ -1283,14 +1214,131 @@ def run(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam, tfv, AB, ip
         if (store and n % stride == 0) or final:
             m = si[SI_STORED]
             out_t[m] = t_end if final else t1
-            copy_into(out_q[m], q)
-            copy_into(out_qd[m], qd)
-            copy_into(out_qdd[m], qdd)
-            copy_into(out_lam[m], lam)
+            store_state(m, q, qd, qdd, lam, out_q, out_qd, out_qdd, out_lam)
             si[SI_STORED] = m + 1
         if final:
             return ST_DONE
     return ST_CHUNK
+
+
+# ---- the parts of the time loop ---------------------------------------------------------------
+@njit(**INNER)
+def resynchronise(G, C, ip, fp, si, sf, stats, t, h, h_prev, q, qd, qdd, lam, a, tfv, AB, ipiv, Phi, W, nc0):
+    """Re-synchronise a and the normal velocity with a new step size (stepsize.md §2), in place.
+
+    a* = a + Δ (h − h_prev) j with Δ = α_m − α_f; index 3: B q̇* = h² C_q B j − Φ_t (the
+    index-2 step keeps B q̇ + Φ_t = 0: no normal velocity to re-synchronise), projected with
+    the Newton matrix of the accepted step (``si[SI_PROJ] == 1``) or a KKT factorization at
+    the accepted state. Returns 0, or 1 if that KKT matrix is singular.
+    """
+    nv = ip[IP_NV]
+    nc = ip[IP_NC]
+    jn = fview1(W, W_JN)
+    delta = fp[FP_AM] - fp[FP_AF]
+    for i in range(nv):
+        a[i] += delta * (h - h_prev) * jn[i]
+    if nc == 0 or ip[IP_GGL] != 0:
+        return 0
+    Bv = fview1(W, W_BV)
+    Pt = fview1(W, W_PT)
+    tgt = fview1(W, W_TGT)
+    kx = fview1(W, W_KX)
+    KBacc = fview1(W, W_KBACC)
+    kpivacc = iview1(W, W_KPIVACC)
+    # Φ_t at t: the time functions at t (Python ones were asked for before the step)
+    eval_time_functions(t, iview1(C, C_TFKIND), iview1(C, C_TFOFF), fview1(C, C_TFCOEF), tfv)
+    jacobian_times(G, C, t, q, jn, Bv)
+    rates(G, C, t, q, qd, Pt, fview1(W, W_GAM))
+    for j in range(nc):
+        tgt[j] = -Pt[j] + h * h * fp[FP_CQ] * Bv[j]
+    if si[SI_PROJ] == 1:
+        # the Newton matrix of the accepted step: its constraint rows are B
+        project_normal_velocity(G, C, ip, t, q, qd, tgt, AB, ipiv, kx, Bv)
+        return 0
+    if si[SI_PROJ] != 2:
+        # no factorization at the accepted state (a trial was rejected): one here
+        if kkt_accelerations(G, C, ip, fp, si, sf, stats, t, q, qd, qdd, lam, h, h, AB, ipiv, Phi, W, KBacc,
+                             kpivacc, fview1(W, W_QPP_NEW), KKT_FACTOR + nc0) != 0:
+            return 1
+        si[SI_PROJ] = 2
+    project_normal_velocity(G, C, ip, t, q, qd, tgt, KBacc, kpivacc, kx, Bv)
+    return 0
+
+
+@njit(**INNER)
+def newton_weights(C, fp, q, atolv, adaptive, wq):
+    """The q tolerance of each coordinate for Newton's correction rule (stepsize.md §5), into wq.
+
+    Adaptive steps: a fraction ``FP_TOLQ`` of the error tolerance atol + rtol |q|. Fixed steps:
+    1e-13 relative, but never below the round-off that a chain of nv coordinates accumulates
+    in a correction (≈ √nv · c ε |q|).
+    """
+    nv = wq.shape[0]
+    xm = iview1(C, C_XMAP)
+    if adaptive:
+        for i in range(nv):
+            j = xm[i]
+            wq[i] = fp[FP_TOLQ] * (atolv[i] + (fp[FP_ERTOL] * abs(q[j]) if j >= 0 else 0.0))
+        return
+    wC = fview1(C, C_W)
+    qmax_ = 0.0
+    for i in range(nv):
+        j = xm[i]
+        if j >= 0 and abs(q[j]) > qmax_:
+            qmax_ = abs(q[j])
+    floor = fp[FP_NEWTC] * 2.220446049250313e-16 * (1.0 + qmax_) * math.sqrt(max(1.0, nv / 100.0))
+    for i in range(nv):
+        j = xm[i]
+        wq[i] = max(fp[FP_TOLQ] * ((abs(q[j]) if j >= 0 else 0.0) + fp[FP_L] * wC[i]), floor)
+
+
+@njit(**INNER)
+def step_factor(si, sf, err, kexp):
+    """h_next / h after an accepted step: PI controller (Gustafsson 1994), in [0.2, 2], no growth
+    right after a rejection or a Newton failure."""
+    e = max(err, 1e-10)
+    if si[SI_NOGROW] != 0 or sf[SF_ERRPREV] <= 0.0:
+        fac = 0.9 * e ** (-1.0 / kexp)
+    else:
+        fac = 0.9 * e ** (-0.7 / kexp) * (sf[SF_ERRPREV] / e) ** (0.4 / kexp)
+    fac = min(2.0, max(0.2, fac))
+    if si[SI_NOGROW] != 0:
+        fac = min(fac, 1.0)
+    si[SI_NOGROW] = 0
+    sf[SF_ERRPREV] = e
+    return fac
+
+
+@njit(**INNER)
+def save_state(q, qd, qdd, lam, a, pqdd, plam, W):
+    """The accepted state into work arrays 0 to 6 of W (a rejected trial restarts from it)."""
+    copy_into(fview1(W, W_Q_S), q)
+    copy_into(fview1(W, W_QD_S), qd)
+    copy_into(fview1(W, W_QDD_S), qdd)
+    copy_into(fview1(W, W_LAM_S), lam)
+    copy_into(fview1(W, W_A_S), a)
+    copy_into(fview1(W, W_PQDD_S), pqdd)
+    copy_into(fview1(W, W_PLAM_S), plam)
+
+
+@njit(**INNER)
+def back_to_accepted(si, sf, q, qd, qdd, lam, a, pqdd, plam, W):
+    """After a rejected or failed trial: the accepted state, its predictor history and force
+    scale; the Newton matrix of the accepted step is gone."""
+    restore_state(q, qd, qdd, lam, a, pqdd, plam, W)
+    si[SI_HASPREV] = si[SI_HASPREV_S]
+    sf[SF_FREF] = sf[SF_FREF_S]
+    if si[SI_PROJ] == 1:
+        si[SI_PROJ] = 0
+
+
+@njit(**INNER)
+def store_state(m, q, qd, qdd, lam, out_q, out_qd, out_qdd, out_lam):
+    """Row m of the output buffers = the current state."""
+    copy_into(out_q[m], q)
+    copy_into(out_qd[m], qd)
+    copy_into(out_qdd[m], qdd)
+    copy_into(out_lam[m], lam)
 
 
 # ---- the model's element batches: residual, iteration matrix, rates, B -------------------

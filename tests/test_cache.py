@@ -182,3 +182,34 @@ def test_cache_commands_show_and_clear(tmp_path):
                            text=True, timeout=300)
     assert clear.returncode == 0 and "cleared" in clear.stdout
     assert not any((tmp_path / "cache").iterdir())
+
+
+COMPILE_ONLY = textwrap.dedent('''
+    import sys
+    sys.path.insert(0, {folder!r})
+    from femb import kernels
+    from {module} import Pull
+    kernels.compiled_kernel("Pull", "force", Pull.kernels["force"])
+    print("compiled" if kernels._fresh else "loaded")
+''')
+
+
+def test_one_cache_serves_machines_with_different_cpus(tmp_path):
+    """numba's index records the CPU of each entry: a second CPU (here the generic one) adds its
+    own entry beside the first, and each loads its own afterwards."""
+    cache = tmp_path / "cache"
+    folder = _write_user_package(tmp_path / "pkg", "d")
+    script = COMPILE_ONLY.format(folder=str(folder), module="user_d")
+
+    def run(**extra):
+        env = dict(_env(cache), **extra)
+        if not extra:
+            env.pop("NUMBA_CPU_NAME", None)
+        out = subprocess.run([sys.executable, "-c", script], env=env, capture_output=True, text=True, timeout=300)
+        assert out.returncode == 0, out.stderr
+        return out.stdout.strip()
+
+    assert run() == "compiled"
+    assert run(NUMBA_CPU_NAME="generic") == "compiled"
+    assert run() == "loaded"
+    assert run(NUMBA_CPU_NAME="generic") == "loaded"
