@@ -426,13 +426,34 @@ class _FembCache(_caching.FunctionCache):
 
     def load_overload(self, sig, target_context):
         try:
-            return super().load_overload(sig, target_context)
+            cres = super().load_overload(sig, target_context)
         except OSError:
             return None
+        # an entry is only used for the signature it was compiled for (never a crash from
+        # an index that points at another signature's code)
+        if cres is not None:
+            from numba.core import sigutils
+            try:
+                want = tuple(sigutils.normalize_signature(sig)[0])
+            except Exception:
+                return cres
+            if tuple(getattr(cres.signature, "args", ())) != want:
+                return None
+        return cres
 
     def save_overload(self, sig, data):
+        # numba's index/data files are not safe against two processes saving signatures of one
+        # function at once: both can pick the same data file name, and the index then points
+        # at the other signature's code (a crash when it is called). One writer at a time.
         try:
-            super().save_overload(sig, data)
+            import fcntl
+            os.makedirs(self.cache_path, exist_ok=True)
+            with open(os.path.join(self.cache_path, self._impl.filename_base + ".lock"), "a+") as fh:
+                fcntl.flock(fh, fcntl.LOCK_EX)
+                try:
+                    super().save_overload(sig, data)
+                finally:
+                    fcntl.flock(fh, fcntl.LOCK_UN)
         except OSError as e:
             _warn_unwritable(self.cache_path, e)
 
