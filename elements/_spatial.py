@@ -35,44 +35,44 @@ I9 = (1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0)
 # ---------------------------------------------------------------------------
 # 3-vectors and 3×3 matrices as tuples
 # ---------------------------------------------------------------------------
-@kernel(inner=True)
+@kernel
 def vec3(a, o):
     """(a[o], a[o+1], a[o+2])."""
     return (a[o], a[o + 1], a[o + 2])
 
 
-@kernel(inner=True)
+@kernel
 def vec12(a):
     """A 12-vector (array) as four 3-vectors."""
     return ((a[0], a[1], a[2]), (a[3], a[4], a[5]), (a[6], a[7], a[8]), (a[9], a[10], a[11]))
 
 
-@kernel(inner=True)
+@kernel
 def add3(a, b):
     return (a[0] + b[0], a[1] + b[1], a[2] + b[2])
 
 
-@kernel(inner=True)
+@kernel
 def sub3(a, b):
     return (a[0] - b[0], a[1] - b[1], a[2] - b[2])
 
 
-@kernel(inner=True)
+@kernel
 def scale3(s, a):
     return (s * a[0], s * a[1], s * a[2])
 
 
-@kernel(inner=True)
+@kernel
 def dot3(a, b):
     return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 
 
-@kernel(inner=True)
+@kernel
 def cross3(a, b):
     return (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
 
 
-@kernel(inner=True)
+@kernel
 def mv(R, a):
     """R a."""
     return (R[0] * a[0] + R[1] * a[1] + R[2] * a[2],
@@ -80,7 +80,7 @@ def mv(R, a):
             R[6] * a[0] + R[7] * a[1] + R[8] * a[2])
 
 
-@kernel(inner=True)
+@kernel
 def mtv(R, a):
     """Rᵀ a."""
     return (R[0] * a[0] + R[3] * a[1] + R[6] * a[2],
@@ -88,7 +88,7 @@ def mtv(R, a):
             R[2] * a[0] + R[5] * a[1] + R[8] * a[2])
 
 
-@kernel(inner=True)
+@kernel
 def mtm(A, B):
     """Aᵀ B."""
     return (A[0] * B[0] + A[3] * B[3] + A[6] * B[6], A[0] * B[1] + A[3] * B[4] + A[6] * B[7],
@@ -99,18 +99,18 @@ def mtm(A, B):
             A[2] * B[2] + A[5] * B[5] + A[8] * B[8])
 
 
-@kernel(inner=True)
+@kernel
 def tr9(M):
     """Mᵀ."""
     return (M[0], M[3], M[6], M[1], M[4], M[7], M[2], M[5], M[8])
 
 
-@kernel(inner=True)
+@kernel
 def neg9(M):
     return (-M[0], -M[1], -M[2], -M[3], -M[4], -M[5], -M[6], -M[7], -M[8])
 
 
-@kernel(inner=True)
+@kernel
 def skskw(a, b):
     """a~ b~ = b aᵀ − (a·b) I."""
     ab = a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
@@ -119,7 +119,7 @@ def skskw(a, b):
             b[2] * a[0], b[2] * a[1], b[2] * a[2] - ab)
 
 
-@kernel(inner=True)
+@kernel
 def outer_minus(a, b, s, R):
     """a bᵀ − s R."""
     return (a[0] * b[0] - s * R[0], a[0] * b[1] - s * R[1], a[0] * b[2] - s * R[2],
@@ -127,7 +127,7 @@ def outer_minus(a, b, s, R):
             a[2] * b[0] - s * R[6], a[2] * b[1] - s * R[7], a[2] * b[2] - s * R[8])
 
 
-@kernel(inner=True)
+@kernel
 def rskew(R, a):
     """R a~ (row i = (row i of R) × a); with u = R a: u~ R = R a~."""
     r0 = cross3((R[0], R[1], R[2]), a)
@@ -139,12 +139,12 @@ def rskew(R, a):
 # ---------------------------------------------------------------------------
 # 12-vectors (four 3-vectors) and additions to 12 × 12 arrays
 # ---------------------------------------------------------------------------
-@kernel(inner=True)
+@kernel
 def dot12(a, b):
     return dot3(a[0], b[0]) + dot3(a[1], b[1]) + dot3(a[2], b[2]) + dot3(a[3], b[3])
 
 
-@kernel(inner=True)
+@kernel
 def lin12(s, a, t, b):
     """s a + t b."""
     return ((s * a[0][0] + t * b[0][0], s * a[0][1] + t * b[0][1], s * a[0][2] + t * b[0][2]),
@@ -153,7 +153,7 @@ def lin12(s, a, t, b):
             (s * a[3][0] + t * b[3][0], s * a[3][1] + t * b[3][1], s * a[3][2] + t * b[3][2]))
 
 
-@kernel(inner=True)
+@kernel
 def put_row(B, r, g):
     """B[r, :] = g."""
     for k in range(4):
@@ -162,7 +162,7 @@ def put_row(B, r, g):
             B[r, 3 * k + i] = gk[i]
 
 
-@kernel(inner=True)
+@kernel
 def axpy_row(f, s, g):
     """f += s g (f a 12-array)."""
     for k in range(4):
@@ -171,7 +171,7 @@ def axpy_row(f, s, g):
             f[3 * k + i] += s * gk[i]
 
 
-@kernel(inner=True)
+@kernel
 def add_outer12(H, s, a, b):
     """H += s a bᵀ (12 × 12)."""
     for k in range(4):
@@ -184,7 +184,7 @@ def add_outer12(H, s, a, b):
                     H[3 * k + i, 3 * m + j] += sa * bm[j]
 
 
-@kernel(inner=True)
+@kernel
 def blk(H, add, i0, j0, c, M, vi):
     """H[i0:i0+3, j0:j0+3] += c M if ``add``; returns viᵀ M."""
     if add:
@@ -196,7 +196,7 @@ def blk(H, add, i0, j0, c, M, vi):
             vi[0] * M[2] + vi[1] * M[5] + vi[2] * M[8])
 
 
-@kernel(inner=True)
+@kernel
 def gtg(H, add, c, G0, G1, G2, G3, v):
     """H += c GᵀG if ``add``, G = [G0 G1 G2 G3] (3 × 12); returns vᵀGᵀG = Gᵀ(Gv)."""
     if add:
@@ -215,7 +215,7 @@ def gtg(H, add, c, G0, G1, G2, G3, v):
 # ---------------------------------------------------------------------------
 # the two frames of an element
 # ---------------------------------------------------------------------------
-@kernel(inner=True)
+@kernel
 def frames(P, x):
     """Rotations, arms and points of the two frames of one element.
 
@@ -236,7 +236,7 @@ def frames(P, x):
 # ---------------------------------------------------------------------------
 # primitives
 # ---------------------------------------------------------------------------
-@kernel(inner=True)
+@kernel
 def point_rows(r, F, Phi, B):
     """Rows r..r+2: Φ = p_a − p_b, B = [I, −R_a X_a~, −I, R_b X_b~] (row i of R X~ = (row i of R) × X)."""
     Ra, Rb, Rab, Xa, Xb, rb, pa, pb, d, xa = F
@@ -251,7 +251,7 @@ def point_rows(r, F, Phi, B):
             B[r + i, 9 + j] = cb[j]
 
 
-@kernel(inner=True)
+@kernel
 def point_hess(F, l, H, add, c, v):
     """Hessian of λ·Φ of the point rows (λ = l, a 3-tuple): H(θa, θa) = X_a~(R_aᵀλ)~,
     H(θb, θb) = −X_b~(R_bᵀλ)~; adds c H if ``add``, returns vᵀH."""
@@ -261,7 +261,7 @@ def point_hess(F, l, H, add, c, v):
     return (Z3, ha, Z3, hb)
 
 
-@kernel(inner=True)
+@kernel
 def dot1(abar, bbar, F, H, add, c, v):
     """Φ = u·w, u = R_a ā, w = R_b b̄; g = [0, ā × w_a, 0, −u_b × b̄] (w_a = R_aᵀw, u_b = R_bᵀu).
 
@@ -284,7 +284,7 @@ def dot1(abar, bbar, F, H, add, c, v):
     return phi, g, (Z3, add3(h_aa, h_ba), Z3, add3(h_ab, h_bb))
 
 
-@kernel(inner=True)
+@kernel
 def dot2(abar, offset, F, H, add, c, v):
     """Φ = u·d − offset, u = R_a ā, d = p_b − p_a; g = [−u, ā × s_a, u, −u_b × X_b],
     s = p_b − x_a, s_a = R_aᵀs, u_b = R_bᵀu (force −λu at p_b on b).
@@ -315,7 +315,7 @@ def dot2(abar, offset, F, H, add, c, v):
     return phi, g, (h_a0, add3(add3(h_ra, h_rb), add3(h_aa, h_ba)), h_a2, add3(h_ab, h_bb))
 
 
-@kernel(inner=True)
+@kernel
 def distance(L, F, H, add, c, v):
     """Φ = (d·d − L²)/(2L); g = dᵀG/L, G = [−I, R_a X_a~, I, −R_b X_b~] (δd = G δq);
     H = (GᵀG + blockdiag(0, −X_a~(R_aᵀd)~, 0, X_b~(R_bᵀd)~))/L. Returns (Φ, g, vᵀH);

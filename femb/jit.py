@@ -36,7 +36,7 @@ KERNEL_OPTIONS = dict(nogil=True, error_model="numpy", boundscheck=False, no_cfu
 OPTIONS = dict(KERNEL_OPTIONS, _nrt=False)
 
 
-def kernel(fn=None, *, allocates=False, inner=False, **kw):
+def kernel(fn=None, *, allocates=False, **kw):
     """Decorator for element kernels and their helpers: ``numba.njit`` with femb's options.
 
     Kernels run without reference counting of arrays (as the engine): they
@@ -46,14 +46,12 @@ def kernel(fn=None, *, allocates=False, inner=False, **kw):
     allocates still runs (the engine calls it through its address), a little
     slower. What Python calls directly is kept in femb's disk cache
     (:func:`use_cache`); the engine uses each element kernel's own compilation
-    for its role (:func:`femb.kernels.compiled_kernel`). ``inner=True`` marks a helper that
-    only compiled code calls: it gets no Python wrapper (which halves the compile time of
-    helper-heavy kernels such as the spatial joints and bushings).
+    for its role (:func:`femb.kernels.compiled_kernel`). No C wrapper is compiled (the engine
+    calls kernels' native code), which halves the compile time of helper-heavy kernels such as
+    the spatial joints and bushings; every function keeps its Python wrapper, so that Python
+    may call any of them.
     """
     opts = dict(KERNEL_OPTIONS if allocates else OPTIONS)
-    if inner:
-        # called from compiled code only (kernel helpers): no Python wrapper to compile
-        opts["no_cpython_wrapper"] = True
     opts.update(kw)
 
     def deco(f):

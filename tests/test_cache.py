@@ -213,3 +213,49 @@ def test_one_cache_serves_machines_with_different_cpus(tmp_path):
     assert run(NUMBA_CPU_NAME="generic") == "compiled"
     assert run() == "loaded"
     assert run(NUMBA_CPU_NAME="generic") == "loaded"
+
+
+MANY_SIGNATURES = textwrap.dedent('''
+    import sys
+    sys.path.insert(0, {folder!r})
+    import numpy as np
+    from poly_{tag} import poly
+    args = [3, 2.5, 1.5 + 2j, np.arange(3.0), np.int32(4), np.float32(0.5)]
+    order = {order}
+    out = [poly(args[i]) for i in order]
+    print(repr(sorted(zip(order, map(repr, out)))))
+''')
+
+POLY = textwrap.dedent('''
+    from femb.jit import kernel
+
+
+    @kernel(allocates=True)
+    def poly(x):
+        return x * 2 + x * x
+''')
+
+
+def test_processes_saving_different_signatures_at_once_never_corrupt_the_cache(tmp_path):
+    """Several processes compile different signatures of one function into one cache at once;
+    afterwards every signature loads its own code (numba's index alone can point a signature at
+    another's data file when two processes save at once)."""
+    cache = tmp_path / "cache"
+    folder = tmp_path / "pkg"
+    folder.mkdir()
+    (folder / "poly_e.py").write_text(POLY)
+    orders = [[0, 1, 2, 3, 4, 5], [5, 4, 3, 2, 1, 0], [2, 0, 4, 1, 5, 3], [3, 5, 1, 4, 0, 2]]
+    procs = [subprocess.Popen([sys.executable, "-c", MANY_SIGNATURES.format(folder=str(folder), tag="e", order=o)],
+                              env=_env(cache), stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+             for o in orders]
+    outs = [p.communicate(timeout=600) for p in procs]
+    for p, (out, err) in zip(procs, outs):
+        assert p.returncode == 0, err
+    expect = outs[0][0]
+    assert all(out == expect for out, _ in outs)
+    # fresh processes load each signature from the cache and get the same values
+    for o in orders[:2]:
+        out = subprocess.run([sys.executable, "-c", MANY_SIGNATURES.format(folder=str(folder), tag="e", order=o)],
+                             env=_env(cache), capture_output=True, text=True, timeout=600)
+        assert out.returncode == 0, out.stderr
+        assert out.stdout == expect
