@@ -54,7 +54,7 @@ class Compiled:
     Attributes
     ----------
     mod : module
-        The generated module (``evaluate``, ``rates``, ``run``, ...).
+        The engine, :mod:`femb.step` (``evaluate``, ``rates``, ``run``, ...).
     G : tuple (F, I, L)
         The arrays of every batch (parameters, index arrays, scatter targets, work
         arrays; :data:`FORCE_FIELDS`, :data:`CONSTRAINT_FIELDS`) as one pack

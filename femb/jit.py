@@ -1,9 +1,11 @@
-"""numba in one place: the kernel decorator and the on-disk cache location.
+"""numba in one place: the kernel decorator, kernel calls by address, packs, the compile cache.
 
-Element kernels are decorated with :func:`kernel` (``numba.njit`` without its own
-cache: they are compiled into, and cached with, the generated module of each
-model kind, see :mod:`femb.codegen`). ``NUMBA_DISABLE_JIT=1`` runs everything as
-plain Python for debugging.
+Element kernels are decorated with :func:`kernel`; each is compiled once per element
+type for its role's signature (:data:`ROLE_SIGNATURES`, :func:`femb.kernels.compiled_kernel`)
+and the one engine (:mod:`femb.step`) calls it through its address (:func:`call_force`,
+:func:`call_constraint`, :func:`call_rates`). Compiled code is kept in femb's cache
+(:func:`use_cache`, :func:`engine`), keyed on the source files it depends on.
+``NUMBA_DISABLE_JIT=1`` runs everything as plain Python for debugging.
 
 The cache directory is ``$FEMB_CACHE_DIR`` if set, else the user's cache
 directory (``$XDG_CACHE_HOME/femb`` or ``~/.cache/femb``).
@@ -31,7 +33,7 @@ from numba.np.arrayobj import make_array, populate_array
 
 #: numba options of the element kernels
 KERNEL_OPTIONS = dict(nogil=True, error_model="numpy", boundscheck=False, no_cfunc_wrapper=True)
-#: options of the time loop (femb/step.py and the generated modules): no reference counting of
+#: options of the engine (femb/step.py): no reference counting of
 #: arrays (the loop allocates nothing; this removes atomic increments from every call)
 OPTIONS = dict(KERNEL_OPTIONS, _nrt=False)
 
