@@ -150,12 +150,6 @@ def test_bricard_runs_with_its_redundant_equation_removed():
     assert np.ptp(out["energy"]) < 1e-6 * max(1.0, np.abs(out["energy"]).max())
 
 
-def test_what_spatial_models_refuse(top):
-    from femb.static import solve_static
-    with pytest.raises(ModelError, match="static"):
-        solve_static(top)
-
-
 def test_output_between_steps_on_the_group(top):
     """t_eval with adaptive steps: q interpolated on SO(3) (unit quaternions), fourth-order accurate."""
     t_eval = np.linspace(0.0, 0.5, 41)
