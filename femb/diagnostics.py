@@ -1,0 +1,218 @@
+"""Checks of the fixed step of a run: is h resolving what the run excites?
+
+``numerical_decay`` is the amplitude factor that generalized-α applies per step
+to an undamped oscillation of frequency ω (the spectral radius of its
+amplification matrix at hω): a physical vibration that the model does not damp
+loses the share 1 − ρ(hω)^N of its amplitude over N steps, and a run whose
+result depends on that share does not converge in h until ρ(hω)^N ≈ 1
+(docs/beams.md, "Convergence with unresolved axial modes").
+
+``step_halving_order`` runs a short window with h, h/2 and h/4 and returns the
+observed order: about 2 where h resolves the motion, below 1 where it does not.
+
+``acceleration_roughness`` looks at the constrained accelerations q̈ᵖᵖ of
+consecutive steps (the solution of [[M, Φ_qᵀ], [Φ_q, 0]] [q̈; λ] = [f; −γ]
+at each stored state, docs/stepsize.md §3), the quantity the local error
+estimate e_q = C_q h² (q̈ᵖᵖ_{n+1} − q̈ᵖᵖ_n) is made of. The estimate assumes
+q̈ᵖᵖ is smooth on the scale of h. The ratio of its second to its first
+difference,
+
+    D_n = ‖Δ²q̈ᵖᵖ_n‖_w / ‖Δq̈ᵖᵖ_n‖_w,
+
+is ≈ h/T for a motion of time scale T, 2 sin(hω/2) ≈ hω for an oscillation
+of frequency ω, and up to 2 for content the step cannot resolve (hω ≳ 2,
+up to the alternation of consecutive steps). So D_n ≥ 1 says that the
+accelerations, and the error estimate, are dominated by an oscillation the
+step does not resolve (see docs/beams.md, "Convergence with unresolved axial
+modes"). The weights are those of the error estimate, w_i = atol + rtol |q_i|.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from femb import assembly
+from femb.errors import ParameterError
+
+
+def _principal_root(w, al):
+    """The physical eigenvalue of the generalized-α map at hω = w: of the complex pair, the one with
+    Im > 0 (the third, spurious root is real); the largest in modulus once all roots are real."""
+    am, af, b, g = al.alpha_m, al.alpha_f, al.beta, al.gamma
+    w2 = w * w
+    # unknowns (x, h v, h² a) with h = 1, ω = w
+    A = np.array([[1.0, 0.0, -b], [0.0, 1.0, -g], [(1.0 - af) * w2, 0.0, 1.0 - am]])
+    B = np.array([[1.0, 1.0, 0.5 - b], [0.0, 1.0, 1.0 - g], [-af * w2, 0.0, -am]])
+    ev = np.linalg.eigvals(np.linalg.solve(A, B))
+    up = ev[ev.imag > 1e-14]
+    return up[np.argmax(np.abs(up))] if up.size else ev[np.argmax(np.abs(ev))]
+
+
+def _alpha(alpha):
+    from femb.alpha import GeneralizedAlpha
+
+    return alpha if isinstance(alpha, GeneralizedAlpha) else GeneralizedAlpha.from_rho_inf(alpha)
+
+
+def numerical_decay(h_omega, alpha=0.7):
+    """Spectral radius ρ(hω) of generalized-α on ẍ + ω² x = 0 (amplitude factor per step).
+
+    Parameters
+    ----------
+    h_omega : float or array_like
+        Step times circular frequency.
+    alpha : float or GeneralizedAlpha
+        ρ∞ (Chung–Hulbert parameters) or the parameters.
+
+    Returns
+    -------
+    float or ndarray
+        max |eigenvalue| of the map (x_n, v_n, a_n) → (x_{n+1}, v_{n+1}, a_{n+1}) of
+        x_{n+1} = x_n + h v_n + h²(½ − β) a_n + h²β a_{n+1},
+        v_{n+1} = v_n + h(1 − γ) a_n + hγ a_{n+1},
+        (1 − α_m) a_{n+1} + α_m a_n = −ω² [(1 − α_f) x_{n+1} + α_f x_n]
+        (1 at hω = 0, ρ∞ as hω → ∞).
+    """
+    al = _alpha(alpha)
+    x = np.atleast_1d(np.asarray(h_omega, dtype=float))
+    am, af, b, g = al.alpha_m, al.alpha_f, al.beta, al.gamma
+    out = np.empty_like(x)
+    for i, w in enumerate(x):
+        w2 = w * w
+        A = np.array([[1.0, 0.0, -b], [0.0, 1.0, -g], [(1.0 - af) * w2, 0.0, 1.0 - am]])
+        B = np.array([[1.0, 1.0, 0.5 - b], [0.0, 1.0, 1.0 - g], [-af * w2, 0.0, -am]])
+        out[i] = np.max(np.abs(np.linalg.eigvals(np.linalg.solve(A, B))))
+    return out if np.ndim(h_omega) else float(out[0])
+
+
+def free_oscillation_error(h_omega, n_steps, alpha=0.7):
+    """Relative error of an undamped free oscillation after n_steps steps: |1 − (z e^{−ihω})^N|.
+
+    z is the scheme's physical eigenvalue at hω (:func:`numerical_decay` gives
+    its modulus); z e^{−ihω} = ρ e^{−iδ} combines the amplitude lost per step
+    with the phase lag δ per step (δ ≈ (hω)³/12 for small hω at ρ∞ = 1). An
+    oscillation of amplitude A that the model keeps (no material damping)
+    differs from its computed version by about A times this factor: up to 2A
+    once the phase lag over the run exceeds about one radian. Convergence in h
+    of a result that carries such an oscillation only begins where the factor
+    is well below 1.
+    """
+    al = _alpha(alpha)
+    x = np.atleast_1d(np.asarray(h_omega, dtype=float))
+    out = np.empty_like(x)
+    for i, w in enumerate(x):
+        z = _principal_root(w, al) * np.exp(-1j * w)
+        out[i] = abs(1.0 - z ** int(n_steps))
+    return out if np.ndim(h_omega) else float(out[0])
+
+
+def constrained_accelerations(model, t, q, qd):
+    """q̈ᵖᵖ at one state: [[M, Bᵀ], [B, 0]] [q̈; λ] = [f; −γ] on the active constraints, shape (nq,)."""
+    from femb.initial import _solve_augmented, active_mask
+
+    rows = np.nonzero(active_mask(model))[0] if model.nc else np.zeros(0, dtype=np.int64)
+    B = assembly.constraint_jacobian(model, t, q).tocsr()[rows]
+    _, gam = assembly.constraint_rates(model, t, q, qd)
+    M = assembly.mass_matrix(model, q)
+    f = assembly.force_vector(model, t, q, qd)
+    sol = _solve_augmented(M, B, f, -gam[rows], "constrained accelerations")
+    if sol is None:
+        raise ParameterError(f"constrained accelerations: singular [[M, Φ_qᵀ], [Φ_q, 0]] at t = {t:.6g}")
+    return sol[0]
+
+
+def acceleration_roughness(result, *, rtol=1e-3, atol=1e-3, first=None):
+    """Roughness D_n of the constrained accelerations of a stored fixed-step run.
+
+    Parameters
+    ----------
+    result : Result
+        A fixed-step run stored at every step (``stride=1``).
+    rtol, atol : float
+        Weights w_i = atol + rtol |q_i| (those of the fixed-step accuracy check).
+    first : int, optional
+        Only the first ``first`` stored states.
+
+    Returns
+    -------
+    dict
+        ``t`` (times of the middle step, (n−2,)), ``D`` (roughness), ``eq``
+        (the weighted RMS of C_q h² Δq̈ᵖᵖ over the step pair, the quantity of the
+        accuracy check), ``h``.
+    """
+    from femb.solver import error_constants
+    from femb.alpha import GeneralizedAlpha
+
+    t = np.asarray(result.t)
+    if first is not None:
+        t = t[:first]
+    n = len(t)
+    if n < 3:
+        raise ParameterError("acceleration_roughness needs at least 3 stored steps")
+    dt = np.diff(t)
+    h = float(np.median(dt))
+    if np.max(np.abs(dt - h)) > 1e-6 * h:
+        raise ParameterError("acceleration_roughness needs a fixed-step run stored at every step (stride=1)")
+    model = result.model
+    A = np.array([constrained_accelerations(model, t[k], result.q[k], result.qd[k]) for k in range(n)])
+    w = atol + rtol * np.array([model.magnitude(result.q[k]) for k in range(n)])
+    d1 = np.diff(A, axis=0)
+    d2 = np.diff(d1, axis=0)
+    ww = w[1:-1]
+    n1 = np.sqrt(np.mean((d1[:-1] / ww) ** 2, axis=1))
+    n2 = np.sqrt(np.mean((d2 / ww) ** 2, axis=1))
+    with np.errstate(invalid="ignore", divide="ignore"):
+        D = np.where(n1 > 0, n2 / n1, 0.0)
+    s = result.settings or {}
+    al = GeneralizedAlpha.from_values(s["alpha_m"], s["alpha_f"], s["beta"], s["gamma"], warn=False) \
+        if "alpha_m" in s else GeneralizedAlpha.from_rho_inf(0.7)
+    Cq = abs(error_constants(al)[0])
+    return {"t": t[1:-1], "D": D, "eq": Cq * h * h * n1, "h": h}
+
+
+def step_halving_order(model, h, *, n_window=64, t0=0.0, state=None, rho_inf=0.7, rtol=1e-3, atol=1e-3,
+                       **options):
+    """Observed order of the fixed step h over a short window, from runs with h, h/2 and h/4.
+
+    Runs ``n_window`` steps of h from t0 (and the same window with h/2 and h/4)
+    and compares the positions at the times of the h run: d₁ = max_n ‖q_h − q_{h/2}‖_w,
+    d₂ = max_n ‖q_{h/2} − q_{h/4}‖_w (weighted RMS, w = atol + rtol |q|), and
+    p = log₂(d₁/d₂). A step that resolves the motion gives p ≈ 2 (the order of
+    the scheme); p ≲ 1 says that halving h does not reduce the difference as
+    it should: the window holds motion the step does not resolve (e.g. an
+    axial mode rung by a stress-free start, docs/beams.md). Costs 7 × n_window steps.
+
+    Returns
+    -------
+    dict
+        ``order`` p, ``d1``, ``d2`` (weighted), ``window`` (s).
+    """
+    import warnings
+
+    import femb
+
+    h = float(h)
+    if not h > 0.0:
+        raise ParameterError(f"h must be positive, got {h!r}")
+    n_window = int(n_window)
+    if n_window < 2:
+        raise ParameterError(f"n_window must be at least 2, got {n_window}")
+    if state is not None:
+        t0 = float(state.t)
+    t1 = t0 + n_window * h
+    runs = []
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        for k in (1, 2, 4):
+            r = femb.simulate(model, t1, h / k, rho_inf=rho_inf, state=state, t0=t0, stride=k, **options)
+            runs.append(r.q[: n_window + 1])
+
+    def dist(a, b):
+        out = 0.0
+        for qa, qb in zip(a, b):
+            w = atol + rtol * np.maximum(model.magnitude(qa), model.magnitude(qb))
+            out = max(out, float(np.sqrt(np.mean((model.difference(qa, qb) / w) ** 2))))
+        return out
+
+    d1, d2 = dist(runs[0], runs[1]), dist(runs[1], runs[2])
+    p = float(np.log2(d1 / d2)) if d1 > 0.0 and d2 > 0.0 else float("nan")
+    return {"order": p, "d1": d1, "d2": d2, "window": t1 - t0}
