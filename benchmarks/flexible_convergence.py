@@ -17,7 +17,9 @@ against a run with h_ref. Printed per h:
   h/4 (:func:`femb.diagnostics.step_halving_order`), over all coordinates,
   of the slider's x alone, and the number of coordinates with an order below 1.
 
-and the same error for adaptive steps (rtol = atol = 1e-4 … 1e-8).
+and the same error for adaptive steps (rtol = atol = 1e-4 … 1e-8), and for a
+smooth start without damping: at rest, the crank speed rising to ω over
+20 ms (the spin-up's profile), slider x at t = 30 ms.
 
 Then the fitted orders (least squares in log–log) over the coarse and the fine
 h, and the axial mode periods of the model (:func:`femb.modal.modal_analysis`
@@ -50,6 +52,8 @@ HS = (2e-4, 1e-4, 5e-5, 2e-5, 1e-5, 5e-6, 2e-6, 1e-6)
 H_REF = 2.5e-7
 N_ELEMENTS = 8
 VARIANTS = ((0.0, 0.7), (fsc.DATA["damping"], 0.7), (0.0, 0.9))
+#: smooth start: crank speed from 0 to ω over RAMP seconds (no damping)
+RAMP = 0.02
 
 
 def axial_modes(model):
@@ -63,12 +67,24 @@ def axial_modes(model):
     return 2.0 * np.pi / w, w
 
 
-def slider_run(model, h, rho_inf):
-    """(slider x at T_END, largest accuracy-check value, warned?) of a fixed-step run."""
-    n = int(round(T_END / h))
+def build(damping, ramp=None, n_elements=N_ELEMENTS):
+    """The compiled scene; with ``ramp`` (s) it starts at rest and the crank speed rises smoothly to ω
+    over ``ramp`` (the spin-up's profile, :func:`femb.benchmarks.spin_up.spin_profile`)."""
+    if ramp is None:
+        return fsc.build(n_elements, damping=damping).compile()
+    from femb.benchmarks.spin_up import spin_profile
+
+    mech = fsc.build(n_elements, omega=0.0, damping=damping)
+    mech["drive"].fn = spin_profile(fsc.DATA["omega"], ramp)
+    return mech.compile()
+
+
+def slider_run(model, h, rho_inf, t_end=T_END):
+    """(slider x at t_end, largest accuracy-check value, warned?) of a fixed-step run."""
+    n = int(round(t_end / h))
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        r = femb.simulate(model, T_END, h, rho_inf=rho_inf, stride=n)
+        r = femb.simulate(model, t_end, h, rho_inf=rho_inf, stride=n)
     e = r.error_estimates[r.error_estimates >= 0]
     warned = any(issubclass(c.category, AccuracyWarning) for c in caught)
     return float(r.body("slider")[-1, 0]), float(e.max()) if e.size else float("nan"), warned
@@ -79,23 +95,29 @@ def fitted_order(h, err):
     return float(np.polyfit(np.log(h), np.log(err), 1)[0])
 
 
-def study(damping, rho_inf, hs=HS, h_ref=H_REF, n_elements=N_ELEMENTS):
-    """Rows (h, error, check max, warned, hω₁, F₁, p64) and the first axial ω of one variant."""
-    model = fsc.build(n_elements, damping=damping).compile()
-    _, w = axial_modes(model)
-    x_ref = slider_run(model, h_ref, rho_inf)[0]
+def study(damping, rho_inf, hs=HS, h_ref=H_REF, n_elements=N_ELEMENTS, ramp=None):
+    """Rows (h, error, check max, warned, hω₁, F₁, p64, p64 of slider x, coordinates with p64 < 1)
+    and the axial ω of one variant (with ``ramp``: started at rest, run to ramp + T_END)."""
+    model = build(damping, ramp, n_elements)
+    _, w = axial_modes(fsc.build(n_elements, damping=damping).compile())
+    t_end = T_END + (ramp or 0.0)
+    x_ref = slider_run(model, h_ref, rho_inf, t_end)[0]
     rows = []
     for h in hs:
-        x, chk, warned = slider_run(model, h, rho_inf)
-        F1 = free_oscillation_error(h * w[0], int(round(T_END / h)), rho_inf)
+        x, chk, warned = slider_run(model, h, rho_inf, t_end)
+        F1 = free_oscillation_error(h * w[0], int(round(t_end / h)), rho_inf)
         s = step_halving_order(model, h, n_window=64, rho_inf=rho_inf)
         p_slider = s["orders"][model.velocity_labels.index("slider.x")]
         rows.append((h, abs(x - x_ref), chk, warned, h * w[0], F1, s["order"], p_slider, len(s["unresolved"])))
     return rows, w
 
 
-def print_study(damping, rho_inf, rows):
-    print(f"\neta = {damping:g} s, rho_inf = {rho_inf}, slider x at t = {T_END} s against h_ref = {H_REF:g} s")
+def print_study(damping, rho_inf, rows, ramp=None):
+    if ramp is None:
+        print(f"\neta = {damping:g} s, rho_inf = {rho_inf}, slider x at t = {T_END} s against h_ref = {H_REF:g} s")
+    else:
+        print(f"\neta = {damping:g} s, rho_inf = {rho_inf}, started at rest, crank speed ramped to omega over "
+              f"{ramp:g} s; slider x at t = {ramp + T_END:g} s against h_ref = {H_REF:g} s")
     print("  h (s)    error (m)  order  check max  warned  h*w1   F1     error/F1  p64    slider  p<1")
     prev = None
     for h, err, chk, warned, hw, F1, p, ps, nu in rows:
@@ -152,6 +174,8 @@ def main(argv=None):
     for damping, rho in VARIANTS:
         rows, _ = study(damping, rho)
         print_study(damping, rho, rows)
+    rows, _ = study(0.0, 0.7, ramp=RAMP)
+    print_study(0.0, 0.7, rows, ramp=RAMP)
     print(f"\neta = 0 s, rho_inf = 0.7, adaptive steps (rtol = atol): slider x at t = {T_END} s")
     print("  tol     steps  rejected  error (m)  h min     h max")
     for tol, n, rej, err, hmin, hmax in adaptive():
