@@ -30,7 +30,9 @@ squared amplitude is in x coordinates, the rod lying along x).
 
 ``--scenes`` also prints the accuracy check's largest value and ``p64`` on the
 ordinary scenes (andrews, slider_crank, heavy_top, spin_up) at their default
-steps. About 20 s (plus 30 s with ``--scenes``) on a 2-core machine.
+steps; ``--roughness`` the roughness of the constrained accelerations
+(:func:`femb.diagnostics.acceleration_roughness`) on the flexible runs and the
+ordinary scenes (about 40 s more). About 20 s (plus 30 s with ``--scenes``) on a 2-core machine.
 """
 from __future__ import annotations
 
@@ -42,7 +44,7 @@ import numpy as np
 
 import femb
 from femb.benchmarks import flexible_slider_crank as fsc
-from femb.diagnostics import free_oscillation_error, step_halving_order
+from femb.diagnostics import acceleration_roughness, free_oscillation_error, step_halving_order
 from femb.errors import AccuracyWarning
 from femb.initial import consistent_initial_state
 from femb.modal import modal_analysis
@@ -163,9 +165,44 @@ def scenes():
               f"{np.nanmin(s['orders']):.2f}, p<1: {len(s['unresolved'])}")
 
 
+def _roughness(r, rho_inf):
+    """(median D over the last quarter of the run, the hω it stands for, N, F(hω, N))."""
+    D = acceleration_roughness(r)["D"]
+    d = float(np.median(D[3 * len(D) // 4:]))
+    hw = 2.0 * np.arcsin(min(d, 2.0) / 2.0)
+    n = len(r.t) - 1
+    return d, hw, n, free_oscillation_error(hw, n, rho_inf)
+
+
+def roughness():
+    """The roughness of the constrained accelerations (a quantity the error estimate could give) on the
+    flexible runs and the ordinary scenes: it does not separate the converging from the other runs."""
+    print("\nroughness D = |second difference| / |first difference| of the constrained accelerations,")
+    print("median over the last quarter of the run, the h*omega it stands for (D = 2 sin(h omega / 2)),")
+    print("and the free-oscillation factor F of that h*omega over the run's N steps")
+    for damping in (0.0, fsc.DATA["damping"]):
+        model = build(damping)
+        for h in HS[:6]:
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                r = femb.simulate(model, T_END, h, rho_inf=0.7)
+            d, hw, n, F = _roughness(r, 0.7)
+            print(f"  eta = {damping:g} s, h = {h:.0e} s: D = {d:.3f}, h*omega = {hw:.3f}, N = {n}, F = {F:.3f}")
+    for name in ("andrews", "slider_crank", "heavy_top", "spin_up"):
+        mod = importlib.import_module("femb.benchmarks." + name)
+        dflt = mod.DEFAULTS
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            r = femb.simulate(mod.build().compile(), min(dflt["t_end"], 2.0), dflt["h"], rho_inf=dflt["rho_inf"])
+        d, hw, n, F = _roughness(r, dflt["rho_inf"])
+        print(f"  {name}, h = {dflt['h']:.3g} s: D = {d:.3f}, h*omega = {hw:.3f}, N = {n}, F = {F:.3f}")
+
+
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--scenes", action="store_true", help="also the ordinary scenes")
+    ap.add_argument("--roughness", action="store_true",
+                    help="also the roughness of the constrained accelerations (slow: a KKT solve per step in Python)")
     a = ap.parse_args(argv)
     T, w = axial_modes(fsc.build(N_ELEMENTS).compile())
     print(f"flexible slider-crank, {N_ELEMENTS} elements: axial modes T = "
@@ -182,6 +219,8 @@ def main(argv=None):
         print(f"  {tol:6.0e}  {n:5d}  {rej:8d}  {err:9.3e}  {hmin:8.2e}  {hmax:8.2e}")
     if a.scenes:
         scenes()
+    if a.roughness:
+        roughness()
 
 
 if __name__ == "__main__":

@@ -169,7 +169,7 @@ def acceleration_roughness(result, *, rtol=1e-3, atol=1e-3, first=None):
     return {"t": t[1:-1], "D": D, "eq": Cq * h * h * n1, "h": h}
 
 
-def step_halving_order(model, h, *, n_window=64, t0=0.0, state=None, rho_inf=0.7, rtol=1e-3, atol=1e-3,
+def step_halving_order(model, h, *, n_window=64, t0=0.0, state=None, rho_inf=None, rtol=1e-3, atol=1e-3,
                        floor=1e-6, **options):
     """Observed order of the fixed step h over a window of n_window steps, from runs with h, h/2 and h/4.
 
@@ -182,7 +182,9 @@ def step_halving_order(model, h, *, n_window=64, t0=0.0, state=None, rho_inf=0.7
     should: the window holds motion the step does not resolve (an axial mode
     rung by a stress-free start, docs/beams.md). Coordinates whose own d₁ᵢ is
     below ``floor`` (round-off, or no error at all) are not judged. Costs
-    7 × n_window steps.
+    7 × n_window steps. ``rho_inf`` and ``options`` (``alpha``, ``formulation``,
+    Newton settings, ...) go to :func:`femb.simulate` (ρ∞ = 0.7 when neither
+    ``rho_inf`` nor ``alpha`` is given).
 
     Returns
     -------
@@ -204,6 +206,7 @@ def step_halving_order(model, h, *, n_window=64, t0=0.0, state=None, rho_inf=0.7
     if state is not None:
         t0 = float(state.t)
     t1 = t0 + n_window * h
+    options = dict(options, check_every=0)      # the window runs need no accuracy check of their own
     runs = []
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
@@ -228,3 +231,29 @@ def step_halving_order(model, h, *, n_window=64, t0=0.0, state=None, rho_inf=0.7
     labels = list(getattr(model, "velocity_labels", [str(i) for i in range(model.nq)]))
     unresolved = [labels[i] for i in np.nonzero(judged & (orders < 1.0))[0]]
     return {"order": p, "d1": d1, "d2": d2, "orders": orders, "unresolved": unresolved, "window": t1 - t0}
+
+
+def fixed_step_warning(model, h, *, n_window=64, max_listed=5, **kwargs):
+    """A warning text when the fixed step h does not resolve what the start of the run excites, else None.
+
+    Calls :func:`step_halving_order` (``kwargs`` go to it: ``state``, ``t0``,
+    ``rho_inf``, ``alpha``, ``formulation``, Newton settings) and returns a
+    message when some coordinate's observed order over the first ``n_window``
+    steps is below 1. Meant to be called by the solver after a fixed-step
+    run (opt-in: it costs 7 × n_window steps).
+    """
+    s = step_halving_order(model, h, n_window=n_window, **kwargs)
+    if not s["unresolved"]:
+        return None
+    labels = list(getattr(model, "velocity_labels", []))
+    worst = sorted(s["unresolved"], key=lambda lab: s["orders"][labels.index(lab)] if lab in labels else 0.0)
+    listed = ", ".join(f"{lab} ({s['orders'][labels.index(lab)]:.2f})" if lab in labels else lab
+                       for lab in worst[:max_listed])
+    more = f" and {len(worst) - max_listed} more" if len(worst) > max_listed else ""
+    return (f"the fixed step h = {h:.3g} s does not resolve the motion of the first {n_window} steps: "
+            f"halving h does not reduce the differences of {listed}{more} as a second-order method should "
+            f"(observed order in parentheses; over all coordinates {s['order']:.2f}). An oscillation the "
+            f"start excites (e.g. axial modes of a beam started stress free) is then damped numerically or "
+            f"out of phase, and results do not converge in h: resolve it (h well below its period, see "
+            f"femb.modal.modal_analysis), add material damping, start from a deformed state, or use "
+            f"adaptive steps (docs/beams.md, 'Convergence with unresolved axial modes')")

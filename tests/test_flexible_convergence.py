@@ -97,3 +97,17 @@ def test_undamped_rod_does_not_converge_until_the_phase_lag_is_small():
     assert not any(r[3] for r in rows)
     drows, _ = fc.study(fc.fsc.DATA["damping"], 0.7, hs=(1e-4, 2e-5), h_ref=5e-7)
     assert drows[1][1] < 0.1 * drows[0][1]
+
+
+def test_fixed_step_warning_names_the_unresolved_coordinates():
+    from femb.benchmarks import flexible_slider_crank as fsc
+    from femb.benchmarks import heavy_top, slider_crank
+    from femb.diagnostics import fixed_step_warning
+
+    msg = fixed_step_warning(fsc.build(8, damping=0.0).compile(), 1e-4)
+    assert msg is not None and "rod.n" in msg and "h = 0.0001 s" in msg and "more" in msg
+    assert fixed_step_warning(fsc.build(8).compile(), 1e-4) is None
+    assert fixed_step_warning(slider_crank.build().compile(), slider_crank.DEFAULTS["h"]) is None
+    top = heavy_top.DEFAULTS
+    assert fixed_step_warning(heavy_top.build().compile(), top["h"], rho_inf=top["rho_inf"],
+                              check_every=16) is None
