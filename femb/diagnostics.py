@@ -1,30 +1,27 @@
 """Checks of the fixed step of a run: is h resolving what the run excites?
 
-``numerical_decay`` is the amplitude factor that generalized-α applies per step
-to an undamped oscillation of frequency ω (the spectral radius of its
-amplification matrix at hω): a physical vibration that the model does not damp
-loses the share 1 − ρ(hω)^N of its amplitude over N steps, and a run whose
-result depends on that share does not converge in h until ρ(hω)^N ≈ 1
-(docs/beams.md, "Convergence with unresolved axial modes").
+An oscillation that the model keeps (no material damping), excited at the
+start (a beam started stress free rings in its axial modes), is computed
+with a fixed step h either damped away (hω ≳ 1, the numerical damping of
+ρ∞ < 1) or with a phase lag that accumulates over the run; the result then
+does not converge in h until that lag is small (docs/beams.md, "Convergence
+with unresolved axial modes").
 
-``step_halving_order`` runs a short window with h, h/2 and h/4 and returns the
-observed order: about 2 where h resolves the motion, below 1 where it does not.
-
-``acceleration_roughness`` looks at the constrained accelerations q̈ᵖᵖ of
-consecutive steps (the solution of [[M, Φ_qᵀ], [Φ_q, 0]] [q̈; λ] = [f; −γ]
-at each stored state, docs/stepsize.md §3), the quantity the local error
-estimate e_q = C_q h² (q̈ᵖᵖ_{n+1} − q̈ᵖᵖ_n) is made of. The estimate assumes
-q̈ᵖᵖ is smooth on the scale of h. The ratio of its second to its first
-difference,
-
-    D_n = ‖Δ²q̈ᵖᵖ_n‖_w / ‖Δq̈ᵖᵖ_n‖_w,
-
-is ≈ h/T for a motion of time scale T, 2 sin(hω/2) ≈ hω for an oscillation
-of frequency ω, and up to 2 for content the step cannot resolve (hω ≳ 2,
-up to the alternation of consecutive steps). So D_n ≥ 1 says that the
-accelerations, and the error estimate, are dominated by an oscillation the
-step does not resolve (see docs/beams.md, "Convergence with unresolved axial
-modes"). The weights are those of the error estimate, w_i = atol + rtol |q_i|.
+* ``numerical_decay`` and ``free_oscillation_error``: the amplitude factor per
+  step of generalized-α on ẍ + ω²x = 0, and the relative error of such an
+  oscillation after N steps.
+* ``step_halving_order``: the observed order over a short window from runs
+  with h, h/2 and h/4, over all coordinates and per coordinate (about 2 where h
+  resolves the motion, below 1 where it does not); ``fixed_step_warning``: the
+  text of a warning from it, for a solver to show after a fixed-step run.
+* ``acceleration_roughness``: the ratio D_n = ‖Δ²q̈ᵖᵖ_n‖_w / ‖Δq̈ᵖᵖ_n‖_w of the
+  second to the first difference of the constrained accelerations q̈ᵖᵖ of
+  consecutive steps (the quantity of the local error estimate, e_q = C_q h²
+  Δq̈ᵖᵖ, docs/stepsize.md §3), with the estimate's weights w_i = atol + rtol |q_i|:
+  ≈ h/T for a motion of time scale T, 2 sin(hω/2) for an oscillation of
+  frequency ω, up to 2. It shows that an unresolved oscillation dominates the
+  estimate, not whether it matters: on the flexible slider-crank it does not
+  separate converging from non-converging runs (docs/beams.md).
 """
 from __future__ import annotations
 
