@@ -619,7 +619,8 @@ class GeneralizedAlphaSolver:
 # --------------------------------------------------------------------------
 def simulate(model, t_end, h=None, *, rtol=None, atol=None, h0=None, h_max=None, t_eval=None,
              start="consistent", formulation="index3", rho_inf=None, alpha=None, scaling=True, t0=0.0,
-             state=None, stride=1, store=True, observer=None, initialize=True, progress=False, **options):
+             state=None, stride=1, store=True, observer=None, initialize=True, progress=False,
+             check_convergence=False, **options):
     """Integrate a model from t0 to t_end, with fixed steps (``h``) or adaptive steps (``rtol``).
 
     Parameters
@@ -677,6 +678,13 @@ def simulate(model, t_end, h=None, *, rtol=None, atol=None, h0=None, h_max=None,
         only then; without an observer it runs many steps per call.
     progress : bool
         Show a progress bar (tqdm on a terminal, plain lines otherwise).
+    check_convergence : bool
+        Fixed steps: after the run, repeat its first 64 steps with h, h/2 and h/4
+        (:func:`femb.diagnostics.fixed_step_warning`, 7 × 64 extra steps) and warn
+        (``AccuracyWarning``) when some coordinate does not converge at order ≥ 1: an
+        oscillation the start excites that h does not resolve (docs/beams.md,
+        "Convergence with unresolved axial modes"). The step-size check inside the run
+        cannot see it: the ringing's amplitude is within its tolerance.
 
     Returns
     -------
@@ -806,6 +814,12 @@ def simulate(model, t_end, h=None, *, rtol=None, atol=None, h0=None, h_max=None,
             f"{solver.sf[9]:.3g} times the tolerance (rtol = {solver.rtol:g}, atol = {float(solver.atol.max()):g}) "
             f"at t = {solver.sf[8]:.6g} s; the result may be wrong. Use a smaller h or adaptive steps "
             f"(simulate(..., rtol=...))", AccuracyWarning, stacklevel=2)
+    if check_convergence and not adaptive:
+        from femb.diagnostics import fixed_step_warning
+        msg = fixed_step_warning(model, h_fixed, state=solver.initial_state, alpha=solver.alpha,
+                                 formulation=formulation, start=start, scaling=scaling)
+        if msg:
+            warnings.warn(msg, AccuracyWarning, stacklevel=2)
     n = solver.step_index
     how = "adaptive steps" if adaptive else "steps"
     return result("success", f"reached t = {T[-1]:.6g} s in {n} {how}"

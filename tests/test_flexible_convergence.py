@@ -120,3 +120,20 @@ def test_smooth_start_leaves_a_much_smaller_ringing():
     h, err, chk, warned = rows[0][:4]
     # stress free at full speed: 1.6e-5 m at this h (docs/beams.md); started at rest and ramped: ~1e-9 m
     assert err < 1e-7 and not warned
+
+
+def test_simulate_warns_about_an_unresolved_start_only_when_asked_and_only_when_true():
+    """simulate(..., check_convergence=True): the undamped rod at h = 0.1 ms warns, the damped rod
+    and the rigid slider-crank at their steps do not; without the keyword nothing is checked."""
+    import warnings
+
+    from femb.benchmarks import flexible_slider_crank as fsc, slider_crank
+    from femb.errors import AccuracyWarning
+    bare = fsc.build(8, damping=0.0).compile()
+    with pytest.warns(AccuracyWarning, match="does not resolve the motion of the first 64 steps"):
+        femb.simulate(bare, 0.01, 1e-4, check_convergence=True)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", AccuracyWarning)
+        femb.simulate(bare, 0.01, 1e-4)
+        femb.simulate(fsc.build(8).compile(), 0.01, 1e-4, check_convergence=True)
+        femb.simulate(slider_crank.build().compile(), 0.05, slider_crank.DEFAULTS["h"], check_convergence=True)
