@@ -34,7 +34,7 @@ import numpy as np
 from .progress import progress as _progress
 from .vtk import OutputError, read_pvd
 
-__all__ = ["can_render", "render_png", "render_strip", "render_animation", "camera_3d"]
+__all__ = ["can_render", "render_png", "render_strip", "render_animation", "camera_3d", "picture_scene"]
 
 #: Colours of the element types (id 0, 1, ...), cycled when there are more.
 PALETTE = (
@@ -56,9 +56,9 @@ _MARGIN = 1.08  # empty border around the motion, as a factor on its size
 _BAR = 0.14  # fraction of the width kept for the colour bar
 _LEGEND = 0.25  # fraction of the width kept for the legend of times
 
-_VIEWS = ("xy", "xz", "yz", "iso", "3d")
-#: viewing directions (from the motion towards the camera) of the perspective views
-_DIRECTIONS = {"iso": (1.0, 1.0, 1.0), "3d": (1.0, -1.0, 0.7)}
+#: parallel views along a coordinate axis; the others ("3d", "iso", "front", "side", "top" or
+#: "azimuth,elevation") are perspective views with gravity pointing down (z up without gravity)
+_AXIS_VIEWS = ("xy", "xz", "yz")
 
 # ---------------------------------------------------------------------------
 # can we render here?
@@ -303,9 +303,20 @@ def _check_suffix(path, allowed, param):
 def _check_view(view, scan):
     if view is None:
         return "xy" if scan.planar else "3d"
-    if view not in _VIEWS:
-        raise OutputError(f"view={view!r}: expected one of {', '.join(_VIEWS)}")
-    return view
+    from .mechanism import parse_view
+
+    name, _ = parse_view(view)
+    return view.strip().lower() if name == "custom" else name
+
+
+def _direction(view, up=(0.0, 0.0, 1.0)):
+    """Viewing direction and picture up of a perspective view (name or 'az,el') for a scene up vector."""
+    from .mechanism import parse_view, view_direction
+
+    _, angles = parse_view(view)
+    if angles is None:
+        return None
+    return view_direction(angles, np.asarray(up, dtype=float))
 
 
 # ---------------------------------------------------------------------------
@@ -337,10 +348,13 @@ def _fit_camera(pl, scan, view, aspect, *, right=0.0, top=0.0):
     dist = 4.0 * scan.size
     # shift the projection centre so the motion sits in the free part
     cam.SetWindowCenter(right, top)
-    if view in _DIRECTIONS:
+    if view not in _AXIS_VIEWS:
+        from .mechanism import fit_points
+
         pl.disable_parallel_projection()
-        focal, position, up = camera_3d(lo, hi, _DIRECTIONS[view], aspect, cam.view_angle,
-                                        right=right, top=top, size=scan.size)
+        d, pic_up = _direction(view)
+        corners = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])])
+        focal, position, up = fit_points(corners, d, pic_up, aspect, cam.view_angle, right=right, top=top)
         cam.focal_point = tuple(focal)
         cam.position = tuple(position)
         cam.up = tuple(up)
@@ -483,11 +497,211 @@ def _snapshot(pl):
 
 
 # ---------------------------------------------------------------------------
+# mechanisms: bodies, joints, ground (femb.io.mechanism)
+# ---------------------------------------------------------------------------
+
+
+class _Mechanism:
+    """The frames of a mechanism's series read once, and what the whole motion shows."""
+
+    def __init__(self, pv, entries, trace=()):
+        from . import mechanism as mx
+
+        self.frames = [mx.read_frame(_read(pv, path), t) for t, path in entries]
+        self.motion = mx.scan_motion(self.frames, trace)
+
+    def camera(self, pv, view, window_size, *, top=0.0, right=0.0):
+        """A :class:`~femb.io.mechanism.Camera` showing the whole motion and its glyphs, fixed over it."""
+        from . import mechanism as mx
+
+        d, pic_up = _direction(view, self.motion.up)
+        s = self.motion.joint_size
+        pad = 2.6 * s * np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)])
+        key = self.motion.key
+        pts = [(key[:, None, :] + pad[None]).reshape(-1, 3)]
+        f = mx.floor_item(pv, self.motion)
+        if f is not None:                   # the floor's level, under the motion
+            pts.append(f.points.mean(axis=0)[None])
+        w, h = window_size
+        focal, position, up = mx.fit_points(np.vstack(pts), d, pic_up, w / h, 30.0, right=right, top=top)
+        return mx.Camera(focal, position, up, 30.0, (int(w), int(h)), (-right, -top))
+
+
+def _mechanism(pv, entries, scan, scalars, view, trace):
+    """A :class:`_Mechanism` when the series is a 3-D mechanism drawn by parts, else None."""
+    from . import mechanism as mx
+
+    if scalars is not None or (view in _AXIS_VIEWS) or scan.planar:
+        if trace:
+            raise OutputError("trace: paths are drawn for 3-D mechanisms in perspective views "
+                              "(not with scalars or the xy/xz/yz views)")
+        return None
+    first = _read(pv, entries[0][1])
+    if not mx.is_mechanism(first):
+        if trace:
+            raise OutputError("trace: this series carries no body frames (write it with femb 0.x "
+                              "or later: femb run SCENE --vtk DIR)")
+        return None
+    return _Mechanism(pv, entries, trace)
+
+
+def picture_scene(pvd, time=None, *, view=None, window_size=(1024, 768), trace=()):
+    """What :func:`render_png` draws for a 3-D mechanism, without drawing it.
+
+    Parameters
+    ----------
+    pvd : str or Path
+        Collection written by ``femb run SCENE --vtk DIR`` (or
+        :func:`femb.io.write_vtk`).
+    time : float, optional
+        Time in s of the frame (nearest; default the last).
+    view : str, optional
+        As for :func:`render_png`.
+    window_size : (int, int)
+        Picture size in pixels.
+    trace : sequence of str
+        ``"body"`` or ``"body:point"`` paths, as for :func:`render_png`.
+
+    Returns
+    -------
+    femb.io.mechanism.Picture
+        Its ``items`` (kind, label and mesh of each drawn thing: ``"body"``,
+        ``"joint:<kind>"``, ``"ground"``, ``"floor"``, ``"spring"``,
+        ``"trace"``) and its ``camera`` (``camera.project(points)`` gives
+        pixel coordinates).
+
+    Raises
+    ------
+    OutputError
+        When the series is not a 3-D mechanism written by femb.
+    """
+    import pyvista as pv
+
+    from . import mechanism as mx
+
+    entries = _entries(pvd)
+    scan = _Scan(pv, entries, None)
+    v = _check_view(view, scan)
+    mech = _mechanism(pv, entries, scan, None, v, trace)
+    if mech is None:
+        raise OutputError(f"{pvd}: not a 3-D mechanism written by femb (no scene description in its frames)")
+    k = _nearest(entries, time)
+    items = mx.frame_items(pv, mech.frames[k], mech.motion)
+    cam = mech.camera(pv, v, window_size, top=_top_reserve(window_size[1]),
+                      right=_legend_width(_legend_labels(items), window_size[0]))
+    return mx.Picture(entries[k][0], items, cam, mech.motion)
+
+
+def _hex(c):
+    return "#%02x%02x%02x" % tuple(int(v) for v in c[:3])
+
+
+def _apply_camera(pl, cam):
+    c = pl.camera
+    pl.disable_parallel_projection()
+    c.view_angle = cam.view_angle
+    c.focal_point = tuple(float(v) for v in cam.focal)
+    c.position = tuple(float(v) for v in cam.position)
+    c.up = tuple(float(v) for v in cam.up)
+    c.SetWindowCenter(*cam.window_center)
+    pl.renderer.ResetCameraClippingRange()
+
+
+def _draw_items(pl, items, prefix):
+    """Add items (femb.io.mechanism.Item) to the active renderer; returns the actor names."""
+    names = []
+    for i, it in enumerate(items):
+        name = f"{prefix}{i}"
+        kw = dict(color=_hex(it.colour), opacity=it.opacity, name=name, reset_camera=False, render=False,
+                  lighting=it.kind != "floor", show_scalar_bar=False)
+        if it.line_width:
+            kw.update(line_width=it.line_width)
+        if it.kind in ("body", "ground") or it.kind.startswith("joint:"):
+            kw.update(specular=0.3, smooth_shading=it.kind.startswith("joint:") or it.edges is None)
+        pl.add_mesh(it.mesh, **kw)
+        names.append(name)
+        if it.edges is not None:
+            ecol = "#bdbdb6" if it.kind == "floor" else "#202020"
+            pl.add_mesh(it.edges, color=ecol, line_width=1.0 if it.kind == "floor" else 1.5,
+                        name=name + "e", reset_camera=False, render=False, lighting=False,
+                        show_scalar_bar=False)
+            names.append(name + "e")
+    return names
+
+
+def _legend_labels(items):
+    """Names of the bodies in their colours, then the ground, the joints and the paths."""
+    labels = []
+    seen = set()
+    for it in items:
+        if it.kind == "body" and it.label not in seen:
+            seen.add(it.label)
+            labels.append([it.label, _hex(it.colour)])
+    kinds = sorted({it.kind.split(":", 1)[1] for it in items if it.kind.startswith("joint:")})
+    from .mechanism import GROUND_COLOUR, JOINT_COLOUR
+    if any(it.kind == "ground" for it in items):
+        labels.append(["ground", _hex(GROUND_COLOUR)])
+    for kind in kinds:
+        labels.append([f"{kind} joint", _hex(JOINT_COLOUR)])
+    for it in items:
+        if it.kind == "trace" and it.label not in seen:
+            seen.add(it.label)
+            labels.append([f"path of {it.label}", _hex(it.colour)])
+    return labels
+
+
+def _legend_width(labels, width_px):
+    """Fraction of a panel's width taken by the legend."""
+    if not labels:
+        return 0.0
+    return min(0.5, (20 + 10.0 * max(len(lb) for lb, _ in labels)) / float(width_px))
+
+
+def _legend(pl, labels, panel_size):
+    """The legend of :func:`_legend_labels` in the upper right corner of the active panel."""
+    if labels:
+        w, h = panel_size
+        bw, bh = _legend_width(labels, w), min(26.0 * len(labels) / h, 0.7)
+        box = pl.add_legend(labels=labels, bcolor="white", border=False, loc="upper right", size=(bw, bh),
+                            face="rectangle", name="legend", background_opacity=0.75)
+        box.SetPosition(1.0 - bw - 0.005, 1.0 - bh - 0.01)      # flush with the corner kept free
+        box.SetPosition2(bw, bh)
+
+
+def _axes(pl):
+    try:
+        pl.add_axes(line_width=3, color="black", labels_off=False, interactive=False)
+    except Exception:                   # pragma: no cover (an orientation widget is decoration)
+        pass
+
+
+def _mech_png(pv, mech, entries, k, out, view, window_size):
+    from . import mechanism as mx
+
+    top = _top_reserve(window_size[1])
+    items = mx.frame_items(pv, mech.frames[k], mech.motion)
+    labels = _legend_labels(items)
+    cam = mech.camera(pv, view, window_size, top=top, right=_legend_width(labels, window_size[0]))
+    pl = _plotter(pv, window_size)
+    try:
+        _apply_camera(pl, cam)
+        _draw_items(pl, items, "item")
+        _legend(pl, labels, window_size)
+        _axes(pl)
+        _add_time(pl, _label(_time_format(entries), entries[k][0]))
+        pl.renderer.ResetCameraClippingRange()
+        _save_png(_snapshot(pl), out)
+    finally:
+        pl.close()
+    return out
+
+
+# ---------------------------------------------------------------------------
 # public functions
 # ---------------------------------------------------------------------------
 
 
-def render_png(pvd, out_png, time=None, *, scalars=None, window_size=(1024, 768), view=None):
+def render_png(pvd, out_png, time=None, *, scalars=None, window_size=(1024, 768), view=None, trace=()):
     """Render the frame nearest to a time into a PNG picture.
 
     Parameters
@@ -526,6 +740,9 @@ def render_png(pvd, out_png, time=None, *, scalars=None, window_size=(1024, 768)
     view = _check_view(view, scan)
     k = _nearest(entries, time)
     t, path = entries[k]
+    mech = _mechanism(pv, entries, scan, scalars, view, trace)
+    if mech is not None:
+        return _mech_png(pv, mech, entries, k, out, view, window_size)
     pl = _plotter(pv, window_size)
     try:
         _fit_camera(pl, scan, view, window_size[0] / window_size[1],
