@@ -324,13 +324,16 @@ def _direction(view, up=(0.0, 0.0, 1.0)):
 # ---------------------------------------------------------------------------
 
 
-def _plotter(pv, window_size, shape=(1, 1)):
+def _plotter(pv, window_size, shape=(1, 1), col_weights=None, border=False):
     w, h = (int(v) for v in window_size)
     if w < 16 or h < 16:
         raise OutputError(f"window_size={tuple(window_size)!r}: expected at least 16 x 16 pixels")
     # off_screen per plotter rather than pyvista.OFF_SCREEN: same effect, but
     # leaves the caller's global pyvista settings alone.
-    pl = pv.Plotter(off_screen=True, window_size=(w, h), shape=shape, border=False)
+    kw = {} if col_weights is None else {"col_weights": list(col_weights)}
+    if border:
+        kw.update(border_color="#c8c8c8", border_width=1.0)
+    pl = pv.Plotter(off_screen=True, window_size=(w, h), shape=shape, border=border, **kw)
     pl.set_background("white")
     return pl
 
@@ -644,8 +647,8 @@ def _legend_labels(items):
     for kind in kinds:
         labels.append([f"{kind} joint", _hex(JOINT_COLOUR)])
     for it in items:
-        if it.kind == "trace" and it.label not in seen:
-            seen.add(it.label)
+        if it.kind == "trace" and ("path", it.label) not in seen:
+            seen.add(("path", it.label))
             labels.append([f"path of {it.label}", _hex(it.colour)])
     return labels
 
@@ -657,11 +660,11 @@ def _legend_width(labels, width_px):
     return min(0.5, (20 + 10.0 * max(len(lb) for lb, _ in labels)) / float(width_px))
 
 
-def _legend(pl, labels, panel_size):
-    """The legend of :func:`_legend_labels` in the upper right corner of the active panel."""
+def _legend(pl, labels, panel_size, fill=False):
+    """The legend of :func:`_legend_labels` in the upper right corner of the active panel (or filling it)."""
     if labels:
         w, h = panel_size
-        bw, bh = _legend_width(labels, w), min(26.0 * len(labels) / h, 0.7)
+        bw, bh = (0.94 if fill else _legend_width(labels, w)), min(26.0 * len(labels) / h, 0.7)
         box = pl.add_legend(labels=labels, bcolor="white", border=False, loc="upper right", size=(bw, bh),
                             face="rectangle", name="legend", background_opacity=0.75)
         box.SetPosition(1.0 - bw - 0.005, 1.0 - bh - 0.01)      # flush with the corner kept free
@@ -694,6 +697,93 @@ def _mech_png(pv, mech, entries, k, out, view, window_size):
     finally:
         pl.close()
     return out
+
+
+def _mech_strip(pv, mech, entries, idx, out, view, window_size, layout, fmt):
+    from . import mechanism as mx
+
+    m = len(idx)
+    if layout == "overlay":
+        window_size = window_size or (1024, 768)
+        top = _top_reserve(window_size[1])
+        items = []
+        for j, k in enumerate(idx):
+            frac = 0.3 + 0.7 * (j / (m - 1) if m > 1 else 1.0)
+            items += mx.frame_items(pv, mech.frames[k], mech.motion, shade=frac, floor=j == 0,
+                                    traces=j == m - 1)
+        labels = _legend_labels(mx.frame_items(pv, mech.frames[idx[-1]], mech.motion, floor=False))
+        cam = mech.camera(pv, view, window_size, top=top, right=_legend_width(labels, window_size[0]))
+        pl = _plotter(pv, window_size)
+        try:
+            _apply_camera(pl, cam)
+            _draw_items(pl, items, "item")
+            _legend(pl, labels, window_size)
+            _axes(pl)
+            first, last = entries[idx[0]][0], entries[idx[-1]][0]
+            _add_time(pl, f"t = {fmt.format(first)} ... {fmt.format(last)} s ({m} instants, light to dark)")
+            pl.renderer.ResetCameraClippingRange()
+            _save_png(_snapshot(pl), out)
+        finally:
+            pl.close()
+        return out
+    # small multiples: one panel per instant, and a narrow legend panel
+    labels = _legend_labels(mx.frame_items(pv, mech.frames[idx[-1]], mech.motion, floor=False))
+    if window_size is None:
+        window_size = (400 * m + 180, 400)
+    W, H = (int(v) for v in window_size)
+    lw = int(20 + 10.0 * max(len(lb) for lb, _ in labels)) if labels else 0
+    lw = min(lw, W // (m + 1))
+    pw = (W - lw) / m
+    shape = (1, m + 1) if lw else (1, m)
+    weights = [pw] * m + ([lw] if lw else [])
+    pl = _plotter(pv, (W, H), shape=shape, col_weights=weights, border=True)
+    try:
+        cam = mech.camera(pv, view, (pw, H), top=_top_reserve(H, 26))
+        for j, k in enumerate(idx):
+            pl.subplot(0, j)
+            pl.set_background("white")
+            _apply_camera(pl, cam)
+            _draw_items(pl, mx.frame_items(pv, mech.frames[k], mech.motion), f"item{j}_")
+            pl.add_text(_label(fmt, entries[k][0]), position="upper_left", font_size=11, color="black",
+                        name=f"time{j}", render=False)
+            if j == 0:
+                _axes(pl)
+            pl.renderer.ResetCameraClippingRange()
+        if lw:
+            pl.subplot(0, m)
+            pl.set_background("white")
+            _legend(pl, labels, (lw, H), fill=True)
+        _save_png(_snapshot(pl), out)
+    finally:
+        pl.close()
+    return out
+
+
+def _mech_animation(pv, mech, entries, sel, sink, view, size, fmt, show_progress):
+    from . import mechanism as mx
+
+    w, h = size
+    labels = _legend_labels(mx.frame_items(pv, mech.frames[sel[0]], mech.motion, floor=False))
+    cam = mech.camera(pv, view, (w, h), top=_top_reserve(h), right=_legend_width(labels, w))
+    pl = _plotter(pv, (w, h))
+    try:
+        _apply_camera(pl, cam)
+        _legend(pl, labels, (w, h))
+        _axes(pl)
+        names = []
+        with _progress(len(sel), "render", enabled=show_progress) as bar:
+            for k in sel:
+                t, _ = entries[k]
+                new = _draw_items(pl, mx.frame_items(pv, mech.frames[k], mech.motion), "item")
+                for name in set(names) - set(new):
+                    pl.remove_actor(name, render=False)
+                names = new
+                _add_time(pl, _label(fmt, t))
+                pl.renderer.ResetCameraClippingRange()
+                sink.add(_snapshot(pl))
+                bar.update(1)
+    finally:
+        pl.close()
 
 
 # ---------------------------------------------------------------------------
@@ -761,10 +851,11 @@ def render_strip(
     n=6,
     *,
     times=None,
-    layout="overlay",
+    layout="row",
     scalars=None,
     window_size=None,
     view=None,
+    trace=(),
 ):
     """Render several instants of the motion in one picture.
 
@@ -779,20 +870,24 @@ def render_strip(
         included); ignored when ``times`` is given.
     times : sequence of float, optional
         Instants in s; the nearest frame of each is drawn.
-    layout : {"overlay", "row"}, default "overlay"
-        ``"overlay"``: all instants in one view, each in its own colour from
-        light (early) to dark (late) with a legend of the times, later ones
-        drawn on top (motion snapshots as in a paper figure).
-        ``"row"``: one panel per instant side by side, same fixed camera,
-        each with its time label.
+    layout : {"row", "overlay"}, default "row"
+        ``"row"``: small multiples, one panel per instant side by side, same
+        fixed camera, each with its time label (for a 3-D mechanism a last
+        narrow panel holds the legend of the bodies and joints).
+        ``"overlay"``: all instants in one view, from light (early) to dark
+        (late), later ones drawn on top (motion snapshots as in a paper
+        figure); a planar series gets a legend of the times.
     scalars : str, optional
         Colour by this array instead (overlay: fixed colour range, times
         listed in the label).
     window_size : (int, int), optional
-        Picture size; default (1024, 768) for overlay, (360 n, 360) for row.
-    view : {"xy", "xz", "yz", "iso", "3d"}, optional
-        Camera direction; default "xy" for planar data, else "3d" (perspective
-        from (1, −1, 0.7), z up, :func:`camera_3d`); "iso" looks from (1, 1, 1).
+        Picture size; default (1024, 768) for overlay, (360 n, 360) for row
+        (3-D mechanisms: (400 n + 180, 400)).
+    view : str, optional
+        As for :func:`render_png`.
+    trace : sequence of str, optional
+        Paths of points, as for :func:`render_png` (drawn whole in every panel,
+        with the point's position at each panel's instant).
 
     Returns
     -------
@@ -818,6 +913,9 @@ def render_strip(
     view = _check_view(view, scan)
     fmt = _time_format(entries)
     m = len(idx)
+    mech = _mechanism(pv, entries, scan, scalars, view, trace)
+    if mech is not None:
+        return _mech_strip(pv, mech, entries, idx, out, view, window_size, layout, fmt)
     if window_size is None:
         window_size = (1024, 768) if layout == "overlay" else (360 * m, 360)
     if layout == "row":
@@ -883,6 +981,7 @@ def render_animation(
     window_size=(800, 600),
     view=None,
     show_progress=False,
+    trace=(),
 ):
     """Render the motion as an animated GIF or an MP4 video.
 
@@ -910,6 +1009,9 @@ def render_animation(
         from (1, −1, 0.7), z up, :func:`camera_3d`); "iso" looks from (1, 1, 1).
     show_progress : bool, default False
         Report progress on stderr.
+    trace : sequence of str, optional
+        Paths of points, as for :func:`render_png` (the whole path, and the
+        point at each frame's instant).
 
     Returns
     -------
@@ -947,19 +1049,23 @@ def render_animation(
         scan = _Scan(pv, entries, scalars)
         v = _check_view(view, scan)
         fmt = _time_format(entries)
-        pl = _plotter(pv, (w, h))
-        try:
-            _fit_camera(pl, scan, v, w / h, right=_BAR if scalars else 0.0,
-                        top=_top_reserve(h))
-            with _progress(len(sel), "render", enabled=show_progress) as bar:
-                for k in sel:
-                    t, path = entries[k]
-                    _add_frame(pv, pl, _read(pv, path), scan, scalars, name="frame")
-                    _add_time(pl, _label(fmt, t))
-                    sink.add(_snapshot(pl))
-                    bar.update(1)
-        finally:
-            pl.close()
+        mech = _mechanism(pv, entries, scan, scalars, v, trace)
+        if mech is not None:
+            _mech_animation(pv, mech, entries, sel, sink, v, (w, h), fmt, show_progress)
+        else:
+            pl = _plotter(pv, (w, h))
+            try:
+                _fit_camera(pl, scan, v, w / h, right=_BAR if scalars else 0.0,
+                            top=_top_reserve(h))
+                with _progress(len(sel), "render", enabled=show_progress) as bar:
+                    for k in sel:
+                        t, path = entries[k]
+                        _add_frame(pv, pl, _read(pv, path), scan, scalars, name="frame")
+                        _add_time(pl, _label(fmt, t))
+                        sink.add(_snapshot(pl))
+                        bar.update(1)
+            finally:
+                pl.close()
     except BaseException:
         sink.abort()
         raise
