@@ -707,8 +707,8 @@ class Camera:
         half = math.tan(math.radians(self.view_angle) / 2.0)
         y = (rel @ up) / (depth * half)              # -1 .. 1 over the height
         x = (rel @ rgt) / (depth * half * (w / h))
-        x = x + self.window_center[0]
-        y = y + self.window_center[1]
+        x = x - self.window_center[0]           # VTK's window centre moves the view's centre there
+        y = y - self.window_center[1]
         return np.column_stack((0.5 * (x + 1.0) * w, 0.5 * (1.0 - y) * h)), depth
 
 

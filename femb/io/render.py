@@ -527,7 +527,7 @@ class _Mechanism:
             pts.append(f.points.mean(axis=0)[None])
         w, h = window_size
         focal, position, up = mx.fit_points(np.vstack(pts), d, pic_up, w / h, 30.0, right=right, top=top)
-        return mx.Camera(focal, position, up, 30.0, (int(w), int(h)), (-right, -top))
+        return mx.Camera(focal, position, up, 30.0, (int(w), int(h)), (right, top))
 
 
 def _mechanism(pv, entries, scan, scalars, view, trace):
