@@ -53,9 +53,12 @@ JOINT_SIZE = 0.035
 MIN_BODY = 1.8
 
 KINDS = {1: "body", 2: "body_frame", 3: "point_mass", 10: "revolute", 11: "spherical", 12: "prismatic",
-         13: "cylindrical", 14: "universal", 15: "fixed", 16: "distance", 20: "spring", 21: "bushing",
+         13: "cylindrical", 14: "universal", 15: "fixed", 16: "distance", 17: "motor", 18: "actuator", 20: "spring", 21: "bushing",
          22: "torsion", 30: "load", 40: "ground", 50: "beam"}
-JOINT_KINDS = ("revolute", "spherical", "prismatic", "cylindrical", "universal", "fixed", "distance")
+JOINT_KINDS = ("revolute", "spherical", "prismatic", "cylindrical", "universal", "fixed", "distance", "motor",
+               "actuator")
+DRIVE_COLOUR = (200, 30, 30)
+LOAD_COLOUR = (200, 30, 30)
 
 VIEWS = ("3d", "iso", "front", "side", "top", "xy", "xz", "yz")
 #: (azimuth, elevation) in degrees of the gravity-aware views (see :func:`view_direction`)
@@ -103,7 +106,7 @@ class Frame:
     ground_points: np.ndarray
     gravity: np.ndarray | None
     points: dict               # (body, point) -> body-axes coordinates
-    others: list = field(default_factory=list)     # meshes of unknown kinds
+    loads: list = field(default_factory=list)      # ("force" or "torque", point (3,), vector (3,))
 
 
 def read_frame(mesh, time=0.0):
@@ -187,7 +190,15 @@ def read_frame(mesh, time=0.0):
     for tname, cells in by_kind.get("ground", []):
         ground.extend(P[first_point(cells)])
     ground = np.array(ground, dtype=float).reshape(-1, 3)
-    return Frame(time, bodies, names, centres, joints, springs, ground, g, points)
+    loads = []
+    for tname, cells in by_kind.get("load", []):
+        ids = first_point(cells)
+        for what in ("force", "torque"):
+            if what in pd:
+                V = np.asarray(pd[what], dtype=float)[ids]
+                keep = np.linalg.norm(V, axis=1) > 0.0
+                loads += [(what, P[i], v) for i, v in zip(ids[keep], V[keep])]
+    return Frame(time, bodies, names, centres, joints, springs, ground, g, points, loads)
 
 
 # ---------------------------------------------------------------------------
@@ -559,17 +570,33 @@ def joint_items(pv, frame, motion, shade=1.0):
                       pv.Sphere(radius=0.42 * s, center=j.pa)]
         elif j.kind == "fixed":
             parts.append(pv.Cube(center=j.pa, x_length=1.1 * s, y_length=1.1 * s, z_length=1.1 * s))
+        elif j.kind == "motor":                      # a driven angle: a red ring about the axis
+            parts.append(pv.Disc(center=j.pa, inner=0.75 * s, outer=1.05 * s, normal=ax, c_res=32))
+            items.append(Item("joint:motor", j.type_name, _merge(pv, parts), _shade(DRIVE_COLOUR, shade)))
+            continue
+        elif j.kind == "actuator":                   # a driven displacement: a red arrow along the axis
+            side = _unit(j.pin_a, horizontal_basis(ax)[0])          # beside the guide, where it shows
+            parts.append(pv.Arrow(start=j.pb - 1.5 * s * ax + 2.2 * s * side, direction=ax, scale=3.0 * s,
+                                  tip_length=0.35, tip_radius=0.12, shaft_radius=0.04))
+            items.append(Item("joint:actuator", j.type_name, _merge(pv, parts), _shade(DRIVE_COLOUR, shade)))
+            continue
         elif j.kind == "distance":
             parts += [_tube(pv, j.pa, j.pb, 0.18 * s), pv.Sphere(radius=0.4 * s, center=j.pa),
                       pv.Sphere(radius=0.4 * s, center=j.pb)]
         items.append(Item(f"joint:{j.kind}", j.type_name, _merge(pv, parts), colour))
-        if 0 in (j.body_a, j.body_b):
+        if 0 in (j.body_a, j.body_b) and j.kind not in ("motor", "actuator"):
             # the base on the side away from the body it holds, over the whole motion
             down = up.copy() if motion.ground_side.get((j.type_name, j.index), 1.0) < 0.0 else -up
             if j.kind in ("prismatic", "cylindrical"):
+                # a rail stands on posts at both ends; one along gravity stands on its lower end
                 lo, hi = motion.rails.get((j.type_name, j.index), (0.0, 0.0))
-                for e in (j.pa + (lo - 2.0 * s) * ax, j.pa + (hi + 2.0 * s) * ax):
-                    ground += _ground_base(pv, e, down, s)
+                ends = (j.pa + (lo - 2.0 * s) * ax, j.pa + (hi + 2.0 * s) * ax)
+                if abs(ax @ up) > 0.7:
+                    low = min(ends, key=lambda e: float(e @ up))
+                    ground += _ground_base(pv, low - 0.2 * s * up, -up, s)
+                else:
+                    for e in ends:
+                        ground += _ground_base(pv, e, -up, s)
             else:
                 ground += _ground_base(pv, j.pa - (1.2 * s * ax if abs(ax @ up) > 0.7 else 0.0), down, s)
     for p in frame.ground_points:
@@ -595,15 +622,41 @@ def _coil(pv, a, b, radius, turns=8, n=24):
 
 
 def spring_items(pv, frame, motion, shade=1.0):
+    """Coils of spring–dampers; rings of torsion springs (about their axis) and bushings (thicker)."""
     s = motion.joint_size
-    parts = []
+    parts = {}
     for kind, a, b in frame.springs:
         if kind == "spring":
-            parts.append(_coil(pv, a, b, 0.5 * s))
-        else:                                       # torsion spring or bushing at a point, ring about the axis
-            parts.append(pv.Disc(center=a, inner=0.7 * s, outer=1.0 * s, normal=_unit(b), c_res=24))
+            m = _coil(pv, a, b, 0.5 * s)
+        elif kind == "torsion":
+            m = pv.Disc(center=a, inner=0.75 * s, outer=1.05 * s, normal=_unit(b), c_res=24)
+        else:
+            m = _tube(pv, a - 0.35 * s * _unit(b), a + 0.35 * s * _unit(b), 0.9 * s, 24)
+        parts.setdefault(kind, []).append(m)
+    out = []
+    for kind, ms in parts.items():
+        m = _merge(pv, ms)
+        if m is not None:
+            out.append(Item("spring", kind, m, _shade(SPRING_COLOUR, shade), line_width=3.0 if kind == "spring" else 0.0))
+    return out
+
+
+def load_items(pv, frame, motion, shade=1.0):
+    """Arrows of applied forces (ending at their point) and torques (double head along the axis)."""
+    s = motion.joint_size
+    parts = []
+    for what, p, v in frame.loads:
+        d = _unit(v)
+        if what == "force":
+            parts.append(pv.Arrow(start=p - 3.0 * s * d, direction=d, scale=3.0 * s, tip_length=0.3,
+                                  tip_radius=0.12, shaft_radius=0.04))
+        else:
+            parts += [pv.Arrow(start=p, direction=d, scale=3.0 * s, tip_length=0.3, tip_radius=0.12,
+                               shaft_radius=0.04),
+                      pv.Arrow(start=p + 1.8 * s * d, direction=d, scale=1.2 * s, tip_length=0.75,
+                               tip_radius=0.3, shaft_radius=0.1)]
     m = _merge(pv, parts)
-    return [] if m is None else [Item("spring", "spring", m, _shade(SPRING_COLOUR, shade), line_width=3.0)]
+    return [] if m is None else [Item("load", "load", m, _shade(LOAD_COLOUR, shade))]
 
 
 def floor_item(pv, motion):
@@ -667,6 +720,7 @@ def frame_items(pv, frame, motion, *, shade=1.0, floor=True, traces=True):
     items += body_items(pv, frame, motion, shade)
     items += joint_items(pv, frame, motion, shade)
     items += spring_items(pv, frame, motion, shade)
+    items += load_items(pv, frame, motion, shade)
     if traces:
         items += trace_items(pv, frame, motion, upto=frame.time)
     return [it for it in items if it.mesh is not None and it.mesh.n_points]

@@ -251,6 +251,9 @@ class _Scan:
         size = float(np.max(hi - lo))
         self.size = size if size > 0 else 1.0
         self.planar = (hi[2] - lo[2]) <= 1e-9 * self.size
+        # a 3-D mechanism written by femb (drawn by parts, in perspective, even when it moves in a plane)
+        self.mechanism = bool(entries) and any(
+            k.startswith("glyph.") for k in _read(pv, entries[0][1]).field_data.keys())
         if scalars is not None and not found:
             raise OutputError(
                 f"scalars={scalars!r}: no point or cell data of that name in the frames "
@@ -302,7 +305,7 @@ def _check_suffix(path, allowed, param):
 
 def _check_view(view, scan):
     if view is None:
-        return "xy" if scan.planar else "3d"
+        return "xy" if scan.planar and not getattr(scan, "mechanism", False) else "3d"
     from .mechanism import parse_view
 
     name, _ = parse_view(view)
@@ -534,7 +537,7 @@ def _mechanism(pv, entries, scan, scalars, view, trace):
     """A :class:`_Mechanism` when the series is a 3-D mechanism drawn by parts, else None."""
     from . import mechanism as mx
 
-    if scalars is not None or (view in _AXIS_VIEWS) or scan.planar:
+    if scalars is not None or (view in _AXIS_VIEWS) or (scan.planar and not scan.mechanism):
         if trace:
             raise OutputError("trace: paths are drawn for 3-D mechanisms in perspective views "
                               "(not with scalars or the xy/xz/yz views)")
@@ -641,11 +644,19 @@ def _legend_labels(items):
             seen.add(it.label)
             labels.append([it.label, _hex(it.colour)])
     kinds = sorted({it.kind.split(":", 1)[1] for it in items if it.kind.startswith("joint:")})
-    from .mechanism import GROUND_COLOUR, JOINT_COLOUR
+    from .mechanism import DRIVE_COLOUR, GROUND_COLOUR, JOINT_COLOUR, LOAD_COLOUR, SPRING_COLOUR
     if any(it.kind == "ground" for it in items):
         labels.append(["ground", _hex(GROUND_COLOUR)])
     for kind in kinds:
-        labels.append([f"{kind} joint", _hex(JOINT_COLOUR)])
+        if kind in ("motor", "actuator"):
+            labels.append([f"{kind} (driven)", _hex(DRIVE_COLOUR)])
+        else:
+            labels.append([f"{kind} joint", _hex(JOINT_COLOUR)])
+    names = {"spring": "spring-damper", "torsion": "torsion spring", "bushing": "bushing"}
+    for kind in sorted({it.label for it in items if it.kind == "spring"}):
+        labels.append([names.get(kind, kind), _hex(SPRING_COLOUR)])
+    if any(it.kind == "load" for it in items):
+        labels.append(["load", _hex(LOAD_COLOUR)])
     for it in items:
         if it.kind == "trace" and ("path", it.label) not in seen:
             seen.add(("path", it.label))
