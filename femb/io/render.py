@@ -7,18 +7,29 @@ only, so ``import femb`` stays fast and works on machines without OpenGL.
 
 Common conventions of the rendering functions:
 
-* the camera is fitted once to the bounds of the **whole motion** (the union
-  of the bounds of every frame in the collection) and kept fixed, so
-  successive pictures are comparable;
-* planar data (all z equal) is shown in a 2D view (looking down the z axis,
-  parallel projection) unless ``view`` says otherwise; 3-D motion in a
-  perspective view from the direction (1, −1, 0.7) with z up (``view="3d"``,
-  see :func:`camera_3d`), framing the whole motion;
+* the camera is fitted once to the **whole motion** (the union of every
+  frame) and kept fixed, so successive pictures are comparable;
+* a **3-D mechanism written by femb** (its frames carry the scene description
+  of :func:`femb.io.frames.scene_field_data`) is drawn by parts
+  (:mod:`femb.io.mechanism`): bodies in distinct colours with a legend of
+  their names, joints as glyphs sized from the mechanism, the ground (base
+  blocks at the joints to the ground, named ground points), a faint floor
+  normal to gravity, springs as coils, loads as arrows, an axes triad, and
+  optionally paths of chosen points (``trace``); in perspective with gravity
+  pointing down the picture (``view``: ``"3d"`` by default, ``"iso"``,
+  ``"front"``, ``"side"``, ``"top"`` or ``"azimuth,elevation"`` in degrees);
+  :func:`picture_scene` returns what such a picture shows and its camera
+  without drawing it;
+* other data is drawn cell by cell, coloured by element type: planar data
+  (all z equal) in a 2D view (looking down the z axis, parallel
+  projection), 3-D data in the same perspective views with z up;
+  ``view="xy"``, ``"xz"`` or ``"yz"`` gives the parallel view along an axis
+  for any data;
 * each picture carries a time label ``t = ... s``;
 * lines are drawn with some width and vertex cells as round points, so thin
-  mechanisms stay visible; cells are coloured by element type unless
-  ``scalars`` names a point or cell data array (vectors are shown by their
-  magnitude, with a colour range fixed over the whole motion).
+  mechanisms stay visible; ``scalars`` names a point or cell data array to
+  colour by instead (vectors are shown by their magnitude, with a colour
+  range fixed over the whole motion; always drawn cell by cell).
 """
 from __future__ import annotations
 
@@ -817,9 +828,17 @@ def render_png(pvd, out_png, time=None, *, scalars=None, window_size=(1024, 768)
         Point or cell data array to colour by (default: element type).
     window_size : (int, int), default (1024, 768)
         Picture size in pixels.
-    view : {"xy", "xz", "yz", "iso", "3d"}, optional
-        Camera direction; default "xy" for planar data, else "3d" (perspective
-        from (1, −1, 0.7), z up, :func:`camera_3d`); "iso" looks from (1, 1, 1).
+    view : str, optional
+        ``"3d"`` (default for 3-D data and femb mechanisms: perspective from
+        azimuth −45°, elevation 26° about the up direction, −g or z; for z up
+        the direction (1, −1, 0.7)), ``"iso"`` (elevation 35.3°), ``"front"``,
+        ``"side"``, ``"top"``, ``"azimuth,elevation"`` in degrees, or
+        ``"xy"`` (default for planar data), ``"xz"``, ``"yz"``: parallel views
+        along a coordinate axis.
+    trace : sequence of str, optional
+        Paths to draw over the whole motion: ``"body"`` (its centre of mass)
+        or ``"body:point"`` (a named point), for 3-D mechanisms written by
+        femb.
 
     Returns
     -------
@@ -829,8 +848,9 @@ def render_png(pvd, out_png, time=None, *, scalars=None, window_size=(1024, 768)
     Raises
     ------
     OutputError
-        Missing or empty collection, unknown suffix, unknown ``scalars``, or
-        no off-screen rendering on this machine (see :func:`can_render`).
+        Missing or empty collection, unknown suffix, unknown ``scalars``,
+        view or traced body or point, or no off-screen rendering on this
+        machine (see :func:`can_render`).
     """
     out, _ = _check_suffix(out_png, (".png",), "out_png")
     entries = _entries(pvd)
@@ -1015,9 +1035,8 @@ def render_animation(
         Point or cell data array to colour by (default: element type).
     window_size : (int, int), default (800, 600)
         Picture size in pixels (rounded up to even numbers for MP4).
-    view : {"xy", "xz", "yz", "iso", "3d"}, optional
-        Camera direction; default "xy" for planar data, else "3d" (perspective
-        from (1, −1, 0.7), z up, :func:`camera_3d`); "iso" looks from (1, 1, 1).
+    view : str, optional
+        As for :func:`render_png`.
     show_progress : bool, default False
         Report progress on stderr.
     trace : sequence of str, optional
