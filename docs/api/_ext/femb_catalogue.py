@@ -496,8 +496,10 @@ def _rst(entry, png_rel):
     lines = [entry.title, "-" * len(entry.title), "", entry.text, "", f"Reference: {refs}.", "",
              f".. image:: {png_rel}", f"   :alt: {entry.title}, rendered by femb", "", ".. code-block:: python", ""]
     lines += ["   " + ln if ln.strip() else "" for ln in src.rstrip().splitlines()]
+    how = ("a 3-D mechanism: bodies in their colours, joints and ground drawn"
+           if entry.key.startswith("spatial") else "colours by element type")
     lines += ["", f"Rendered at t = {entry.t_end:g} s (h = {entry.h:g} s) with "
-              ":func:`femb.io.render.render_png`, colours by element type.", ""]
+              f":func:`femb.io.render.render_png`, {how}.", ""]
     return "\n".join(lines)
 
 
