@@ -236,3 +236,41 @@ def test_cli_render_options(scene, renderer, tmp_path, capsys):
     assert main(["render", d, "--png", str(tmp_path / "b.png"), "--view", "sideways"]) == 2
     assert main(["render", d, "--png", str(tmp_path / "b.png"), "--overlay"]) == 2
     assert not (tmp_path / "b.png").exists()
+
+
+# ---------------------------------------------------------------------------
+# element types of other kinds: a beam's centre line drawn as a tube
+# ---------------------------------------------------------------------------
+def test_a_beam_kind_is_drawn_as_a_tube(tmp_path):
+    """Frames with a body and a beam (field data only, as an element with ``glyph = "beam"`` writes)."""
+    from femb.geometry import GeometryBlock
+    from femb.io import TimeSeriesWriter
+    from femb.io.frames import GLYPHS, _kind
+
+    assert _kind(type("Rope", (), {"glyph": "beam"}), "Rope") == "beam"
+    cube = np.array([[x, y, z] for x in (-0.1, 0.1) for y in (-0.1, 0.1) for z in (-0.1, 0.1)])
+    tris = np.array([[0, 1, 3], [0, 3, 2], [4, 6, 7], [4, 7, 5], [0, 4, 5], [0, 5, 1],
+                     [2, 3, 7], [2, 7, 6], [0, 2, 6], [0, 6, 4], [1, 5, 7], [1, 7, 3]])
+    fd = {"glyph.Box": np.array([GLYPHS["body"]]), "glyph.Rope": np.array([GLYPHS["beam"]]),
+          "body.box": np.array([1]), "gravity": np.array([0.0, 0.0, -9.81])}
+    with TimeSeriesWriter(tmp_path, "rope") as w:
+        for k in range(4):
+            tip = np.array([1.0, 0.0, -0.2 * k])
+            s = np.linspace(0.0, 1.0, 9)[:, None]
+            line = s * tip + np.column_stack((0 * s[:, 0], 0.1 * np.sin(np.pi * s[:, 0]), 0 * s[:, 0]))
+            w.write(0.1 * k, [
+                GeometryBlock("Box", cube + tip, [("triangle", tris)],
+                              cell_data={"body": [np.ones(12, np.int32)], "body_look": [np.zeros(12, np.int32)]}),
+                GeometryBlock("Rope", line, [("line", np.column_stack((np.arange(8), np.arange(1, 9))))],
+                              point_data={"radius": np.full(9, 0.02)}),
+            ], field_data=fd)
+    pic = picture_scene(w.path, window_size=SIZE)
+    (beam,) = [it for it in pic.items if it.kind == "beam"]
+    assert beam.label == "Rope" and beam.mesh.n_cells > 8
+    centre = np.vstack([a + f * (b - a) for a, b in zip(line[:-1], line[1:]) for f in np.linspace(0, 1, 50)])
+    gap = np.min(np.linalg.norm(beam.points[:, None, :] - centre[None], axis=2), axis=1)
+    assert gap.max() == pytest.approx(0.02, rel=0.05)                # the tube has the beam's radius
+    assert {it.label for it in pic.items if it.kind == "body"} == {"box"}
+    for it in pic.items:
+        if it.kind != "floor":
+            assert inside(pic.camera, it.points)

@@ -18,7 +18,7 @@ from femb.geometry import GeometryBlock
 GLYPHS = {"body": 1, "body_frame": 2, "point_mass": 3, "revolute": 10, "spherical": 11,
           "prismatic": 12, "cylindrical": 13, "universal": 14, "fixed": 15, "distance": 16,
           "motor": 17, "actuator": 18,
-          "spring": 20, "bushing": 21, "torsion": 22, "load": 30, "ground": 40}
+          "spring": 20, "bushing": 21, "torsion": 22, "load": 30, "ground": 40, "beam": 50}
 
 #: Kinds of femb's own spatial element types, by class name.
 _KINDS = {"SpatialRigidBody": "body", "SpatialRigidBodyFrame": "body_frame", "SpatialPointMass": "point_mass",

@@ -26,8 +26,9 @@ Drawing rules:
 * the ground: a base block at each joint to the ground (on the side away from
   the body it holds), dark cubes at named ground points, and, when gravity
   acts, a faint floor normal to it under the whole motion;
-* a beam (type kind ``beam``, a polyline centre line) would be drawn as a tube
-  along its line cells; the item kinds leave room for it.
+* a beam (an element type of kind ``beam``: an element class with
+  ``glyph = "beam"``, whose geometry gives its centre line as line cells) is
+  drawn as a tube along its line cells (radius from point data ``radius``).
 """
 from __future__ import annotations
 
@@ -107,6 +108,7 @@ class Frame:
     gravity: np.ndarray | None
     points: dict               # (body, point) -> body-axes coordinates
     loads: list = field(default_factory=list)      # ("force" or "torque", point (3,), vector (3,))
+    beams: list = field(default_factory=list)      # (type name, pyvista mesh of its line cells)
 
 
 def read_frame(mesh, time=0.0):
@@ -198,7 +200,12 @@ def read_frame(mesh, time=0.0):
                 V = np.asarray(pd[what], dtype=float)[ids]
                 keep = np.linalg.norm(V, axis=1) > 0.0
                 loads += [(what, P[i], v) for i, v in zip(ids[keep], V[keep])]
-    return Frame(time, bodies, names, centres, joints, springs, ground, g, points, loads)
+    beams = []
+    for tname, cells in by_kind.get("beam", []):
+        lines = cells[ctype[cells] == 3]
+        if lines.size:
+            beams.append((tname, mesh.extract_cells(lines)))
+    return Frame(time, bodies, names, centres, joints, springs, ground, g, points, loads, beams)
 
 
 # ---------------------------------------------------------------------------
@@ -372,6 +379,8 @@ def scan_motion(frames, traces=()):
                 rails[(j.type_name, j.index)] = (min(lo, s), max(hi, s))
         for _, a, b in fr.springs:
             keys.append(np.vstack((a,)))
+        for _, m in fr.beams:
+            keys.append(np.asarray(m.points, dtype=float))
         if len(fr.ground_points):
             keys.append(fr.ground_points)
         for label, body, point in specs:
@@ -465,6 +474,14 @@ def _distinct(points, tol):
     return out
 
 
+def _surface(mesh):
+    """The cells of an unstructured grid as PolyData."""
+    try:
+        return mesh.extract_surface(algorithm="dataset_surface")
+    except TypeError:                          # older pyvista
+        return mesh.extract_surface()
+
+
 def body_items(pv, frame, motion, shade=1.0):
     s = motion.joint_size
     att = _attachments(frame)
@@ -477,10 +494,7 @@ def body_items(pv, frame, motion, shade=1.0):
             ball = pv.Sphere(radius=0.6 * MIN_BODY * s, center=b["point"])
             items.append(Item("body", name, ball, colour))
             continue
-        try:
-            surf = b["mesh"].extract_surface(algorithm="dataset_surface")
-        except TypeError:                          # older pyvista
-            surf = b["mesh"].extract_surface()
+        surf = _surface(b["mesh"])
         pts = np.asarray(surf.points, dtype=float)
         anchors = _distinct(att.get(num, []), 0.5 * s)
         if b["look"] == 2 and len(anchors) >= 2:
@@ -641,6 +655,31 @@ def spring_items(pv, frame, motion, shade=1.0):
     return out
 
 
+#: colour of beams (centre lines drawn as tubes)
+BEAM_COLOUR = (70, 130, 140)
+
+
+def beam_items(pv, frame, motion, shade=1.0):
+    """Beams: their centre lines (line cells of an element type of kind ``beam``) as tubes.
+
+    The tube's radius is the point data ``radius`` (m) when the frames carry
+    it, else 0.3 joint sizes.
+    """
+    s = motion.joint_size
+    items = []
+    for tname, m in frame.beams:
+        line = _surface(m)
+        r = 0.3 * s
+        if "radius" in m.point_data:
+            rr = np.asarray(m.point_data["radius"], dtype=float)
+            if rr.size and np.all(np.isfinite(rr)) and rr.max() > 0:
+                r = float(rr.max())
+        tube = line.tube(radius=r, n_sides=16, capping=True) if line.n_points > 1 else None
+        if tube is not None:
+            items.append(Item("beam", tname, tube, _shade(BEAM_COLOUR, shade)))
+    return items
+
+
 def load_items(pv, frame, motion, shade=1.0):
     """Arrows of applied forces (ending at their point) and torques (double head along the axis)."""
     s = motion.joint_size
@@ -718,6 +757,7 @@ def frame_items(pv, frame, motion, *, shade=1.0, floor=True, traces=True):
         if f is not None:
             items.append(f)
     items += body_items(pv, frame, motion, shade)
+    items += beam_items(pv, frame, motion, shade)
     items += joint_items(pv, frame, motion, shade)
     items += spring_items(pv, frame, motion, shade)
     items += load_items(pv, frame, motion, shade)

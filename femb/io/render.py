@@ -656,6 +656,10 @@ def _legend_labels(items):
             labels.append([it.label, _hex(it.colour)])
     kinds = sorted({it.kind.split(":", 1)[1] for it in items if it.kind.startswith("joint:")})
     from .mechanism import DRIVE_COLOUR, GROUND_COLOUR, JOINT_COLOUR, LOAD_COLOUR, SPRING_COLOUR
+    for it in items:
+        if it.kind == "beam" and ("beam", it.label) not in seen:
+            seen.add(("beam", it.label))
+            labels.append([it.label, _hex(it.colour)])
     if any(it.kind == "ground" for it in items):
         labels.append(["ground", _hex(GROUND_COLOUR)])
     for kind in kinds:
