@@ -108,6 +108,17 @@ def test_every_body_and_joint_is_drawn_inside_the_frame(scene):
         for it in pic.items:
             if it.kind != "floor":
                 assert inside(pic.camera, it.points), (name, t, it.kind, it.label)
+        # nothing under the legend (right) or the time label (top): the camera keeps them free
+        right, top = pic.camera.window_center
+        assert 0.0 < right < 0.5 and 0.0 < top < 0.2
+        for it in pic.items:
+            if it.kind != "floor":
+                px, _ = pic.camera.project(it.points)
+                assert px[:, 0].max() <= SIZE[0] * (1.0 - right) + 1.0 and px[:, 1].min() >= SIZE[1] * top - 1.0
+        from femb.io.render import _legend_labels
+
+        named = {label for label, _ in _legend_labels(pic.items)}
+        assert bodies | {"ground"} <= named and any(n.endswith(" joint") for n in named)
         # the mechanism fills a good part of the picture (not a speck in a corner)
         px, _ = pic.camera.project(np.vstack([it.points for it in pic.items if it.kind != "floor"]))
         assert np.ptp(px[:, 0]) > 0.2 * SIZE[0] or np.ptp(px[:, 1]) > 0.2 * SIZE[1]
