@@ -605,7 +605,7 @@ def picture_scene(pvd, time=None, *, view=None, window_size=(1024, 768), trace=(
     k = _nearest(entries, time)
     items = mx.frame_items(pv, mech.frames[k], mech.motion)
     cam = mech.camera(pv, v, window_size, top=_top_reserve(window_size[1]),
-                      right=_legend_width(_legend_labels(items), window_size[0]))
+                      right=_legend_width(_legend_labels(items), *window_size))
     return mx.Picture(entries[k][0], items, cam, mech.motion)
 
 
@@ -679,18 +679,25 @@ def _legend_labels(items):
     return labels
 
 
-def _legend_width(labels, width_px):
+def _legend_row(height_px):
+    """Height in pixels of a legend row: 26 in a 768-pixel picture, down to 13 in small ones."""
+    return min(26.0, max(13.0, height_px / 28.0))
+
+
+def _legend_width(labels, width_px, height_px=768):
     """Fraction of a panel's width taken by the legend."""
     if not labels:
         return 0.0
-    return min(0.5, (20 + 10.0 * max(len(lb) for lb, _ in labels)) / float(width_px))
+    row = _legend_row(height_px)
+    return min(0.5, (1.0 * row + 0.5 * row * max(len(lb) for lb, _ in labels)) / float(width_px))
 
 
-def _legend(pl, labels, panel_size, fill=False):
+def _legend(pl, labels, panel_size, fill=False, row=None):
     """The legend of :func:`_legend_labels` in the upper right corner of the active panel (or filling it)."""
     if labels:
         w, h = panel_size
-        bw, bh = (0.94 if fill else _legend_width(labels, w)), min(26.0 * len(labels) / h, 0.7)
+        row = _legend_row(h) if row is None else row
+        bw, bh = (0.94 if fill else _legend_width(labels, w, h)), min(row * len(labels) / h, 0.9)
         box = pl.add_legend(labels=labels, bcolor="white", border=False, loc="upper right", size=(bw, bh),
                             face="rectangle", name="legend", background_opacity=0.75)
         box.SetPosition(1.0 - bw - 0.005, 1.0 - bh - 0.01)      # flush with the corner kept free
@@ -710,7 +717,7 @@ def _mech_png(pv, mech, entries, k, out, view, window_size):
     top = _top_reserve(window_size[1])
     items = mx.frame_items(pv, mech.frames[k], mech.motion)
     labels = _legend_labels(items)
-    cam = mech.camera(pv, view, window_size, top=top, right=_legend_width(labels, window_size[0]))
+    cam = mech.camera(pv, view, window_size, top=top, right=_legend_width(labels, *window_size))
     pl = _plotter(pv, window_size)
     try:
         _apply_camera(pl, cam)
@@ -738,7 +745,7 @@ def _mech_strip(pv, mech, entries, idx, out, view, window_size, layout, fmt):
             items += mx.frame_items(pv, mech.frames[k], mech.motion, shade=frac, floor=j == 0,
                                     traces=j == m - 1)
         labels = _legend_labels(mx.frame_items(pv, mech.frames[idx[-1]], mech.motion, floor=False))
-        cam = mech.camera(pv, view, window_size, top=top, right=_legend_width(labels, window_size[0]))
+        cam = mech.camera(pv, view, window_size, top=top, right=_legend_width(labels, *window_size))
         pl = _plotter(pv, window_size)
         try:
             _apply_camera(pl, cam)
@@ -757,7 +764,8 @@ def _mech_strip(pv, mech, entries, idx, out, view, window_size, layout, fmt):
     if window_size is None:
         window_size = (400 * m + 180, 400)
     W, H = (int(v) for v in window_size)
-    lw = int(20 + 10.0 * max(len(lb) for lb, _ in labels)) if labels else 0
+    row = min(24.0, max(13.0, 0.9 * H / max(len(labels), 1)))   # a legend panel: rows as large as fit
+    lw = int(1.0 * row + 0.5 * row * max(len(lb) for lb, _ in labels)) + 10 if labels else 0
     lw = min(lw, W // (m + 1))
     pw = (W - lw) / m
     shape = (1, m + 1) if lw else (1, m)
@@ -778,7 +786,7 @@ def _mech_strip(pv, mech, entries, idx, out, view, window_size, layout, fmt):
         if lw:
             pl.subplot(0, m)
             pl.set_background("white")
-            _legend(pl, labels, (lw, H), fill=True)
+            _legend(pl, labels, (lw, H), fill=True, row=row)
         _save_png(_snapshot(pl), out)
     finally:
         pl.close()
@@ -790,7 +798,7 @@ def _mech_animation(pv, mech, entries, sel, sink, view, size, fmt, show_progress
 
     w, h = size
     labels = _legend_labels(mx.frame_items(pv, mech.frames[sel[0]], mech.motion, floor=False))
-    cam = mech.camera(pv, view, (w, h), top=_top_reserve(h), right=_legend_width(labels, w))
+    cam = mech.camera(pv, view, (w, h), top=_top_reserve(h), right=_legend_width(labels, w, h))
     pl = _plotter(pv, (w, h))
     try:
         _apply_camera(pl, cam)
