@@ -680,8 +680,8 @@ def _legend_labels(items):
 
 
 def _legend_row(height_px):
-    """Height in pixels of a legend row: 26 in a 768-pixel picture, down to 13 in small ones."""
-    return min(26.0, max(13.0, height_px / 28.0))
+    """Height in pixels of a legend row: 26 in a 768-pixel picture, down to 16 in small ones."""
+    return min(26.0, max(16.0, height_px / 28.0))
 
 
 def _legend_width(labels, width_px, height_px=768):
