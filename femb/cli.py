@@ -122,6 +122,24 @@ def _count(text):
     return v
 
 
+def _view(text):
+    from femb.io.mechanism import parse_view
+    from femb.errors import OutputError
+
+    try:
+        parse_view(text)
+    except OutputError as exc:
+        raise argparse.ArgumentTypeError(str(exc).replace("view=", "")) from None
+    return text.strip().lower()
+
+
+def _trace(text):
+    body, _, point = text.partition(":")
+    if not body.strip() or (":" in text and not point.strip()):
+        raise argparse.ArgumentTypeError(f"expected BODY or BODY:POINT, got {text!r}")
+    return text.strip()
+
+
 def _load_scene(spec):
     from femb.benchmarks.registry import SceneError, load
 
@@ -483,6 +501,9 @@ def cmd_render(args):
         raise UsageError("give at least one of --gif FILE, --mp4 FILE, --png FILE, --strip FILE")
     if args.time is not None and not args.png:
         raise UsageError("--time goes with --png")
+    if args.overlay and not args.strip:
+        raise UsageError("--overlay goes with --strip")
+    trace = tuple(args.trace or ())
     import femb.io
 
     size = tuple(args.size) if args.size else None
@@ -494,16 +515,21 @@ def cmd_render(args):
                     raise UsageError(f"--{kind} needs a file name ending in .{kind}, got {path}")
                 kw = {"window_size": size} if size else {}
                 femb.io.render_animation(pvd, path, fps=args.fps, every=args.every, scalars=args.scalars,
-                                         show_progress=True, view=args.view, **kw)
+                                         show_progress=True, view=args.view, trace=trace, **kw)
             elif kind == "png":
                 kw = {"window_size": size} if size else {}
-                femb.io.render_png(pvd, path, time=args.time, scalars=args.scalars, view=args.view, **kw)
+                femb.io.render_png(pvd, path, time=args.time, scalars=args.scalars, view=args.view,
+                                   trace=trace, **kw)
             else:
                 femb.io.render_strip(pvd, path, n=args.n, scalars=args.scalars, window_size=size,
-                                     view=args.view)
+                                     view=args.view, layout="overlay" if args.overlay else "row",
+                                     trace=trace)
             print(f"wrote {path} ({time.perf_counter() - t0:.1f} s)")
     except femb.io.OutputError as exc:
-        raise _OutputFailure(str(exc).splitlines()[0]) from None
+        msg = str(exc).splitlines()[0]
+        if msg.startswith("trace"):                 # a --trace naming no body or point of the series
+            raise UsageError("--" + msg) from None
+        raise _OutputFailure(msg) from None
     return 0
 
 
@@ -575,16 +601,23 @@ def build_parser():
     rp.add_argument("--gif", metavar="FILE", help="write an animated GIF")
     rp.add_argument("--mp4", metavar="FILE", help="write an MP4 video (needs imageio-ffmpeg)")
     rp.add_argument("--png", metavar="FILE", help="write a snapshot PNG (at --time, default the last frame)")
-    rp.add_argument("--strip", metavar="FILE", help="write a PNG with --n motion snapshots overlaid")
+    rp.add_argument("--strip", metavar="FILE",
+                    help="write a PNG of --n instants side by side (small multiples; --overlay: in one view)")
     rp.add_argument("--time", type=float, metavar="T", help="with --png: the time of the snapshot")
     rp.add_argument("--n", type=_count, default=6, metavar="N", help="with --strip: number of snapshots (default 6)")
+    rp.add_argument("--overlay", action="store_true",
+                    help="with --strip: draw the instants in one view, light (early) to dark (late)")
+    rp.add_argument("--trace", action="append", type=_trace, metavar="BODY[:POINT]",
+                    help="draw the path of a body's centre of mass or named point (3-D mechanisms; "
+                    "repeatable)")
     rp.add_argument("--fps", type=_count, default=20, metavar="N", help="frames per second of animations (default 20)")
     rp.add_argument("--every", type=_count, default=1, metavar="N", help="animate every N-th frame (default 1)")
     rp.add_argument("--scalars", metavar="NAME", help="colour by this point/cell data field")
     rp.add_argument("--size", type=_count, nargs=2, metavar=("W", "H"), help="picture size in pixels")
-    rp.add_argument("--view", choices=("xy", "xz", "yz", "iso", "3d"), default=None,
-                    help="camera direction (default: xy for planar motion, else 3d: perspective from "
-                    "(1, -1, 0.7) with z up)")
+    rp.add_argument("--view", type=_view, default=None, metavar="VIEW",
+                    help="camera: 3d, iso, front, side, top or AZIMUTH,ELEVATION in degrees (perspective, "
+                    "gravity pointing down the picture), or xy, xz, yz (parallel along an axis); default xy "
+                    "for planar motion, else 3d")
     rp.set_defaults(func=cmd_render)
 
     bp = sub.add_parser("bench", help="benchmarks: convergence studies and the paper's figures",

@@ -35,6 +35,8 @@ def test_catalogue_has_an_entry_for_every_element_type():
     covered = {c for e in catalogue.ENTRIES for c in e.classes}
     types = catalogue.element_types()
     assert "femb.elements.joints.Hinge" in types and "femb.elements.beam.Clamp" in types
+    assert {"femb.elements.spatial_joints.UniversalJoint", "femb.elements.spatial_forces.Bushing",
+            "femb.elements.spatial_bodies.SpatialRigidBody"} <= types           # the spatial element types too
     assert types <= covered, sorted(types - covered)
     for e in catalogue.ENTRIES:                      # each tiny mechanism compiles
         e.build().compile()

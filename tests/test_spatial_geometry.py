@@ -529,8 +529,12 @@ def test_default_view_follows_planarity():
     assert _check_view(None, SimpleNamespace(planar=True)) == "xy"
     assert _check_view(None, SimpleNamespace(planar=False)) == "3d"
     assert _check_view("iso", SimpleNamespace(planar=False)) == "iso"
+    assert _check_view("top", SimpleNamespace(planar=False)) == "top"
+    assert _check_view(" 30, 20 ", SimpleNamespace(planar=False)) == "30, 20"
     with pytest.raises(OutputError, match="3d"):
-        _check_view("top", SimpleNamespace(planar=False))
+        _check_view("above", SimpleNamespace(planar=False))
+    with pytest.raises(OutputError, match="elevation in"):
+        _check_view("30,120", SimpleNamespace(planar=False))
 
 
 def test_render_spatial_motion(tmp_path):

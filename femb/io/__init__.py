@@ -9,11 +9,12 @@ Public names
 ------------
 OutputError, merge_blocks, write_vtu, TimeSeriesWriter, read_pvd, read_frame
     from :mod:`femb.io.vtk`
-can_render, render_png, render_strip, render_animation
-    from :mod:`femb.io.render`
+can_render, render_png, render_strip, render_animation, picture_scene
+    from :mod:`femb.io.render` (what a picture of a 3-D mechanism shows:
+    :mod:`femb.io.mechanism`)
 progress
     from :mod:`femb.io.progress`
-model_blocks, VTKStream, write_vtk, write_vtk_stream
+model_blocks, scene_field_data, VTKStream, write_vtk, write_vtk_stream
     from :mod:`femb.io.frames` (elements → frames, streaming during a run)
 """
 from __future__ import annotations
@@ -35,7 +36,9 @@ _EXPORTS = {
     "render_png": "render",
     "render_strip": "render",
     "render_animation": "render",
+    "picture_scene": "render",
     "model_blocks": "frames",
+    "scene_field_data": "frames",
     "VTKStream": "frames",
     "write_vtk": "frames",
     "write_vtk_stream": "frames",

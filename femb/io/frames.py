@@ -6,9 +6,140 @@ them through :class:`femb.io.vtk.TimeSeriesWriter`.
 """
 from __future__ import annotations
 
+import weakref
+
 import numpy as np
 
 from femb.geometry import GeometryBlock
+
+#: What the renderer draws for an element type (field data ``glyph.<type name>``):
+#: a number per kind. Element classes may set a ``glyph`` attribute (one of the
+#: names) to be drawn as one of these kinds.
+GLYPHS = {"body": 1, "body_frame": 2, "point_mass": 3, "revolute": 10, "spherical": 11,
+          "prismatic": 12, "cylindrical": 13, "universal": 14, "fixed": 15, "distance": 16,
+          "motor": 17, "actuator": 18,
+          "spring": 20, "bushing": 21, "torsion": 22, "load": 30, "ground": 40, "beam": 50}
+
+#: Kinds of femb's own spatial element types, by class name.
+_KINDS = {"SpatialRigidBody": "body", "SpatialRigidBodyFrame": "body_frame", "SpatialPointMass": "point_mass",
+          "RevoluteJoint": "revolute", "DrivenRevoluteAngle": "motor", "SphericalJoint": "spherical",
+          "PrismaticJoint": "prismatic", "DrivenPrismaticDisplacement": "actuator",
+          "CylindricalJoint": "cylindrical", "UniversalJoint": "universal", "FixedJoint": "fixed",
+          "DistanceJoint": "distance", "PointSpringDamper": "spring", "Bushing": "bushing",
+          "RotationalSpringDamper": "torsion", "SpatialForce": "load", "SpatialTorque": "load",
+          "SpatialGround": "ground"}
+
+#: How a body is drawn (cell data ``body_look``): its given shape, the hull of its
+#: named points, or (neither given) the box with its mass and inertia.
+LOOK_SHAPE, LOOK_HULL, LOOK_INERTIA = 0, 1, 2
+
+_SCENES: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()
+
+
+def _kind(cls, name):
+    kind = getattr(cls, "glyph", None) or _KINDS.get(name)
+    return kind if kind in GLYPHS else None
+
+
+class _Scene:
+    """What the renderer needs to know about a model beyond its geometry (computed once)."""
+
+    def __init__(self, model):
+        from femb.elements.spatial_bodies import SpatialBody
+        from femb.elements.spatial_joints import SpatialPairElement
+
+        self.kinds = {}               # block name -> kind, for classes with a glyph attribute
+        self.body_index = {}          # body name -> 1, 2, ... (0: the ground)
+        for name in model.bodies:
+            if name != "ground":
+                self.body_index[name] = len(self.body_index) + 1
+        self.body_look = {}
+        self.points = {}              # (body, point) -> body-axes coordinates
+        self.pairs = set()            # ids of groups of spatial pair elements
+        for g in model.groups:
+            if issubclass(g.cls, SpatialPairElement):
+                self.pairs.add(id(g))
+            for e in g.elements:
+                if isinstance(e, SpatialBody) and e.name in self.body_index:
+                    pts = getattr(e, "points", {}) or {}
+                    shape = getattr(e, "shape", None)
+                    typ = (shape or {}).get("type", "hull")
+                    self.body_look[e.name] = (LOOK_SHAPE if typ != "hull" else
+                                              LOOK_HULL if pts else LOOK_INERTIA)
+                    for k, v in pts.items():
+                        self.points[(e.name, k)] = np.asarray(v, dtype=float)
+        g = getattr(model, "gravity", None)
+        self.gravity = None
+        if g is not None:
+            g = np.asarray(g, dtype=float).reshape(-1)
+            self.gravity = np.concatenate((g, np.zeros(3 - g.size))) if g.size < 3 else g[:3]
+
+    def body(self, ref):
+        name = getattr(ref, "name", ref)
+        return self.body_index.get(name, 0)
+
+    def field_data(self, blocks):
+        fd = {}
+        for b in blocks:
+            kind = self.kinds.get(b.name) or _kind(None, b.name)
+            if kind is not None:
+                fd[f"glyph.{b.name}"] = np.array([GLYPHS[kind]], dtype=np.int32)
+        for name, k in self.body_index.items():
+            fd[f"body.{name}"] = np.array([k], dtype=np.int32)
+        for (body, pt), X in self.points.items():
+            fd[f"point.{body}.{pt}"] = X.copy()
+        if self.gravity is not None:
+            fd["gravity"] = self.gravity.copy()
+        return fd
+
+
+def _scene(model):
+    try:
+        sc = _SCENES.get(model)
+    except TypeError:               # not weakly referable: compute each time
+        return _Scene(model)
+    if sc is None:
+        sc = _Scene(model)
+        _SCENES[model] = sc
+    return sc
+
+
+def _annotate(scene, g, blocks, qx):
+    """Add body numbers, joint axes and the bodies a joint links to the blocks of group g."""
+    names = list(g.names)
+    kind = _kind(g.cls, g.cls.__name__)
+    if kind is not None:
+        scene.kinds.setdefault(g.cls.__name__, kind)
+    if kind in ("body", "point_mass"):
+        index = np.array([scene.body(n) for n in names], dtype=np.int32)
+        look = np.array([scene.body_look.get(n, LOOK_SHAPE) for n in names], dtype=np.int32)
+        for b in blocks:
+            ids = b.cell_data.get("body_id")
+            if ids is None:
+                continue
+            b.cell_data["body"] = [index[np.asarray(i, dtype=np.int64)] for i in ids]
+            b.cell_data["body_look"] = [look[np.asarray(i, dtype=np.int64)] for i in ids]
+        return
+    if id(g) not in scene.pairs or not blocks:
+        return
+    from femb.elements._spatial_geometry import rotation_matrices
+
+    p = g.params
+    qe = np.asarray(qx[g.xdofs], dtype=float)
+    Ra = rotation_matrices(qe[:, 3:7])
+    Rb = rotation_matrices(qe[:, 10:14])
+    n = qe.shape[0]
+    ba = np.array([scene.body(e.a) for e in g.elements], dtype=np.int32)
+    bb = np.array([scene.body(e.b) for e in g.elements], dtype=np.int32)
+    for b in blocks:
+        if len(b.points) != n or [c for c, _ in b.cells] != ["vertex"]:
+            continue
+        if "Ea" in p and "Eb" in p:
+            b.point_data["joint_axis"] = np.einsum("nij,nj->ni", Ra, p["Ea"][:, 2])
+            b.point_data["joint_pin_a"] = np.einsum("nij,nj->ni", Ra, p["Ea"][:, 1])
+            b.point_data["joint_pin_b"] = np.einsum("nij,nj->ni", Rb, p["Eb"][:, 0])
+        b.cell_data["body_a"] = [ba.copy()]
+        b.cell_data["body_b"] = [bb.copy()]
 
 
 def model_blocks(model, t, q, qd, lam):
@@ -40,10 +171,34 @@ def model_blocks(model, t, q, qd, lam):
     if twin is not None and twin.points:
         pts = np.array(list(twin.points.values()), dtype=float).reshape(-1, 3)
         blocks.append(GeometryBlock("SpatialGround", pts, [("vertex", np.arange(len(pts))[:, None])]))
+    scene = _scene(model)
     for g in model.groups:
         le = lam[g.lam] if g.nc else np.zeros((g.nel, 0))
-        blocks.extend(g.cls.geometry(g.params, t, qx[g.xdofs], qdx[g.dofs], le, g.names))
+        out = list(g.cls.geometry(g.params, t, qx[g.xdofs], qdx[g.dofs], le, g.names))
+        _annotate(scene, g, out, qx)
+        blocks.extend(out)
     return blocks
+
+
+def scene_field_data(model, blocks):
+    """Field data that tells a renderer what the geometry blocks of ``model`` are.
+
+    Parameters
+    ----------
+    model : Model
+    blocks : list of GeometryBlock
+        From :func:`model_blocks`.
+
+    Returns
+    -------
+    dict of str to ndarray
+        ``glyph.<type name>``: the kind of each element type (:data:`GLYPHS`);
+        ``body.<name>``: the number of each body (cell data ``body`` of its
+        drawing, ``body_a`` / ``body_b`` of its joints; 0 is the ground);
+        ``point.<body>.<point>``: named points in body axes (m), relative to
+        the body's node; ``gravity`` (3,), m/s², when the model has gravity.
+    """
+    return _scene(model).field_data(blocks)
 
 
 class VTKStream:
@@ -96,7 +251,7 @@ class VTKStream:
         if step == 0 or self._prev is None:
             self._t0 = state.t
             self._k = 0
-            self.writer.write(state.t, model_blocks(self.model, state.t, state.q, state.qd, state.lam))
+            self._write(state.t, state.q, state.qd, state.lam)
             self._k = 1
         else:
             s0 = self._prev
@@ -105,9 +260,13 @@ class VTKStream:
                 if t > state.t * (1 + 1e-12) + 1e-300:
                     break
                 q, qd, _, lam = state_between(s0, state, min(t, state.t), self.model)
-                self.writer.write(t, model_blocks(self.model, t, q, qd, lam))
+                self._write(t, q, qd, lam)
                 self._k += 1
         self._prev = state.copy() if hasattr(state, "copy") else state
+
+    def _write(self, t, q, qd, lam):
+        blocks = model_blocks(self.model, t, q, qd, lam)
+        self.writer.write(t, blocks, field_data=scene_field_data(self.model, blocks))
 
     @property
     def path(self):
@@ -118,7 +277,7 @@ class VTKStream:
         if self.dt is not None:
             self._frames_between(state, step)
         elif step % self.every == 0:
-            self.writer.write(state.t, model_blocks(self.model, state.t, state.q, state.qd, state.lam))
+            self._write(state.t, state.q, state.qd, state.lam)
         if self.observer is not None:
             self.observer(state, step)
 
@@ -145,11 +304,14 @@ def write_vtk(result, directory, every=1, basename="frame"):
 
     m = result.model
     with TimeSeriesWriter(directory, basename=basename) as w:
+        def put(k):
+            blocks = model_blocks(m, result.t[k], result.q[k], result.qd[k], result.lam[k])
+            w.write(result.t[k], blocks, field_data=scene_field_data(m, blocks))
+
         for k in range(0, result.t.size, int(every)):
-            w.write(result.t[k], model_blocks(m, result.t[k], result.q[k], result.qd[k], result.lam[k]))
+            put(k)
         if (result.t.size - 1) % int(every):
-            k = result.t.size - 1
-            w.write(result.t[k], model_blocks(m, result.t[k], result.q[k], result.qd[k], result.lam[k]))
+            put(result.t.size - 1)
     return w.path
 
 

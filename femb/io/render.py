@@ -7,18 +7,29 @@ only, so ``import femb`` stays fast and works on machines without OpenGL.
 
 Common conventions of the rendering functions:
 
-* the camera is fitted once to the bounds of the **whole motion** (the union
-  of the bounds of every frame in the collection) and kept fixed, so
-  successive pictures are comparable;
-* planar data (all z equal) is shown in a 2D view (looking down the z axis,
-  parallel projection) unless ``view`` says otherwise; 3-D motion in a
-  perspective view from the direction (1, −1, 0.7) with z up (``view="3d"``,
-  see :func:`camera_3d`), framing the whole motion;
+* the camera is fitted once to the **whole motion** (the union of every
+  frame) and kept fixed, so successive pictures are comparable;
+* a **3-D mechanism written by femb** (its frames carry the scene description
+  of :func:`femb.io.frames.scene_field_data`) is drawn by parts
+  (:mod:`femb.io.mechanism`): bodies in distinct colours with a legend of
+  their names, joints as glyphs sized from the mechanism, the ground (base
+  blocks at the joints to the ground, named ground points), a faint floor
+  normal to gravity, springs as coils, loads as arrows, an axes triad, and
+  optionally paths of chosen points (``trace``); in perspective with gravity
+  pointing down the picture (``view``: ``"3d"`` by default, ``"iso"``,
+  ``"front"``, ``"side"``, ``"top"`` or ``"azimuth,elevation"`` in degrees);
+  :func:`picture_scene` returns what such a picture shows and its camera
+  without drawing it;
+* other data is drawn cell by cell, coloured by element type: planar data
+  (all z equal) in a 2D view (looking down the z axis, parallel
+  projection), 3-D data in the same perspective views with z up;
+  ``view="xy"``, ``"xz"`` or ``"yz"`` gives the parallel view along an axis
+  for any data;
 * each picture carries a time label ``t = ... s``;
 * lines are drawn with some width and vertex cells as round points, so thin
-  mechanisms stay visible; cells are coloured by element type unless
-  ``scalars`` names a point or cell data array (vectors are shown by their
-  magnitude, with a colour range fixed over the whole motion).
+  mechanisms stay visible; ``scalars`` names a point or cell data array to
+  colour by instead (vectors are shown by their magnitude, with a colour
+  range fixed over the whole motion; always drawn cell by cell).
 """
 from __future__ import annotations
 
@@ -34,7 +45,7 @@ import numpy as np
 from .progress import progress as _progress
 from .vtk import OutputError, read_pvd
 
-__all__ = ["can_render", "render_png", "render_strip", "render_animation", "camera_3d"]
+__all__ = ["can_render", "render_png", "render_strip", "render_animation", "camera_3d", "picture_scene"]
 
 #: Colours of the element types (id 0, 1, ...), cycled when there are more.
 PALETTE = (
@@ -56,9 +67,9 @@ _MARGIN = 1.08  # empty border around the motion, as a factor on its size
 _BAR = 0.14  # fraction of the width kept for the colour bar
 _LEGEND = 0.25  # fraction of the width kept for the legend of times
 
-_VIEWS = ("xy", "xz", "yz", "iso", "3d")
-#: viewing directions (from the motion towards the camera) of the perspective views
-_DIRECTIONS = {"iso": (1.0, 1.0, 1.0), "3d": (1.0, -1.0, 0.7)}
+#: parallel views along a coordinate axis; the others ("3d", "iso", "front", "side", "top" or
+#: "azimuth,elevation") are perspective views with gravity pointing down (z up without gravity)
+_AXIS_VIEWS = ("xy", "xz", "yz")
 
 # ---------------------------------------------------------------------------
 # can we render here?
@@ -251,6 +262,9 @@ class _Scan:
         size = float(np.max(hi - lo))
         self.size = size if size > 0 else 1.0
         self.planar = (hi[2] - lo[2]) <= 1e-9 * self.size
+        # a 3-D mechanism written by femb (drawn by parts, in perspective, even when it moves in a plane)
+        self.mechanism = bool(entries) and any(
+            k.startswith("glyph.") for k in _read(pv, entries[0][1]).field_data.keys())
         if scalars is not None and not found:
             raise OutputError(
                 f"scalars={scalars!r}: no point or cell data of that name in the frames "
@@ -302,10 +316,21 @@ def _check_suffix(path, allowed, param):
 
 def _check_view(view, scan):
     if view is None:
-        return "xy" if scan.planar else "3d"
-    if view not in _VIEWS:
-        raise OutputError(f"view={view!r}: expected one of {', '.join(_VIEWS)}")
-    return view
+        return "xy" if scan.planar and not getattr(scan, "mechanism", False) else "3d"
+    from .mechanism import parse_view
+
+    name, _ = parse_view(view)
+    return view.strip().lower() if name == "custom" else name
+
+
+def _direction(view, up=(0.0, 0.0, 1.0)):
+    """Viewing direction and picture up of a perspective view (name or 'az,el') for a scene up vector."""
+    from .mechanism import parse_view, view_direction
+
+    _, angles = parse_view(view)
+    if angles is None:
+        return None
+    return view_direction(angles, np.asarray(up, dtype=float))
 
 
 # ---------------------------------------------------------------------------
@@ -313,13 +338,16 @@ def _check_view(view, scan):
 # ---------------------------------------------------------------------------
 
 
-def _plotter(pv, window_size, shape=(1, 1)):
+def _plotter(pv, window_size, shape=(1, 1), col_weights=None, border=False):
     w, h = (int(v) for v in window_size)
     if w < 16 or h < 16:
         raise OutputError(f"window_size={tuple(window_size)!r}: expected at least 16 x 16 pixels")
     # off_screen per plotter rather than pyvista.OFF_SCREEN: same effect, but
     # leaves the caller's global pyvista settings alone.
-    pl = pv.Plotter(off_screen=True, window_size=(w, h), shape=shape, border=False)
+    kw = {} if col_weights is None else {"col_weights": list(col_weights)}
+    if border:
+        kw.update(border_color="#c8c8c8", border_width=1.0)
+    pl = pv.Plotter(off_screen=True, window_size=(w, h), shape=shape, border=border, **kw)
     pl.set_background("white")
     return pl
 
@@ -337,10 +365,13 @@ def _fit_camera(pl, scan, view, aspect, *, right=0.0, top=0.0):
     dist = 4.0 * scan.size
     # shift the projection centre so the motion sits in the free part
     cam.SetWindowCenter(right, top)
-    if view in _DIRECTIONS:
+    if view not in _AXIS_VIEWS:
+        from .mechanism import fit_points
+
         pl.disable_parallel_projection()
-        focal, position, up = camera_3d(lo, hi, _DIRECTIONS[view], aspect, cam.view_angle,
-                                        right=right, top=top, size=scan.size)
+        d, pic_up = _direction(view)
+        corners = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])])
+        focal, position, up = fit_points(corners, d, pic_up, aspect, cam.view_angle, right=right, top=top)
         cam.focal_point = tuple(focal)
         cam.position = tuple(position)
         cam.up = tuple(up)
@@ -483,11 +514,318 @@ def _snapshot(pl):
 
 
 # ---------------------------------------------------------------------------
+# mechanisms: bodies, joints, ground (femb.io.mechanism)
+# ---------------------------------------------------------------------------
+
+
+class _Mechanism:
+    """The frames of a mechanism's series read once, and what the whole motion shows."""
+
+    def __init__(self, pv, entries, trace=()):
+        from . import mechanism as mx
+
+        self.frames = [mx.read_frame(_read(pv, path), t) for t, path in entries]
+        self.motion = mx.scan_motion(self.frames, trace)
+
+    def camera(self, pv, view, window_size, *, top=0.0, right=0.0):
+        """A :class:`~femb.io.mechanism.Camera` showing the whole motion and its glyphs, fixed over it."""
+        from . import mechanism as mx
+
+        d, pic_up = _direction(view, self.motion.up)
+        s = self.motion.joint_size
+        pad = 2.6 * s * np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)])
+        key = self.motion.key
+        pts = [(key[:, None, :] + pad[None]).reshape(-1, 3)]
+        f = mx.floor_item(pv, self.motion)
+        if f is not None:                   # the floor's level, under the motion
+            pts.append(f.points.mean(axis=0)[None])
+        w, h = window_size
+        focal, position, up = mx.fit_points(np.vstack(pts), d, pic_up, w / h, 30.0, right=right, top=top)
+        return mx.Camera(focal, position, up, 30.0, (int(w), int(h)), (right, top))
+
+
+def _mechanism(pv, entries, scan, scalars, view, trace):
+    """A :class:`_Mechanism` when the series is a 3-D mechanism drawn by parts, else None."""
+    from . import mechanism as mx
+
+    if scalars is not None or (view in _AXIS_VIEWS) or (scan.planar and not scan.mechanism):
+        if trace:
+            raise OutputError("trace: paths are drawn for 3-D mechanisms in perspective views "
+                              "(not with scalars or the xy/xz/yz views)")
+        return None
+    first = _read(pv, entries[0][1])
+    if not mx.is_mechanism(first):
+        if trace:
+            raise OutputError("trace: this series carries no body frames (write it with femb 0.x "
+                              "or later: femb run SCENE --vtk DIR)")
+        return None
+    return _Mechanism(pv, entries, trace)
+
+
+def picture_scene(pvd, time=None, *, view=None, window_size=(1024, 768), trace=()):
+    """What :func:`render_png` draws for a 3-D mechanism, without drawing it.
+
+    Parameters
+    ----------
+    pvd : str or Path
+        Collection written by ``femb run SCENE --vtk DIR`` (or
+        :func:`femb.io.write_vtk`).
+    time : float, optional
+        Time in s of the frame (nearest; default the last).
+    view : str, optional
+        As for :func:`render_png`.
+    window_size : (int, int)
+        Picture size in pixels.
+    trace : sequence of str
+        ``"body"`` or ``"body:point"`` paths, as for :func:`render_png`.
+
+    Returns
+    -------
+    femb.io.mechanism.Picture
+        Its ``items`` (kind, label and mesh of each drawn thing: ``"body"``,
+        ``"joint:<kind>"``, ``"ground"``, ``"floor"``, ``"spring"``,
+        ``"trace"``) and its ``camera`` (``camera.project(points)`` gives
+        pixel coordinates).
+
+    Raises
+    ------
+    OutputError
+        When the series is not a 3-D mechanism written by femb.
+    """
+    import pyvista as pv
+
+    from . import mechanism as mx
+
+    entries = _entries(pvd)
+    scan = _Scan(pv, entries, None)
+    v = _check_view(view, scan)
+    mech = _mechanism(pv, entries, scan, None, v, trace)
+    if mech is None:
+        raise OutputError(f"{pvd}: not a 3-D mechanism written by femb (no scene description in its frames)")
+    k = _nearest(entries, time)
+    items = mx.frame_items(pv, mech.frames[k], mech.motion)
+    cam = mech.camera(pv, v, window_size, top=_top_reserve(window_size[1]),
+                      right=_legend_width(_legend_labels(items), *window_size))
+    return mx.Picture(entries[k][0], items, cam, mech.motion)
+
+
+def _hex(c):
+    return "#%02x%02x%02x" % tuple(int(v) for v in c[:3])
+
+
+def _apply_camera(pl, cam):
+    c = pl.camera
+    pl.disable_parallel_projection()
+    c.view_angle = cam.view_angle
+    c.focal_point = tuple(float(v) for v in cam.focal)
+    c.position = tuple(float(v) for v in cam.position)
+    c.up = tuple(float(v) for v in cam.up)
+    c.SetWindowCenter(*cam.window_center)
+    pl.renderer.ResetCameraClippingRange()
+
+
+def _draw_items(pl, items, prefix):
+    """Add items (femb.io.mechanism.Item) to the active renderer; returns the actor names."""
+    names = []
+    for i, it in enumerate(items):
+        name = f"{prefix}{i}"
+        kw = dict(color=_hex(it.colour), opacity=it.opacity, name=name, reset_camera=False, render=False,
+                  lighting=it.kind != "floor", show_scalar_bar=False)
+        if it.line_width:
+            kw.update(line_width=it.line_width)
+        if it.kind in ("body", "ground") or it.kind.startswith("joint:"):
+            kw.update(specular=0.3, smooth_shading=it.kind.startswith("joint:") or it.edges is None)
+        pl.add_mesh(it.mesh, **kw)
+        names.append(name)
+        if it.edges is not None:
+            ecol = "#bdbdb6" if it.kind == "floor" else "#202020"
+            pl.add_mesh(it.edges, color=ecol, line_width=1.0 if it.kind == "floor" else 1.5,
+                        name=name + "e", reset_camera=False, render=False, lighting=False,
+                        show_scalar_bar=False)
+            names.append(name + "e")
+    return names
+
+
+def _legend_labels(items):
+    """Names of the bodies in their colours, then the ground, the joints and the paths."""
+    labels = []
+    seen = set()
+    for it in items:
+        if it.kind == "body" and it.label not in seen:
+            seen.add(it.label)
+            labels.append([it.label, _hex(it.colour)])
+    kinds = sorted({it.kind.split(":", 1)[1] for it in items if it.kind.startswith("joint:")})
+    from .mechanism import DRIVE_COLOUR, GROUND_COLOUR, JOINT_COLOUR, LOAD_COLOUR, SPRING_COLOUR
+    for it in items:
+        if it.kind == "beam" and ("beam", it.label) not in seen:
+            seen.add(("beam", it.label))
+            labels.append([it.label, _hex(it.colour)])
+    if any(it.kind == "ground" for it in items):
+        labels.append(["ground", _hex(GROUND_COLOUR)])
+    for kind in kinds:
+        if kind in ("motor", "actuator"):
+            labels.append([f"{kind} (driven)", _hex(DRIVE_COLOUR)])
+        else:
+            labels.append([f"{kind} joint", _hex(JOINT_COLOUR)])
+    names = {"spring": "spring-damper", "torsion": "torsion spring", "bushing": "bushing"}
+    for kind in sorted({it.label for it in items if it.kind == "spring"}):
+        labels.append([names.get(kind, kind), _hex(SPRING_COLOUR)])
+    if any(it.kind == "load" for it in items):
+        labels.append(["load", _hex(LOAD_COLOUR)])
+    for it in items:
+        if it.kind == "trace" and ("path", it.label) not in seen:
+            seen.add(("path", it.label))
+            labels.append([f"path of {it.label}", _hex(it.colour)])
+    return labels
+
+
+def _legend_row(height_px):
+    """Height in pixels of a legend row: 26 in a 768-pixel picture, down to 16 in small ones."""
+    return min(26.0, max(16.0, height_px / 28.0))
+
+
+def _legend_width(labels, width_px, height_px=768):
+    """Fraction of a panel's width taken by the legend."""
+    if not labels:
+        return 0.0
+    row = _legend_row(height_px)
+    return min(0.5, (1.0 * row + 0.5 * row * max(len(lb) for lb, _ in labels)) / float(width_px))
+
+
+def _legend(pl, labels, panel_size, fill=False, row=None):
+    """The legend of :func:`_legend_labels` in the upper right corner of the active panel (or filling it)."""
+    if labels:
+        w, h = panel_size
+        row = _legend_row(h) if row is None else row
+        bw, bh = (0.94 if fill else _legend_width(labels, w, h)), min(row * len(labels) / h, 0.9)
+        box = pl.add_legend(labels=labels, bcolor="white", border=False, loc="upper right", size=(bw, bh),
+                            face="rectangle", name="legend", background_opacity=0.75)
+        box.SetPosition(1.0 - bw - 0.005, 1.0 - bh - 0.01)      # flush with the corner kept free
+        box.SetPosition2(bw, bh)
+
+
+def _axes(pl):
+    try:
+        pl.add_axes(line_width=3, color="black", labels_off=False, interactive=False)
+    except Exception:                   # pragma: no cover (an orientation widget is decoration)
+        pass
+
+
+def _mech_png(pv, mech, entries, k, out, view, window_size):
+    from . import mechanism as mx
+
+    top = _top_reserve(window_size[1])
+    items = mx.frame_items(pv, mech.frames[k], mech.motion)
+    labels = _legend_labels(items)
+    cam = mech.camera(pv, view, window_size, top=top, right=_legend_width(labels, *window_size))
+    pl = _plotter(pv, window_size)
+    try:
+        _apply_camera(pl, cam)
+        _draw_items(pl, items, "item")
+        _legend(pl, labels, window_size)
+        _axes(pl)
+        _add_time(pl, _label(_time_format(entries), entries[k][0]))
+        pl.renderer.ResetCameraClippingRange()
+        _save_png(_snapshot(pl), out)
+    finally:
+        pl.close()
+    return out
+
+
+def _mech_strip(pv, mech, entries, idx, out, view, window_size, layout, fmt):
+    from . import mechanism as mx
+
+    m = len(idx)
+    if layout == "overlay":
+        window_size = window_size or (1024, 768)
+        top = _top_reserve(window_size[1])
+        items = []
+        for j, k in enumerate(idx):
+            frac = 0.3 + 0.7 * (j / (m - 1) if m > 1 else 1.0)
+            items += mx.frame_items(pv, mech.frames[k], mech.motion, shade=frac, floor=j == 0,
+                                    traces=j == m - 1)
+        labels = _legend_labels(mx.frame_items(pv, mech.frames[idx[-1]], mech.motion, floor=False))
+        cam = mech.camera(pv, view, window_size, top=top, right=_legend_width(labels, *window_size))
+        pl = _plotter(pv, window_size)
+        try:
+            _apply_camera(pl, cam)
+            _draw_items(pl, items, "item")
+            _legend(pl, labels, window_size)
+            _axes(pl)
+            first, last = entries[idx[0]][0], entries[idx[-1]][0]
+            _add_time(pl, f"t = {fmt.format(first)} ... {fmt.format(last)} s ({m} instants, light to dark)")
+            pl.renderer.ResetCameraClippingRange()
+            _save_png(_snapshot(pl), out)
+        finally:
+            pl.close()
+        return out
+    # small multiples: one panel per instant, and a narrow legend panel
+    labels = _legend_labels(mx.frame_items(pv, mech.frames[idx[-1]], mech.motion, floor=False))
+    if window_size is None:
+        window_size = (400 * m + 180, 400)
+    W, H = (int(v) for v in window_size)
+    row = min(24.0, max(13.0, 0.9 * H / max(len(labels), 1)))   # a legend panel: rows as large as fit
+    lw = int(1.0 * row + 0.5 * row * max(len(lb) for lb, _ in labels)) + 10 if labels else 0
+    lw = min(lw, W // (m + 1))
+    pw = (W - lw) / m
+    shape = (1, m + 1) if lw else (1, m)
+    weights = [pw] * m + ([lw] if lw else [])
+    pl = _plotter(pv, (W, H), shape=shape, col_weights=weights, border=True)
+    try:
+        cam = mech.camera(pv, view, (pw, H), top=_top_reserve(H, 26))
+        for j, k in enumerate(idx):
+            pl.subplot(0, j)
+            pl.set_background("white")
+            _apply_camera(pl, cam)
+            _draw_items(pl, mx.frame_items(pv, mech.frames[k], mech.motion), f"item{j}_")
+            pl.add_text(_label(fmt, entries[k][0]), position="upper_left", font_size=11, color="black",
+                        name=f"time{j}", render=False)
+            if j == 0:
+                _axes(pl)
+            pl.renderer.ResetCameraClippingRange()
+        if lw:
+            pl.subplot(0, m)
+            pl.set_background("white")
+            _legend(pl, labels, (lw, H), fill=True, row=row)
+        _save_png(_snapshot(pl), out)
+    finally:
+        pl.close()
+    return out
+
+
+def _mech_animation(pv, mech, entries, sel, sink, view, size, fmt, show_progress):
+    from . import mechanism as mx
+
+    w, h = size
+    labels = _legend_labels(mx.frame_items(pv, mech.frames[sel[0]], mech.motion, floor=False))
+    cam = mech.camera(pv, view, (w, h), top=_top_reserve(h), right=_legend_width(labels, w, h))
+    pl = _plotter(pv, (w, h))
+    try:
+        _apply_camera(pl, cam)
+        _legend(pl, labels, (w, h))
+        _axes(pl)
+        names = []
+        with _progress(len(sel), "render", enabled=show_progress) as bar:
+            for k in sel:
+                t, _ = entries[k]
+                new = _draw_items(pl, mx.frame_items(pv, mech.frames[k], mech.motion), "item")
+                for name in set(names) - set(new):
+                    pl.remove_actor(name, render=False)
+                names = new
+                _add_time(pl, _label(fmt, t))
+                pl.renderer.ResetCameraClippingRange()
+                sink.add(_snapshot(pl))
+                bar.update(1)
+    finally:
+        pl.close()
+
+
+# ---------------------------------------------------------------------------
 # public functions
 # ---------------------------------------------------------------------------
 
 
-def render_png(pvd, out_png, time=None, *, scalars=None, window_size=(1024, 768), view=None):
+def render_png(pvd, out_png, time=None, *, scalars=None, window_size=(1024, 768), view=None, trace=()):
     """Render the frame nearest to a time into a PNG picture.
 
     Parameters
@@ -502,9 +840,17 @@ def render_png(pvd, out_png, time=None, *, scalars=None, window_size=(1024, 768)
         Point or cell data array to colour by (default: element type).
     window_size : (int, int), default (1024, 768)
         Picture size in pixels.
-    view : {"xy", "xz", "yz", "iso", "3d"}, optional
-        Camera direction; default "xy" for planar data, else "3d" (perspective
-        from (1, −1, 0.7), z up, :func:`camera_3d`); "iso" looks from (1, 1, 1).
+    view : str, optional
+        ``"3d"`` (default for 3-D data and femb mechanisms: perspective from
+        azimuth −45°, elevation 26° about the up direction, −g or z; for z up
+        the direction (1, −1, 0.7)), ``"iso"`` (elevation 35.3°), ``"front"``,
+        ``"side"``, ``"top"``, ``"azimuth,elevation"`` in degrees, or
+        ``"xy"`` (default for planar data), ``"xz"``, ``"yz"``: parallel views
+        along a coordinate axis.
+    trace : sequence of str, optional
+        Paths to draw over the whole motion: ``"body"`` (its centre of mass)
+        or ``"body:point"`` (a named point), for 3-D mechanisms written by
+        femb.
 
     Returns
     -------
@@ -514,8 +860,9 @@ def render_png(pvd, out_png, time=None, *, scalars=None, window_size=(1024, 768)
     Raises
     ------
     OutputError
-        Missing or empty collection, unknown suffix, unknown ``scalars``, or
-        no off-screen rendering on this machine (see :func:`can_render`).
+        Missing or empty collection, unknown suffix, unknown ``scalars``,
+        view or traced body or point, or no off-screen rendering on this
+        machine (see :func:`can_render`).
     """
     out, _ = _check_suffix(out_png, (".png",), "out_png")
     entries = _entries(pvd)
@@ -526,6 +873,9 @@ def render_png(pvd, out_png, time=None, *, scalars=None, window_size=(1024, 768)
     view = _check_view(view, scan)
     k = _nearest(entries, time)
     t, path = entries[k]
+    mech = _mechanism(pv, entries, scan, scalars, view, trace)
+    if mech is not None:
+        return _mech_png(pv, mech, entries, k, out, view, window_size)
     pl = _plotter(pv, window_size)
     try:
         _fit_camera(pl, scan, view, window_size[0] / window_size[1],
@@ -544,10 +894,11 @@ def render_strip(
     n=6,
     *,
     times=None,
-    layout="overlay",
+    layout="row",
     scalars=None,
     window_size=None,
     view=None,
+    trace=(),
 ):
     """Render several instants of the motion in one picture.
 
@@ -562,20 +913,24 @@ def render_strip(
         included); ignored when ``times`` is given.
     times : sequence of float, optional
         Instants in s; the nearest frame of each is drawn.
-    layout : {"overlay", "row"}, default "overlay"
-        ``"overlay"``: all instants in one view, each in its own colour from
-        light (early) to dark (late) with a legend of the times, later ones
-        drawn on top (motion snapshots as in a paper figure).
-        ``"row"``: one panel per instant side by side, same fixed camera,
-        each with its time label.
+    layout : {"row", "overlay"}, default "row"
+        ``"row"``: small multiples, one panel per instant side by side, same
+        fixed camera, each with its time label (for a 3-D mechanism a last
+        narrow panel holds the legend of the bodies and joints).
+        ``"overlay"``: all instants in one view, from light (early) to dark
+        (late), later ones drawn on top (motion snapshots as in a paper
+        figure); a planar series gets a legend of the times.
     scalars : str, optional
         Colour by this array instead (overlay: fixed colour range, times
         listed in the label).
     window_size : (int, int), optional
-        Picture size; default (1024, 768) for overlay, (360 n, 360) for row.
-    view : {"xy", "xz", "yz", "iso", "3d"}, optional
-        Camera direction; default "xy" for planar data, else "3d" (perspective
-        from (1, −1, 0.7), z up, :func:`camera_3d`); "iso" looks from (1, 1, 1).
+        Picture size; default (1024, 768) for overlay, (360 n, 360) for row
+        (3-D mechanisms: (400 n + 180, 400)).
+    view : str, optional
+        As for :func:`render_png`.
+    trace : sequence of str, optional
+        Paths of points, as for :func:`render_png` (drawn whole in every panel,
+        with the point's position at each panel's instant).
 
     Returns
     -------
@@ -601,6 +956,9 @@ def render_strip(
     view = _check_view(view, scan)
     fmt = _time_format(entries)
     m = len(idx)
+    mech = _mechanism(pv, entries, scan, scalars, view, trace)
+    if mech is not None:
+        return _mech_strip(pv, mech, entries, idx, out, view, window_size, layout, fmt)
     if window_size is None:
         window_size = (1024, 768) if layout == "overlay" else (360 * m, 360)
     if layout == "row":
@@ -666,6 +1024,7 @@ def render_animation(
     window_size=(800, 600),
     view=None,
     show_progress=False,
+    trace=(),
 ):
     """Render the motion as an animated GIF or an MP4 video.
 
@@ -688,11 +1047,13 @@ def render_animation(
         Point or cell data array to colour by (default: element type).
     window_size : (int, int), default (800, 600)
         Picture size in pixels (rounded up to even numbers for MP4).
-    view : {"xy", "xz", "yz", "iso", "3d"}, optional
-        Camera direction; default "xy" for planar data, else "3d" (perspective
-        from (1, −1, 0.7), z up, :func:`camera_3d`); "iso" looks from (1, 1, 1).
+    view : str, optional
+        As for :func:`render_png`.
     show_progress : bool, default False
         Report progress on stderr.
+    trace : sequence of str, optional
+        Paths of points, as for :func:`render_png` (the whole path, and the
+        point at each frame's instant).
 
     Returns
     -------
@@ -730,19 +1091,23 @@ def render_animation(
         scan = _Scan(pv, entries, scalars)
         v = _check_view(view, scan)
         fmt = _time_format(entries)
-        pl = _plotter(pv, (w, h))
-        try:
-            _fit_camera(pl, scan, v, w / h, right=_BAR if scalars else 0.0,
-                        top=_top_reserve(h))
-            with _progress(len(sel), "render", enabled=show_progress) as bar:
-                for k in sel:
-                    t, path = entries[k]
-                    _add_frame(pv, pl, _read(pv, path), scan, scalars, name="frame")
-                    _add_time(pl, _label(fmt, t))
-                    sink.add(_snapshot(pl))
-                    bar.update(1)
-        finally:
-            pl.close()
+        mech = _mechanism(pv, entries, scan, scalars, v, trace)
+        if mech is not None:
+            _mech_animation(pv, mech, entries, sel, sink, v, (w, h), fmt, show_progress)
+        else:
+            pl = _plotter(pv, (w, h))
+            try:
+                _fit_camera(pl, scan, v, w / h, right=_BAR if scalars else 0.0,
+                            top=_top_reserve(h))
+                with _progress(len(sel), "render", enabled=show_progress) as bar:
+                    for k in sel:
+                        t, path = entries[k]
+                        _add_frame(pv, pl, _read(pv, path), scan, scalars, name="frame")
+                        _add_time(pl, _label(fmt, t))
+                        sink.add(_snapshot(pl))
+                        bar.update(1)
+            finally:
+                pl.close()
     except BaseException:
         sink.abort()
         raise

@@ -214,6 +214,156 @@ def clamp():
     return mech
 
 
+# ---------------------------------------------------------------------------
+# spatial element types (pictured as 3-D mechanisms: bodies, joints, ground)
+# ---------------------------------------------------------------------------
+def spatial_bodies():
+    import femb
+    from femb.elements.spatial_bodies import SpatialPointMass, SpatialRigidBody, box_inertia
+    from femb.elements.spatial_forces import SpatialGravity
+
+    mech = femb.Mechanism("spatial_bodies")
+    J = box_inertia(1.0, 0.3, 0.15, 0.08)
+    mech.add(SpatialRigidBody("box", 1.0, J, position=(0.0, 0.0, 0.5), velocity=(0.4, 0.0, 1.2),
+                              omega=(0.5, 3.0, 1.0), shape={"type": "box", "size": (0.3, 0.15, 0.08)}))
+    mech.add(SpatialRigidBody("drum", 1.0, (0.01, 0.01, 0.005), position=(0.5, 0.0, 0.5), velocity=(0.0, 0.3, 1.2),
+                              omega=(2.0, 0.0, 4.0),
+                              shape={"type": "cylinder", "radius": 0.08, "length": 0.2, "axis": (0, 0, 1)}))
+    mech.add(SpatialRigidBody("ball", 1.0, (0.004, 0.004, 0.004), position=(1.0, 0.0, 0.5), velocity=(0.0, 0.0, 1.0),
+                              shape={"type": "sphere", "radius": 0.1}))
+    mech.add(SpatialRigidBody("tetra", 1.0, (0.005, 0.005, 0.005), position=(0.0, 0.5, 0.5), omega=(1.0, 2.0, 0.0),
+                              points={"a": (0.15, 0.0, -0.05), "b": (-0.1, 0.12, -0.05), "c": (-0.1, -0.12, -0.05),
+                                      "d": (0.0, 0.0, 0.15)}))        # no shape: the hull of its points
+    mech.add(SpatialPointMass("pebble", 0.2, position=(0.5, 0.5, 0.5), velocity=(0.3, 0.0, 1.5)))
+    mech.add(SpatialGravity((0.0, 0.0, -9.81)))
+    return mech
+
+
+def spatial_pendulum():
+    import femb
+    from femb.elements.spatial_bodies import SpatialRigidBody, rod_inertia, spatial_ground
+    from femb.elements.spatial_forces import SpatialGravity
+    from femb.elements.spatial_joints import RevoluteJoint, SphericalJoint
+
+    mech = femb.Mechanism("revolute_spherical")
+    spatial_ground(mech).add_point("pivot", (0.0, 0.0, 1.0))          # a named ground point
+    upper = mech.add(SpatialRigidBody("upper", 1.0, rod_inertia(1.0, 0.4, 0.02), position=(0.2, 0.0, 1.0),
+                                      points={"O": (-0.2, 0, 0), "A": (0.2, 0, 0)}))
+    lower = mech.add(SpatialRigidBody("lower", 1.0, rod_inertia(1.0, 0.4, 0.02), position=(0.4, 0.0, 0.8),
+                                      rotation=[[0, 0, 1], [0, 1, 0], [-1, 0, 0]],   # body x pointing down
+                                      velocity=(0.0, 0.6, 0.0), omega_space=(3.0, 0.0, 0.0),
+                                      points={"A": (-0.2, 0, 0)}))
+    mech.add(RevoluteJoint("hinge", "ground", upper, point_a="pivot", point_b="O", axis=(0.0, 1.0, 0.0)),
+             SphericalJoint("ball", upper, lower, at=(0.4, 0.0, 1.0)), SpatialGravity((0.0, 0.0, -9.81)))
+    return mech
+
+
+def spatial_line_joints():
+    import numpy as np
+
+    import femb
+    from femb.elements.spatial_bodies import SpatialRigidBody, box_inertia, rod_inertia
+    from femb.elements.spatial_forces import SpatialGravity
+    from femb.elements.spatial_joints import CylindricalJoint, PrismaticJoint, UniversalJoint
+
+    mech = femb.Mechanism("line_joints")
+    rail = np.array([1.0, 0.0, -0.5]) / np.sqrt(1.25)                      # a tilted rail
+    block = mech.add(SpatialRigidBody("block", 1.0, box_inertia(1.0, 0.12, 0.1, 0.08), position=(0.0, 0.0, 0.6),
+                                      shape={"type": "box", "size": (0.12, 0.1, 0.08)}))
+    sleeve = mech.add(SpatialRigidBody("sleeve", 0.5, (0.002, 0.002, 0.001), position=(0.0, 0.6, 0.6),
+                                       omega=(0.0, 0.0, 8.0), velocity=(0.0, 0.0, 2.0),
+                                       shape={"type": "cylinder", "radius": 0.05, "length": 0.1, "axis": (0, 0, 1)}))
+    arm = mech.add(SpatialRigidBody("arm", 0.5, rod_inertia(0.5, 0.3, 0.02), position=(0.6, 0.3, 0.45),
+                                    rotation=[[0, 0, 1], [0, 1, 0], [-1, 0, 0]], omega_space=(2.0, 0.0, 0.0),
+                                    velocity=(0.0, -0.3, 0.0), points={"top": (-0.15, 0, 0)}))
+    mech.add(PrismaticJoint("slide", "ground", block, at=(0.0, 0.0, 0.6), axis=rail),
+             CylindricalJoint("post", "ground", sleeve, at=(0.0, 0.6, 0.6), axis=(0.0, 0.0, 1.0)),
+             UniversalJoint("cardan", "ground", arm, axis_a=(1.0, 0.0, 0.0), axis_b=(0.0, 1.0, 0.0),
+                            at=(0.6, 0.3, 0.6)),
+             SpatialGravity((0.0, 0.0, -9.81)))
+    return mech
+
+
+def spatial_fixed_distance():
+    import femb
+    from femb.elements.spatial_bodies import SpatialRigidBody, rod_inertia, spatial_ground
+    from femb.elements.spatial_forces import SpatialGravity
+    from femb.elements.spatial_joints import DistanceJoint, FixedJoint
+
+    mech = femb.Mechanism("weld_and_link")
+    spatial_ground(mech).add_point("hook", (0.0, 0.0, 1.0))
+    a = mech.add(SpatialRigidBody("beam", 1.0, rod_inertia(1.0, 0.4, 0.02), position=(0.3, 0.0, 0.6),
+                                  velocity=(0.0, 0.8, 0.0), points={"end": (-0.2, 0, 0), "tip": (0.2, 0, 0)},
+                                  shape={"type": "box", "size": (0.4, 0.04, 0.04)}))
+    b = mech.add(SpatialRigidBody("post", 0.5, rod_inertia(0.5, 0.2, 0.02), position=(0.5, 0.0, 0.7),
+                                  rotation=[[0, 0, -1], [0, 1, 0], [1, 0, 0]], velocity=(0.0, 0.8, 0.0),
+                                  shape={"type": "box", "size": (0.2, 0.04, 0.04)}))
+    mech.add(DistanceJoint("link", "ground", a, point_a="hook", point_b="end"),        # a massless rod
+             FixedJoint("weld", a, b, at=(0.5, 0.0, 0.6)), SpatialGravity((0.0, 0.0, -9.81)))
+    return mech
+
+
+def spatial_drives():
+    import femb
+    from femb.elements.spatial_bodies import SpatialRigidBody, box_inertia, rod_inertia
+    from femb.elements.spatial_joints import (DrivenPrismaticDisplacement, DrivenRevoluteAngle, PrismaticJoint,
+                                              RevoluteJoint)
+    from femb.functions import Harmonic, Linear
+
+    mech = femb.Mechanism("drives")
+    crank = mech.add(SpatialRigidBody("crank", 1.0, rod_inertia(1.0, 0.4, 0.02), position=(0.2, 0.0, 0.3),
+                                      points={"O": (-0.2, 0, 0)}))
+    table = mech.add(SpatialRigidBody("table", 1.0, box_inertia(1.0, 0.2, 0.2, 0.05), position=(0.0, 0.7, 0.1),
+                                      shape={"type": "box", "size": (0.2, 0.2, 0.05)}))
+    mech.add(RevoluteJoint("axle", "ground", crank, at=(0.0, 0.0, 0.3), axis=(0.0, 0.0, 1.0)),
+             DrivenRevoluteAngle("motor", "ground", crank, Linear(2.0), at=(0.0, 0.0, 0.3), axis=(0.0, 0.0, 1.0)),
+             PrismaticJoint("guide", "ground", table, at=(0.0, 0.7, 0.1), axis=(0.0, 0.0, 1.0)),
+             DrivenPrismaticDisplacement("lift", "ground", table, Harmonic(0.15, 3.0), at=(0.0, 0.7, 0.1),
+                                         axis=(0.0, 0.0, 1.0)))
+    return mech
+
+
+def spatial_springs():
+    import femb
+    from femb.elements.spatial_bodies import SpatialRigidBody, box_inertia, rod_inertia, spatial_ground
+    from femb.elements.spatial_forces import Bushing, PointSpringDamper, RotationalSpringDamper, SpatialGravity
+    from femb.elements.spatial_joints import RevoluteJoint
+
+    mech = femb.Mechanism("springs")
+    spatial_ground(mech).add_point("top", (0.0, 0.0, 1.0))
+    bob = mech.add(SpatialRigidBody("bob", 1.0, box_inertia(1.0, 0.1, 0.1, 0.1), position=(0.1, 0.0, 0.6),
+                                    shape={"type": "sphere", "radius": 0.05}))
+    pad = mech.add(SpatialRigidBody("pad", 1.0, box_inertia(1.0, 0.12, 0.12, 0.04), position=(0.5, 0.0, 0.55),
+                                    velocity=(0.0, 0.0, 0.5), omega=(1.0, 0.0, 0.0),
+                                    shape={"type": "box", "size": (0.12, 0.12, 0.04)}))
+    bar = mech.add(SpatialRigidBody("bar", 1.0, rod_inertia(1.0, 0.3, 0.02), position=(1.0, 0.0, 0.65),
+                                    omega_space=(0.0, 0.0, 3.0), velocity=(0.0, 0.45, 0.0),
+                                    points={"O": (-0.15, 0, 0)}))
+    mech.add(PointSpringDamper("coil", "ground", bob, stiffness=60.0, damping=0.5, length=0.3, point_a="top"),
+             Bushing("mount", "ground", pad, stiffness=(200.0, 200.0, 200.0), rotational_stiffness=(5.0, 5.0, 5.0),
+                     at=(0.5, 0.0, 0.45)),                               # under the pad
+             RevoluteJoint("pin", "ground", bar, at=(0.85, 0.0, 0.65), axis=(0.0, 0.0, 1.0)),
+             RotationalSpringDamper("torsion", "ground", bar, stiffness=2.0, damping=0.02, at=(0.85, 0.0, 0.65),
+                                    axis=(0.0, 0.0, 1.0)),
+             SpatialGravity((0.0, 0.0, -9.81)))
+    return mech
+
+
+def spatial_loads():
+    import femb
+    from femb.elements.spatial_bodies import SpatialRigidBody, rod_inertia
+    from femb.elements.spatial_forces import SpatialForce, SpatialTorque
+    from femb.elements.spatial_joints import SphericalJoint
+
+    mech = femb.Mechanism("loads")
+    rod = mech.add(SpatialRigidBody("rod", 1.0, rod_inertia(1.0, 0.6, 0.02), position=(0.3, 0.0, 0.5),
+                                    points={"O": (-0.3, 0, 0), "tip": (0.3, 0, 0)}))
+    mech.add(SphericalJoint("ball", "ground", rod, at=(0.0, 0.0, 0.5)),
+             SpatialForce("push", rod, (0.0, 1.0, 0.0), point="tip", follower=True),    # turns with the rod
+             SpatialTorque("twist", rod, (0.0, 0.0, 0.05), follower=True))
+    return mech
+
+
 @dataclass
 class Entry:
     key: str
@@ -262,6 +412,47 @@ ENTRIES = [
           "beam nodes, clamped to the ground and sagging under gravity.", t_end=0.05, h=1e-3),
     Entry("clamp", "Clamp (rigid connection)", ("femb.elements.beam.Clamp",), clamp,
           "Two bars welded into an L by a clamp, swinging on a hinge under gravity."),
+    Entry("spatial_bodies", "Spatial rigid bodies and point masses",
+          ("femb.elements.spatial_bodies.SpatialRigidBody", "femb.elements.spatial_bodies.SpatialPointMass",
+           "femb.elements.spatial_bodies.SpatialBody", "femb.elements.spatial_bodies.FrameNode",
+           "femb.elements.spatial_forces.SpatialGravity"), spatial_bodies,
+          "Spatial rigid bodies (a frame node at the centre of mass: position and unit quaternion) drawn "
+          "with the drawing shapes box, cylinder and sphere, and as the hull of their named points; a point "
+          "mass (a ball); all thrown spinning under uniform gravity. Each body has its colour and its name "
+          "in the legend; the faint floor is normal to gravity.", t_end=0.5, h=2e-3),
+    Entry("spatial_pendulum", "Revolute and spherical joints; ground points",
+          ("femb.elements.spatial_joints.RevoluteJoint", "femb.elements.spatial_joints.SphericalJoint",
+           "femb.elements.spatial_joints.SpatialPairElement", "femb.elements.spatial_bodies.SpatialGround"),
+          spatial_pendulum,
+          "A bar hinged to a named ground point (revolute joint: a short cylinder along its axis; the "
+          "ground base sits on the side away from the body) carries a second bar on a ball joint (a "
+          "ball). The bars have no drawing shape: each is drawn as a bar through its joint points.", t_end=0.5, h=2e-3),
+    Entry("spatial_line_joints", "Prismatic, cylindrical and universal joints",
+          ("femb.elements.spatial_joints.PrismaticJoint", "femb.elements.spatial_joints.CylindricalJoint",
+           "femb.elements.spatial_joints.UniversalJoint"), spatial_line_joints,
+          "A block sliding down a tilted prismatic rail, a spinning sleeve dropping along a cylindrical "
+          "post (rails drawn over the whole travel), and an arm hanging from a universal joint (a cross of "
+          "its two pins).", t_end=0.5, h=2e-3),
+    Entry("spatial_fixed_distance", "Fixed and distance joints",
+          ("femb.elements.spatial_joints.FixedJoint", "femb.elements.spatial_joints.DistanceJoint"),
+          spatial_fixed_distance,
+          "A beam hung from a ground point by a distance joint (a massless link, drawn as a thin rod), "
+          "with a post welded to it by a fixed joint (a cube).", t_end=0.5, h=2e-3),
+    Entry("spatial_drives", "Driven revolute angle and driven displacement (rheonomic)",
+          ("femb.elements.spatial_joints.DrivenRevoluteAngle",
+           "femb.elements.spatial_joints.DrivenPrismaticDisplacement"), spatial_drives,
+          "A crank turned at 2 rad/s by a driven angle on its revolute joint (a red ring), and a table "
+          "lifted harmonically by a driven displacement on its prismatic guide (a red arrow).", t_end=0.5, h=2e-3),
+    Entry("spatial_springs", "Spring–dampers, bushings and torsion springs",
+          ("femb.elements.spatial_forces.PointSpringDamper", "femb.elements.spatial_forces.Bushing",
+           "femb.elements.spatial_forces.RotationalSpringDamper"), spatial_springs,
+          "A bob on a coil spring from a ground point, a pad on a six-component bushing (a ring) and a bar "
+          "on a revolute joint held by a torsion spring–damper (a ring about the axis).", t_end=0.5, h=2e-3),
+    Entry("spatial_loads", "Applied forces and torques",
+          ("femb.elements.spatial_forces.SpatialForce", "femb.elements.spatial_forces.SpatialTorque"),
+          spatial_loads,
+          "A rod on a ball joint pushed at its tip by a follower force and twisted by a follower torque "
+          "(red arrows; the torque's arrow has a second head).", t_end=0.5, h=2e-3),
 ]
 
 
@@ -269,16 +460,21 @@ ENTRIES = [
 # generation
 # ---------------------------------------------------------------------------
 def element_types():
-    """Fully qualified names of the element types (and bodies) that femb.elements exports."""
+    """Fully qualified names of the element types (and bodies) that femb.elements and its spatial modules export."""
     import femb.elements as el
+    import femb.elements.spatial_bodies as sb
+    import femb.elements.spatial_forces as sf
+    import femb.elements.spatial_joints as sj
     from femb.element import Element
     from femb.elements.bodies import Body
 
     out = set()
-    for name in el.__all__:
-        obj = getattr(el, name)
-        if isinstance(obj, type) and issubclass(obj, (Element, Body)) and obj is not Body:
-            out.add(f"{obj.__module__}.{obj.__qualname__}")
+    for mod in (el, sb, sj, sf):
+        for name in mod.__all__:
+            obj = getattr(mod, name)
+            if isinstance(obj, type) and (issubclass(obj, (Element, Body)) or obj in (sb.FrameNode, sb.SpatialBody)) \
+                    and obj is not Body:
+                out.add(f"{obj.__module__}.{obj.__qualname__}")
     return out
 
 
@@ -300,8 +496,10 @@ def _rst(entry, png_rel):
     lines = [entry.title, "-" * len(entry.title), "", entry.text, "", f"Reference: {refs}.", "",
              f".. image:: {png_rel}", f"   :alt: {entry.title}, rendered by femb", "", ".. code-block:: python", ""]
     lines += ["   " + ln if ln.strip() else "" for ln in src.rstrip().splitlines()]
+    how = ("a 3-D mechanism: bodies in their colours, joints and ground drawn"
+           if entry.key.startswith("spatial") else "colours by element type")
     lines += ["", f"Rendered at t = {entry.t_end:g} s (h = {entry.h:g} s) with "
-              ":func:`femb.io.render.render_png`, colours by element type.", ""]
+              f":func:`femb.io.render.render_png`, {how}.", ""]
     return "\n".join(lines)
 
 
