@@ -4,7 +4,7 @@ A crank turning about the vertical axis drives, through a coupler with a
 ball joint at each end, a rocker hinged about a horizontal axis: the
 spatial four-bar RSSR (revolute–spherical–spherical–revolute). A
 :class:`~femb.elements.spatial_joints.DrivenRevoluteAngle` turns the crank
-at 0.8 turn per second; the bodies have no drawing shape, so each is drawn
+at one turn per second (steps land on every quarter turn); the bodies have no drawing shape, so each is drawn
 as a bar through its joint points. The example prints the rocker's swing and
 the motor torque (−λ of the drive), checks that the motor's power is the
 rate of change of the linkage's energy, and renders small multiples of one
@@ -19,7 +19,7 @@ from femb.elements.spatial_joints import DrivenRevoluteAngle, RevoluteJoint, Sph
 from femb.functions import Linear
 from femb.io.render import render_png, render_strip
 
-W = 1.6 * np.pi                                          # 0.8 turn per second
+W = 2.0 * np.pi                                          # one turn per second
 g = np.array([0.0, 0.0, -9.81])
 A, B = np.array([0.0, 0.0, 0.0]), np.array([0.08, 0.0, 0.0])         # crank: A (axle) to B
 D = np.array([0.3, 0.0, 0.35])                                       # rocker axle, along x
@@ -47,7 +47,7 @@ mech.add(RevoluteJoint("axle", "ground", crank, at=A, axis=(0.0, 0.0, 1.0)),
          RevoluteJoint("pivot", "ground", rocker, at=D, axis=(1.0, 0.0, 0.0)),
          SpatialGravity(g))
 
-result = femb.simulate(mech.compile(), t_end=1.25, h=1e-3, rho_inf=0.9)        # one turn
+result = femb.simulate(mech.compile(), t_end=1.0, h=1e-3, rho_inf=0.9)         # one turn
 torque = -result.reaction("motor")[:, 0]                 # moment of the motor on the crank about z (N m)
 tip = result.point("rocker", "Q")
 phi = np.degrees(np.arctan2(D[2] - tip[:, 2], D[1] - tip[:, 1]))     # rocker angle about x, from -y
