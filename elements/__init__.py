@@ -26,14 +26,13 @@ __all__ = ["Body", "Ground", "PointMass", "RigidBody", "Hinge", "Slider", "Point
            "Torque", "Gravity"]
 from .beam import BeamMesh, BeamNode, Clamp, ReissnerBeam, Section, add_beam, beam_resultants, beam_strain_energy  # noqa: E402
 __all__ += ["Section", "BeamNode", "ReissnerBeam", "Clamp", "BeamMesh", "add_beam", "beam_resultants", "beam_strain_energy"]
-from .spatial_bodies import FrameNode, SpatialBody, SpatialGround, SpatialPointMass, SpatialRigidBody, spatial_ground  # noqa: E402
+from .spatial_bodies import FrameNode, SpatialPointMass, SpatialRigidBody, spatial_ground  # noqa: E402
 from .spatial_joints import (CylindricalJoint, DistanceJoint, DrivenPrismaticDisplacement,  # noqa: E402
-                             DrivenRevoluteAngle, FixedJoint, PrismaticJoint, RevoluteJoint, SpatialPairElement,
-                             SphericalJoint, UniversalJoint)
+                             DrivenRevoluteAngle, FixedJoint, PrismaticJoint, RevoluteJoint, SphericalJoint,
+                             UniversalJoint)
 from .spatial_forces import Bushing, PointSpringDamper, SpatialForce, SpatialGravity, SpatialTorque  # noqa: E402
 from .spatial_forces import RotationalSpringDamper as SpatialRotationalSpringDamper  # noqa: E402
-__all__ += ["FrameNode", "SpatialBody", "SpatialGround", "SpatialPointMass", "SpatialRigidBody", "spatial_ground",
-            "SpatialPairElement", "SphericalJoint", "RevoluteJoint", "UniversalJoint", "CylindricalJoint",
+__all__ += ["FrameNode", "SpatialPointMass", "SpatialRigidBody", "spatial_ground", "SphericalJoint", "RevoluteJoint", "UniversalJoint", "CylindricalJoint",
             "PrismaticJoint", "FixedJoint", "DistanceJoint", "DrivenRevoluteAngle", "DrivenPrismaticDisplacement",
             "PointSpringDamper", "Bushing", "SpatialRotationalSpringDamper", "SpatialForce", "SpatialTorque",
             "SpatialGravity"]

@@ -214,6 +214,92 @@ def clamp():
     return mech
 
 
+def spatial_bodies():
+    import femb
+    from femb.elements import SpatialGravity, SpatialPointMass, SpatialRigidBody
+
+    mech = femb.Mechanism("spatial_bodies")
+    mech.add(SpatialRigidBody("box", 2.0, (0.02, 0.03, 0.04), position=(0.0, 0.0, 0.5), velocity=(0.5, 0.0, 1.0),
+                              omega=(3.0, 0.5, 1.0), shape={"type": "box", "size": (0.3, 0.2, 0.1)}))
+    mech.add(SpatialPointMass("ball", 0.5, position=(0.5, 0.0, 0.5), velocity=(0.0, 0.5, 1.5),
+                              shape={"type": "sphere", "radius": 0.04}))
+    mech.add(SpatialGravity((0.0, 0.0, -9.81)))
+    return mech
+
+
+def spatial_joints():
+    import femb
+    from femb.elements import (CylindricalJoint, DistanceJoint, FixedJoint, PrismaticJoint, RevoluteJoint,
+                               SpatialGravity, SpatialRigidBody, SphericalJoint, UniversalJoint)
+
+    def link(name, x, z=-0.2, velocity=(0.0, 0.0, 0.0), omega=(0.0, 0.0, 0.0)):
+        return SpatialRigidBody(name, 1.0, (0.004, 0.004, 0.002), position=(x, 0.0, z), velocity=velocity, omega=omega,
+                                points={"top": (0.0, 0.0, 0.2)}, shape={"type": "box", "size": (0.05, 0.05, 0.4)})
+
+    mech = femb.Mechanism("spatial_joints")
+    s = mech.add(link("s", 0.0, velocity=(-0.2, 0.4, 0.0), omega=(2.0, 1.0, 0.0)))   # top at rest
+    r, u, f = (mech.add(link(n, x)) for n, x in (("r", 0.5), ("u", 1.0), ("f", 1.5)))
+    mech.add(SphericalJoint("ball", "ground", s, point_b="top"),
+             RevoluteJoint("hinge", "ground", r, at=(0.5, 0.0, 0.0), axis=(1.0, 0.0, 0.0)),
+             UniversalJoint("cardan", "ground", u, axis_a=(1.0, 0.0, 0.0), axis_b=(0.0, 1.0, 0.0), at=(1.0, 0.0, 0.0)),
+             RevoluteJoint("f_hinge", "ground", f, at=(1.5, 0.0, 0.0), axis=(0.0, 1.0, 0.0)))
+    g = mech.add(link("g", 1.5, -0.6))
+    mech.add(FixedJoint("weld", f, g, at=(1.5, 0.0, -0.4)))
+    c = mech.add(link("c", 2.0))
+    mech.add(CylindricalJoint("sleeve", "ground", c, at=(2.0, 0.0, 0.0), axis=(1.0, 0.0, 1.0)))
+    p = mech.add(link("p", 2.5))
+    mech.add(PrismaticJoint("rail", "ground", p, at=(2.5, 0.0, 0.0), axis=(0.0, 1.0, 1.0)))
+    d = mech.add(link("d", 3.0))
+    mech.add(DistanceJoint("rod", "ground", d, point_a=(3.2, 0.0, 0.0), point_b="top"),
+             SphericalJoint("d_ball", "ground", d, at=(3.0, 0.0, -0.4)))
+    mech.add(SpatialGravity((0.0, 1.0, -9.81)))
+    return mech
+
+
+def spatial_drivers():
+    import femb
+    from femb.elements import (DrivenPrismaticDisplacement, DrivenRevoluteAngle, PrismaticJoint, RevoluteJoint,
+                               SpatialRigidBody)
+    from femb.functions import Harmonic, Linear
+
+    mech = femb.Mechanism("spatial_drivers")
+    crank = mech.add(SpatialRigidBody("crank", 1.0, (0.001, 0.01, 0.01), position=(0.15, 0.0, 0.0),
+                                      shape={"type": "box", "size": (0.3, 0.04, 0.02)}))
+    mech.add(RevoluteJoint("axle", "ground", crank, at=(0.0, 0.0, 0.0), axis=(0.0, 0.0, 1.0)),
+             DrivenRevoluteAngle("motor", "ground", crank, Linear(3.0), at=(0.0, 0.0, 0.0), axis=(0.0, 0.0, 1.0)))
+    block = mech.add(SpatialRigidBody("block", 1.0, (0.001, 0.001, 0.001), position=(0.6, 0.0, 0.0),
+                                      shape={"type": "box", "size": (0.1, 0.1, 0.1)}))
+    mech.add(PrismaticJoint("rail", "ground", block, at=(0.6, 0.0, 0.0), axis=(0.0, 1.0, 0.0)),
+             DrivenPrismaticDisplacement("actuator", "ground", block, Harmonic(0.1, 10.0), at=(0.6, 0.0, 0.0),
+                                         axis=(0.0, 1.0, 0.0)))
+    return mech
+
+
+def spatial_forces():
+    import femb
+    from femb.elements import (Bushing, PointSpringDamper, RevoluteJoint, SpatialForce, SpatialGravity,
+                               SpatialRigidBody, SpatialRotationalSpringDamper, SpatialTorque)
+
+    mech = femb.Mechanism("spatial_forces")
+    bob = mech.add(SpatialRigidBody("bob", 1.0, (0.002, 0.002, 0.002), position=(0.0, 0.0, -0.4),
+                                    points={"A": (0.0, 0.0, 0.05)}, shape={"type": "sphere", "radius": 0.05}))
+    mech.add(PointSpringDamper("spring", "ground", bob, 200.0, 1.0, length=0.3, point_a=(0.0, 0.0, 0.0),
+                               point_b="A"))
+    plate = mech.add(SpatialRigidBody("plate", 2.0, (0.01, 0.02, 0.03), position=(0.6, 0.0, 0.0),
+                                      shape={"type": "box", "size": (0.3, 0.2, 0.03)}))
+    mech.add(Bushing("mount", "ground", plate, (2e3, 2e3, 4e3), (50.0, 50.0, 80.0), damping=(5.0, 5.0, 5.0),
+                     at=(0.6, 0.0, 0.0)),
+             SpatialForce("push", plate, (0.0, 0.0, 20.0), point=(0.15, 0.1, 0.0), follower=True))
+    wheel = mech.add(SpatialRigidBody("wheel", 1.0, (0.005, 0.005, 0.01), position=(1.2, 0.0, 0.0),
+                                      points={"rim": (0.1, 0.0, 0.0)},
+                                      shape={"type": "cylinder", "radius": 0.1, "length": 0.02, "axis": (0.0, 0.0, 1.0)}))
+    mech.add(RevoluteJoint("axle", "ground", wheel, at=(1.2, 0.0, 0.0), axis=(0.0, 0.0, 1.0)),
+             SpatialRotationalSpringDamper("torsion", "ground", wheel, 2.0, 0.05, at=(1.2, 0.0, 0.0),
+                                           axis=(0.0, 0.0, 1.0)),
+             SpatialTorque("motor", wheel, (0.0, 0.0, 1.0)), SpatialGravity((0.0, 0.0, -9.81)))
+    return mech
+
+
 @dataclass
 class Entry:
     key: str
@@ -262,6 +348,28 @@ ENTRIES = [
           "beam nodes, clamped to the ground and sagging under gravity.", t_end=0.05, h=1e-3),
     Entry("clamp", "Clamp (rigid connection)", ("femb.elements.beam.Clamp",), clamp,
           "Two bars welded into an L by a clamp, swinging on a hinge under gravity."),
+    Entry("spatial_bodies", "Spatial rigid bodies and point masses",
+          ("femb.elements.spatial_bodies.SpatialRigidBody", "femb.elements.spatial_bodies.SpatialPointMass"),
+          spatial_bodies, "A box tumbling through the air (quaternion frame node at its centre of mass) and a "
+          "point mass (rotation fixed) thrown under spatial gravity.", t_end=0.3, h=1e-3),
+    Entry("spatial_joints", "Spatial joints",
+          tuple(f"femb.elements.spatial_joints.{c}" for c in ("SphericalJoint", "RevoluteJoint", "UniversalJoint",
+                                                              "FixedJoint", "CylindricalJoint", "PrismaticJoint",
+                                                              "DistanceJoint")), spatial_joints,
+          "Links hanging from the ground on a spherical joint, a revolute joint, a universal joint, a revolute "
+          "joint with a second link welded to the first (fixed joint), a cylindrical joint and a prismatic "
+          "joint on inclined axes, and a link held by a spherical joint and a distance joint; gravity "
+          "tilted towards y.", t_end=0.3, h=1e-3),
+    Entry("spatial_drivers", "Spatial drivers (rheonomic)",
+          ("femb.elements.spatial_joints.DrivenRevoluteAngle", "femb.elements.spatial_joints.DrivenPrismaticDisplacement"),
+          spatial_drivers, "A crank turned at 3 rad/s by a driven revolute angle with its revolute joint, and a "
+          "block moved harmonically along a prismatic joint by a driven displacement.", t_end=0.3, h=1e-3),
+    Entry("spatial_forces", "Spatial forces",
+          tuple(f"femb.elements.spatial_forces.{c}" for c in ("PointSpringDamper", "Bushing", "RotationalSpringDamper",
+                                                              "SpatialForce", "SpatialTorque", "SpatialGravity")),
+          spatial_forces, "A ball on a point spring–damper, a plate on a six-component bushing pushed by a "
+          "follower force, and a wheel on a revolute joint driven by a torque against a torsion "
+          "spring–damper, under spatial gravity.", t_end=0.3, h=1e-3),
 ]
 
 
