@@ -817,7 +817,10 @@ def _short_run_check(solver, T, Q, QD, h):
         return
     KB = np.zeros_like(solver.AB)
     kp = np.zeros_like(solver.ipiv)
-    qpp = [solver._qpp(t, np.array(q), np.array(qd), KB, kp) for t, q, qd in zip(T, Q, QD)]
+    try:
+        qpp = [solver._qpp(t, np.array(q), np.array(qd), KB, kp) for t, q, qd in zip(T, Q, QD)]
+    except SingularMatrixError:            # a singular stored state: no estimate, the run itself stands
+        return
     worst, t_worst = 0.0, T[0]
     for k in range(len(T) - 1):
         dt = T[k + 1] - T[k]
