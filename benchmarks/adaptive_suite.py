@@ -46,8 +46,9 @@ import numpy as np
 from femb.errors import SolverError
 
 from . import stepsize_study as S
+from .bench_common import (_andrews_angle_error, _fixed_step_search, _plt, _sample_outputs,  # noqa: F401
+                           clean, criterion, errors, first_line, simulate_timed)
 from .registry import load
-from .work_precision import clean, errors, first_line, simulate_timed
 
 #: rtol (= atol) ladders of the adaptive work–precision series
 RTOLS = {"full": [1e-3, 1e-4, 1e-5, 1e-6, 1e-7, 1e-8], "quick": [1e-4, 1e-6]}
@@ -62,13 +63,6 @@ ANDREWS_TARGET = 1e-6
 ANDREWS_GOALS = {"steps_ratio": 0.5, "wall_s": 0.2}
 
 
-def criterion(*args, **kwargs):
-    """:func:`femb.benchmarks.stress.criterion` (imported late: stress.py joins :data:`TESTS` to its own)."""
-    from .stress import criterion as c
-
-    return c(*args, **kwargs)
-
-
 def _h_max(scene):
     return getattr(scene.module, "H_MAX", None)
 
@@ -78,8 +72,6 @@ def _h_max(scene):
 # --------------------------------------------------------------------------
 def adaptive_point(case, rtol, repeats):
     """One adaptive run of a work–precision case: errors at the sample times, steps, median wall time."""
-    from .work_precision import _sample_outputs
-
     opts = dict(case.options, rtol=rtol, atol=rtol, t_eval=case.t_samples)
     hm = _h_max(case.scene)
     if hm is not None:
@@ -117,8 +109,6 @@ def adaptive_series(case, quick, log=print):
 # Andrews: steps and wall time to 1e-6 rad, adaptive against fixed
 # --------------------------------------------------------------------------
 def _andrews_error(scene, res):
-    from .work_precision import _andrews_angle_error
-
     return _andrews_angle_error(scene.outputs(res))
 
 
@@ -141,8 +131,6 @@ def andrews_to_target(quick=False, fixed=None, target=ANDREWS_TARGET, repeats=No
         tried), ``steps_ratio`` and ``wall_ratio`` (adaptive / fixed), and the
         ``goals`` of the step-size issue with ``met`` flags.
     """
-    from .work_precision import _fixed_step_search
-
     repeats = repeats or (3 if quick else 5)
     scene = load("andrews")
     model = scene.model()
@@ -277,12 +265,6 @@ def format_andrews(res):
 # --------------------------------------------------------------------------
 # helpers of the stress tests
 # --------------------------------------------------------------------------
-def _plt():
-    from .stress import _plt as p
-
-    return p()
-
-
 def period2_amplitude(err):
     """Period-2 part of an error sequence (steps along axis 0): max over steps and components of abs(Δ⁴e)/16.
 

@@ -64,9 +64,10 @@ from femb.model import State
 from femb.result import Result
 
 from . import peers
-from .work_precision import clean, first_line, scene_newton_options, simulate_timed
+from .adaptive_suite import TESTS as _ADAPTIVE_TESTS
+from .bench_common import (FAIL, FINDING, PASS, _plt, clean, criterion, first_line,  # noqa: F401
+                           scene_newton_options, simulate_timed)
 
-PASS, FAIL, FINDING = "PASS", "FAIL", "FINDING"
 
 
 @dataclass
@@ -91,33 +92,6 @@ class Context:
     progress: object = None
 
 
-def criterion(text, passed, measured, finding=None, note=""):
-    """One criterion with its verdict.
-
-    Parameters
-    ----------
-    text : str
-        The criterion, written before the measurement.
-    passed : bool
-    measured : str
-        The measured figures, one line.
-    finding : str, optional
-        The diagnosis when the criterion fails (makes the verdict FINDING).
-    note : str
-        Additional context (shown in the report).
-    """
-    if passed:
-        v = PASS
-    else:
-        v = FINDING if finding else FAIL
-    out = {"criterion": text, "measured": measured, "verdict": v}
-    if not passed and finding:
-        out["finding"] = finding
-    if note:
-        out["note"] = note
-    return out
-
-
 def _fit_slope(x, y):
     x, y = np.asarray(x, float), np.asarray(y, float)
     ok = np.isfinite(x) & np.isfinite(y) & (x > 0) & (y > 0)
@@ -129,15 +103,6 @@ def _fit_slope(x, y):
 def _hs(rows):
     """'1e-05, 1e-06, ...': the step sizes of result rows."""
     return ", ".join(format(r["h"], "g") for r in rows)
-
-
-def _plt():
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    return plt
 
 
 def _cond(model, res_or_state, h, rho_inf, scaled, formulation="index3"):
@@ -1131,6 +1096,4 @@ def run(test_id, ctx):
 
 
 # the stress tests of adaptive steps (benchmarks/adaptive_suite.py) follow the fixed-step ones
-from .adaptive_suite import TESTS as _ADAPTIVE_TESTS  # noqa: E402
-
 TESTS.update(_ADAPTIVE_TESTS)

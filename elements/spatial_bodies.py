@@ -56,8 +56,24 @@ def unit3(owner, what, value):
     return v / n
 
 
+#: largest |‖p‖ − 1| of a quaternion given as input (rounding of printed values); beyond it, an error
+QUATERNION_NORM_TOL = 1e-6
+
+
 def rotation_input(owner, what, value):
-    """A unit quaternion (4,) from a quaternion (4 numbers, normalised) or a 3×3 rotation matrix."""
+    """A unit quaternion (4,) from a quaternion (4 numbers) or a 3×3 rotation matrix.
+
+    A quaternion must have unit norm to within ``QUATERNION_NORM_TOL`` (then it is
+    normalised to round-off); any other is refused: a quaternion of another
+    length is most often a different input (an axis, a rotation vector, a
+    typo), and normalising it would silently run another initial rotation.
+
+    Raises
+    ------
+    ModelError
+        Naming ``owner`` and ``what``: not finite, wrong shape, zero or
+        non-unit quaternion, or a matrix that is not a rotation.
+    """
     if value is None:
         return np.array([1.0, 0.0, 0.0, 0.0])
     try:
@@ -71,6 +87,10 @@ def rotation_input(owner, what, value):
         n = np.linalg.norm(a)
         if n == 0.0:
             raise ModelError(f"{owner}: {what}: the zero quaternion is not a rotation")
+        if abs(n - 1.0) > QUATERNION_NORM_TOL:
+            raise ModelError(f"{owner}: {what} {a.tolist()} is not a unit quaternion (norm {n:.6g}): give the unit "
+                             "quaternion (p0, p1, p2, p3), scalar first, e.g. p / |p| if this is the intended "
+                             "direction, or a 3×3 rotation matrix")
         return a / n
     if a.shape == (3, 3):
         if not (np.allclose(a @ a.T, np.eye(3), atol=1e-9) and np.linalg.det(a) > 0):

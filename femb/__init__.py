@@ -6,7 +6,7 @@ generalized-α scheme of Arnold & Brüls (2007) via :func:`simulate`.
 """
 from femb.alpha import GeneralizedAlpha
 from femb.errors import (AccuracyWarning, ConvergenceError, FembError, InitializationError, InitialMoveWarning,
-                         ModelError, OutputError, ParameterError, ParameterWarning, RedundantConstraintWarning,
+                         InitialVelocityWarning, ModelError, OutputError, ParameterError, ParameterWarning, RedundantConstraintWarning,
                          SingularMatrixError, SolverError)
 from femb.mechanism import Mechanism
 from femb.model import Model, State
@@ -21,8 +21,8 @@ __all__ = [
     "GeneralizedAlpha", "Mechanism", "Model", "State", "Result", "GeneralizedAlphaSolver",
     "simulate", "consistent_initial_state", "FembError", "ModelError", "ParameterError",
     "InitializationError", "SolverError", "ConvergenceError", "SingularMatrixError", "OutputError",
-    "ParameterWarning", "AccuracyWarning", "InitialMoveWarning", "RedundantConstraintWarning", "sweep",
-    "check_jacobians", "JacobianReport",
+    "ParameterWarning", "AccuracyWarning", "InitialMoveWarning", "InitialVelocityWarning",
+    "RedundantConstraintWarning", "sweep", "check_jacobians", "JacobianReport",
 ]
 
 

@@ -29,7 +29,6 @@ and by ``femb bench convergence --json FILE``: the dict returned by
 from __future__ import annotations
 
 import argparse
-import ast
 import json
 import math
 import sys
@@ -38,16 +37,14 @@ import time
 import warnings
 from pathlib import Path
 
+from femb.cli_common import (SCENE_HELP, UsageError, _count, _load_scene, _positive, _rho,  # noqa: F401
+                             parse_sets, parse_value)
 from femb.errors import FembError, ParameterWarning, SolverError
 
 PROG = "femb"
 
 #: (module, function) called by ``femb run --vtk DIR --every N``; see :func:`_vtk_stream`.
 VTK_HOOK = ("femb.io", "write_vtk_stream")
-
-
-class UsageError(Exception):
-    """Bad command-line input: reported in one line, exit status 2."""
 
 
 class _Parser(argparse.ArgumentParser):
@@ -60,68 +57,6 @@ class _Parser(argparse.ArgumentParser):
 # --------------------------------------------------------------------------
 # helpers
 # --------------------------------------------------------------------------
-def parse_value(text):
-    """A ``--set`` value: a Python literal when it is one (numbers, True, None, tuples), else the string."""
-    t = text.strip()
-    low = t.lower()
-    if low in ("true", "false"):
-        return low == "true"
-    if low in ("none", "null"):
-        return None
-    try:
-        return ast.literal_eval(t)
-    except (ValueError, SyntaxError, MemoryError, RecursionError):
-        pass
-    try:
-        return float(t)             # inf, nan, 1_000.5 variants literal_eval rejects
-    except ValueError:
-        return text
-
-
-def parse_sets(items):
-    """``["NAME=VALUE", ...]`` -> dict, values parsed by :func:`parse_value`."""
-    params = {}
-    for item in items or []:
-        name, sep, value = item.partition("=")
-        name = name.strip()
-        if not sep or not name.isidentifier():
-            raise UsageError(f"--set expects NAME=VALUE with NAME a parameter name, got {item!r}")
-        params[name] = parse_value(value)
-    return params
-
-
-def _positive(name):
-    def conv(text):
-        try:
-            v = float(text)
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"{name} must be a number, got {text!r}") from None
-        if not (math.isfinite(v) and v > 0.0):
-            raise argparse.ArgumentTypeError(f"{name} must be a positive number, got {text!r}")
-        return v
-    return conv
-
-
-def _rho(text):
-    try:
-        v = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"rho_inf must be a number in [0, 1], got {text!r}") from None
-    if not 0.0 <= v <= 1.0:
-        raise argparse.ArgumentTypeError(f"rho_inf must lie in [0, 1], got {text!r}")
-    return v
-
-
-def _count(text):
-    try:
-        v = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"must be a positive integer, got {text!r}") from None
-    if v < 1:
-        raise argparse.ArgumentTypeError(f"must be a positive integer, got {text!r}")
-    return v
-
-
 def _view(text):
     from femb.io.mechanism import parse_view
     from femb.errors import OutputError
@@ -138,15 +73,6 @@ def _trace(text):
     if not body.strip() or (":" in text and not point.strip()):
         raise argparse.ArgumentTypeError(f"expected BODY or BODY:POINT, got {text!r}")
     return text.strip()
-
-
-def _load_scene(spec):
-    from femb.benchmarks.registry import SceneError, load
-
-    try:
-        return load(spec)
-    except SceneError as exc:
-        raise UsageError(str(exc)) from None
 
 
 def _json_value(v):
@@ -479,7 +405,6 @@ def cmd_bench_figures(args):
 # --------------------------------------------------------------------------
 # parser
 # --------------------------------------------------------------------------
-SCENE_HELP = "built-in scene name (see 'femb list') or path to a Python file defining build()"
 
 
 def cmd_render(args):

@@ -24,19 +24,16 @@ from __future__ import annotations
 import sys
 import time
 
+from femb.cli_common import SCENE_HELP, UsageError, _count, _load_scene, _positive, _rho, parse_sets
 from femb.errors import ParameterError
 
 
 def _usage(msg):
-    from femb.cli import UsageError
-
     return UsageError(msg)
 
 
 def add_parser(sub):
     """Register ``femb sweep`` on the sub-parsers ``sub`` of :func:`femb.cli.build_parser`."""
-    from femb.cli import SCENE_HELP, _count, _positive, _rho
-
     sp = sub.add_parser("sweep", help="parameter study of a scene on a Dask cluster (grids, samples)",
                         description="Run a scene for every case of a full-factorial grid and/or "
                         "Latin-hypercube samples on a local Dask cluster or a running Dask scheduler. "
@@ -103,8 +100,6 @@ def _specs(args):
 
 def cmd_sweep(args):
     """femb sweep: run the design, stream the rows to --out, print a summary, plot."""
-    from femb.cli import _load_scene, parse_sets
-
     import importlib.util
 
     missing = [m for m in ("distributed", "pandas", "pyarrow") if importlib.util.find_spec(m) is None]

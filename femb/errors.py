@@ -67,6 +67,10 @@ class InitialMoveWarning(UserWarning):
     """Initialization moved bodies onto the constraints by more than a tolerance (lists them)."""
 
 
+class InitialVelocityWarning(InitialMoveWarning):
+    """Initialization changed initial velocities that were given, to satisfy the constraints (lists the bodies)."""
+
+
 class RedundantConstraintWarning(UserWarning):
     """Dependent constraint equations were eliminated; their joints' reactions are not unique."""
 
@@ -88,6 +92,14 @@ SINGULAR_HINT_INDEPENDENT = (
     "joint: a coordinate has neither mass nor stiffness nor a constraint (a body with zero inertia "
     "and no joint fixing its rotation), or h is so large that the stiffness swamps the mass in a "
     "direction without stiffness; check masses and inertias, or reduce h"
+)
+
+SINGULAR_HINT_STEP = (
+    "hint: the step size: h is too large for this model. The constraints are independent here "
+    "(Φ_q has full rank) and the matrix [[M, Φ_qᵀ], [Φ_q, 0]] is regular (every coordinate has mass or "
+    "a constraint), so the iteration matrix, M/(βh²) + C_t γ/(βh) + K_t with the constraint rows, "
+    "became singular through its h-dependent terms: stiffness (or a compressive load on a stiff member) "
+    "swamps the mass at this h. Reduce h (or use adaptive steps, simulate(..., rtol=...))"
 )
 
 class AccuracyWarning(UserWarning):

@@ -32,8 +32,10 @@ import scipy.linalg as sla
 import scipy.sparse as sp
 
 from femb import assembly
-from femb.errors import (SINGULAR_HINT, SINGULAR_HINT_DIVERGED, SINGULAR_HINT_INDEPENDENT, InitializationError,
-                         InitialMoveWarning, ModelError, RedundantConstraintWarning)  # noqa: F401 (re-exported)
+from femb.errors import (SINGULAR_HINT, SINGULAR_HINT_DIVERGED, SINGULAR_HINT_INDEPENDENT, SINGULAR_HINT_STEP,
+                         InitializationError,
+                         InitialMoveWarning, InitialVelocityWarning, ModelError,  # noqa: F401 (re-exported)
+                         RedundantConstraintWarning)
 
 #: systems with at most this many unknowns are solved with dense LU
 DENSE_LIMIT = 200
@@ -201,8 +203,10 @@ def singular_hint(model, q, t=0.0, diverged=False):
 
     After a diverging Newton iteration: the step size. Otherwise a rank test
     of Φ_q (:func:`redundancy`): dependent equations are named (redundant
-    joints or a singular position); with independent constraints the cause is
-    a coordinate without mass and stiffness, or the step size.
+    joints or a singular position). With independent constraints, the matrix
+    [[M, Φ_qᵀ], [Φ_q, 0]] decides: regular, the singular iteration matrix comes
+    from its h-dependent terms and the hint names the step size first;
+    singular, a coordinate has neither mass nor a constraint.
 
     Returns
     -------
@@ -217,7 +221,14 @@ def singular_hint(model, q, t=0.0, diverged=False):
     if an.dependent:
         return (f"hint: redundant constraints or a singular (dead-centre) position: {an.message(model)}; "
                 "remove the dependent joints or compile with redundant=\"eliminate\"")
-    return SINGULAR_HINT_INDEPENDENT
+    try:
+        rows = np.nonzero(active_mask(model))[0]
+        M = assembly.mass_matrix(model, q)
+        B = assembly.constraint_jacobian(model, t, q).tocsr()[rows]
+        regular = _solve_augmented(M, B, np.zeros(model.nq), np.zeros(rows.size), "hint") is not None
+    except Exception:                      # the hint must never hide the error it explains
+        return SINGULAR_HINT_INDEPENDENT
+    return SINGULAR_HINT_STEP if regular else SINGULAR_HINT_INDEPENDENT
 
 
 # --------------------------------------------------------------------------
@@ -339,7 +350,15 @@ def consistent_initial_state(model, state=None, *, t0=0.0, phi_tol=1e-12, max_it
     report_move : float
         Bodies moved by more than ``report_move`` × length scale (or turned by
         more than ``report_move`` rad) are listed in an
-        :class:`InitialMoveWarning`.
+        :class:`InitialMoveWarning`. Velocities: when a velocity that was given
+        (a body with a non-zero initial velocity) is changed by the projection
+        by more than ``report_move`` times the run's velocity scale (the largest
+        |v| and L|ω| of the given and the consistent velocities), every body
+        whose velocity changed is listed in an
+        :class:`~femb.errors.InitialVelocityWarning` (a subclass of
+        :class:`InitialMoveWarning`). Bodies given no velocity that a driver or
+        a moving neighbour sets in motion are not a surprise and do not warn
+        alone.
 
     Returns
     -------
@@ -410,6 +429,7 @@ def consistent_initial_state(model, state=None, *, t0=0.0, phi_tol=1e-12, max_it
         if sol is None:
             e = _redundancy_error(model, st.q, t, "cannot make the initial velocities consistent")
             raise e or InitializationError(f"velocity projection: singular constraint Jacobian; {SINGULAR_HINT}")
+        _check_velocity_changes(model, st.qd, sol[0], report_move)
         st.qd = sol[0]
         _, gam = assembly.constraint_rates(model, t, st.q, st.qd)
         gam = gam[rows]
@@ -448,3 +468,55 @@ def _check_moves(model, q0, q, Phi0, labels, act, limit, report_move):
     warnings.warn(f"model '{model.name}': the initial positions were moved onto the constraints: {listing} "
                   f"(largest initial residual in {joints}, {res[order[0]]:.3g})",
                   InitialMoveWarning, stacklevel=4)
+
+
+def body_velocity_changes(model, qd_from, qd_to):
+    """Change of every body's velocity between two velocity vectors.
+
+    Returns
+    -------
+    list of (str, float, float, bool, float)
+        (body name, change of the translational velocity in m/s, change of
+        the angular velocity in rad/s, whether the body had a non-zero
+        velocity in ``qd_from``, the body's velocity scale max(|v|, L|ω|) over
+        both vectors in m/s), for bodies with free velocities, in the order of
+        ``model.bodies``.
+    """
+    L = model.length_scale
+    out = []
+    for name, body in model.bodies.items():
+        node = getattr(body, "node", None)
+        if node is None or node.name not in model.node_vindex:
+            continue
+        vidx = model.node_vindex[node.name]
+        if not np.any(vidx < model.nq):
+            continue
+        a = model.node_velocities(node.name, qd_from)
+        b = model.node_velocities(node.name, qd_to)
+        tr = list(node.translational)
+        rot = [c for c in range(vidx.size) if c not in tr]
+        dv = float(np.linalg.norm(b[tr] - a[tr])) if tr else 0.0
+        dw = float(np.linalg.norm(b[rot] - a[rot])) if rot else 0.0
+        scale = max(float(np.linalg.norm(v[tr])) if tr else 0.0 for v in (a, b))
+        scale = max(scale, max(L * float(np.linalg.norm(v[rot])) if rot else 0.0 for v in (a, b)))
+        out.append((name, dv, dw, bool(np.any(a != 0.0)), scale))
+    return out
+
+
+def _check_velocity_changes(model, qd0, qd, report_move):
+    changes = body_velocity_changes(model, qd0, qd)
+    if not changes:
+        return
+    L = model.length_scale
+    V = max(s for *_, s in changes)
+    if V == 0.0:
+        return
+    tol = report_move * V
+    changed = [(n, dv, dw, given) for n, dv, dw, given, _ in changes if max(dv, L * dw) > tol]
+    if not any(given for *_, given in changed):
+        return
+    listing = ", ".join(f"'{n}' by {dv:.3g} m/s and {dw:.3g} rad/s" + ("" if given else " (given none)")
+                        for n, dv, dw, given in changed)
+    warnings.warn(f"model '{model.name}': the initial velocities were changed to satisfy the constraints "
+                  f"(B q̇ + Φ_t = 0; least change): {listing}. Give consistent initial velocities to keep "
+                  "them as given", InitialVelocityWarning, stacklevel=4)

@@ -262,6 +262,20 @@ def _group_key(e):
     return (type(e), k)
 
 
+def _spatial_element(e):
+    """True for elements that attach to spatial (frame-node) bodies.
+
+    The spatial element library (bodies, joints, forces of ``femb.elements.spatial_*``)
+    and any element type with a true class attribute ``spatial``.
+    """
+    if getattr(type(e), "spatial", False):
+        return True
+    from femb.elements.spatial_bodies import SpatialBody
+    from femb.elements.spatial_forces import _Load
+    from femb.elements.spatial_joints import SpatialPairElement
+    return isinstance(e, (SpatialBody, SpatialPairElement, _Load))
+
+
 def compile_model(mech, *, length_scale=None):
     """Compile a :class:`~femb.mechanism.Mechanism` (see :meth:`Mechanism.compile`)."""
     from femb.elements.bodies import Body
@@ -282,6 +296,13 @@ def compile_model(mech, *, length_scale=None):
             if id(ref) not in members:
                 raise ModelError(f"{type(owner).__name__} '{owner.name}': {role} refers to body "
                                  f"'{ref.name}', which was not added to mechanism '{mech.name}'")
+            if not _spatial_element(owner) and getattr(getattr(ref, "node", None), "rotation_blocks", ()):
+                raise ModelError(
+                    f"{type(owner).__name__} '{owner.name}': {role} = '{ref.name}' is a spatial body "
+                    f"({type(ref).__name__}); {type(owner).__name__} is a planar element (it acts on x, y, θ) "
+                    "and cannot be attached to a spatial body: planar and spatial elements cannot be joined. "
+                    "Use the spatial element types (SphericalJoint, RevoluteJoint, PointSpringDamper, "
+                    "SpatialForce, SpatialTorque, ...; docs/spatial.md)")
             return ref
         return lookup
 

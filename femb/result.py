@@ -8,6 +8,18 @@ import numpy as np
 from femb.errors import ModelError
 
 
+#: reaction components of a planar joint (:meth:`Result.series`): force (N) and moment (N·m) on body b
+PLANAR_REACTIONS = ("Fx", "Fy", "M")
+#: reaction components of a spatial joint: force (N) and moment (N·m) on body b, space axes
+SPATIAL_REACTIONS = ("Fx", "Fy", "Fz", "Mx", "My", "Mz")
+
+
+def _rot2(th, s):
+    """R(θ) s for θ of shape (nt,) and s of shape (2,) -> (nt, 2)."""
+    c, sn = np.cos(th), np.sin(th)
+    return np.stack((c * s[0] - sn * s[1], sn * s[0] + c * s[1]), axis=-1)
+
+
 @dataclass
 class Result:
     """Stored steps of a simulation.
@@ -16,7 +28,12 @@ class Result:
     ----------
     model : Model
     t : ndarray, shape (nt,)
-    q, qd, qdd : ndarray, shape (nt, nq)
+    q : ndarray, shape (nt, nx)
+        Free configuration entries (nx = nq without spatial rotations; a free
+        spatial frame node has 7: position and unit quaternion).
+    qd, qdd : ndarray, shape (nt, nq)
+        Velocities and accelerations (a spatial frame node: ṙ in space axes,
+        Ω in body axes, and their derivatives).
     lam : ndarray, shape (nt, nc)
     newton_iterations : ndarray of int, shape (nsteps,)
         Newton iterations of every step taken (not only the stored ones).
@@ -85,7 +102,12 @@ class Result:
             raise ModelError(f"no body/node named '{name}' (known: {sorted(self.model.node_index)})") from None
 
     def position(self, body, point=(0.0, 0.0)):
-        """Inertial position of a body point over time, shape (nt, 2) (same as :meth:`point`)."""
+        """Inertial position of a body point over time (same as :meth:`point`).
+
+        Returns
+        -------
+        ndarray, shape (nt, 2) for planar bodies, (nt, 3) (space axes) for spatial ones
+        """
         return self.point(body, point)
 
     def _body(self, body):
@@ -190,8 +212,11 @@ class Result:
         """Lagrange multipliers of a joint over time, shape (nt, nc_element).
 
         For a :class:`~femb.elements.Hinge` these are the force components the
-        joint exerts on its body ``b`` (and minus that on body ``a``). See
-        :meth:`reaction_at` for the force *and moment* at a point.
+        joint exerts on its body ``b`` (and minus that on body ``a``); for a
+        :class:`~femb.elements.SphericalJoint` the force on b in space axes;
+        other joints' multipliers are listed in docs/conventions.md and
+        docs/spatial.md. See :meth:`reaction_at` for the force *and moment* at
+        a point, whatever the joint's equations.
 
         Raises
         ------
@@ -233,19 +258,24 @@ class Result:
     def reaction_at(self, joint, point=None, on="b"):
         """Force and moment a joint exerts on one of its bodies, about a point, over time.
 
-        Computed from the generalized constraint force −Φ_qᵀλ of the joint's
-        own equations on the body's coordinates (x, y, θ): the force (F_x,
-        F_y) and the moment about the body's node, moved to the point P by
+        Computed from the joint's own constraint kernel, evaluated once for all
+        stored steps: the generalized constraint force −B_bᵀλ of the joint's
+        equations on the coordinates of body ``on`` (B_b the columns of that
+        body's node in the joint's Jacobian B = ∂Φ/∂q). Its force part is the
+        force; its moment part (about the node) is moved to the point P by
         M_P = M_node + (r_node − r_P) × F. The force and moment on the other
         body are the opposite (about the same inertial point), since a joint's
-        equations depend only on the relative position of its bodies.
+        equations depend only on the relative position of its bodies. Nothing
+        depends on which multiplier stands for what, so the result holds for
+        any choice of a joint's equations.
 
         Parameters
         ----------
         joint : str
             A joint or driven constraint.
-        point : str or (x, y), optional
-            Point of body ``on`` (name or body-frame coordinates) about which
+        point : str or (x, y) or (x, y, z), optional
+            Point of body ``on`` (name or body-frame coordinates: (x, y) on a
+            planar body, (x, y, z) in body axes on a spatial one) about which
             the moment is taken; default: the joint's point on that body (its
             node for joints without one).
         on : {"b", "a"}
@@ -253,80 +283,85 @@ class Result:
 
         Returns
         -------
-        ndarray, shape (nt, 3)
-            F_x, F_y (N) in the inertial frame and M_z (N·m, counter-clockwise);
-            for a spatial joint shape (nt, 6): F_x, F_y, F_z (N) and M_x, M_y,
-            M_z (N·m) in space axes, the moment about the point.
+        ndarray
+            Planar joint, shape (nt, 3): F_x, F_y (N) in the inertial frame and
+            M_z (N·m, counter-clockwise). Spatial joint, shape (nt, 6): F_x,
+            F_y, F_z (N) and M_x, M_y, M_z (N·m), all in space (inertial) axes,
+            the moment about the point.
         """
-        from femb import assembly
-
-        idx = self._joint(joint)
+        self._joint(joint)
         if on not in ("a", "b"):
             raise ModelError(f"reaction_at: on must be 'a' or 'b', got {on!r}")
         e = self._element(joint)
-        m = self.model
-        body = e.b if on == "b" else e.a
-        other = e.a if on == "b" else e.b
-        if getattr(getattr(body, "node", None), "rotation_blocks", ()):
-            return self._reaction_at_spatial(e, idx, body, other, point, on)
+        body = getattr(e, on, None)
+        node = getattr(body, "node", None)
+        if node is None:
+            raise ModelError(f"reaction_at: {type(e).__name__} '{joint}' has no body '{on}' with a node")
+        spatial = bool(getattr(node, "rotation_blocks", ()))
         if point is None:
-            s = getattr(e, "sb" if on == "b" else "sa", None)
-            s = np.zeros(2) if s is None else np.asarray(s, dtype=float)
-        else:
-            s = body.local(point)
-        free_idx = m.node_index[body.node.name]
-        sign = 1.0
-        src = body
-        if not np.any(free_idx < m.nq):          # body fixed (ground): from the other body, opposite
-            src, sign = other, -1.0
-        sidx = m.node_index[src.node.name]
-        out = np.zeros((self.t.size, 3))
-        P = self._point_series(body.name, s)
-        for k, (t, q, lam) in enumerate(zip(self.t, self.q, self.lam)):
-            B = assembly.constraint_jacobian(m, t, q).tocsr()[idx]
-            g = -(B.T @ lam[idx])
-            gen = np.array([g[i] if i < m.nq else 0.0 for i in sidx])
-            xs = m.node_coordinates(src.node.name, q)
-            F = gen[:2]
-            Mn = gen[2] if gen.size > 2 else 0.0
-            d = xs[:2] - P[k]
-            out[k, :2] = sign * F
-            out[k, 2] = sign * (Mn + d[0] * F[1] - d[1] * F[0])
-        return out
-
-    def _frame_series(self, node):
-        """(r (nt, 3), R (nt, 3, 3)) of a spatial node, fixed ones included."""
-        from femb.rotations import quat_to_matrix
-        x = self.model.node_coordinates(node.name, self.q)
-        R = np.array([quat_to_matrix.py_func(np.ascontiguousarray(p)) for p in x[:, 3:7]])
-        return x[:, 0:3], R
-
-    def _reaction_at_spatial(self, e, idx, body, other, point, on):
-        """:meth:`reaction_at` for spatial joints: (nt, 6) = force (N) and moment (N·m), space axes."""
-        from femb import assembly
-
-        m = self.model
-        if point is None:
-            s = np.asarray(getattr(e, "Xb" if on == "b" else "Xa", np.zeros(3)), dtype=float)
+            s = getattr(e, ("Xb" if on == "b" else "Xa") if spatial else ("sb" if on == "b" else "sa"), None)
+            s = np.zeros(3 if spatial else 2) if s is None else np.asarray(s, dtype=float)
+        elif spatial:
+            s = np.asarray(self._local(body.name, point) if body.name in self.model.bodies
+                           else body.local(point), dtype=float)
         else:
             s = np.asarray(body.local(point), dtype=float)
-        sign, src = 1.0, body
-        if not np.any(m.node_vindex[body.node.name] < m.nq):     # fixed body: from the other, opposite
-            sign, src = -1.0, other
-        r_b, R_b = self._frame_series(body.node)
-        P = r_b + R_b @ s
-        r_s, R_s = self._frame_series(src.node)
-        vidx = m.node_vindex[src.node.name]
-        out = np.zeros((self.t.size, 6))
-        for k, (t, q, lam) in enumerate(zip(self.t, self.q, self.lam)):
-            B = assembly.constraint_jacobian(m, t, q).tocsr()[idx]
-            g = -(B.T @ lam[idx])
-            gen = np.array([g[i] if i < m.nq else 0.0 for i in vidx])
-            F = gen[0:3]
-            M_node = R_s[k] @ gen[3:6]            # the rotation entries are body-axes moments
-            out[k, 0:3] = sign * F
-            out[k, 3:6] = sign * (M_node + np.cross(r_s[k] - P[k], F))
-        return out
+        gen = self._constraint_force_on(e, node)
+        x = self.model.node_coordinates(node.name, self.q)
+        if spatial:
+            from femb.elements._spatial_geometry import rotate, rotation_matrices
+            R = rotation_matrices(x[:, 3:7])
+            F = gen[:, 0:3]
+            d = R @ s                             # r_P − r_node
+            M = rotate(R, gen[:, 3:6]) - np.cross(d, F)
+            return np.hstack((F, M))
+        d = _rot2(x[:, 2], s)
+        F = gen[:, 0:2]
+        Mz = gen[:, 2] - (d[:, 0] * F[:, 1] - d[:, 1] * F[:, 0])
+        return np.column_stack((F, Mz))
+
+    def _constraint_force_on(self, e, node):
+        """−B_nᵀλ of element ``e``'s equations on the velocity entries of ``node``, every stored step.
+
+        Returns
+        -------
+        ndarray, shape (nt, nv)
+            nv = 3 for a planar node ((F_x, F_y) in the inertial frame, M_z about
+            the node), 6 for a spatial frame node ((F_x, F_y, F_z) in space axes,
+            the moment about the node in *body* axes).
+        """
+        from femb import kernels
+
+        m = self.model
+        for g in m.constraint_groups:
+            rows = [k for k, el in enumerate(g.elements) if el is e]
+            if rows:
+                break
+        else:
+            raise ModelError(f"no constraint element named '{e.name}'")
+        k = rows[0]
+        nt = self.t.size
+        xdofs = g.xdofs[k]
+        xe = np.empty((nt, xdofs.size))
+        free = xdofs < m.nx
+        xe[:, free] = self.q[:, xdofs[free]]
+        xe[:, ~free] = m.q_fixed[xdofs[~free] - m.nx]
+        le = np.ascontiguousarray(self.lam[:, g.lam[k]])
+        fns = g.time_functions[k] if g.time_functions else []
+        tf = np.zeros((nt, len(fns), 3))
+        for j, fn in enumerate(fns):
+            tf[:, j, 0] = [fn.f(t) for t in self.t]
+            tf[:, j, 1] = [fn.df(t) for t in self.t]
+            tf[:, j, 2] = [fn.ddf(t) for t in self.t]
+        P = np.ascontiguousarray(np.broadcast_to(g.P[k], (nt, g.P.shape[1])))
+        Phi = np.zeros((nt, g.nc))
+        B = np.zeros((nt, g.nc, g.ndv))
+        H = np.zeros((nt, g.ndv, g.ndv))       # kernels may index it per row even without jac
+        kernels._kernel(g, "constraint")(P, float(self.t[0]) if nt else 0.0, tf,
+                                         np.ascontiguousarray(xe), le, False, Phi, B, H)
+        vidx = m.node_vindex[node.name]
+        cols = [int(np.nonzero(g.dofs[k] == i)[0][0]) for i in vidx]
+        return -np.einsum("tkc,tk->tc", B[:, :, cols], le)
 
     def write_vtk(self, directory, every=1, basename="frame"):
         """Write the stored steps as a ParaView time series (``.pvd`` + ``.vtu``); returns the ``.pvd`` path."""
@@ -401,14 +436,72 @@ class Result:
         return energy_balance(self)
 
     # ------------------------------------------------------------------ named outputs
+    def _nodes(self):
+        """Every node of the model by name ({name: node})."""
+        m = self.model
+        out = {}
+        for b in m.bodies.values():
+            nd = getattr(b, "node", None)
+            if nd is not None:
+                out[nd.name] = nd
+        for g in m.groups:
+            for e in g.elements:
+                for nd in e.nodes():
+                    out.setdefault(nd.name, nd)
+        return out
+
+    def _reaction_joints(self):
+        """{joint name: its reaction names} of the constraint elements between two bodies."""
+        out = {}
+        for g in self.model.constraint_groups:
+            for e in g.elements:
+                nb = getattr(getattr(e, "b", None), "node", None)
+                if nb is None or getattr(getattr(e, "a", None), "node", None) is None:
+                    continue
+                out[e.name] = SPATIAL_REACTIONS if getattr(nb, "rotation_blocks", ()) else PLANAR_REACTIONS
+        return out
+
     def outputs(self):
-        """Names of the outputs :meth:`series` knows for this model (coordinates, velocities, multipliers)."""
+        """Names of the outputs :meth:`series` knows for this model.
+
+        Per free node coordinate its value and, for planar nodes and the
+        translations of spatial ones, ``_d`` and ``_dd`` (velocity,
+        acceleration); per spatial rotation its quaternion components
+        (``p0`` … ``p3``) and the angular velocity (``Omega_x`` … in body axes,
+        ``omega_x`` … in space axes, each with ``_d``); every multiplier; the
+        reaction of every joint between two bodies (``Fx``, ``Fy``, ``M``
+        planar; ``Fx`` … ``Mz`` spatial); the energies.
+
+        Returns
+        -------
+        list of str
+        """
         m = self.model
         names = []
-        for lab in m.coord_labels:
-            names += [lab, lab + "_d", lab + "_dd"]
+        nodes = self._nodes()
+        for nname in m.node_names:
+            idx = m.node_index[nname]
+            nd = nodes.get(nname)
+            cn = tuple(getattr(nd, "coord_names", ()))
+            if len(cn) != idx.size:
+                cn = tuple(str(c) for c in range(idx.size))
+            blocks = tuple(getattr(nd, "rotation_blocks", ()))
+            quat = {c for xs, _ in blocks for c in range(xs, xs + 4)}
+            for c in range(idx.size):
+                if idx[c] >= m.nx:
+                    continue
+                lab = f"{nname}.{cn[c]}"
+                names += [lab] if c in quat else [lab, lab + "_d", lab + "_dd"]
+            vidx = m.node_vindex[nname]
+            for _, vs in blocks:
+                if vidx[vs] < m.nq:
+                    for kind in ("Omega", "omega"):
+                        for comp in "xyz":
+                            names += [f"{nname}.{kind}_{comp}", f"{nname}.{kind}_{comp}_d"]
         from femb.initial import constraint_labels
         names += [f"{el}.{eq}" for el, eq in constraint_labels(m)]
+        for el, comps in self._reaction_joints().items():
+            names += [f"{el}.{c}" for c in comps]
         names += [f"energy.{k}" for k in ("kinetic", "gravitational", "elastic", "work_loads",
                                           "work_drives", "dissipated", "total", "balance")]
         return names
@@ -419,20 +512,43 @@ class Result:
         Names
         -----
         ``"<body>.x"``, ``".y"``, ``".theta"``
-            A coordinate (m, rad); append ``_d`` / ``_dd`` for its velocity /
-            acceleration (``"bar.theta_d"``).
-        ``"<body>.<point>.x"`` / ``".y"`` (and ``_d``, ``_dd``)
+            A planar coordinate (m, rad); append ``_d`` / ``_dd`` for its
+            velocity / acceleration (``"bar.theta_d"``).
+        ``"<body>.x"``, ``".y"``, ``".z"`` (and ``_d``, ``_dd``)
+            The position of a spatial body's node in space axes (m, m/s, m/s²).
+        ``"<body>.p0"`` … ``".p3"``
+            The unit quaternion of a spatial body (dimensionless, unit ``"1"``).
+        ``"<body>.Omega_x"`` … ``".Omega_z"`` / ``"<body>.omega_x"`` … ``".omega_z"``
+            Angular velocity of a spatial body in body axes (Ω) / space axes
+            (ω = RΩ) (rad/s); ``_d``: the angular acceleration in the same axes
+            (rad/s²).
+        ``"<body>.<point>.x"`` / ``".y"`` (``".z"`` on spatial bodies; and ``_d``, ``_dd``)
             A named point of a body (:meth:`point`, :meth:`point_velocity`,
-            :meth:`point_acceleration`).
+            :meth:`point_acceleration`), inertial axes.
         ``"<joint>.<equation>"``
             A multiplier (``"pivot.x"``; equation names as in
             ``constraint_names`` of the joint type; unit from its
             ``constraint_units`` when the type declares them, e.g. N·m for the
             lock rows of spatial joints, else ``"λ"``).
-        ``"<joint>.Fx"``, ``".Fy"``, ``".M"``
-            Reaction force and moment on body b at the joint's point (:meth:`reaction_at`).
+        ``"<joint>.Fx"``, ``".Fy"``, ``".M"`` (planar joints)
+            Reaction force (N) and moment (N·m, counter-clockwise) of the joint
+            on its body b, about the joint's point on b (:meth:`reaction_at`).
+        ``"<joint>.Fx"``, ``".Fy"``, ``".Fz"``, ``".Mx"``, ``".My"``, ``".Mz"`` (spatial joints)
+            Reaction force (N) and moment (N·m) of the joint on its body b,
+            space axes, the moment about the joint's point on b
+            (:meth:`reaction_at`).
         ``"energy.<kind>"``
             An energy of :meth:`energy` (J).
+
+        Returns
+        -------
+        values : ndarray, shape (nt,)
+        unit : str
+
+        Raises
+        ------
+        ModelError
+            If the name is not an output of this model (see :meth:`outputs`).
         """
         m = self.model
         if not isinstance(name, str):
@@ -455,19 +571,41 @@ class Result:
                 base, deriv = rest[:-len(suffix)], d
                 break
         if owner in m.node_index:
-            node_coords = None
+            nd = self._nodes().get(owner)
             body = m.bodies.get(owner)
-            coord_names = getattr(getattr(body, "node", None), "coord_names", ("x", "y", "theta"))
+            coord_names = tuple(getattr(nd, "coord_names", ("x", "y", "theta")))
+            blocks = tuple(getattr(nd, "rotation_blocks", ()))
+            quat = {coord_names[c] for xs, _ in blocks for c in range(xs, xs + 4)}
+            if base in quat:
+                if deriv:
+                    raise ModelError(f"output '{name}': quaternion components have no stored derivatives; "
+                                     f"read the angular velocity '{owner}.Omega_x' … or '{owner}.omega_x' …")
+                i = coord_names.index(base)
+                return m.node_coordinates(owner, self.q)[:, i], "1"
+            if blocks and base[:-1] in ("Omega_", "omega_") and base[-1] in "xyz" and deriv < 2:
+                xs, vs = blocks[0]
+                arr = self.qd if deriv == 0 else self.qdd
+                W = m.node_velocities(owner, arr)[:, vs:vs + 3]
+                if base.startswith("omega"):
+                    from femb.elements._spatial_geometry import rotate, rotation_matrices
+                    W = rotate(rotation_matrices(m.node_coordinates(owner, self.q)[:, xs:xs + 4]), W)
+                return W[:, "xyz".index(base[-1])].copy(), ("rad/s", "rad/s²")[deriv]
             if base in coord_names:
-                node_coords = self.body(owner, ("q", "qd", "qdd")[deriv])
-                i = list(coord_names).index(base)
+                i = coord_names.index(base)
+                if deriv == 0:
+                    vals = m.node_coordinates(owner, self.q)[:, i]
+                else:
+                    tr = list(getattr(nd, "translational", range(len(coord_names))))
+                    j = i if not blocks else getattr(nd, "translational")[tr.index(i)]
+                    vals = m.node_velocities(owner, (self.qd, self.qdd)[deriv - 1])[:, j]
                 unit = ("rad" if base == "theta" else "m") + ("", "/s", "/s²")[deriv]
-                return node_coords[:, i], unit
+                return vals, unit
             if body is not None and "." in base:
                 pt, comp = base.rsplit(".", 1)
-                if pt in body.points and comp in ("x", "y"):
+                axes = "xyz" if blocks else "xy"
+                if pt in body.points and comp in axes:
                     f = (self.point, self.point_velocity, self.point_acceleration)[deriv]
-                    return f(owner, pt)[:, "xy".index(comp)], ("m", "m/s", "m/s²")[deriv]
+                    return f(owner, pt)[:, axes.index(comp)], ("m", "m/s", "m/s²")[deriv]
         if owner in m.lam_index and deriv == 0:
             idx = m.lam_index[owner]
             if idx.size:
@@ -476,9 +614,13 @@ class Result:
                 for i in idx:
                     if labels[i][1] == base:
                         return self.lam[:, i].copy(), _multiplier_unit(m, i)
-                if base in ("Fx", "Fy", "M"):
-                    r = self.reaction_at(owner)
-                    return r[:, ("Fx", "Fy", "M").index(base)], ("N", "N", "N·m")[("Fx", "Fy", "M").index(base)]
+                comps = self._reaction_joints().get(owner, ())
+                if base in comps:
+                    k = comps.index(base)
+                    return self.reaction_at(owner)[:, k].copy(), ("N·m" if base.startswith("M") else "N")
+                if base in PLANAR_REACTIONS + SPATIAL_REACTIONS:
+                    raise ModelError(f"output '{name}': the reaction of '{owner}' has the components "
+                                     f"{', '.join(comps) or 'none'} (see Result.outputs())")
         raise ModelError(f"output '{name}': '{owner}' has no output '{rest}' (see Result.outputs())")
 
     def to_pandas(self, outputs=None):
@@ -487,7 +629,9 @@ class Result:
         Parameters
         ----------
         outputs : list of str, optional
-            Output names; default: every coordinate, velocity and multiplier.
+            Output names; default: every output of :meth:`outputs` except
+            accelerations (``_dd``) and energies: coordinates, velocities,
+            multipliers and joint reactions.
 
         Raises
         ------
@@ -500,9 +644,10 @@ class Result:
             raise ModelError("Result.to_pandas needs pandas: pip install 'femb[pandas]'") from None
         if outputs is None:
             outputs = [n for n in self.outputs() if not n.endswith("_dd") and not n.startswith("energy.")]
-        data = {n: self.series(n)[0] for n in outputs}
-        df = pd.DataFrame(data, index=pd.Index(np.asarray(self.t), name="t"))
-        df.attrs["units"] = {n: self.series(n)[1] for n in outputs} if len(outputs) < 64 else {}
+        outputs = list(outputs)
+        series = {n: self.series(n) for n in outputs}
+        df = pd.DataFrame({n: v for n, (v, _) in series.items()}, index=pd.Index(np.asarray(self.t), name="t"))
+        df.attrs["units"] = {n: u for n, (_, u) in series.items()}
         return df
 
     def plot(self, outputs, file=None, *, title=None):

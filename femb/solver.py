@@ -728,6 +728,10 @@ def simulate(model, t_end, h=None, *, rtol=None, atol=None, h0=None, h_max=None,
     else:
         n_steps = max(1, int(round((t_end - t0) / h)))
         h_fixed = (t_end - t0) / n_steps
+        if h > t_end - t0:
+            from femb.errors import ParameterWarning
+            warnings.warn(f"the step h = {h:.3g} s is longer than the run (t_end − t0 = {t_end - t0:.3g} s): one "
+                          f"step of {h_fixed:.3g} s is taken. Use a smaller h", ParameterWarning, stacklevel=2)
     if t_eval is not None:
         t_eval = np.asarray(t_eval, dtype=float).reshape(-1)
         if t_eval.size == 0 or not np.all(np.isfinite(t_eval)) or np.any(np.diff(t_eval) < 0) \
@@ -822,8 +826,49 @@ def simulate(model, t_end, h=None, *, rtol=None, atol=None, h0=None, h_max=None,
             warnings.warn(msg, AccuracyWarning, stacklevel=2)
     n = solver.step_index
     how = "adaptive steps" if adaptive else "steps"
-    return result("success", f"reached t = {T[-1]:.6g} s in {n} {how}"
-                  + (f" ({solver.si[4]} rejected)" if adaptive else ""))
+    res = result("success", f"reached t = {T[-1]:.6g} s in {n} {how}"
+                 + (f" ({solver.si[4]} rejected)" if adaptive else ""))
+    if not adaptive and solver.check_every and n <= solver.check_every and solver.sf[8] != solver.sf[8]:
+        _short_run_check(solver, T, Q, QD, h_fixed)
+    return res
+
+
+def _short_run_check(solver, T, Q, QD, h):
+    """The fixed-step check of the compiled loop for runs too short for it (≤ ``check_every`` steps).
+
+    The loop compares the constrained accelerations q̈ᵖᵖ of two consecutive steps
+    every ``check_every`` steps (e_q = C_q h² Δq̈ᵖᵖ); a shorter run never gets there.
+    Here the same estimate is formed from the stored states (consecutive steps
+    with ``stride=1``; otherwise the difference over Δt is scaled to one step,
+    h/Δt), and an :class:`~femb.errors.AccuracyWarning` is raised as the loop's
+    would be.
+    """
+    from femb.errors import AccuracyWarning
+    model = solver.model
+    if len(T) < 2:
+        return
+    KB = np.zeros_like(solver.AB)
+    kp = np.zeros_like(solver.ipiv)
+    try:
+        qpp = [solver._qpp(t, np.array(q), np.array(qd), KB, kp) for t, q, qd in zip(T, Q, QD)]
+    except SingularMatrixError:            # a singular stored state: no estimate, the run itself stands
+        return
+    worst, t_worst = 0.0, T[0]
+    for k in range(len(T) - 1):
+        dt = T[k + 1] - T[k]
+        if not dt > 0.0:
+            continue
+        eq = solver.Cq * h * h * (qpp[k + 1] - qpp[k]) * (h / dt)
+        w = solver.atol + solver.rtol * np.maximum(model.magnitude(Q[k]), model.magnitude(Q[k + 1]))
+        err = float(np.sqrt(np.mean((eq / w) ** 2)))
+        if err > worst:
+            worst, t_worst = err, T[k + 1]
+    if worst > solver.warn_factor:
+        warnings.warn(
+            f"the fixed step h = {h:.3g} s looks far too large: the local error estimate reached {worst:.3g} times "
+            f"the tolerance (rtol = {solver.rtol:g}, atol = {float(solver.atol.max()):g}) at t = {t_worst:.6g} s "
+            f"(checked after this short run of {len(T) - 1} stored steps); the result may be wrong. Use a smaller h "
+            "or adaptive steps (simulate(..., rtol=...))", AccuracyWarning, stacklevel=3)
 
 
 def _interpolated(res, t_eval):

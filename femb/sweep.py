@@ -320,7 +320,7 @@ def parse_grid_spec(text):
     ParameterError
         With a one-line message naming the spec.
     """
-    from femb.cli import parse_value
+    from femb.parsing import parse_value
 
     name, sep, rest = str(text).partition("=")
     name = name.strip()

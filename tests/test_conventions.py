@@ -130,13 +130,21 @@ def test_clamp_force_on_b_and_minus_torque_on_b():
 
 
 def test_every_constraint_type_is_covered():
-    """A new constraint type in femb.elements needs its convention here and in docs/conventions.md."""
+    """A new constraint type in femb.elements needs its convention here and in docs/conventions.md
+    (planar) or in the joint table of docs/spatial.md (spatial joints)."""
     import femb.elements as el
     from femb.element import Element
 
     types = {n for n in el.__all__ if isinstance(getattr(el, n), type) and issubclass(getattr(el, n), Element)
              and getattr(el, n).n_constraints > 0}
-    assert types == {"Hinge", "Slider", "PointOnLine", "DrivenAngle", "DrivenDisplacement", "Clamp"}
+    spatial = {n for n in types if getattr(el, n).__module__ == "femb.elements.spatial_joints"}
+    assert types - spatial == {"Hinge", "Slider", "PointOnLine", "DrivenAngle", "DrivenDisplacement", "Clamp"}
+    # the spatial joints' multipliers are tabulated in docs/spatial.md (joint | rows | λ)
+    import re
+    from pathlib import Path
+    text = (Path(__file__).resolve().parents[1] / "docs" / "spatial.md").read_text(encoding="utf-8")
+    rows = {m.group(1) for m in re.finditer(r"^\| `(\w+)[`(]", text, re.M)}
+    assert spatial and spatial <= rows, sorted(spatial - rows)
 
 
 def test_conventions_page_names_every_type_and_existing_tests():
