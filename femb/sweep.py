@@ -682,18 +682,31 @@ def read_results(path):
     Returns
     -------
     pandas.DataFrame
-        Rows of all chunk files, the first row of each case id kept, sorted by ``case``.
+        Rows of all chunk files, the first row of each case id kept, sorted by ``case``;
+        ``df.attrs`` restored from the directory's ``_sweep.json`` as :func:`sweep` returns
+        it (``parameters``, the varied names; ``fixed``; ``outputs``; ``seed``; ``out``), so
+        that :func:`plot_results` and :func:`output_columns` tell parameters from outputs.
     """
     import pandas as pd
     import pyarrow.parquet as pq
 
     files = _part_files(path)
     if not files:
-        return pd.DataFrame(columns=["case", "case_id"])
-    frames = [pq.read_table(f).to_pandas() for f in files]
-    df = pd.concat(frames, ignore_index=True, sort=False)
-    df = df.drop_duplicates("case_id", keep="first")
-    return df.sort_values("case", kind="stable").reset_index(drop=True)
+        df = pd.DataFrame(columns=["case", "case_id"])
+    else:
+        frames = [pq.read_table(f).to_pandas() for f in files]
+        df = pd.concat(frames, ignore_index=True, sort=False)
+        df = df.drop_duplicates("case_id", keep="first")
+        df = df.sort_values("case", kind="stable").reset_index(drop=True)
+    manifest = Path(path) / MANIFEST
+    if manifest.is_file():
+        try:
+            meta = json.loads(manifest.read_text())
+        except (OSError, ValueError):
+            meta = {}
+        df.attrs.update(parameters=list(meta.get("parameters") or []), fixed=list(meta.get("fixed") or []),
+                        outputs=list(meta.get("outputs") or []), seed=meta.get("seed"), out=str(path))
+    return df
 
 
 class _Writer:
@@ -841,9 +854,9 @@ def sweep(scene, *, grid=None, cases=None, samples=None, ranges=None, sampling="
         Fixed ``build()`` keywords of every case.
     t_end, h, rtol, atol, rho_inf : float, optional
         Run settings of every case (a case may override any of them). ``t_end``,
-        ``h`` and ``rho_inf`` default to the scene's ``DEFAULTS``; ``h`` is
-        left out when ``rtol`` is given and :func:`femb.simulate` accepts a
-        missing ``h`` (adaptive steps). Each is passed to
+        ``h`` and ``rho_inf`` default to the scene's ``DEFAULTS``; with ``rtol``
+        (or ``atol``) a case runs with adaptive steps and the scene's ``h`` is
+        left out (a given ``h`` is then the first step). Each is passed to
         :func:`femb.simulate` only when set.
     solver_options : dict, optional
         Further keywords of :func:`femb.simulate` (``scaling``, ``max_iter``, ...).

@@ -241,6 +241,12 @@ def test_interrupt_then_resume(client, tmp_path):
     assert len(df) == 6 and df["case_id"].is_unique and (df["status"] == "success").all()
     on_disk = read_results(out)
     assert len(on_disk) == 6 and set(on_disk["case_id"]) == set(df["case_id"])
+    # the design comes back with the rows: parameters are not taken for outputs
+    from femb.sweep import output_columns, plot_results
+    assert on_disk.attrs["parameters"] == ["k"] and on_disk.attrs["outputs"] == df.attrs["outputs"]
+    assert output_columns(on_disk, on_disk.attrs["parameters"]) == output_columns(df, df.attrs["parameters"])
+    assert "k" not in output_columns(on_disk)
+    plot_results(on_disk, tmp_path / "plot.png")
     # kept rows are those of the first run, not recomputed
     merged = on_disk.set_index("case_id").loc[kept["case_id"], "wall_time"]
     assert np.array_equal(merged.to_numpy(), kept["wall_time"].to_numpy())
