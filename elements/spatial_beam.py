@@ -705,6 +705,7 @@ class SpatialBeam(Element):
         circular/helical arc through them).
     """
 
+    spatial = True                    # acts on frame nodes (femb.model: no planar element on them)
     has_mass = True
     constant_mass = True
     has_force = True

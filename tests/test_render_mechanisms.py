@@ -285,3 +285,23 @@ def test_a_beam_kind_is_drawn_as_a_tube(tmp_path):
     for it in pic.items:
         if it.kind != "floor":
             assert inside(pic.camera, it.points)
+
+
+def test_the_spatial_beam_scene_is_drawn_as_tubes(tmp_path):
+    """femb's own SpatialBeam: the right-angle cantilever's elements are drawn as a tube (its
+    element type's kind is 'beam'), inside the picture, with the welded root's ground."""
+    import femb
+    from femb.benchmarks import right_angle_cantilever as rac
+    from femb.io.frames import VTKStream
+
+    mech = rac.build()
+    model = mech.compile() if hasattr(mech, "compile") else mech
+    with VTKStream(model, tmp_path / "vtk", dt=0.5) as vtk:
+        femb.simulate(model, 2.0, 0.05, observer=vtk)
+    pic = picture_scene(vtk.path, window_size=SIZE)
+    beams = [it for it in pic.items if it.kind == "beam"]
+    assert beams and beams[0].label == "SpatialBeam" and beams[0].mesh.n_cells > 20
+    assert any(it.kind == "ground" for it in pic.items)
+    for it in pic.items:
+        if it.kind != "floor":
+            assert inside(pic.camera, it.points)
