@@ -82,6 +82,7 @@ SCENES = {
     "spatial_slider_crank": "femb.benchmarks.spatial_slider_crank",
     "bricard": "femb.benchmarks.bricard",
     "spatial_double_pendulum": "femb.benchmarks.spatial_double_pendulum",
+    "rigid_chain_3d": "femb.benchmarks.rigid_chain_3d",
 }
 
 #: Run settings used for a scene file without DEFAULTS (only ρ∞; t_end and h must be given).
