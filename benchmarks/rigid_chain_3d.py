@@ -202,7 +202,7 @@ EXUDYN_NEWTON = {"relativeTolerance": 1e-10, "absoluteTolerance": 1e-12}
 
 
 def exudyn_solve(n=PARAMS["n"], t_end=1.0, h=1e-3, rho_inf=0.8, record=(), record_every=None,
-                 threads=1, modified_newton=True, newton=EXUDYN_NEWTON):
+                 threads=1, modified_newton=True, newton=EXUDYN_NEWTON, node_type="EulerParameters"):
     """Integrate the chain with Exudyn's index-3 generalized-α (same data as :func:`build`).
 
     The model is built with Exudyn's own items as in perf3DRigidBodies.py: bodies
@@ -225,8 +225,12 @@ def exudyn_solve(n=PARAMS["n"], t_end=1.0, h=1e-3, rho_inf=0.8, record=(), recor
     threads : int
         ``parallel.numberOfThreads`` (1: single-threaded, as femb).
     modified_newton : bool
-    newton : dict
-        ``relativeTolerance``, ``absoluteTolerance`` of Exudyn's Newton.
+    newton : dict or None
+        ``relativeTolerance``, ``absoluteTolerance`` of Exudyn's Newton; None
+        keeps Exudyn's defaults (as perf3DRigidBodies.py does).
+    node_type : str
+        Exudyn's rotation parameters of the body nodes (``exu.NodeType.Rotation<node_type>``);
+        perf3DRigidBodies uses ``"EulerParameters"`` (CreateRigidBody's default).
 
     Returns
     -------
@@ -250,7 +254,8 @@ def exudyn_solve(n=PARAMS["n"], t_end=1.0, h=1e-3, rho_inf=0.8, record=(), recor
     prev, bodies = ground, []
     for i in range(n):
         b = mbs.CreateRigidBody(inertia=inertia, referencePosition=list(centre[i]),
-                                referenceRotationMatrix=R[i], gravity=list(PARAMS["g"]), show=False)
+                                referenceRotationMatrix=R[i], gravity=list(PARAMS["g"]), show=False,
+                                nodeType=getattr(exu.NodeType, "Rotation" + node_type))
         mbs.CreateRevoluteJoint(itemNumbers=[prev, b], position=list(joint[i]), axis=list(axis[i]),
                                 useGlobalFrame=True, show=False)
         bodies.append(b)
@@ -261,6 +266,7 @@ def exudyn_solve(n=PARAMS["n"], t_end=1.0, h=1e-3, rho_inf=0.8, record=(), recor
     mbs.Assemble()
     steps = int(round(t_end / h))
     s = exu.SimulationSettings()
+    warnings.filterwarnings("ignore", category=DeprecationWarning, module=__name__)  # Exudyn 1.13's renames
     ti = s.timeIntegration
     ti.numberOfSteps = steps
     ti.endTime = float(t_end)
@@ -269,8 +275,9 @@ def exudyn_solve(n=PARAMS["n"], t_end=1.0, h=1e-3, rho_inf=0.8, record=(), recor
     ti.generalizedAlpha.useNewmark = False
     ti.generalizedAlpha.computeInitialAccelerations = True
     ti.newton.useModifiedNewton = bool(modified_newton)
-    ti.newton.relativeTolerance = float(newton["relativeTolerance"])
-    ti.newton.absoluteTolerance = float(newton["absoluteTolerance"])
+    if newton is not None:
+        ti.newton.relativeTolerance = float(newton["relativeTolerance"])
+        ti.newton.absoluteTolerance = float(newton["absoluteTolerance"])
     ti.adaptiveStep = False
     ti.verboseMode = 0
     s.linearSolverType = exu.LinearSolverType.EigenSparse
@@ -359,14 +366,21 @@ def compare(n=PARAMS["n"], t_end=1.0, h=1e-3, rho_inf=0.8, times=None, bricks=No
     return out
 
 
+#: Exudyn's Newton settings timed by :func:`measure`: the suite's peer tolerances (as for Andrews'
+#: headline) and perf3DRigidBodies' own (modified Newton, Exudyn's default tolerances).
+EXUDYN_SETTINGS = {"tight": EXUDYN_NEWTON, "default": None}
+
+
 def measure(n=PARAMS["n"], t_end=None, h=1e-3, rho_inf=0.8, runs=5, exudyn=True, threads=1, log=print):
     """ms per step of femb and of Exudyn on the chain, in this process (median of warm runs).
 
-    femb: ``femb.simulate(model, t_end, h, rho_inf, store=False)`` run once
-    (compilation, first call), then ``runs`` times, each timed with
-    ``time.perf_counter`` and divided by its steps. Exudyn: :func:`exudyn_solve`
-    (``SolveDynamic`` timed, model construction excluded) ``runs`` times after
-    one warm-up run.
+    femb: ``femb.simulate(model, t_end, h, rho_inf, store=False)`` (default
+    Newton options), timed with ``time.perf_counter`` and divided by its steps.
+    Exudyn: :func:`exudyn_solve` (``SolveDynamic`` timed, model construction and
+    ``Assemble`` excluded) with modified Newton, in both settings of
+    :data:`EXUDYN_SETTINGS`. Each code runs once untimed (compilation, first
+    call), then the codes are timed in turn ``runs`` times (interleaved, so
+    that load from other processes on a shared machine falls on both).
 
     Parameters
     ----------
@@ -379,55 +393,72 @@ def measure(n=PARAMS["n"], t_end=None, h=1e-3, rho_inf=0.8, runs=5, exudyn=True,
     exudyn : bool
         Time Exudyn too (when installed).
     threads : int
-        Exudyn's ``parallel.numberOfThreads``.
+        Exudyn's ``parallel.numberOfThreads`` (femb runs on one thread).
 
     Returns
     -------
     dict
         ``femb_ms``, ``femb_runs``, ``femb_newton`` (iterations per step),
-        ``exudyn_ms``, ``exudyn_runs``, ``exudyn_newton``, ``ratio`` (femb /
-        Exudyn), ``steps``, ``n``, ``h``, ``t_end``, ``exudyn_version``,
-        ``message``.
+        ``femb_loop_ms`` (the time loop alone per step, ``Result.wall_time``)
+        and ``femb_init_ms`` (consistent initial values per run, included in
+        ``femb_ms``);
+        ``exudyn`` (setting → {``ms``, ``runs``, ``newton`` per step, ``ratio``
+        femb / Exudyn}); ``exudyn_ms`` and ``ratio`` of the ``"tight"``
+        setting (the headline figure); ``steps``, ``n``, ``h``, ``t_end``,
+        ``exudyn_version``, ``message``.
     """
     import femb
 
     t_end = DEFAULTS["t_end"] if t_end is None else float(t_end)
     model = build(n=n).compile()
+    installed, version = exudyn_installed()
+    settings = dict(EXUDYN_SETTINGS) if (exudyn and installed) else {}
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         femb.simulate(model, t_end, h, rho_inf=rho_inf, store=False)     # compile / warm-up
-    fr, res = [], None
+    for nw in settings.values():
+        exudyn_solve(n, t_end, h, rho_inf, threads=threads, newton=nw)  # warm-up
+    fr, loop, er, its, res = [], [], {k: [] for k in settings}, {}, None
+    message = "" if installed else "Exudyn not installed"
     for _ in range(runs):
         t0 = time.perf_counter()
         res = femb.simulate(model, t_end, h, rho_inf=rho_inf, store=False)
         fr.append(1e3 * (time.perf_counter() - t0) / res.steps)
-    out = {"n": int(n), "h": h, "t_end": t_end, "steps": res.steps, "rho_inf": rho_inf,
+        loop.append((1e3 * res.wall_time / res.steps, 1e3 * res.init_time))
+        for key, nw in settings.items():
+            ex = exudyn_solve(n, t_end, h, rho_inf, threads=threads, newton=nw)
+            if not ex["ok"]:
+                message = f"Exudyn ({key}) failed: {ex['message']}"
+                continue
+            er[key].append(1e3 * ex["wall_s"] / ex["steps"])
+            its[key] = None if ex["newton"] is None else ex["newton"] / ex["steps"]
+    out = {"n": int(n), "h": h, "t_end": t_end, "steps": res.steps, "rho_inf": rho_inf, "runs": int(runs),
            "femb_ms": statistics.median(fr), "femb_runs": fr,
-           "femb_newton": float(np.mean(res.newton_iterations)),
-           "exudyn_ms": None, "exudyn_runs": [], "exudyn_newton": None, "ratio": None,
-           "exudyn_version": None, "message": ""}
+           "femb_newton": float(np.mean(res.newton_iterations)), "exudyn": {},
+           "femb_loop_ms": statistics.median(x for x, _ in loop), "femb_init_ms": statistics.median(y for _, y in loop),
+           "exudyn_ms": None, "ratio": None, "exudyn_version": version, "exudyn_threads": int(threads),
+           "message": message}
     log(f"femb: {out['femb_ms']:.3f} ms/step (runs {', '.join(f'{x:.3f}' for x in fr)}), "
-        f"{out['femb_newton']:.2f} Newton iterations/step")
-    installed, version = exudyn_installed()
-    out["exudyn_version"] = version
-    if not exudyn or not installed:
-        out["message"] = "Exudyn not installed" if not installed else "Exudyn not timed"
-        return out
-    exudyn_solve(n, t_end, h, rho_inf, threads=threads)                  # warm-up
-    er, newton = [], None
-    for _ in range(runs):
-        ex = exudyn_solve(n, t_end, h, rho_inf, threads=threads)
-        if not ex["ok"]:
-            out["message"] = f"Exudyn failed: {ex['message']}"
-            return out
-        er.append(1e3 * ex["wall_s"] / ex["steps"])
-        newton = ex["newton"]
-    out.update({"exudyn_ms": statistics.median(er), "exudyn_runs": er,
-                "exudyn_newton": None if newton is None else newton / out["steps"]})
-    out["ratio"] = out["femb_ms"] / out["exudyn_ms"]
-    log(f"Exudyn {version}: {out['exudyn_ms']:.3f} ms/step (runs {', '.join(f'{x:.3f}' for x in er)})"
-        + (f", {out['exudyn_newton']:.2f} Newton iterations/step" if out["exudyn_newton"] is not None else ""))
-    log(f"ratio femb / Exudyn: {out['ratio']:.3f}")
+        f"{out['femb_newton']:.2f} Newton iterations/step; of which time loop {out['femb_loop_ms']:.3f} ms/step, "
+        f"consistent initial values {out['femb_init_ms']:.1f} ms per run")
+    for key, runs_ in er.items():
+        if not runs_:
+            continue
+        ms = statistics.median(runs_)
+        out["exudyn"][key] = {"ms": ms, "runs": runs_, "newton": its.get(key), "ratio": out["femb_ms"] / ms,
+                              "newton_tolerances": "Exudyn defaults" if settings[key] is None else
+                              f"relative {settings[key]['relativeTolerance']:g}, "
+                              f"absolute {settings[key]['absoluteTolerance']:g}"}
+        nit = its.get(key)
+        log(f"Exudyn {version} ({key}: modified Newton, {out['exudyn'][key]['newton_tolerances']}, "
+            f"{threads} thread(s)): {ms:.3f} ms/step (runs {', '.join(f'{x:.3f}' for x in runs_)})"
+            + (f", {nit:.2f} Newton iterations/step" if nit is not None else "")
+            + f"; ratio femb / Exudyn {out['femb_ms'] / ms:.3f}")
+    if "tight" in out["exudyn"]:
+        out["exudyn_ms"] = out["exudyn"]["tight"]["ms"]
+        out["ratio"] = out["exudyn"]["tight"]["ratio"]
+    if message:
+        log(message)
     return out
 
 
