@@ -25,7 +25,8 @@ e44aca1b4fe3e5f4d820ff407fb3fd30b6581c1c):
 
 Outputs (:func:`outputs`): ``x{k}_x, x{k}_y, x{k}_z`` (m, centre of brick k) for
 the first, middle and last brick (k = 0, n // 2, n − 1; ``femb list`` shows the
-names of the default n = 400), ``energy`` (J, kinetic + gravitational; it is
+names of the default n = 400), ``F0_x, F0_y, F0_z`` (N, the force of the ground
+joint J0 on brick 0, space axes: its multipliers λ[0:3]), ``energy`` (J, kinetic + gravitational; it is
 conserved by the model, the scheme dissipates a little at ρ∞ < 1) and
 ``phi_max`` (m, the largest |Φ| over all joint rows at each stored step).
 
@@ -73,8 +74,15 @@ def sample_bricks(n):
 
 OUTPUTS = {**{f"x{k}_{a}": (f"centre of brick {k}, space {a} (k = 0, n // 2, n - 1)", "m")
               for k in sample_bricks(PARAMS["n"]) for a in "xyz"},
+           **{f"F0_{a}": (f"force of J0 (ground) on brick 0, space {a}", "N") for a in "xyz"},
            "energy": ("kinetic + gravitational energy", "J"),
            "phi_max": ("largest |Φ| over all joint rows", "m")}
+
+#: h-convergence study (``femb bench convergence rigid_chain_3d``): the first 0.1 s, centres of the
+#: sampled bricks and the ground joint's force, against femb's own finest run (no independent reference).
+CONVERGENCE = {"t_end": 0.1, "h": [1e-3, 5e-4, 2.5e-4, 1.25e-4],
+               "q": [f"x{k}_{a}" for k in sample_bricks(PARAMS["n"]) for a in "xyz"],
+               "lambda": [f"F0_{a}" for a in "xyz"]}
 
 
 def _rx(a):
@@ -181,6 +189,9 @@ def outputs(result):
         x = result.body(f"brick{k}")
         for i, a in enumerate("xyz"):
             out[f"x{k}_{a}"] = x[:, i]
+    lam = result.reaction("J0")
+    for i, a in enumerate("xyz"):
+        out[f"F0_{a}"] = lam[:, i]
     E = np.zeros(result.t.size)
     for name in names:
         body = model.bodies[name]
