@@ -131,3 +131,20 @@ def test_agrees_with_exudyn(model, run):
         disc = np.linalg.norm(f1[k] - f2[k], axis=1)
         assert np.all(disc > 0)
         assert np.max(diff) < 0.1 * np.max(disc), (k, diff, disc)
+
+
+def test_measure_and_report_section():
+    """The timing driver's record and the suite's section for it (structure only, no timing asserted)."""
+    from femb.benchmarks import suite
+
+    sp = C.measure(n=3, t_end=0.01, runs=3, log=lambda m: None)
+    assert sp["steps"] == 10 and len(sp["femb_runs"]) == 3 and sp["femb_ms"] > 0
+    assert sp["femb_newton"] >= 1.0
+    if peers.status()["exudyn"]["installed"]:
+        assert set(sp["exudyn"]) == set(C.EXUDYN_SETTINGS)
+        assert sp["ratio"] == pytest.approx(sp["femb_ms"] / sp["exudyn"]["tight"]["ms"])
+    else:
+        assert sp["ratio"] is None and sp["message"] == "Exudyn not installed"
+    text = suite._spatial_section(sp)
+    assert "| femb |" in text and ("| Exudyn |" in text)
+    assert "femb" in suite._spatial_sentence(sp)
