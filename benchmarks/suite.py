@@ -343,7 +343,8 @@ def render_report(res):
         L.append("")
         L.append("**Quick mode**: fewer step sizes and tolerances, ρ∞ ∈ {0, 0.5, 0.7, 0.9} with scaling on and "
                  "ρ∞ = 0.7 with scaling off, one timing repeat, stiff-spring and mass-ratio runs over 0.25 s instead "
-                 "of 1 s, long runs of 20,000 steps instead of 1,000,000. Run `femb bench` for the full suite.")
+                 "of 1 s, long runs of 20,000 steps instead of 1,000,000, the spatial per-step timing over 50 steps "
+                 "instead of 1000. Run `femb bench` for the full suite.")
     L.append("")
     L.append("Timing: `time.perf_counter` around the integration call of each code (femb `simulate` including its "
              "consistent initial values; scipy `solve`; Exudyn `SolveDynamic`), model construction excluded, median "
