@@ -23,6 +23,10 @@ e44aca1b4fe3e5f4d820ff407fb3fd30b6581c1c):
 * the performance test integrates t ∈ [0, 1] s with generalized-α, h = 1e-3 s,
   ρ∞ = 0.8 (:data:`DEFAULTS`).
 
+Exudyn's performance log of this test (:data:`EXUDYN_LOG`) gives the last
+brick's displacement and rotation angles at t = 1 s; femb's run with the
+defaults reproduces them to 8 digits (``tests/test_rigid_chain_3d.py``).
+
 Outputs (:func:`outputs`): ``x{k}_x, x{k}_y, x{k}_z`` (m, centre of brick k) for
 the first, middle and last brick (k = 0, n // 2, n − 1; ``femb list`` shows the
 names of the default n = 400), ``F0_x, F0_y, F0_z`` (N, the force of the ground
@@ -65,6 +69,34 @@ PARAMETERS = {"n": ("number of bricks", "-"),
 
 #: Exudyn's perf3DRigidBodies: t ∈ [0, 1] s, h = 1e-3 s, ρ∞ = 0.8.
 DEFAULTS = {"t_end": 1.0, "h": 1e-3, "rho_inf": 0.8}
+
+
+#: Exudyn's own result of perf3DRigidBodies (n = 400, t = 1 s, h = 1e-3 s, ρ∞ = 0.8, modified Newton
+#: with Exudyn's default tolerances, Exudyn 1.10.0): the last brick's displacement u (m) and the
+#: Tait–Bryan xyz angles of its rotation (rad), and the test's result Σ|u| + Σ|angles|, from
+#: ``main/pythonDev/PerformanceLogs/performanceLog_V1.10.0_64bitP3.12linux.txt`` of
+#: github.com/jgerstmayr/EXUDYN (last changed in commit 490e7a9fc9972f13037ed08f006374a889caf2ac).
+EXUDYN_LOG = {"u": (-0.25907236, -0.43030816, 1.09168392), "angles": (0.40213238, 0.8653121, 2.25943439),
+              "result": 5.307943301445478}
+
+
+def rot_xyz(R):
+    """Tait–Bryan angles (φ0, φ1, φ2) with R = R_x(φ0) R_y(φ1) R_z(φ2) (Exudyn's ``Rotation`` output)."""
+    R = np.asarray(R, dtype=float)
+    return np.array([math.atan2(-R[1, 2], R[2, 2]), math.asin(max(-1.0, min(1.0, R[0, 2]))),
+                     math.atan2(-R[0, 1], R[0, 0])])
+
+
+def last_brick_measures(result):
+    """The measures of Exudyn's perf3DRigidBodies at the last stored step: displacement u of the
+    last brick's centre since t0 (m), the xyz angles of its rotation (rad) and Σ|u| + Σ|angles|."""
+    from .spatial_common import rotation_matrices
+
+    n = sum(1 for k in result.model.bodies if k.startswith("brick"))
+    x = result.body(f"brick{n - 1}")
+    u = x[-1, :3] - x[0, :3]
+    ang = rot_xyz(rotation_matrices(x[-1:])[0])
+    return {"u": u, "angles": ang, "result": float(np.abs(u).sum() + np.abs(ang).sum())}
 
 
 def sample_bricks(n):

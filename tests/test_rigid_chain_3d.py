@@ -148,3 +148,25 @@ def test_measure_and_report_section():
     text = suite._spatial_section(sp)
     assert "| femb |" in text and ("| Exudyn |" in text)
     assert "femb" in suite._spatial_sentence(sp)
+
+
+def test_reproduces_exudyn_published_result():
+    """The full 400-brick run to 1 s reproduces Exudyn's logged perf3DRigidBodies result.
+
+    Source: :data:`femb.benchmarks.rigid_chain_3d.EXUDYN_LOG` (Exudyn's performance log, 1.10.0):
+    the last brick's displacement and xyz rotation angles, given there to 8 digits.
+    """
+    scene = registry.load("rigid_chain_3d")
+    d = scene.defaults
+    r = femb.simulate(scene.model(), d["t_end"], d["h"], rho_inf=d["rho_inf"], stride=1000)
+    got = C.last_brick_measures(r)
+    assert np.max(np.abs(got["u"] - np.array(C.EXUDYN_LOG["u"]))) < 1e-7
+    assert np.max(np.abs(got["angles"] - np.array(C.EXUDYN_LOG["angles"]))) < 1e-7
+    assert got["result"] == pytest.approx(C.EXUDYN_LOG["result"], abs=1e-7)
+
+
+def test_rot_xyz_inverts_the_elementary_rotations():
+    a = (0.3, -0.7, 2.5)
+    R = C._rx(a[0]) @ np.array([[np.cos(a[1]), 0, np.sin(a[1])], [0, 1, 0], [-np.sin(a[1]), 0, np.cos(a[1])]]) \
+        @ C._rz(a[2])
+    assert np.allclose(C.rot_xyz(R), a, atol=1e-14)
