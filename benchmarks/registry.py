@@ -83,6 +83,7 @@ SCENES = {
     "bricard": "femb.benchmarks.bricard",
     "spatial_double_pendulum": "femb.benchmarks.spatial_double_pendulum",
     "right_angle_cantilever": "femb.benchmarks.right_angle_cantilever",
+    "rigid_chain_3d": "femb.benchmarks.rigid_chain_3d",
 }
 
 #: Run settings used for a scene file without DEFAULTS (only ρ∞; t_end and h must be given).

@@ -25,6 +25,11 @@ Parts
     Wall time to bring Andrews' seven angles to 1e-6 rad at t = 0.03 s, femb
     against each peer, as ratios; and femb's adaptive steps against its best
     fixed step to the same target (steps and wall time).
+``spatial_per_step``
+    ms per step of femb and of Exudyn on the 400-brick chain of Exudyn's
+    perf3DRigidBodies (:mod:`femb.benchmarks.rigid_chain_3d`: the same model,
+    h = 1e-3 s, ρ∞ = 0.8, 1 s, in quick mode 0.05 s; median of 3 interleaved
+    warm runs) and their ratio, the spatial counterpart of the headline.
 stress tests
     :data:`femb.benchmarks.stress.TESTS` (the adaptive-step tests of
     :mod:`femb.benchmarks.adaptive_suite` included), each with its pass/fail
@@ -48,7 +53,11 @@ from . import adaptive_suite, peers, stress, work_precision
 from .work_precision import clean, first_line
 
 #: Parts of the suite, in run order (stress tests follow).
-PARTS = ("work_precision", "headline") + tuple(stress.TESTS)
+PARTS = ("work_precision", "headline", "spatial_per_step") + tuple(stress.TESTS)
+
+#: spatial per-step part: (bricks, t_end in s) per mode, h = 1e-3 s, ρ∞ = 0.8, 3 timed runs
+SPATIAL_PER_STEP = {"full": (400, 1.0), "quick": (400, 0.05)}
+SPATIAL_RUNS = 3
 
 
 def _log_fn(enabled):
@@ -113,7 +122,8 @@ def run_suite(quick=False, out="bench-report", progress=True, only=None):
     dict
         The content of ``results.json``: ``suite`` (command, mode, machine,
         peers, wall time), ``work_precision`` (scene -> study),
-        ``headline``, ``stress`` (test id -> result with ``criteria``),
+        ``headline``, ``spatial_per_step`` (:func:`femb.benchmarks.rigid_chain_3d.measure`),
+        ``stress`` (test id -> result with ``criteria``),
         ``verdicts`` (counts), ``report`` (path of report.md).
     """
     from .registry import names
@@ -135,17 +145,19 @@ def run_suite(quick=False, out="bench-report", progress=True, only=None):
     results = {"suite": {"command": cmd, "mode": mode, "parts": parts,
                          "started": datetime.datetime.now().isoformat(timespec="seconds"),
                          "machine": _machine(), "peers": peers.status()},
-               "work_precision": {}, "headline": None, "stress": {}}
+               "work_precision": {}, "headline": None, "spatial_per_step": None, "stress": {}}
     scenes = names() if ("work_precision" in parts or "headline" in parts) else []
     if "work_precision" not in parts and "headline" in parts:
         scenes = ["andrews"]
     tasks = [("wp", s) for s in scenes] + ([("headline", None)] if "headline" in parts else []) + \
+            ([("spatial", None)] if "spatial_per_step" in parts else []) + \
             [("stress", p) for p in parts if p in stress.TESTS]
     ctx = stress.Context(quick=quick, out=out, log=log, progress=make_progress)
     with make_progress(len(tasks), "femb bench") as bar:
         for i, (kind, arg) in enumerate(tasks, 1):
             t0 = time.perf_counter()
             label = {"wp": f"work-precision: {arg}", "headline": "headline: time to 1e-6 rad on Andrews",
+                     "spatial": "spatial per step: Exudyn's 400-brick chain",
                      "stress": f"stress test: {arg}"}[kind]
             log(f"femb bench [{i}/{len(tasks)}] {label} ...")
             if kind == "wp":
@@ -179,6 +191,17 @@ def run_suite(quick=False, out="bench-report", progress=True, only=None):
                     hl["adaptive"] = {"error": f"{type(exc).__name__}: {first_line(exc)}"}
                 hl["wall_s"] = time.perf_counter() - t0
                 results["headline"] = clean(hl)
+            elif kind == "spatial":
+                from . import rigid_chain_3d
+
+                n_b, t_sp = SPATIAL_PER_STEP[mode]
+                try:
+                    sp = rigid_chain_3d.measure(n=n_b, t_end=t_sp, h=1e-3, rho_inf=0.8, runs=SPATIAL_RUNS,
+                                                log=lambda m: log("  " + m))
+                except Exception as exc:
+                    sp = {"error": f"{type(exc).__name__}: {first_line(exc)}"}
+                sp["wall_s"] = time.perf_counter() - t0
+                results["spatial_per_step"] = clean(sp)
             else:
                 results["stress"][arg] = stress.run(arg, ctx)
                 v = [c["verdict"] for c in results["stress"][arg]["criteria"]]
@@ -263,6 +286,45 @@ def _adaptive_table(wp):
     return "\n".join(L)
 
 
+def _spatial_sentence(sp):
+    """One line: femb and Exudyn ms/step on the chain and the ratio."""
+    head = (f"Spatial per step ({sp['n']} twisted bricks on revolute joints, Exudyn's perf3DRigidBodies, "
+            f"{sp['steps']} steps of {sp['h']:g} s): femb {_f(sp['femb_ms'])} ms/step")
+    if sp.get("ratio") is None:
+        return head + f"; Exudyn: {sp.get('message') or 'not measured'}."
+    tail = f"; Exudyn {_f(sp['exudyn_ms'])} ms/step; femb time / Exudyn time: **{_f(sp['ratio'])}**"
+    dflt = (sp.get("exudyn") or {}).get("default")
+    if dflt:
+        tail += f" ({_f(dflt['ratio'])} against Exudyn with its default Newton tolerances)"
+    return head + tail + "."
+
+
+def _spatial_section(sp):
+    """Markdown section of the spatial per-step part (:func:`femb.benchmarks.rigid_chain_3d.measure`)."""
+    if sp.get("error"):
+        return f"The spatial per-step measurement failed: {_md(sp['error'])}"
+    L = [f"The chain of `femb.benchmarks.rigid_chain_3d` ({sp['n']} bricks, {6 * sp['n']} velocities, "
+         f"{5 * sp['n']} constraint rows; Exudyn's TestModels/perf3DRigidBodies.py) from rest, generalized-α "
+         f"ρ∞ = {sp['rho_inf']:g}, h = {sp['h']:g} s, {sp['steps']} steps (t_end = {sp['t_end']:g} s), both codes "
+         f"in this process, timed in turn, median of {sp['runs']} warm runs (`time.perf_counter` around femb's "
+         "`simulate`, consistent initial values included, and around Exudyn's `SolveDynamic`; model construction "
+         f"excluded). Exudyn {sp.get('exudyn_version')}: Euler-parameter nodes, index 3, sparse LU, modified Newton, "
+         f"{sp.get('exudyn_threads', 1)} thread. `python -m femb.benchmarks.rigid_chain_3d --runs 5` prints the same.",
+         "", "| code | Newton setting | Newton it./step | ms/step | runs [ms/step] | femb time / this time |",
+         "|---|---|---|---|---|---|",
+         f"| femb | default (correction test) | {_f(sp['femb_newton'], '.2f')} | {_f(sp['femb_ms'])} | "
+         f"{', '.join(_f(x) for x in sp['femb_runs'])} | 1 |"]
+    for key, e in (sp.get("exudyn") or {}).items():
+        L.append(f"| Exudyn | {key}: {_md(e['newton_tolerances'])} | {_f(e.get('newton'), '.2f')} | {_f(e['ms'])} | "
+                 f"{', '.join(_f(x) for x in e['runs'])} | {_f(e['ratio'])} |")
+    if not sp.get("exudyn"):
+        L.append(f"| Exudyn | {_md(sp.get('message') or 'not measured')} | | | | |")
+    L.append("")
+    L.append(f"femb's time loop alone: {_f(sp.get('femb_loop_ms'))} ms/step; its consistent initial values: "
+             f"{_f(sp.get('femb_init_ms'))} ms per run (included above).")
+    return "\n".join(L)
+
+
 def render_report(res):
     """Markdown report from the results dict (see :func:`run_suite`)."""
     s = res["suite"]
@@ -281,7 +343,8 @@ def render_report(res):
         L.append("")
         L.append("**Quick mode**: fewer step sizes and tolerances, ρ∞ ∈ {0, 0.5, 0.7, 0.9} with scaling on and "
                  "ρ∞ = 0.7 with scaling off, one timing repeat, stiff-spring and mass-ratio runs over 0.25 s instead "
-                 "of 1 s, long runs of 20,000 steps instead of 1,000,000. Run `femb bench` for the full suite.")
+                 "of 1 s, long runs of 20,000 steps instead of 1,000,000, the spatial per-step timing over 50 steps "
+                 "instead of 1000. Run `femb bench` for the full suite.")
     L.append("")
     L.append("Timing: `time.perf_counter` around the integration call of each code (femb `simulate` including its "
              "consistent initial values; scipy `solve`; Exudyn `SolveDynamic`), model construction excluded, median "
@@ -307,6 +370,9 @@ def render_report(res):
                  f"(rtol {ha['adaptive']['rtol']:.3g}), {_f(ha['adaptive']['wall_s'])} s, against {ha['fixed']['steps']} "
                  f"fixed steps, {_f(ha['fixed']['wall_s'])} s (steps ratio {ha['steps_ratio']:.2f}, wall-time ratio "
                  f"{ha['wall_ratio']:.2f}).")
+    sp = res.get("spatial_per_step")
+    if sp and not sp.get("error"):
+        L.append(f"* {_spatial_sentence(sp)}")
     v = res.get("verdicts", {})
     L.append(f"* Stress-test criteria: {v.get('PASS', 0)} PASS, {v.get('FINDING', 0)} FINDING, {v.get('FAIL', 0)} FAIL.")
     if res["stress"]:
@@ -356,6 +422,12 @@ def render_report(res):
                          "`python -m femb.benchmarks.adaptive_suite`.")
                 L.append("")
                 L.append(adaptive_suite.format_andrews(ha))
+    # ---- spatial per step
+    if sp:
+        L.append("")
+        L.append("## Spatial per step: Exudyn's 400-brick chain")
+        L.append("")
+        L.append(_spatial_section(sp))
     # ---- work precision
     if res["work_precision"]:
         L.append("")

@@ -133,6 +133,20 @@ def test_headline_ratios(quick_report):
     assert "Headline: time to 1e-6 rad" in report
 
 
+def test_spatial_per_step(quick_report):
+    """The chain's ms/step of femb (and Exudyn, when installed) and the ratio are in results and report."""
+    _, results, report, _ = quick_report
+    sp = results["spatial_per_step"]
+    assert "error" not in sp, sp.get("error")
+    assert sp["n"] == suite.SPATIAL_PER_STEP["quick"][0] and len(sp["femb_runs"]) == suite.SPATIAL_RUNS
+    assert sp["femb_ms"] > 0
+    assert "Spatial per step" in report and "## Spatial per step" in report
+    if peers.status()["exudyn"]["installed"]:
+        assert sp["exudyn_ms"] > 0 and sp["ratio"] == pytest.approx(sp["femb_ms"] / sp["exudyn_ms"])
+    else:
+        assert sp["ratio"] is None and "not installed" in report
+
+
 def test_work_precision_has_adaptive_series(quick_report):
     """Every scene's work–precision study has the adaptive ladder beside the fixed steps, with its figure."""
     out, results, report, _ = quick_report
