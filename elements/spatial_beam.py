@@ -674,7 +674,7 @@ def _se3_log_np(qa, xa, qb, xb):
     RsA = rt.quat_to_matrix(np.ascontiguousarray(qa))
     xab = RsA.T @ (np.asarray(xb) - np.asarray(xa))
     s = sfun.py_func(float(Th @ Th))
-    U = np.array(_tinv3.py_func(tuple(-Th), s[2], tuple(xab)))
+    U = np.array(_tinv3((-Th[0], -Th[1], -Th[2]), s[2], (xab[0], xab[1], xab[2])))
     return np.concatenate((U, Th))
 
 
@@ -808,7 +808,9 @@ class SpatialBeam(Element):
         eps = np.empty((len(P), 6))
         rate = np.empty((len(P), 6))
         for e in range(len(P)):
-            RA, RB, RsA, RsB, xA, xB, U, W = section_frames.py_func(P[e], qe[e])
+            # the compiled function (its helpers have no Python wrapper, so no .py_func here)
+            RA, RB, RsA, RsB, xA, xB, U, W = section_frames(np.ascontiguousarray(P[e]),
+                                                            np.ascontiguousarray(qe[e]))
             eps[e] = (np.array([*U, *W]) - P[e, D0:D0 + 6]) / P[e, LEN]
             if qde is not None:
                 v = np.asarray(qde[e], dtype=float)
@@ -817,7 +819,7 @@ class SpatialBeam(Element):
                 RbB = rt.quat_to_matrix(np.ascontiguousarray(P[e, QB:QB + 4]))
                 vA = (tuple(np.reshape(RsA, (3, 3)).T @ v[0:3]), tuple(RbA.T @ v[3:6]))
                 vB = (tuple(np.reshape(RsB, (3, 3)).T @ v[6:9]), tuple(RbB.T @ v[9:12]))
-                rate[e] = np.array(_ddot.py_func(U, W, s, s, vA, vB)) / P[e, LEN]
+                rate[e] = np.array(_ddot(U, W, s, s, vA, vB)) / P[e, LEN]
         return eps if qde is None else (eps, rate)
 
     @classmethod
