@@ -83,6 +83,7 @@ SCENES = {
     "bricard": "femb.benchmarks.bricard",
     "spatial_double_pendulum": "femb.benchmarks.spatial_double_pendulum",
     "right_angle_cantilever": "femb.benchmarks.right_angle_cantilever",
+    "spin_up_3d": "femb.benchmarks.spin_up_3d",
 }
 
 #: Scenes that are not time integrations (static equilibria, linearized buckling): name -> module.
