@@ -84,6 +84,7 @@ SCENES = {
     "spatial_double_pendulum": "femb.benchmarks.spatial_double_pendulum",
     "right_angle_cantilever": "femb.benchmarks.right_angle_cantilever",
     "spin_up_3d": "femb.benchmarks.spin_up_3d",
+    "flexible_fourbar_3d": "femb.benchmarks.flexible_fourbar_3d",
 }
 
 #: Scenes that are not time integrations (static equilibria, linearized buckling): name -> module.
