@@ -1021,3 +1021,112 @@ def spatial_beam(mech, name, section, path, n_elements, *, normal=None, frames=N
         e.validate()
         arc[k + 1] = arc[k] + e.L
     return SpatialBeamMesh(name, nodes, elements, joints, section, arc)
+
+
+# ---------------------------------------------------------------------------
+# results along a meshed beam (Result.beam)
+# ---------------------------------------------------------------------------
+@dataclass
+class BeamSeries:
+    """A meshed spatial beam over the stored times of a result (:meth:`femb.result.Result.beam`).
+
+    n elements ``{name}.e0`` … ``{name}.e{n-1}``, n + 1 nodes from the start to the end of the
+    mesh, nt stored times. All vectors in space axes unless stated.
+
+    Attributes
+    ----------
+    name : str
+    t : ndarray (nt,)
+    nodes : list of str
+        The n + 1 frame nodes, start to end.
+    elements : list of str
+    arc_length : ndarray (n + 1,)
+        Reference arc length of the nodes (sum of the element lengths |U0|).
+    centre_line : ndarray (nt, n + 1, 3)
+        Node (section centroid) positions.
+    frames : ndarray (nt, n + 1, 3, 3)
+        Section axes at each node, columns (e1, e2, e3): e1 the beam axis (tangent of the
+        reference; with shear it is the section normal, not the tangent of the deformed
+        line), e2, e3 the cross-section axes; R_node R̄ with the offset R̄ of the element
+        that starts at the node (the last node: of the element that ends there).
+    forces : ndarray (nt, n, 6)
+        Section resultants per element (constant along an element), **section axes**:
+        (N, Q2, Q3, T, M2, M3) = C (ε + β ε̇): N > 0 in tension, Q2, Q3 shear forces, T the
+        torque, M2, M3 bending moments about e2, e3; the force and moment that the part of
+        the beam towards the end node exerts on the part towards the start node (right-hand
+        rule). In space axes: R_s (N, Q2, Q3) with R_s the element's section axes.
+    strains : ndarray (nt, n, 6)
+        (Γ − Γ0, κ − κ0) per element in section axes: axial strain, shear strains, twist and
+        curvatures relative to the stress-free reference (1/m for κ).
+    """
+
+    name: str
+    t: np.ndarray
+    nodes: list
+    elements: list
+    arc_length: np.ndarray
+    centre_line: np.ndarray
+    frames: np.ndarray
+    forces: np.ndarray
+    strains: np.ndarray
+
+    @property
+    def gamma(self):
+        """Translational strains Γ − Γ0 (nt, n, 3)."""
+        return self.strains[..., 0:3]
+
+    @property
+    def kappa(self):
+        """Curvature and twist κ − κ0 (nt, n, 3)."""
+        return self.strains[..., 3:6]
+
+    def force(self, which):
+        """One resultant by name ("N", "Q2", "Q3", "T", "M2", "M3"): (nt, n)."""
+        return self.forces[..., ("N", "Q2", "Q3", "T", "M2", "M3").index(which)]
+
+
+def beam_series(result, name):
+    """:class:`BeamSeries` of the beam meshed as ``name`` by :func:`spatial_beam` in ``result``."""
+    model = result.model
+    found = {}
+    for g in model.groups:
+        if not issubclass(g.cls, SpatialBeam):
+            continue
+        for i, e in enumerate(g.elements):
+            pre, _, k = e.name.rpartition(".e")
+            if pre == name and k.isdigit():
+                found[int(k)] = (g, i, e)
+    if not found:
+        raise ModelError(f"no spatial beam named '{name}' (elements '{name}.e0', …) in model '{model.name}'")
+    n = len(found)
+    if sorted(found) != list(range(n)):
+        raise ModelError(f"beam '{name}': elements are not numbered 0 … {n - 1}")
+    els = [found[k] for k in range(n)]
+    nodes = [els[0][2].a.node.name] + [e.b.node.name for _, _, e in els]
+    nt = len(result.t)
+    X = np.stack([model.node_coordinates(nm, result.q) for nm in nodes], axis=1)        # (nt, n+1, 7)
+    Rbar = [_rbar_np(e.qbar_a) for _, _, e in els] + [_rbar_np(els[-1][2].qbar_b)]
+    frames = np.empty((nt, n + 1, 3, 3))
+    for j in range(n + 1):
+        for k in range(nt):
+            frames[k, j] = rt.quat_to_matrix(np.ascontiguousarray(X[k, j, 3:7])) @ Rbar[j]
+    forces = np.empty((nt, n, 6))
+    strains = np.empty((nt, n, 6))
+    for g in {id(g): g for g, _, _ in els}.values():
+        idx = [i for gg, i, _ in els if gg is g]
+        pos = [k for k, (gg, _, _) in enumerate(els) if gg is g]
+        p = {"P": g.P[idx]}
+        for k in range(nt):
+            qe = model.ext(result.q[k])[g.xdofs[idx]]
+            qde = model.ext_velocity(result.qd[k])[g.dofs[idx]]
+            eps, rate = SpatialBeam.strains(p, qe, qde)
+            strains[k, pos] = eps
+            C = p["P"][:, CM:CM + 36].reshape(-1, 6, 6)
+            forces[k, pos] = np.einsum("eij,ej->ei", C, eps + p["P"][:, BETA:BETA + 1] * rate)
+    arc = np.concatenate(([0.0], np.cumsum([e.L for _, _, e in els])))
+    return BeamSeries(name, np.asarray(result.t).copy(), nodes, [e.name for _, _, e in els], arc,
+                      X[..., 0:3].copy(), frames, forces, strains)
+
+
+def _rbar_np(q):
+    return rt.quat_to_matrix(np.ascontiguousarray(q, dtype=float))
