@@ -417,41 +417,31 @@ def _forces(U, W, s, sig):
 
 
 @kernel
-def _qcol(j, U, W, s, RsA, RsB, Pe):
-    """Column j of Q = ∂d/∂(δx_A, δθ_A, δx_B, δθ_B) (6-tuple).
+def _qcols(U, W, s, Rs, Rb, buf, c0, sg):
+    """Columns c0 … c0 + 5 of Q = ∂d/∂(δx, δθ) into buf (row k at 12k): one node's block.
 
-    δx_A e_m gives the section increment ξ_U = R_sAᵀ e_m (row m of R_sA), δθ_A e_m gives
-    ξ_Ω = R̄_Aᵀ e_m (row m of R̄_A); δd = −T_SE3⁻¹(−d) ξ_A + T_SE3⁻¹(d) ξ_B.
+    Node B (sg = 1): T_SE3⁻¹(d) applied to ξ = (R_sᵀ δx, R̄ᵀ δθ); node A (sg = −1):
+    −T_SE3⁻¹(−d). With T_SE3⁻¹ = [T⁻¹, −T⁻¹T_UΩT⁻¹; 0, T⁻¹] (spatial.md §1) a δx column
+    (row m of R_s) maps to (T⁻¹ a, 0) and a δθ column a (row m of R̄) to
+    (−T⁻¹ T_UΩ T⁻¹ a, T⁻¹ a), T = T(Ω) at ±d.
     """
-    z = (0.0, 0.0, 0.0)
-    blk = j // 3
-    m = j - 3 * blk
-    if blk == 0:
-        c = tinv_se3(_neg3(U), _neg3(W), s, (RsA[3 * m], RsA[3 * m + 1], RsA[3 * m + 2]), z)
-        sg = -1.0
-    elif blk == 1:
-        c = tinv_se3(_neg3(U), _neg3(W), s, z, _rbar_row(Pe, QA, m))
-        sg = -1.0
-    elif blk == 2:
-        c = tinv_se3(U, W, s, (RsB[3 * m], RsB[3 * m + 1], RsB[3 * m + 2]), z)
-        sg = 1.0
-    else:
-        c = tinv_se3(U, W, s, z, _rbar_row(Pe, QB, m))
-        sg = 1.0
-    return (sg * c[0][0], sg * c[0][1], sg * c[0][2], sg * c[1][0], sg * c[1][1], sg * c[1][2])
+    Ub = U if sg > 0.0 else _neg3(U)
+    Wb = W if sg > 0.0 else _neg3(W)
+    for m in range(3):
+        bx = _tinv3(Wb, s[2], (Rs[3 * m], Rs[3 * m + 1], Rs[3 * m + 2]))
+        bw = _tinv3(Wb, s[2], (Rb[3 * m], Rb[3 * m + 1], Rb[3 * m + 2]))
+        bu = _tinv3(Wb, s[2], _tuw(Ub, Wb, s, bw, 1.0))
+        for k in range(3):
+            buf[12 * k + c0 + m] = sg * bx[k]
+            buf[12 * (3 + k) + c0 + m] = 0.0
+            buf[12 * k + c0 + 3 + m] = -sg * bu[k]
+            buf[12 * (3 + k) + c0 + 3 + m] = sg * bw[k]
 
 
 @kernel
 def _rbar(Pe, o):
     """R̄ (9-tuple) of the offset quaternion at P[o:o+4]."""
     return rt.quat_to_matrix_t(Pe[o], Pe[o + 1], Pe[o + 2], Pe[o + 3])
-
-
-@kernel
-def _rbar_row(Pe, o, j):
-    """Row j of R̄ = R̄ᵀ e_j."""
-    R = _rbar(Pe, o)
-    return (R[3 * j], R[3 * j + 1], R[3 * j + 2])
 
 
 @kernel
@@ -602,10 +592,8 @@ def spatial_beam_force(P, t, tf, xe, ve, jac, fe, fq, fv):
         # Scratch on the stack (no heap arrays in kernels): Q = ∂d/∂(δx, δθ) (6 × 12, row k at
         # 12k), Z = Qᵀ C/L (12 × 6, row i at 72 + 6i), E = ∂ḋ/∂d (6 × 6, column k at 144 + 6k).
         buf = _scratch()
-        for j in range(12):
-            c = _qcol(j, U, W, s, RsA, RsB, Pe)
-            for k in range(6):
-                buf[12 * k + j] = c[k]
+        _qcols(U, W, s, RsA, RbA, buf, 0, -1.0)
+        _qcols(U, W, s, RsB, RbB, buf, 6, 1.0)
         for i in range(12):
             cq = _c6(Pe, (buf[i], buf[12 + i], buf[24 + i], buf[36 + i], buf[48 + i], buf[60 + i]))
             for k in range(6):
