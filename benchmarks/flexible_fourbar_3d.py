@@ -54,6 +54,7 @@ PARAMETERS = {
     "n_elements": ("coupler beam elements", "-"),
     "stiffness": ("factor on the coupler's E and G (1: aluminium; large: the rigid limit)", "-"),
     "rigid": ("rigid coupler (SpatialRigidBody) instead of the beam", "-"),
+    "damping": ("stiffness-proportional material damping beta of the coupler", "s"),
 }
 
 OUTPUTS = {
@@ -100,11 +101,12 @@ def _rod(name, m, p0, p1, r):
     return SpatialRigidBody(name, m, J, position=0.5 * (p0 + p1))
 
 
-def coupler_section(stiffness=1.0, P=DATA):
-    return SpatialSection.circle(P["E"] * stiffness, P["G"] * stiffness, P["d"], density=P["rho"])
+def coupler_section(stiffness=1.0, P=DATA, damping=0.0):
+    """The coupler's :meth:`SpatialSection.circle` (E, G scaled by ``stiffness``)."""
+    return SpatialSection.circle(P["E"] * stiffness, P["G"] * stiffness, P["d"], density=P["rho"], damping=damping)
 
 
-def build(n_elements=8, *, stiffness=1.0, rigid=False):
+def build(n_elements=8, *, stiffness=1.0, rigid=False, damping=0.0):
     """The four-bar. Bodies ``crank``, ``rocker`` and the coupler (beam ``coupler``, nodes
     ``coupler.n0`` … ``coupler.n{n}``, or the rigid body ``coupler``); joints ``O``, ``drive``,
     ``B``, ``C``, ``D``.
@@ -120,7 +122,7 @@ def build(n_elements=8, *, stiffness=1.0, rigid=False):
     m.add(RevoluteJoint("O", m.ground, crank, at=O, axis=z))
     m.add(DrivenRevoluteAngle("drive", m.ground, crank, spin_profile(P["omega_s"], P["T_s"]), at=O, axis=z))
     m.add(RevoluteJoint("D", m.ground, rocker, at=D, axis=z))
-    sec = coupler_section(stiffness, P)
+    sec = coupler_section(stiffness, P, damping)
     e1 = (C - B) / np.linalg.norm(C - B)
     pin = np.cross(e1, z)
     if rigid:
@@ -150,10 +152,10 @@ def initial_state(model):
     return solve_static(model).state
 
 
-def simulate(model, t_end, h, rho_inf=DEFAULTS["rho_inf"]):
-    """:func:`femb.simulate` from :func:`initial_state`."""
+def simulate(model, t_end, h, rho_inf=DEFAULTS["rho_inf"], **options):
+    """:func:`femb.simulate` from :func:`initial_state` (``options`` passed on)."""
     import femb
-    return femb.simulate(model, t_end, h, rho_inf=rho_inf, state=initial_state(model))
+    return femb.simulate(model, t_end, h, rho_inf=rho_inf, state=initial_state(model), **options)
 
 
 def _mid(model):
@@ -188,7 +190,7 @@ def outputs(result):
 
 
 def time_convergence(hs=(2e-3, 1e-3, 5e-4, 2.5e-4, 1.25e-4), h_ref=1.5625e-5, t_end=0.6, rho_inf=0.8,
-                     **params):
+                     options=None, **params):
     """Fixed-step errors against a run with h_ref (each h a multiple of h_ref), from :func:`initial_state`.
 
     Returns
@@ -200,10 +202,11 @@ def time_convergence(hs=(2e-3, 1e-3, 5e-4, 2.5e-4, 1.25e-4), h_ref=1.5625e-5, t_
         ``order_lam`` (k − 1,) log₂ of successive ratios.
     """
     model = build(**params).compile()
-    ref = outputs(simulate(model, t_end, h_ref, rho_inf=rho_inf))
+    options = dict(options or {})
+    ref = outputs(simulate(model, t_end, h_ref, rho_inf=rho_inf, **options))
     eq, el = [], []
     for h in hs:
-        o = outputs(simulate(model, t_end, h, rho_inf=rho_inf))
+        o = outputs(simulate(model, t_end, h, rho_inf=rho_inf, **options))
         st = int(round(h / h_ref))
         eq.append(max(np.abs(o[k] - ref[k][::st]).max() for k in CONVERGENCE["q"]))
         el.append(max(np.abs(o[k] - ref[k][::st]).max() / np.abs(ref[k]).max() for k in CONVERGENCE["lambda"]))

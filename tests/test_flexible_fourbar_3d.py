@@ -22,7 +22,8 @@ def test_positions_second_order_in_h(study):
 
 def test_reactions_converge(study):
     # measured relative errors 1.5e-4, 4.8e-5, 1.6e-5, 9.4e-6, 8.6e-6: order ≈ 1.6 down to
-    # h = 5e-4, then a floor near 1e-5 of the largest force (docs/beams.md, open points)
+    # h = 5e-4, then a floor near 1e-5 of the largest force in the in-plane reactions (docs/beams.md,
+    # Spatial beam scenes: not resolved)
     assert study["err_lam"][2] < 3e-5
     assert study["order_lam"][0] > 1.4
 
