@@ -84,6 +84,19 @@ SCENES = {
     "spatial_double_pendulum": "femb.benchmarks.spatial_double_pendulum",
     "right_angle_cantilever": "femb.benchmarks.right_angle_cantilever",
     "rigid_chain_3d": "femb.benchmarks.rigid_chain_3d",
+    "spin_up_3d": "femb.benchmarks.spin_up_3d",
+    "flexible_fourbar_3d": "femb.benchmarks.flexible_fourbar_3d",
+}
+
+#: Scenes that are not time integrations (static equilibria, linearized buckling): name -> module.
+#: Besides the protocol above they define ``ANALYSIS`` ("static" or "buckling") and
+#: ``solve(model, **params) -> Result`` (``t`` holds the load factors, or the critical loads),
+#: which ``femb run`` calls instead of the time integration. They are not in :func:`names`
+#: (the time-step studies and the benchmark suite run those).
+STATIC_SCENES = {
+    "beam_rollup": "femb.benchmarks.beam_rollup",
+    "beam_bend45": "femb.benchmarks.beam_bend45",
+    "argyris_frame": "femb.benchmarks.argyris_frame",
 }
 
 #: Run settings used for a scene file without DEFAULTS (only ρ∞; t_end and h must be given).
@@ -246,6 +259,11 @@ def names():
     return sorted(SCENES)
 
 
+def static_names():
+    """Names of the built-in static and buckling scenes (sorted)."""
+    return sorted(STATIC_SCENES)
+
+
 def is_path(spec):
     """True when ``spec`` designates a file rather than a registry name."""
     spec = str(spec)
@@ -258,7 +276,7 @@ def load(spec):
     Parameters
     ----------
     spec : str or Path
-        A name of :data:`SCENES`, or a path to a ``.py`` file defining ``build()``.
+        A name of :data:`SCENES` or :data:`STATIC_SCENES`, or a path to a ``.py`` file defining ``build()``.
 
     Returns
     -------
@@ -270,9 +288,10 @@ def load(spec):
         Unknown name, missing file, a file that fails to import, or no ``build``.
     """
     spec = str(spec)
-    if spec in SCENES:
-        module = importlib.import_module(SCENES[spec])
-        scene = Scene(spec, module, SCENES[spec])
+    if spec in SCENES or spec in STATIC_SCENES:
+        source = SCENES.get(spec) or STATIC_SCENES[spec]
+        module = importlib.import_module(source)
+        scene = Scene(spec, module, source)
     elif is_path(spec) or Path(spec).is_file():
         path = Path(spec)
         if not path.is_file():

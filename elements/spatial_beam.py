@@ -31,13 +31,15 @@ Tangent: with Q = ∂d/∂(δx, δθ) (6 × 12),
     ∂f/∂q = −Qᵀ (C/L)(Q + β(E Q + P V)) − Aᵀ G Q + blockdiag(R (R̄ h_U)~ at (x, θ)),
 
 G = ∂(h_A, h_B)/∂d at fixed σ (12 × 6), E = ∂ḋ/∂d at fixed section velocities,
-P V the change of the section velocities R_sᵀẋ under δθ. G and E are
-derivatives of the closed form of T_SE3⁻¹ (spatial.md §1), taken here by
-complex-step differentiation (Squire & Trapp 1998, SIAM Rev. 40:110–112;
-Martins, Sturdza & Alonso 2003, ACM TOMS 29:245–262): the closed form is
-evaluated at d + i h e_k, h = 1e-20, and Im(·)/h is its derivative to
-round-off (no subtraction, so no step-size error); the s-functions switch to
-their series in φ² (analytic in φ²). ``fv = −(β/L) Qᵀ C Q`` plus the
+P V the change of the section velocities R_sᵀẋ under δθ. G and E are the
+derivatives of the closed forms of T_SE3⁻ᵀ σ and T_SE3⁻¹ ξ̇ (spatial.md §1) along the
+six directions of d, by the chain rule through their factored evaluation
+(b_U = T⁻¹(−Ω) a_U, b_Ω = T⁻¹(−Ω)(a_Ω − T_UΩᵀ b_U), and the transposed order for
+T_SE3⁻¹): T_UΩ is linear in U, so the three U-directions cost one T_UΩ product each;
+along Ω the coefficients s2 … s6 change with x = φ² through the closed-form derivatives
+of :func:`dsfun` (s2' = (s1/2 − s2)/x, s3' = (s2 − 3s3)/(2x), s4', s5', s6' = (s5 − 5s6)/(2x);
+series below x = 0.01). Exact (no difference step); checked against finite
+differences of the force in tests/test_spatial_beam.py. ``fv = −(β/L) Qᵀ C Q`` plus the
 gyroscopic part below.
 
 Inertia: **consistent translational mass** for linear interpolation of the
@@ -81,7 +83,7 @@ from femb import rotations as rt
 from femb.element import Element
 from femb.errors import ModelError
 from femb.geometry import GeometryBlock
-from femb.jit import kernel
+from femb.jit import jit_disabled, kernel
 
 from . import _spatial as sp
 from .bodies import _check_scalar
@@ -89,11 +91,10 @@ from .spatial_bodies import FrameNode, SpatialBody, rotation_input, vector3
 
 # parameter layout of P (per element)
 D0, LEN, CM, MD, MO, JN, BETA, QA, QB, JNB, NPAR = 0, 6, 7, 43, 44, 45, 54, 55, 59, 63, 72
-CSTEP = 1e-20
 
 
 # ---------------------------------------------------------------------------
-# SE(3) operators (generic scalars: float64 or complex128 for the complex step)
+# SE(3) operators and their derivatives
 # ---------------------------------------------------------------------------
 @kernel
 def sfun(phi2):
@@ -166,6 +167,163 @@ def tinvt_se3(U, W, s, aU, aW):
 @kernel
 def _neg3(a):
     return (-a[0], -a[1], -a[2])
+
+
+@kernel
+def dsfun(phi2):
+    """Derivatives (s2', s3', s4', s5', s6') of :func:`sfun` with respect to x = φ².
+
+    Closed forms (differentiating the definitions of spatial.md §1, s1 = sin φ/φ):
+    s2' = (s1/2 − s2)/x, s3' = (s2 − 3 s3)/(2x),
+    s4' = −[(sin φ − φ)/(4φ(1 − cos φ)) + s4]/x, s5' = (sin φ − φ cos φ)/(2φx²) − 2 s5/x,
+    s6' = (s5 − 5 s6)/(2x); below x = 0.01 the term-by-term derivatives of the series of
+    :func:`sfun`.
+    """
+    x = phi2
+    if abs(x) < 0.01:
+        d2 = -1.0 / 24.0 + 2.0 * x / 720.0 - 3.0 * x * x / 40320.0 + 4.0 * x * x * x / 3628800.0
+        d3 = -1.0 / 120.0 + 2.0 * x / 5040.0 - 3.0 * x * x / 362880.0 + 4.0 * x * x * x / 39916800.0
+        d4 = 1.0 / 720.0 + 2.0 * x / 30240.0 + 3.0 * x * x / 1209600.0 + 4.0 * x * x * x / 47900160.0
+        d5 = -1.0 / 180.0 + 2.0 * x / 6720.0 - 3.0 * x * x / 453600.0 + 4.0 * x * x * x / 47900160.0
+        d6 = -1.0 / 1260.0 + 2.0 * x / 60480.0 - 3.0 * x * x / 4989600.0 + 4.0 * x * x * x / 622702080.0
+        return d2, d3, d4, d5, d6
+    phi = np.sqrt(x)
+    sn = np.sin(phi)
+    c = np.cos(phi)
+    s2, s3, s4, s5, s6 = sfun(x)
+    d2 = (0.5 * sn / phi - s2) / x
+    d3 = (s2 - 3.0 * s3) / (2.0 * x)
+    d4 = -((sn - phi) / (4.0 * phi * (1.0 - c)) + s4) / x
+    d5 = (sn - phi * c) / (2.0 * phi * x * x) - 2.0 * s5 / x
+    d6 = (s5 - 5.0 * s6) / (2.0 * x)
+    return d2, d3, d4, d5, d6
+
+
+@kernel
+def _dtinv3(W, s4, ds4, a, dW, da):
+    """Directional derivative of T⁻¹(W) a = a + ½ W × a + s4 W × (W × a) along (dW, da)."""
+    wa = sp.cross3(W, a)
+    wwa = sp.cross3(W, wa)
+    dwa = sp.add3(sp.cross3(dW, a), sp.cross3(W, da))
+    dwwa = sp.add3(sp.cross3(dW, wa), sp.cross3(W, dwa))
+    c = 2.0 * ds4 * sp.dot3(W, dW)
+    return (da[0] + 0.5 * dwa[0] + c * wwa[0] + s4 * dwwa[0], da[1] + 0.5 * dwa[1] + c * wwa[1] + s4 * dwwa[1],
+            da[2] + 0.5 * dwa[2] + c * wwa[2] + s4 * dwwa[2])
+
+
+@kernel
+def _dtuw(U, W, s, ds, a, sgn, dU, dW, da):
+    """Directional derivative of :func:`_tuw` (T_UΩ a or T_UΩᵀ a) along (dU, dW, da)."""
+    s2, s3, s4, s5, s6 = s
+    d2, d3, d4, d5, d6 = ds
+    dx = 2.0 * sp.dot3(W, dW)
+    wu = sp.dot3(W, U)
+    dwu = sp.dot3(dW, U) + sp.dot3(W, dU)
+    ua = sp.cross3(U, a)
+    wa = sp.cross3(W, a)
+    uwa = sp.cross3(U, wa)
+    wua = sp.cross3(W, ua)
+    wwa = sp.cross3(W, wa)
+    dua = sp.add3(sp.cross3(dU, a), sp.cross3(U, da))
+    dwa = sp.add3(sp.cross3(dW, a), sp.cross3(W, da))
+    duwa = sp.add3(sp.cross3(dU, wa), sp.cross3(U, dwa))
+    dwua = sp.add3(sp.cross3(dW, ua), sp.cross3(W, dua))
+    dwwa = sp.add3(sp.cross3(dW, wa), sp.cross3(W, dwa))
+    c1 = -sgn * s2
+    c5 = sgn * s5 * wu
+    c6 = -s6 * wu
+    dc1 = -sgn * d2 * dx
+    dc3 = d3 * dx
+    dc5 = sgn * (d5 * dx * wu + s5 * dwu)
+    dc6 = -(d6 * dx * wu + s6 * dwu)
+    r0 = (dc1 * ua[0] + c1 * dua[0] + dc3 * (uwa[0] + wua[0]) + s3 * (duwa[0] + dwua[0]) + dc5 * wa[0]
+          + c5 * dwa[0] + dc6 * wwa[0] + c6 * dwwa[0])
+    r1 = (dc1 * ua[1] + c1 * dua[1] + dc3 * (uwa[1] + wua[1]) + s3 * (duwa[1] + dwua[1]) + dc5 * wa[1]
+          + c5 * dwa[1] + dc6 * wwa[1] + c6 * dwwa[1])
+    r2 = (dc1 * ua[2] + c1 * dua[2] + dc3 * (uwa[2] + wua[2]) + s3 * (duwa[2] + dwua[2]) + dc5 * wa[2]
+          + c5 * dwa[2] + dc6 * wwa[2] + c6 * dwwa[2])
+    return (r0, r1, r2)
+
+
+@kernel
+def dtinvt_se3(U, W, s, ds, aU, aW, dU, dW):
+    """Derivative of T_SE3⁻ᵀ(d) a (a fixed) along d-direction (dU, dW): returns (dbU, dbW).
+
+    Chain rule through :func:`tinvt_se3`: b_U = T⁻¹(−Ω) a_U, b_Ω = T⁻¹(−Ω)(a_Ω − T_UΩᵀ b_U).
+    """
+    z = (0.0, 0.0, 0.0)
+    mW = sp.scale3(-1.0, W)
+    mdW = sp.scale3(-1.0, dW)
+    bU = _tinv3(mW, s[2], aU)
+    dbU = _dtinv3(mW, s[2], ds[2], aU, mdW, z)
+    t = _tuw(U, W, s, bU, -1.0)
+    dt = _dtuw(U, W, s, ds, bU, -1.0, dU, dW, dbU)
+    dbW = _dtinv3(mW, s[2], ds[2], sp.sub3(aW, t), mdW, sp.scale3(-1.0, dt))
+    return dbU, dbW
+
+
+@kernel
+def dtinv_se3(U, W, s, ds, aU, aW, dU, dW):
+    """Derivative of T_SE3⁻¹(d) a (a fixed) along (dU, dW), through :func:`tinv_se3`:
+    b_Ω = T⁻¹(Ω) a_Ω, b_U = T⁻¹(Ω)(a_U − T_UΩ b_Ω)."""
+    z = (0.0, 0.0, 0.0)
+    bW = _tinv3(W, s[2], aW)
+    dbW = _dtinv3(W, s[2], ds[2], aW, dW, z)
+    t = _tuw(U, W, s, bW, 1.0)
+    dt = _dtuw(U, W, s, ds, bW, 1.0, dU, dW, dbW)
+    dbU = _dtinv3(W, s[2], ds[2], sp.sub3(aU, t), dW, sp.scale3(-1.0, dt))
+    return dbU, dbW
+
+
+@kernel
+def _g_side(Ub, Wb, s, ds, aU, aW, Rx, Rt, buf, r0):
+    """Add Aᵀ ∂(T_SE3⁻ᵀ(d_b) a)/∂d_b (6 columns) to Z = buf[72:144] at rows r0 … r0 + 5.
+
+    Side B: d_b = d; side A: d_b = −d (h_A = −T_SE3⁻ᵀ(−d)σ, whose derivative along δ is
+    that of T_SE3⁻ᵀ(·)σ at −d along δ). Through :func:`tinvt_se3`: b_U = T⁻¹(−Ω) a_U,
+    t = T_UΩᵀ b_U, b_Ω = T⁻¹(−Ω)(a_Ω − t). Along U (T_UΩ is linear in U, b_U does not
+    depend on U): δt = T_{δU,Ω}ᵀ b_U, δb_Ω = −T⁻¹(−Ω) δt; along Ω the chain rule of
+    :func:`_dtinv3` and :func:`_dtuw`. Rows: R_x δb_U (r0 … r0 + 2), R_t δb_Ω (r0 + 3 …).
+    """
+    z = (0.0, 0.0, 0.0)
+    mW = _neg3(Wb)
+    bU = _tinv3(mW, s[2], aU)
+    t = _tuw(Ub, Wb, s, bU, -1.0)
+    r = sp.sub3(aW, t)
+    for k in range(6):
+        if k < 3:
+            dt = _tuw(_unit3(k), Wb, s, bU, -1.0)
+            dbW = _tinv3(mW, s[2], _neg3(dt))
+            gx = z
+        else:
+            dW = _unit3(k - 3)
+            mdW = _neg3(dW)
+            dbU = _dtinv3(mW, s[2], ds[2], aU, mdW, z)
+            dt = _dtuw(Ub, Wb, s, ds, bU, -1.0, z, dW, dbU)
+            dbW = _dtinv3(mW, s[2], ds[2], r, mdW, _neg3(dt))
+            gx = sp.mv(Rx, dbU)
+        gt = sp.mv(Rt, dbW)
+        for i in range(3):
+            buf[72 + 6 * (r0 + i) + k] += gx[i]
+            buf[72 + 6 * (r0 + 3 + i) + k] += gt[i]
+
+
+@kernel
+def _unit3(k):
+    """e_k (k in 0..2), or zero for k outside."""
+    return (1.0 if k == 0 else 0.0, 1.0 if k == 1 else 0.0, 1.0 if k == 2 else 0.0)
+
+
+@kernel
+def _ecol_a(k, U, W, s, ds, vA, vB):
+    """Column k of E = ∂ḋ/∂d at fixed section velocities (analytic), a 6-tuple:
+    ḋ = −T_SE3⁻¹(−d) ξ̇_A + T_SE3⁻¹(d) ξ̇_B, so ∂ḋ[δ] = D(T_SE3⁻¹ ξ̇_A)(−d)[δ] + D(T_SE3⁻¹ ξ̇_B)(d)[δ]."""
+    dU = _unit3(k)
+    dW = _unit3(k - 3)
+    a = dtinv_se3(_neg3(U), _neg3(W), s, ds, vA[0], vA[1], dU, dW)
+    b = dtinv_se3(U, W, s, ds, vB[0], vB[1], dU, dW)
+    return (a[0][0] + b[0][0], a[0][1] + b[0][1], a[0][2] + b[0][2],
+            a[1][0] + b[1][0], a[1][1] + b[1][1], a[1][2] + b[1][2])
 
 
 @kernel
@@ -259,41 +417,31 @@ def _forces(U, W, s, sig):
 
 
 @kernel
-def _qcol(j, U, W, s, RsA, RsB, Pe):
-    """Column j of Q = ∂d/∂(δx_A, δθ_A, δx_B, δθ_B) (6-tuple).
+def _qcols(U, W, s, Rs, Rb, buf, c0, sg):
+    """Columns c0 … c0 + 5 of Q = ∂d/∂(δx, δθ) into buf (row k at 12k): one node's block.
 
-    δx_A e_m gives the section increment ξ_U = R_sAᵀ e_m (row m of R_sA), δθ_A e_m gives
-    ξ_Ω = R̄_Aᵀ e_m (row m of R̄_A); δd = −T_SE3⁻¹(−d) ξ_A + T_SE3⁻¹(d) ξ_B.
+    Node B (sg = 1): T_SE3⁻¹(d) applied to ξ = (R_sᵀ δx, R̄ᵀ δθ); node A (sg = −1):
+    −T_SE3⁻¹(−d). With T_SE3⁻¹ = [T⁻¹, −T⁻¹T_UΩT⁻¹; 0, T⁻¹] (spatial.md §1) a δx column
+    (row m of R_s) maps to (T⁻¹ a, 0) and a δθ column a (row m of R̄) to
+    (−T⁻¹ T_UΩ T⁻¹ a, T⁻¹ a), T = T(Ω) at ±d.
     """
-    z = (0.0, 0.0, 0.0)
-    blk = j // 3
-    m = j - 3 * blk
-    if blk == 0:
-        c = tinv_se3(_neg3(U), _neg3(W), s, (RsA[3 * m], RsA[3 * m + 1], RsA[3 * m + 2]), z)
-        sg = -1.0
-    elif blk == 1:
-        c = tinv_se3(_neg3(U), _neg3(W), s, z, _rbar_row(Pe, QA, m))
-        sg = -1.0
-    elif blk == 2:
-        c = tinv_se3(U, W, s, (RsB[3 * m], RsB[3 * m + 1], RsB[3 * m + 2]), z)
-        sg = 1.0
-    else:
-        c = tinv_se3(U, W, s, z, _rbar_row(Pe, QB, m))
-        sg = 1.0
-    return (sg * c[0][0], sg * c[0][1], sg * c[0][2], sg * c[1][0], sg * c[1][1], sg * c[1][2])
+    Ub = U if sg > 0.0 else _neg3(U)
+    Wb = W if sg > 0.0 else _neg3(W)
+    for m in range(3):
+        bx = _tinv3(Wb, s[2], (Rs[3 * m], Rs[3 * m + 1], Rs[3 * m + 2]))
+        bw = _tinv3(Wb, s[2], (Rb[3 * m], Rb[3 * m + 1], Rb[3 * m + 2]))
+        bu = _tinv3(Wb, s[2], _tuw(Ub, Wb, s, bw, 1.0))
+        for k in range(3):
+            buf[12 * k + c0 + m] = sg * bx[k]
+            buf[12 * (3 + k) + c0 + m] = 0.0
+            buf[12 * k + c0 + 3 + m] = -sg * bu[k]
+            buf[12 * (3 + k) + c0 + 3 + m] = sg * bw[k]
 
 
 @kernel
 def _rbar(Pe, o):
     """R̄ (9-tuple) of the offset quaternion at P[o:o+4]."""
     return rt.quat_to_matrix_t(Pe[o], Pe[o + 1], Pe[o + 2], Pe[o + 3])
-
-
-@kernel
-def _rbar_row(Pe, o, j):
-    """Row j of R̄ = R̄ᵀ e_j."""
-    R = _rbar(Pe, o)
-    return (R[3 * j], R[3 * j + 1], R[3 * j + 2])
 
 
 @kernel
@@ -330,6 +478,56 @@ def _gyro_jac(Pe, oj, w, h, fv, o):
     fv[o + 2, o + 1] += h[0]
 
 
+NSCRATCH = 180
+
+
+def _make_scratch():
+    """Intrinsic ``_scratch()``: a float64 array of NSCRATCH entries on the stack of the calling
+    kernel (an ``alloca`` in its entry block: no heap allocation, no reference count)."""
+    from numba.core import cgutils, types
+    from numba.extending import intrinsic
+    from numba.np.arrayobj import make_array, populate_array
+
+    @intrinsic
+    def _scratch(typingctx):
+        retty = types.Array(types.float64, 1, "C")
+
+        def codegen(context, builder, sig, args):
+            dt = context.get_data_type(types.float64)
+            ptr = cgutils.alloca_once(builder, dt, size=context.get_constant(types.intp, NSCRATCH))
+            itemsize = context.get_constant(types.intp, context.get_abi_sizeof(dt))
+            out = make_array(retty)(context, builder)
+            populate_array(out, data=ptr, shape=[context.get_constant(types.intp, NSCRATCH)],
+                           strides=[itemsize], itemsize=itemsize, meminfo=None)
+            return out._getvalue()
+
+        return retty(), codegen
+
+    return _scratch
+
+
+_scratch = _make_scratch()
+if jit_disabled():                          # plain Python (NUMBA_DISABLE_JIT=1)
+    def _scratch():                         # noqa: F811
+        return np.zeros(NSCRATCH)
+
+
+@kernel
+def _zq(buf, F, c):
+    """F −= c Z Q with Q (6 × 12) at buf[0:72] (row-major), Z (12 × 6) at buf[72:144]."""
+    for i in range(12):
+        o = 72 + 6 * i
+        z0 = c * buf[o]
+        z1 = c * buf[o + 1]
+        z2 = c * buf[o + 2]
+        z3 = c * buf[o + 3]
+        z4 = c * buf[o + 4]
+        z5 = c * buf[o + 5]
+        for j in range(12):
+            F[i, j] -= (z0 * buf[j] + z1 * buf[12 + j] + z2 * buf[24 + j] + z3 * buf[36 + j]
+                        + z4 * buf[48 + j] + z5 * buf[60 + j])
+
+
 @kernel
 def spatial_beam_mass(P, xe, Me):
     """Constant mass: translational m_d I, m_o I (A–B), rotary J_n at each node (body axes)."""
@@ -344,51 +542,6 @@ def spatial_beam_mass(P, xe, Me):
             for j in range(3):
                 Me[e, 3 + i, 3 + j] = P[e, JN + 3 * i + j]
                 Me[e, 9 + i, 9 + j] = P[e, JNB + 3 * i + j]
-
-
-@kernel
-def _cstep3(a, k):
-    """a + i h e_k (a 3-tuple; k outside 0..2: no step), complex."""
-    h = 1j * CSTEP
-    return (a[0] + (h if k == 0 else 0j), a[1] + (h if k == 1 else 0j), a[2] + (h if k == 2 else 0j))
-
-
-@kernel
-def _cdot3(W, k):
-    """|W + i h e_k|² (complex; k outside 0..2: |W|²)."""
-    w = _cstep3(W, k)
-    return w[0] * w[0] + w[1] * w[1] + w[2] * w[2]
-
-
-@kernel
-def _im3(a):
-    """Im(a)/h of a complex 3-tuple."""
-    return (a[0].imag / CSTEP, a[1].imag / CSTEP, a[2].imag / CSTEP)
-
-
-@kernel
-def _ecol(k, U, W, vA, vB):
-    """Column k of E = ∂ḋ/∂d at fixed section velocities (complex step), a 6-tuple."""
-    Uk = _cstep3(U, k)
-    Wk = _cstep3(W, k - 3)
-    sk = sfun(Wk[0] * Wk[0] + Wk[1] * Wk[1] + Wk[2] * Wk[2])
-    ek = _ddot(Uk, Wk, sk, sk, vA, vB)
-    return (ek[0].imag / CSTEP, ek[1].imag / CSTEP, ek[2].imag / CSTEP,
-            ek[3].imag / CSTEP, ek[4].imag / CSTEP, ek[5].imag / CSTEP)
-
-
-@kernel
-def _material(Pe, Qt, L, beta, fq, fv, e):
-    """fq −= Qᵀ(C/L)Q and fv = −β Qᵀ(C/L)Q (material stiffness and its damping twin)."""
-    for j in range(12):
-        cq = _c6(Pe, Qt[j])
-        for i in range(12):
-            qi = Qt[i]
-            m = (qi[0] * cq[0] + qi[1] * cq[1] + qi[2] * cq[2] + qi[3] * cq[3] + qi[4] * cq[4]
-                 + qi[5] * cq[5]) / L
-            fq[e, i, j] -= m
-            if beta != 0.0:
-                fv[e, i, j] -= beta * m
 
 
 @kernel
@@ -436,38 +589,25 @@ def spatial_beam_force(P, t, tf, xe, ve, jac, fe, fq, fv):
             fe[e, 9 + i] = -ftb[i] + mgB[i]
         if not jac:
             continue
-        # Q = ∂d/∂(δx, δθ) as twelve columns (6-tuples), C Q likewise
-        Qt = (_qcol(0, U, W, s, RsA, RsB, Pe), _qcol(1, U, W, s, RsA, RsB, Pe),
-              _qcol(2, U, W, s, RsA, RsB, Pe), _qcol(3, U, W, s, RsA, RsB, Pe),
-              _qcol(4, U, W, s, RsA, RsB, Pe), _qcol(5, U, W, s, RsA, RsB, Pe),
-              _qcol(6, U, W, s, RsA, RsB, Pe), _qcol(7, U, W, s, RsA, RsB, Pe),
-              _qcol(8, U, W, s, RsA, RsB, Pe), _qcol(9, U, W, s, RsA, RsB, Pe),
-              _qcol(10, U, W, s, RsA, RsB, Pe), _qcol(11, U, W, s, RsA, RsB, Pe))
-        _material(Pe, Qt, L, beta, fq, fv, e)
-        # complex step along each d_k: G (12 × 6) at fixed σ → −Aᵀ G Q
-        # steps in U leave φ² = |Θ|² real: reuse s (as complex) instead of complex sin/cos
-        sc = (s[0] + 0j, s[1] + 0j, s[2] + 0j, s[3] + 0j, s[4] + 0j)
-        for k in range(6):
-            sk = sc if k < 3 else sfun(_cdot3(W, k - 3))
-            hAk, hBk = _forces(_cstep3(U, k), _cstep3(W, k - 3), sk, sig)
-            gxa = sp.mv(RsA, _im3(hAk[0]))
-            gta = sp.mv(RbA, _im3(hAk[1]))
-            gxb = sp.mv(RsB, _im3(hBk[0]))
-            gtb = sp.mv(RbB, _im3(hBk[1]))
-            for j in range(12):
-                qk = Qt[j][k]
-                for i in range(3):
-                    fq[e, i, j] -= gxa[i] * qk
-                    fq[e, 3 + i, j] -= gta[i] * qk
-                    fq[e, 6 + i, j] -= gxb[i] * qk
-                    fq[e, 9 + i, j] -= gtb[i] * qk
+        # Scratch on the stack (no heap arrays in kernels): Q = ∂d/∂(δx, δθ) (6 × 12, row k at
+        # 12k), Z = Qᵀ C/L (12 × 6, row i at 72 + 6i), E = ∂ḋ/∂d (6 × 6, column k at 144 + 6k).
+        buf = _scratch()
+        _qcols(U, W, s, RsA, RbA, buf, 0, -1.0)
+        _qcols(U, W, s, RsB, RbB, buf, 6, 1.0)
+        for i in range(12):
+            cq = _c6(Pe, (buf[i], buf[12 + i], buf[24 + i], buf[36 + i], buf[48 + i], buf[60 + i]))
+            for k in range(6):
+                buf[72 + 6 * i + k] = cq[k] / L
+        ds = dsfun(sp.dot3(W, W))
         if beta != 0.0:
-            # −β Qᵀ (C/L)(E Q + P V): E = ∂ḋ/∂d at fixed section velocities (complex step),
-            # P V the change of R_sᵀẋ under δθ (columns θ_A, θ_B: Q[:, x] ẋ~ R)
-            E = (_ecol(0, U, W, vA, vB), _ecol(1, U, W, vA, vB), _ecol(2, U, W, vA, vB),
-                 _ecol(3, U, W, vA, vB), _ecol(4, U, W, vA, vB), _ecol(5, U, W, vA, vB))
+            # fv = −β Qᵀ(C/L)Q; fq −= β Qᵀ(C/L)(E Q + P V): E = ∂ḋ/∂d at fixed section
+            # velocities (analytic), P V the change of R_sᵀẋ under δθ (columns θ_A, θ_B)
+            for k in range(6):
+                ek = _ecol_a(k, U, W, s, ds, vA, vB)
+                for m in range(6):
+                    buf[144 + 6 * k + m] = ek[m]
             for j in range(12):
-                q = Qt[j]
+                q = (buf[j], buf[12 + j], buf[24 + j], buf[36 + j], buf[48 + j], buf[60 + j])
                 z0 = 0.0
                 z1 = 0.0
                 z2 = 0.0
@@ -476,13 +616,13 @@ def spatial_beam_force(P, t, tf, xe, ve, jac, fe, fq, fv):
                 z5 = 0.0
                 for k in range(6):
                     c = q[k]
-                    Ek = E[k]
-                    z0 += Ek[0] * c
-                    z1 += Ek[1] * c
-                    z2 += Ek[2] * c
-                    z3 += Ek[3] * c
-                    z4 += Ek[4] * c
-                    z5 += Ek[5] * c
+                    o = 144 + 6 * k
+                    z0 += buf[o] * c
+                    z1 += buf[o + 1] * c
+                    z2 += buf[o + 2] * c
+                    z3 += buf[o + 3] * c
+                    z4 += buf[o + 4] * c
+                    z5 += buf[o + 5] * c
                 blk = j // 3
                 if blk == 1 or blk == 3:
                     m = j - 3 * blk
@@ -493,19 +633,27 @@ def spatial_beam_force(P, t, tf, xe, ve, jac, fe, fq, fv):
                         cr = sp.cross3(xdB, (RB[m], RB[3 + m], RB[6 + m]))
                         o = 6
                     for n in range(3):
-                        qn = Qt[o + n]
-                        z0 += qn[0] * cr[n]
-                        z1 += qn[1] * cr[n]
-                        z2 += qn[2] * cr[n]
-                        z3 += qn[3] * cr[n]
-                        z4 += qn[4] * cr[n]
-                        z5 += qn[5] * cr[n]
-                cz = _c6(Pe, (z0, z1, z2, z3, z4, z5))
-                c = beta / L
+                        cn = cr[n]
+                        z0 += buf[o + n] * cn
+                        z1 += buf[12 + o + n] * cn
+                        z2 += buf[24 + o + n] * cn
+                        z3 += buf[36 + o + n] * cn
+                        z4 += buf[48 + o + n] * cn
+                        z5 += buf[60 + o + n] * cn
                 for i in range(12):
-                    qi = Qt[i]
-                    fq[e, i, j] -= c * (qi[0] * cz[0] + qi[1] * cz[1] + qi[2] * cz[2] + qi[3] * cz[3]
-                                        + qi[4] * cz[4] + qi[5] * cz[5])
+                    o = 72 + 6 * i
+                    zi = buf[o]
+                    fq[e, i, j] -= beta * (buf[o] * z0 + buf[o + 1] * z1 + buf[o + 2] * z2 + buf[o + 3] * z3
+                                           + buf[o + 4] * z4 + buf[o + 5] * z5)
+                    fv[e, i, j] -= beta * (zi * q[0] + buf[o + 1] * q[1] + buf[o + 2] * q[2]
+                                           + buf[o + 3] * q[3] + buf[o + 4] * q[4] + buf[o + 5] * q[5])
+        # G (12 × 6) = ∂(h_A, h_B)/∂d at fixed σ (analytic, :func:`_g_side`); Z += Aᵀ G, then
+        # fq −= Z Q = Qᵀ(C/L)Q + Aᵀ G Q
+        sU = (sig[0], sig[1], sig[2])
+        sW = (sig[3], sig[4], sig[5])
+        _g_side(_neg3(U), _neg3(W), s, ds, sU, sW, RsA, RbA, buf, 0)
+        _g_side(U, W, s, ds, sU, sW, RsB, RbB, buf, 6)
+        _zq(buf, fq[e], 1.0)
         # the rotation of the force directions: ∂(−R R̄ h_U)/∂δθ = R (R̄ h_U)~
         ma = sp.rskew(RA, sp.mv(RbA, hA[0]))
         mb = sp.rskew(RB, sp.mv(RbB, hB[0]))
@@ -674,7 +822,7 @@ def _se3_log_np(qa, xa, qb, xb):
     RsA = rt.quat_to_matrix(np.ascontiguousarray(qa))
     xab = RsA.T @ (np.asarray(xb) - np.asarray(xa))
     s = sfun.py_func(float(Th @ Th))
-    U = np.array(_tinv3.py_func(tuple(-Th), s[2], tuple(xab)))
+    U = np.array(_tinv3((-Th[0], -Th[1], -Th[2]), s[2], (xab[0], xab[1], xab[2])))
     return np.concatenate((U, Th))
 
 
@@ -809,7 +957,9 @@ class SpatialBeam(Element):
         eps = np.empty((len(P), 6))
         rate = np.empty((len(P), 6))
         for e in range(len(P)):
-            RA, RB, RsA, RsB, xA, xB, U, W = section_frames.py_func(P[e], qe[e])
+            # the compiled function (its helpers have no Python wrapper, so no .py_func here)
+            RA, RB, RsA, RsB, xA, xB, U, W = section_frames(np.ascontiguousarray(P[e]),
+                                                            np.ascontiguousarray(qe[e]))
             eps[e] = (np.array([*U, *W]) - P[e, D0:D0 + 6]) / P[e, LEN]
             if qde is not None:
                 v = np.asarray(qde[e], dtype=float)
@@ -818,7 +968,7 @@ class SpatialBeam(Element):
                 RbB = rt.quat_to_matrix(np.ascontiguousarray(P[e, QB:QB + 4]))
                 vA = (tuple(np.reshape(RsA, (3, 3)).T @ v[0:3]), tuple(RbA.T @ v[3:6]))
                 vB = (tuple(np.reshape(RsB, (3, 3)).T @ v[6:9]), tuple(RbB.T @ v[9:12]))
-                rate[e] = np.array(_ddot.py_func(U, W, s, s, vA, vB)) / P[e, LEN]
+                rate[e] = np.array(_ddot(U, W, s, s, vA, vB)) / P[e, LEN]
         return eps if qde is None else (eps, rate)
 
     @classmethod
@@ -1020,3 +1170,112 @@ def spatial_beam(mech, name, section, path, n_elements, *, normal=None, frames=N
         e.validate()
         arc[k + 1] = arc[k] + e.L
     return SpatialBeamMesh(name, nodes, elements, joints, section, arc)
+
+
+# ---------------------------------------------------------------------------
+# results along a meshed beam (Result.beam)
+# ---------------------------------------------------------------------------
+@dataclass
+class BeamSeries:
+    """A meshed spatial beam over the stored times of a result (:meth:`femb.result.Result.beam`).
+
+    n elements ``{name}.e0`` … ``{name}.e{n-1}``, n + 1 nodes from the start to the end of the
+    mesh, nt stored times. All vectors in space axes unless stated.
+
+    Attributes
+    ----------
+    name : str
+    t : ndarray (nt,)
+    nodes : list of str
+        The n + 1 frame nodes, start to end.
+    elements : list of str
+    arc_length : ndarray (n + 1,)
+        Reference arc length of the nodes (sum of the element lengths |U0|).
+    centre_line : ndarray (nt, n + 1, 3)
+        Node (section centroid) positions.
+    frames : ndarray (nt, n + 1, 3, 3)
+        Section axes at each node, columns (e1, e2, e3): e1 the beam axis (tangent of the
+        reference; with shear it is the section normal, not the tangent of the deformed
+        line), e2, e3 the cross-section axes; R_node R̄ with the offset R̄ of the element
+        that starts at the node (the last node: of the element that ends there).
+    forces : ndarray (nt, n, 6)
+        Section resultants per element (constant along an element), **section axes**:
+        (N, Q2, Q3, T, M2, M3) = C (ε + β ε̇): N > 0 in tension, Q2, Q3 shear forces, T the
+        torque, M2, M3 bending moments about e2, e3; the force and moment that the part of
+        the beam towards the end node exerts on the part towards the start node (right-hand
+        rule). In space axes: R_s (N, Q2, Q3) with R_s the element's section axes.
+    strains : ndarray (nt, n, 6)
+        (Γ − Γ0, κ − κ0) per element in section axes: axial strain, shear strains, twist and
+        curvatures relative to the stress-free reference (1/m for κ).
+    """
+
+    name: str
+    t: np.ndarray
+    nodes: list
+    elements: list
+    arc_length: np.ndarray
+    centre_line: np.ndarray
+    frames: np.ndarray
+    forces: np.ndarray
+    strains: np.ndarray
+
+    @property
+    def gamma(self):
+        """Translational strains Γ − Γ0 (nt, n, 3)."""
+        return self.strains[..., 0:3]
+
+    @property
+    def kappa(self):
+        """Curvature and twist κ − κ0 (nt, n, 3)."""
+        return self.strains[..., 3:6]
+
+    def force(self, which):
+        """One resultant by name ("N", "Q2", "Q3", "T", "M2", "M3"): (nt, n)."""
+        return self.forces[..., ("N", "Q2", "Q3", "T", "M2", "M3").index(which)]
+
+
+def beam_series(result, name):
+    """:class:`BeamSeries` of the beam meshed as ``name`` by :func:`spatial_beam` in ``result``."""
+    model = result.model
+    found = {}
+    for g in model.groups:
+        if not issubclass(g.cls, SpatialBeam):
+            continue
+        for i, e in enumerate(g.elements):
+            pre, _, k = e.name.rpartition(".e")
+            if pre == name and k.isdigit():
+                found[int(k)] = (g, i, e)
+    if not found:
+        raise ModelError(f"no spatial beam named '{name}' (elements '{name}.e0', …) in model '{model.name}'")
+    n = len(found)
+    if sorted(found) != list(range(n)):
+        raise ModelError(f"beam '{name}': elements are not numbered 0 … {n - 1}")
+    els = [found[k] for k in range(n)]
+    nodes = [els[0][2].a.node.name] + [e.b.node.name for _, _, e in els]
+    nt = len(result.t)
+    X = np.stack([model.node_coordinates(nm, result.q) for nm in nodes], axis=1)        # (nt, n+1, 7)
+    Rbar = [_rbar_np(e.qbar_a) for _, _, e in els] + [_rbar_np(els[-1][2].qbar_b)]
+    frames = np.empty((nt, n + 1, 3, 3))
+    for j in range(n + 1):
+        for k in range(nt):
+            frames[k, j] = rt.quat_to_matrix(np.ascontiguousarray(X[k, j, 3:7])) @ Rbar[j]
+    forces = np.empty((nt, n, 6))
+    strains = np.empty((nt, n, 6))
+    for g in {id(g): g for g, _, _ in els}.values():
+        idx = [i for gg, i, _ in els if gg is g]
+        pos = [k for k, (gg, _, _) in enumerate(els) if gg is g]
+        p = {"P": g.P[idx]}
+        for k in range(nt):
+            qe = model.ext(result.q[k])[g.xdofs[idx]]
+            qde = model.ext_velocity(result.qd[k])[g.dofs[idx]]
+            eps, rate = SpatialBeam.strains(p, qe, qde)
+            strains[k, pos] = eps
+            C = p["P"][:, CM:CM + 36].reshape(-1, 6, 6)
+            forces[k, pos] = np.einsum("eij,ej->ei", C, eps + p["P"][:, BETA:BETA + 1] * rate)
+    arc = np.concatenate(([0.0], np.cumsum([e.L for _, _, e in els])))
+    return BeamSeries(name, np.asarray(result.t).copy(), nodes, [e.name for _, _, e in els], arc,
+                      X[..., 0:3].copy(), frames, forces, strains)
+
+
+def _rbar_np(q):
+    return rt.quat_to_matrix(np.ascontiguousarray(q, dtype=float))

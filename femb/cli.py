@@ -258,6 +258,8 @@ def cmd_run(args):
         raise UsageError("--atol needs --rtol (adaptive steps)")
     scene = _load_scene(args.scene)
     params = parse_sets(args.set)
+    if callable(getattr(scene.module, "solve", None)):
+        return _run_static(scene, params, args)
     d = scene.defaults
     t_end = args.t_end if args.t_end is not None else d["t_end"]
     adaptive = args.rtol is not None
@@ -341,6 +343,35 @@ def cmd_run(args):
         print(f"  {iters} Newton iterations ({data['newton_per_step']:.2f}/step), "
               f"{result.wall_time:.3f} s in the time loop ({data['us_per_step']:.1f} us/step), "
               f"{total:.3f} s in all")
+        width = max((len(k) for k in final), default=0)
+        for k, v in final.items():
+            print(f"  {k:<{width}s} = {v:.12g}" if isinstance(v, float) else f"  {k:<{width}s} = {v}")
+    return 0
+
+
+def _run_static(scene, params, args):
+    """femb run for a scene that is not a time integration (static or buckling: its ``solve``)."""
+    from femb.benchmarks.registry import SceneError
+
+    build_params = {k: v for k, v in params.items() if k in scene.parameters()}
+    try:
+        model = scene.model(**build_params)
+        t0 = time.perf_counter()
+        result = scene.module.solve(model, **params)
+    except SceneError as exc:
+        raise UsageError(str(exc)) from None
+    except (FembError, ValueError, TypeError) as exc:
+        raise UsageError(f"scene '{scene.name}': {exc}") from None
+    total = time.perf_counter() - t0
+    final = {k: _json_value(v[-1]) for k, v in scene.outputs(result).items()}
+    kind = getattr(scene.module, "ANALYSIS", "static")
+    data = {"scene": scene.name, "analysis": kind, "levels": [float(x) for x in result.t],
+            "outputs": final, "params": {k: _json_value(v) for k, v in params.items()},
+            "total_time_s": total, "source": scene.source}
+    if args.json:
+        _write_json(data, args.json)
+    if args.json != "-":
+        print(f"{scene.name}: {kind} analysis, {len(result.t)} level(s), {total:.3f} s")
         width = max((len(k) for k in final), default=0)
         for k, v in final.items():
             print(f"  {k:<{width}s} = {v:.12g}" if isinstance(v, float) else f"  {k:<{width}s} = {v}")

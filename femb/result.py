@@ -208,6 +208,22 @@ class Result:
         d = np.stack((c * s[0] - sn * s[1], sn * s[0] + c * s[1]), axis=1)
         return a[:, :2] + a[:, 2:3] * np.stack((-d[:, 1], d[:, 0]), axis=1) - (v[:, 2:3] ** 2) * d
 
+    def beam(self, name):
+        """A spatial beam meshed by :func:`~femb.elements.spatial_beam.spatial_beam` as ``name``.
+
+        Returns
+        -------
+        BeamSeries
+            Over the stored times (nt) of the beam's n elements: ``centre_line`` (nt, n + 1, 3)
+            node positions; ``frames`` (nt, n + 1, 3, 3) section axes (columns e1 along the
+            beam, e2, e3) in space; ``forces`` (nt, n, 6) = (N, Q2, Q3, T, M2, M3) and
+            ``strains`` (nt, n, 6) = (Γ − Γ0, κ − κ0) per element in section axes (N > 0 in
+            tension; the resultants act from the end side on the start side). See
+            :class:`~femb.elements.spatial_beam.BeamSeries` for the conventions.
+        """
+        from femb.elements.spatial_beam import beam_series
+        return beam_series(self, name)
+
     def reaction(self, name):
         """Lagrange multipliers of a joint over time, shape (nt, nc_element).
 

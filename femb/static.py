@@ -124,8 +124,8 @@ class StaticResult(Result):
     @property
     def state(self):
         """The last converged equilibrium as a :class:`~femb.model.State` (at time ``time``)."""
-        return State(self.time, self.q[-1].copy(), np.zeros(self.q.shape[1]), np.zeros(self.q.shape[1]),
-                     self.lam[-1].copy())
+        nv = self.model.nq          # velocities: nq (rotation nodes store 7 coordinates, move with 6)
+        return State(self.time, self.q[-1].copy(), np.zeros(nv), np.zeros(nv), self.lam[-1].copy())
 
     def describe_path(self):
         """The route to the equilibrium as text, one line per Newton solve."""

@@ -1,0 +1,214 @@
+"""Per-step cost against the number of SE(3) spatial beam elements (dynamic cantilever), and kernel cost.
+
+A steel rod (L = 1 m, d = 20 mm, E = 210 GPa, G = 80.8 GPa, ρ = 7850 kg/m³) clamped at
+x = 0 along x, released undeformed under gravity (0, 0, −9.81): a flexural vibration
+in which every step does Newton work on all elements. n elements, fixed steps
+h = 1e-4 s, ρ∞ = 0.7, from t = 0; the time loop's wall time per step (consistent
+initial values excluded) is the median over ``--runs`` runs (time.perf_counter inside
+:func:`femb.simulate`). The exponent p of the least-squares fit ms/step ∝ n^p is printed
+for n ≥ 10³.
+
+The force kernel (:func:`femb.elements.spatial_beam.spatial_beam_force`) is timed on its own
+as well, per element, with and without the Jacobian (batches of ``nel`` elements with
+random rotations, median of 15 calls after a warm-up).
+
+With Exudyn installed (``pip install femb[peers]``) the same rod is built from Exudyn's
+``ObjectBeamGeometricallyExact`` elements on ``NodeRigidBodyRotVecLG`` nodes and solved
+with its implicit generalized-α (same h, ρ∞, steps), where Exudyn accepts it; the
+ratio of wall times per step is printed (or why the peer run failed).
+
+Usage::
+
+    python -m femb.benchmarks.spatial_beam_scaling [--n 10 100 1000 3000 10000] [--runs 3]
+"""
+from __future__ import annotations
+
+import argparse
+import contextlib
+import io
+import statistics
+import time
+
+import numpy as np
+
+DATA = dict(L=1.0, d=0.02, E=2.1e11, G=8.08e10, rho=7850.0, g=(0.0, 0.0, -9.81))
+H = 1e-4
+RHO_INF = 0.7
+
+
+def build(n):
+    """The cantilever with n SpatialBeam elements (nodes ``rod.n0`` clamped … ``rod.n{n}``)."""
+    from femb import Mechanism
+    from femb.elements.spatial_beam import SpatialSection, spatial_beam
+    from femb.elements.spatial_forces import SpatialGravity
+
+    D = DATA
+    m = Mechanism(f"rod{n}")
+    sec = SpatialSection.circle(D["E"], D["G"], D["d"], density=D["rho"])
+    spatial_beam(m, "rod", sec, [(0, 0, 0), (D["L"], 0, 0)], int(n), start="clamp")
+    m.add(SpatialGravity(D["g"]))
+    return m
+
+
+def steps_for(n):
+    return int(np.clip(40000 // n, 20, 400))
+
+
+def measure(n, runs=3, steps=None):
+    """Median ms per step over ``runs`` runs, and counters (dict)."""
+    import femb
+
+    steps = steps or steps_for(n)
+    model = build(n).compile()
+    per_step, res = [], None
+    for _ in range(runs):
+        res = femb.simulate(model, steps * H, H, rho_inf=RHO_INF, store=False)
+        per_step.append(1e3 * res.wall_time / res.steps)
+    return {"n": n, "nq": model.nq, "steps": res.steps, "ms_per_step": statistics.median(per_step),
+            "runs": per_step, "newton_per_step": float(res.newton_iterations.mean()),
+            "linear_solver": res.settings["linear_solver"]}
+
+
+def kernel_cost(nel=2000, damping=0.0, repeat=15):
+    """µs per element of the force kernel, ``{"jacobian": …, "force": …}``."""
+    from femb import Mechanism
+    from femb import rotations as rt
+    from femb.elements.spatial_beam import SpatialBeam, SpatialSection, spatial_beam
+
+    m = Mechanism("k")
+    sec = SpatialSection.from_properties(1e6, 1e6, 1e6, 1e3, 1e3, 1e3, rhoA=1.0, rhoJ=(2, 1, 1), damping=damping)
+    b = spatial_beam(m, "b", sec, [(0, 0, 0), (1.0, 0, 0)], nel)
+    P = np.ascontiguousarray(SpatialBeam.pack(b.elements)["P"])
+    rng = np.random.default_rng(0)
+    x = np.zeros((nel, 14))
+    for e in range(nel):
+        x[e, 0:3] = np.array([e / nel, 0, 0]) + 1e-4 * rng.standard_normal(3)
+        x[e, 7:10] = np.array([(e + 1) / nel, 0, 0]) + 1e-4 * rng.standard_normal(3)
+        x[e, 3:7] = rt.quat_exp(0.3 * rng.standard_normal(3))
+        x[e, 10:14] = rt.quat_exp(0.3 * rng.standard_normal(3))
+    v = rng.standard_normal((nel, 12))
+    fe, fq, fv = np.zeros((nel, 12)), np.zeros((nel, 12, 12)), np.zeros((nel, 12, 12))
+    tf = np.zeros((nel, 0, 3))
+    k = SpatialBeam.kernels["force"]
+    out = {}
+    for name, jac in (("jacobian", True), ("force", False)):
+        k(P, 0.0, tf, x, v, jac, fe, fq, fv)
+        ts = []
+        for _ in range(repeat):
+            t0 = time.perf_counter()
+            k(P, 0.0, tf, x, v, jac, fe, fq, fv)
+            ts.append(time.perf_counter() - t0)
+        out[name] = 1e6 * float(np.median(ts)) / nel
+    return out
+
+
+def exudyn_measure(n, runs=3, steps=None):
+    """The same rod in Exudyn (ObjectBeamGeometricallyExact); dict with ms_per_step or ``error``."""
+    try:
+        import exudyn as exu
+        from exudyn import itemInterface as ii
+    except ImportError:
+        return {"n": n, "error": "exudyn not installed"}
+    D = DATA
+    steps = steps or steps_for(n)
+    A = np.pi * D["d"] ** 2 / 4
+    I = np.pi * D["d"] ** 4 / 64
+    nu = D["E"] / (2 * D["G"]) - 1
+    k = 6 * (1 + nu) / (7 + 6 * nu)
+    wall = []
+    for _ in range(runs):
+        SC = exu.SystemContainer()
+        mbs = SC.AddSystem()
+        sec = exu.BeamSection()
+        sec.stiffnessMatrix = np.diag([D["E"] * A, k * D["G"] * A, k * D["G"] * A, D["G"] * 2 * I, D["E"] * I,
+                                       D["E"] * I]).tolist()
+        sec.dampingMatrix = np.zeros((6, 6)).tolist()
+        sec.massPerLength = D["rho"] * A
+        sec.inertia = (D["rho"] * np.diag([2 * I, I, I])).tolist()
+        Le = D["L"] / n
+        nodes = [mbs.AddNode(ii.NodeRigidBodyRotVecLG(referenceCoordinates=[i * Le, 0, 0, 0, 0, 0]))
+                 for i in range(n + 1)]
+        for i in range(n):
+            ob = mbs.AddObject(ii.ObjectBeamGeometricallyExact(nodeNumbers=[nodes[i], nodes[i + 1]],
+                                                               length=Le, sectionData=sec))
+            mm = mbs.AddMarker(ii.MarkerBodyMass(bodyNumber=ob))
+            mbs.AddLoad(ii.LoadMassProportional(markerNumber=mm, loadVector=list(D["g"])))
+        mg = _ground_coordinate_marker(mbs, ii)
+        for c in range(6):                  # clamp: the root node's six coordinates held at 0
+            mc = mbs.AddMarker(ii.MarkerNodeCoordinate(nodeNumber=nodes[0], coordinate=c))
+            mbs.AddObject(ii.ObjectConnectorCoordinate(markerNumbers=[mg, mc]))
+        mbs.Assemble()
+        s = exu.SimulationSettings()
+        ti = s.timeIntegration
+        ti.numberOfSteps = int(steps)
+        ti.endTime = steps * H
+        ti.generalizedAlpha.spectralRadius = RHO_INF
+        ti.generalizedAlpha.useIndex2Constraints = False
+        ti.generalizedAlpha.useNewmark = False
+        ti.generalizedAlpha.lieGroupAddTangentOperator = True
+        ti.adaptiveStep = False
+        ti.verboseMode = 0
+        s.solution.file.write = False
+        s.linearSolver.solverType = exu.LinearSolverType.EigenSparse
+        s.show.computationTime = False
+        s.show.statistics = False
+        buf = io.StringIO()
+        t0 = time.perf_counter()
+        try:
+            with contextlib.redirect_stdout(buf), contextlib.redirect_stderr(buf):
+                ok = mbs.SolveDynamic(s)
+        except Exception as exc:
+            log = [ln for ln in buf.getvalue().splitlines() if ln.strip()]
+            return {"n": n, "error": f"{type(exc).__name__}: {str(exc).splitlines()[0] if str(exc) else ''}",
+                    "log": log[-5:]}
+        wall.append(time.perf_counter() - t0)
+        if ok is False:
+            last = buf.getvalue().strip().splitlines()
+            return {"n": n, "error": "SolveDynamic returned False" + (f": {last[-1]}" if last else "")}
+    return {"n": n, "ms_per_step": 1e3 * statistics.median(wall) / steps, "steps": steps,
+            "tip_z": float(mbs.GetNodeOutput(nodes[-1], exu.OutputVariableType.Position)[2])}
+
+
+def _ground_coordinate_marker(mbs, ii):
+    ng = mbs.AddNode(ii.NodePointGround(referenceCoordinates=[0.0, 0.0, 0.0]))
+    return mbs.AddMarker(ii.MarkerNodeCoordinate(nodeNumber=ng, coordinate=0))
+
+
+def fit_exponent(ns, ys):
+    """Exponent p of the least-squares fit y = C n^p (log–log)."""
+    return float(np.polyfit(np.log(ns), np.log(ys), 1)[0])
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--n", type=int, nargs="+", default=[10, 100, 1000, 3000, 10000])
+    ap.add_argument("--runs", type=int, default=3)
+    ap.add_argument("--no-exudyn", action="store_true")
+    ap.add_argument("--exudyn-max", type=int, default=1000, help="largest n run in Exudyn")
+    a = ap.parse_args(argv)
+    for nel in (200, 2000):
+        kc = kernel_cost(nel)
+        kd = kernel_cost(nel, damping=1e-3)
+        print(f"force kernel, {nel} elements: {kc['jacobian']:.2f} us/element with Jacobian "
+              f"({kd['jacobian']:.2f} with damping), {kc['force']:.2f} us/element force only")
+    print(f"dynamic cantilever under gravity, h = {H:g} s, rho_inf = {RHO_INF}, median of {a.runs} runs")
+    print(f"{'n':>6s} {'nq':>7s} {'steps':>6s} {'ms/step':>9s} {'us/(step el)':>13s} {'newton':>7s}  "
+          f"{'exudyn ms/step':>14s} {'ratio':>6s}")
+    rows = []
+    for n in a.n:
+        r = measure(n, a.runs)
+        ex = {"error": "skipped"} if a.no_exudyn or n > a.exudyn_max else exudyn_measure(n, a.runs)
+        rows.append(r)
+        exs = f"{ex['ms_per_step']:14.3f} {ex['ms_per_step'] / r['ms_per_step']:6.2f}" if "ms_per_step" in ex \
+            else f"  ({ex['error']})"
+        print(f"{n:6d} {r['nq']:7d} {r['steps']:6d} {r['ms_per_step']:9.3f} {1e3 * r['ms_per_step'] / n:13.3f} "
+              f"{r['newton_per_step']:7.2f}  {exs}")
+    ns = np.array([r["n"] for r in rows], dtype=float)
+    ms = np.array([r["ms_per_step"] for r in rows])
+    big = ns >= 1000
+    if big.sum() >= 2:
+        print(f"fitted exponent p (ms/step ~ n^p), n >= 1000: {fit_exponent(ns[big], ms[big]):.3f}")
+
+
+if __name__ == "__main__":
+    main()
