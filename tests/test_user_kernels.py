@@ -204,7 +204,8 @@ def test_a_correct_damped_element_passes_silently():
 
 def test_every_builtin_scene_passes_the_jacobian_check():
     from femb.benchmarks import registry
-    for name in ("andrews", "heavy_top", "bricard", "spatial_slider_crank", "flexible_slider_crank"):
+    for name in ("andrews", "heavy_top", "bricard", "spatial_slider_crank", "flexible_slider_crank", "spin_up_3d",
+                 "flexible_fourbar_3d", "right_angle_cantilever"):
         mech = registry.load(name).module.build()
         model = mech.compile() if hasattr(mech, "compile") else mech
         rep = femb.check_jacobians(model)
