@@ -151,7 +151,7 @@ def test_every_output_of_the_heavy_top_is_readable(top_run):
     assert "top.p3_d" not in names and "support.M" not in names
     for n, u in units.items():
         if n.startswith("support.") and n[-1] in "xyz" and len(n.rsplit(".", 1)[1]) == 1:
-            assert u == "λ", n                     # the multipliers support.x, .y, .z
+            assert u == "N", n                     # the multipliers support.x, .y, .z: forces (constraint_units)
         else:
             assert u == _expected_unit(n), (n, u)
     # Ω in body axes is the model's velocity entry; ω = R Ω in space axes
