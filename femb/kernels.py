@@ -94,16 +94,21 @@ def compiled_kernel(owner, role, fn, boundscheck=None):
         compile for the role's argument types, or returns a value.
     """
     debug = debug_mode() if boundscheck is None else bool(boundscheck)
+    hit = _compiled.get((fn, role, debug))
+    if hit is not None:                      # (every Python-side kernel call comes here: no checks twice)
+        return hit
     py = _check_kernel(owner, role, fn)
     key = (py, role, debug)
     hit = _compiled.get(key)
     if hit is not None:
+        _compiled[(fn, role, debug)] = hit
         return hit
     sig = ROLE_SIGNATURES[role]
     if jit_disabled():
         _PY_KERNELS.append(py)
         out = (py, len(_PY_KERNELS) - 1)
         _compiled[key] = out
+        _compiled[(fn, role, debug)] = out
         return out
     opts = dict(getattr(fn, "targetoptions", None) or KERNEL_OPTIONS)
     if not hasattr(fn, "targetoptions"):
@@ -134,6 +139,7 @@ def compiled_kernel(owner, role, fn, boundscheck=None):
         _fresh.append((owner, role, time.perf_counter() - t0))
     out = (disp, int(addr))
     _compiled[key] = out
+    _compiled[(fn, role, debug)] = out
     return out
 
 

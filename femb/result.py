@@ -440,10 +440,18 @@ class Result:
 
     # ------------------------------------------------------------------ energies
     def energy(self):
-        """Energies and their balance at every stored step (dict of (nt,) arrays, J); see :mod:`femb.energy`."""
+        """Energies and their balance at every stored step (dict of (nt,) arrays, J); see :mod:`femb.energy`.
+
+        Computed once per result (the stored arrays are the run's); each call returns copies.
+        """
         from femb.energy import energies
 
-        return energies(self)
+        key = (id(self.t), self.t.size)
+        cache = self.__dict__.get("_energy_cache")
+        if cache is None or cache[0] != key:
+            cache = (key, energies(self))
+            self.__dict__["_energy_cache"] = cache
+        return {k: np.array(v, copy=True) for k, v in cache[1].items()}
 
     def energy_balance(self):
         """Largest |energy balance| relative to the run's energy scale (see :func:`femb.energy.energy_balance`)."""
