@@ -353,7 +353,7 @@ def consistent_initial_state(model, state=None, *, t0=0.0, phi_tol=1e-12, max_it
         :class:`InitialMoveWarning`. Velocities: when a velocity that was given
         (a body with a non-zero initial velocity) is changed by the projection
         by more than ``report_move`` times the run's velocity scale (the largest
-        |v| and L|ω| of the given and the consistent velocities), every body
+        ‖v‖ and L‖ω‖ of the given and the consistent velocities), every body
         whose velocity changed is listed in an
         :class:`~femb.errors.InitialVelocityWarning` (a subclass of
         :class:`InitialMoveWarning`). Bodies given no velocity that a driver or
@@ -478,7 +478,7 @@ def body_velocity_changes(model, qd_from, qd_to):
     list of (str, float, float, bool, float)
         (body name, change of the translational velocity in m/s, change of
         the angular velocity in rad/s, whether the body had a non-zero
-        velocity in ``qd_from``, the body's velocity scale max(|v|, L|ω|) over
+        velocity in ``qd_from``, the body's velocity scale max(‖v‖, L‖ω‖) over
         both vectors in m/s), for bodies with free velocities, in the order of
         ``model.bodies``.
     """
