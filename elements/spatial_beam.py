@@ -992,14 +992,31 @@ class SpatialBeam(Element):
 
     @classmethod
     def geometry(cls, p, t, qe, qde, lame, names):
-        """The centre lines: one line per element through its two nodes (cell data: resultants N … M3)."""
+        """The centre lines: one line per element through its two nodes.
+
+        Cell data per element: the resultants ``N, V2, V3, T, M2, M3`` (section axes, the part
+        towards B on the part towards A; :meth:`resultants`) and the strains ``Gamma1 …
+        Gamma3, kappa1 … kappa3`` (ε = (d − d0)/L, :meth:`strains`). Point data at each end
+        of each element: the section frame ``e1, e2, e3`` (unit vectors in space axes, e1 along
+        the reference centre line).
+        """
         qe = np.asarray(qe, dtype=float)
         n = qe.shape[0]
         pts = np.concatenate((qe[:, 0:3], qe[:, 7:10]))
         conn = np.column_stack((np.arange(n), n + np.arange(n))).astype(np.int64)
         sig = cls.resultants(p, qe)
+        eps = cls.strains(p, qe)
         cd = {k: [sig[:, i].copy()] for i, k in enumerate(("N", "V2", "V3", "T", "M2", "M3"))}
-        return [GeometryBlock(cls.__name__, pts, [("line", conn)], cell_data=cd)]
+        cd.update({k: [eps[:, i].copy()] for i, k in enumerate(("Gamma1", "Gamma2", "Gamma3",
+                                                               "kappa1", "kappa2", "kappa3"))})
+        frames = np.empty((2 * n, 3, 3))
+        P = p["P"]
+        for e in range(n):
+            _, _, RsA, RsB, _, _, _, _ = section_frames(np.ascontiguousarray(P[e]), np.ascontiguousarray(qe[e]))
+            frames[e] = np.reshape(RsA, (3, 3))
+            frames[n + e] = np.reshape(RsB, (3, 3))
+        pd = {f"e{k + 1}": np.ascontiguousarray(frames[:, :, k]) for k in range(3)}
+        return [GeometryBlock(cls.__name__, pts, [("line", conn)], cell_data=cd, point_data=pd)]
 
 
 # ---------------------------------------------------------------------------

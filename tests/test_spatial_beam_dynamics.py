@@ -94,3 +94,30 @@ def test_flexible_spherical_pendulum_energy():
         p0 = b.positions(model, r.q)[:, 0]
         assert np.abs(p0).max() < 1e-10
     assert errs[1] < 3e-4 and errs[0] / errs[1] > 3.0          # measured 4.0e-4, 1.06e-4
+
+
+def test_vtk_output_carries_section_frames_strains_and_resultants(model, tmp_path):
+    """Beams in VTK: centre lines with the section frames e1, e2, e3 at the element ends (point
+    data) and strains Γ, κ and resultants N … M3 per element (cell data)."""
+    from femb.io.frames import VTKStream
+    from femb.io.vtk import read_frame, read_pvd
+
+    (g,) = [g for g in model.groups if g.cls is SpatialBeam]
+    qe = model.ext(model.q0)[g.xdofs]
+    (blk,) = SpatialBeam.geometry(g.params, 0.0, qe, None, None, g.names)
+    n = qe.shape[0]
+    for k in ("e1", "e2", "e3"):
+        assert blk.point_data[k].shape == (2 * n, 3)
+    E = np.stack([blk.point_data[k] for k in ("e1", "e2", "e3")], axis=2)       # columns e1 e2 e3
+    assert np.abs(np.einsum("pji,pjk->pik", E, E) - np.eye(3)).max() < 1e-12
+    # undeformed and straight per element: e1 along the element, no strain, no resultant
+    axis = blk.points[n:] - blk.points[:n]
+    axis /= np.linalg.norm(axis, axis=1)[:, None]
+    assert np.abs(np.einsum("ei,ei->e", E[:n, :, 0], axis) - 1.0).max() < 1e-12
+    for k in ("Gamma1", "Gamma2", "Gamma3", "kappa1", "kappa2", "kappa3", "N", "M3"):
+        assert np.abs(blk.cell_data[k][0]).max() < 1e-9
+    with VTKStream(model, tmp_path / "vtk", dt=0.5) as vtk:
+        femb.simulate(model, 1.0, 0.05, observer=vtk)
+    last = read_frame(read_pvd(vtk.path)[-1][1])
+    assert {"e1", "e2", "e3"} <= set(last.point_data)
+    assert {"Gamma1", "kappa3", "N", "M3"} <= set(last.cell_data)
