@@ -221,6 +221,12 @@ def cmd_list(args):
             print(f"  outputs{' (independent reference: yes)' if scene.has_reference else ''}:")
             _print_outputs(scene, "    ", detail=False)
             print()
+        statics = registry.static_names()
+        if statics:
+            print("static and buckling scenes ('femb run NAME' solves them; no time integration):")
+            for name in statics:
+                print(f"  {name}: {registry.load(name).description}")
+            print()
         print("'femb list SCENE' describes one scene and its outputs in detail.")
         return 0
     scene = _load_scene(args.scene)
