@@ -446,14 +446,9 @@ class _FembCache(_caching.FunctionCache):
         # function at once: both can pick the same data file name, and the index then points
         # at the other signature's code (a crash when it is called). One writer at a time.
         try:
-            import fcntl
             os.makedirs(self.cache_path, exist_ok=True)
-            with open(os.path.join(self.cache_path, self._impl.filename_base + ".lock"), "a+") as fh:
-                fcntl.flock(fh, fcntl.LOCK_EX)
-                try:
-                    super().save_overload(sig, data)
-                finally:
-                    fcntl.flock(fh, fcntl.LOCK_UN)
+            with _file_lock(os.path.join(self.cache_path, self._impl.filename_base + ".lock")):
+                super().save_overload(sig, data)
         except OSError as e:
             _warn_unwritable(self.cache_path, e)
 
@@ -504,13 +499,31 @@ def compile_lock(name):
     if root is None:
         yield
         return
-    import fcntl
     try:
-        fh = open(root / f"{name}.lock", "a+")
+        lock = _file_lock(root / f"{name}.lock")
+        lock.__enter__()
     except OSError:
         yield
         return
-    with fh:
+    try:
+        yield
+    finally:
+        lock.__exit__(None, None, None)
+
+
+@_contextlib.contextmanager
+def _file_lock(path):
+    """An exclusive advisory lock on ``path`` (created), held inside the ``with`` block.
+
+    POSIX ``flock``; where there is none (Windows), no lock: processes may then compile the
+    same code twice, and numba's own atomic writes keep the cache usable.
+    """
+    try:
+        import fcntl
+    except ImportError:
+        yield
+        return
+    with open(path, "a+") as fh:
         fcntl.flock(fh, fcntl.LOCK_EX)
         try:
             yield
