@@ -120,8 +120,9 @@ def info():
     Returns
     -------
     dict
-        ``{"path": str, "bytes": int, "entries": [(name, files, bytes), ...]}``: one entry per
-        compiled module and source key (``step-<key>`` is the engine).
+        ``{"path": str, "bytes": int, "entries": [(name, files, bytes, functions), ...]}``: one
+        entry per compiled module and source key (``step-<key>`` is the engine), with the names
+        of the functions compiled there.
     """
     root = cache_dir()
     entries = []
@@ -132,7 +133,9 @@ def info():
             files = [f for f in d.rglob("*") if f.is_file()]
             size = sum(f.stat().st_size for f in files)
             total += size
-            entries.append((d.name, len(files), size))
+            # one index file per compiled function: "<module>.<function>-<line>.pyXY.nbi"
+            funcs = sorted({f.name.split("-")[0].split(".", 1)[-1] for f in files if f.suffix == ".nbi"})
+            entries.append((d.name, len(files), size, funcs))
     for f in root.rglob("*"):
         if f.is_file() and base not in f.parents:
             total += f.stat().st_size

@@ -23,8 +23,12 @@ def cmd_cache(args):
         print(f"size:  {_size(d['bytes'])}")
         eng = [e for e in d["entries"] if e[0].startswith("step-")]
         print(f"engine: {'compiled' if eng else 'not compiled yet'}")
-        for name, files, size in d["entries"]:
-            print(f"  {name:<48s} {files:4d} files  {_size(size):>9s}")
+        print("entries (module-source key: files, size, compiled functions):")
+        for name, files, size, funcs in d["entries"]:
+            shown = ", ".join(funcs[:6]) + (f", … ({len(funcs)} in all)" if len(funcs) > 6 else "")
+            print(f"  {name:<40s} {files:4d} files {_size(size):>9s}  {shown}")
+        print("(entries of older sources stay until 'femb cache clear'; each holds the code of one "
+              "version of a module's files)")
         return 0
     if what == "clear":
         freed = cache.clear()
