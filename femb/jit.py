@@ -263,7 +263,7 @@ def call_rates(typingctx, addr, P, t, tf, xe, ve, Phi_t, gam):
 
 
 if jit_disabled():
-    call_force = call_constraint = call_rates = _py_call      # noqa: F811
+    call_force = call_constraint = call_rates = _py_call      # noqa: F811 (plain Python)
 
 
 # --------------------------------------------------------------------------

@@ -24,7 +24,6 @@ C. W. Gear, B. Leimkuhler, G. K. Gupta, J. Comput. Appl. Math. 12–13 (1985) 77
 from __future__ import annotations
 
 import math
-import sys
 import time
 import warnings
 

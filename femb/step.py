@@ -1803,7 +1803,7 @@ def engine_signatures():
     """``{entry point: argument types}``: every entry point of the engine has one signature,
     whatever the model (its data come as packs and arrays of fixed rank and dtype)."""
     from numba import types as T
-    f1, i1, i2, f2, f3 = T.float64[::1], T.int64[::1], T.int64[:, ::1], T.float64[:, ::1], T.float64[:, :, ::1]
+    f1, i1, i2, f2 = T.float64[::1], T.int64[::1], T.int64[:, ::1], T.float64[:, ::1]
     P = T.Tuple((f1, i1, i2))
     f, i, b = T.float64, T.int64, T.boolean
     loop = (P, P, i1, f1, i1, f1, i1)
