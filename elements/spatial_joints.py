@@ -177,9 +177,10 @@ class SpatialPairElement(Element):
 
         The contract of a joint type built on this class (every joint of this file
         defines it; the spatial force elements, which also derive from this class,
-        define ``pack`` instead and never call it).
+        define ``pack`` instead and never call it). A user's joint type that defines
+        neither gets a :class:`~femb.errors.ModelError` when its model is compiled.
         """
-        raise NotImplementedError(f"{type(self).__name__} '{self.name}': a joint type derived from "
+        raise ModelError(f"{type(self).__name__} '{self.name}': a joint type derived from "
                                   "SpatialPairElement must define program() (its constraint rows), "
                                   "or override pack()")
 

@@ -81,3 +81,15 @@ def every_element_mechanism():
 @pytest.fixture
 def every_model():
     return every_element_mechanism().compile()
+
+
+@pytest.fixture(scope="session")
+def renderer():
+    """Off-screen rendering: the tests that draw are skipped only when femb.io.can_render says
+    no OpenGL context can be made on this machine (the reason is in the skip message)."""
+    from femb.io import can_render
+
+    ok, reason = can_render()
+    if not ok:
+        pytest.skip(f"off-screen rendering unavailable: {reason}")
+    return reason

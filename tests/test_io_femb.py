@@ -87,10 +87,7 @@ def test_result_write_vtk_round_trip(tmp_path):
     assert any(np.asarray(a).size for a in f)
 
 
-def test_render_andrews_png_and_gif(andrews_run, tmp_path):
-    ok, reason = femb.io.can_render()
-    if not ok:
-        pytest.skip(f"no off-screen OpenGL context: {reason}")
+def test_render_andrews_png_and_gif(andrews_run, tmp_path, renderer):
     from PIL import Image
     model, res, pvd = andrews_run
     png = tmp_path / "a.png"

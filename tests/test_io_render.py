@@ -45,14 +45,6 @@ def series(tmp_path_factory):
     return w.path
 
 
-@pytest.fixture(scope="module")
-def renderer():
-    ok, reason = can_render()
-    if not ok:
-        pytest.skip(f"off-screen rendering unavailable: {reason}")
-    return reason
-
-
 def read_png(path):
     from PIL import Image
 

@@ -11,7 +11,7 @@ import pytest
 
 import femb
 from femb.benchmarks.registry import load
-from femb.io import OutputError, can_render, read_frame
+from femb.io import OutputError, read_frame
 from femb.io.mechanism import JOINT_KINDS, parse_view, view_direction
 from femb.io.render import picture_scene, render_animation, render_png, render_strip
 
@@ -38,14 +38,6 @@ def scene(request, tmp_path_factory):
     every = max(1, int(round(t_end / h / 10)))
     pvd = res.write_vtk(tmp_path_factory.mktemp(name), every=every)
     return name, pvd
-
-
-@pytest.fixture(scope="module")
-def renderer():
-    ok, reason = can_render()
-    if not ok:
-        pytest.skip(f"off-screen rendering unavailable: {reason}")
-    return reason
 
 
 def read_png(path):

@@ -537,13 +537,10 @@ def test_default_view_follows_planarity():
         _check_view("30,120", SimpleNamespace(planar=False))
 
 
-def test_render_spatial_motion(tmp_path):
-    from femb.io import TimeSeriesWriter, can_render
+def test_render_spatial_motion(tmp_path, renderer):
+    from femb.io import TimeSeriesWriter
     from femb.io.render import render_png
 
-    ok, reason = can_render()
-    if not ok:
-        pytest.skip(f"off-screen rendering unavailable: {reason}")
     rng = np.random.default_rng(14)
     body = SpatialRigidBody("box", 1.0, box_inertia(1.0, 1.0, 0.3, 0.2),
                             shape={"type": "box", "size": (1.0, 0.3, 0.2)})

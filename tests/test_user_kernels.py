@@ -221,3 +221,20 @@ def test_a_hinge_user_model_mixing_builtin_and_user_types():
     assert femb.check_jacobians(model).ok
     res = femb.simulate(model, t_end=0.2, h=1e-3)
     assert np.isfinite(res.q).all()
+
+
+def test_a_spatial_joint_type_without_its_rows_is_a_model_error():
+    """A user's joint type on SpatialPairElement that defines neither program() nor pack()."""
+    from femb.elements.spatial_bodies import SpatialRigidBody
+    from femb.elements.spatial_joints import JOINT_KERNELS, SpatialPairElement
+
+    class MyJoint(SpatialPairElement):
+        n_constraints = 3
+        constraint_names = ("x", "y", "z")
+        kernels = JOINT_KERNELS
+
+    m = Mechanism("myjoint")
+    b = m.add(SpatialRigidBody("b", 1.0, (0.1, 0.1, 0.1), position=(0.0, 0.0, -1.0)))
+    m.add(MyJoint("j", "ground", b, at=(0.0, 0.0, 0.0)))
+    with pytest.raises(ModelError, match=r"MyJoint 'j'.*must define program\(\)"):
+        m.compile()

@@ -718,13 +718,18 @@ def _mech_png(pv, mech, entries, k, out, view, window_size):
     items = mx.frame_items(pv, mech.frames[k], mech.motion)
     labels = _legend_labels(items)
     cam = mech.camera(pv, view, window_size, top=top, right=_legend_width(labels, *window_size))
+    return _one_panel(pv, items, labels, cam, window_size, _label(_time_format(entries), entries[k][0]), out)
+
+
+def _one_panel(pv, items, labels, cam, window_size, time_text, out):
+    """A picture of one panel: the items under the camera, legend, axes triad, time label; to PNG."""
     pl = _plotter(pv, window_size)
     try:
         _apply_camera(pl, cam)
         _draw_items(pl, items, "item")
         _legend(pl, labels, window_size)
         _axes(pl)
-        _add_time(pl, _label(_time_format(entries), entries[k][0]))
+        _add_time(pl, time_text)
         pl.renderer.ResetCameraClippingRange()
         _save_png(_snapshot(pl), out)
     finally:
@@ -746,19 +751,9 @@ def _mech_strip(pv, mech, entries, idx, out, view, window_size, layout, fmt):
                                     traces=j == m - 1)
         labels = _legend_labels(mx.frame_items(pv, mech.frames[idx[-1]], mech.motion, floor=False))
         cam = mech.camera(pv, view, window_size, top=top, right=_legend_width(labels, *window_size))
-        pl = _plotter(pv, window_size)
-        try:
-            _apply_camera(pl, cam)
-            _draw_items(pl, items, "item")
-            _legend(pl, labels, window_size)
-            _axes(pl)
-            first, last = entries[idx[0]][0], entries[idx[-1]][0]
-            _add_time(pl, f"t = {fmt.format(first)} ... {fmt.format(last)} s ({m} instants, light to dark)")
-            pl.renderer.ResetCameraClippingRange()
-            _save_png(_snapshot(pl), out)
-        finally:
-            pl.close()
-        return out
+        first, last = entries[idx[0]][0], entries[idx[-1]][0]
+        return _one_panel(pv, items, labels, cam, window_size,
+                          f"t = {fmt.format(first)} ... {fmt.format(last)} s ({m} instants, light to dark)", out)
     # small multiples: one panel per instant, and a narrow legend panel
     labels = _legend_labels(mx.frame_items(pv, mech.frames[idx[-1]], mech.motion, floor=False))
     if window_size is None:
