@@ -854,6 +854,7 @@ class SpatialBeam(Element):
     """
 
     spatial = True                    # acts on frame nodes (femb.model: no planar element on them)
+    glyph = "beam"                    # drawn as a tube along its centre line (femb.io.frames)
     has_mass = True
     constant_mass = True
     has_force = True

@@ -204,6 +204,9 @@ class SpatialBody(Body):
         :func:`~femb.elements._spatial_geometry.check_shape`.
     """
 
+    #: acts on spatial frame nodes (femb.model refuses planar elements on them)
+    spatial = True
+
     def _init_body(self, name, node, points=None, axes=None, shape=None):
         self.node = node
         owner = f"body '{name}'"

@@ -451,6 +451,8 @@ def load_force(P, t, tf, xe, ve, jac, fe, fq, fv):
 
 
 class _Load(Element):
+    #: acts on spatial frame nodes (femb.model refuses planar elements on them)
+    spatial = True
     has_force = True
     kernels = {"force": load_force}
     _torque = False

@@ -131,6 +131,9 @@ class SpatialPairElement(Element):
         ``axis1`` may also name axes of body a.
     """
 
+    #: acts on spatial frame nodes (femb.model refuses planar elements on them)
+    spatial = True
+
     def __init__(self, name, a, b, at=None, point_a=None, point_b=None, axis=None, axis1=None,
                  frame=None):
         super().__init__(name)

@@ -25,13 +25,10 @@ from femb.jit import pack
 DENSE_MAX = 400
 #: systems up to this size are always stored densely
 DENSE_SMALL = 128
-#: the arrays of a force batch and of a constraint batch, in the order they are packed into G
-#: (name, kind: f/i float/integer and the number of dimensions)
-FORCE_FIELDS = [("P", "f2"), ("dofs", "i2"), ("tfi", "i2"), ("tnn", "i3"), ("xe", "f2"), ("ve", "f2"),
-                ("tf", "f3"), ("fe", "f2"), ("fq", "f3"), ("fv", "f3"), ("xdofs", "i2"), ("tblk", "i3")]
-CONSTRAINT_FIELDS = [("P", "f2"), ("dofs", "i2"), ("lamidx", "i2"), ("tfi", "i2"), ("tnn", "i3"), ("tB", "i3"),
-                     ("tBt", "i3"), ("xe", "f2"), ("ve", "f2"), ("le", "f2"), ("tf", "f3"), ("Phe", "f2"),
-                     ("Be", "f3"), ("He", "f3"), ("Pt", "f2"), ("gm", "f2"), ("xdofs", "i2"), ("tblk", "i3")]
+#: the arrays of each batch, in the order they are packed into G: defined beside their numbers
+#: in femb/step.py (F_*, K_*)
+FORCE_FIELDS = _S.FORCE_FIELDS
+CONSTRAINT_FIELDS = _S.CONSTRAINT_FIELDS
 #: the model constants packed into C (femb/step.py reads them as views, by these numbers)
 CONSTANT_KINDS = ["i1", "i1", "i1", "f1", "f1", "f1", "f1", "i1", "i1", "i1", "f1", "f1", "i1", "f2", "f1",
                   "i1", "i1", "i2", "f3", "i1", "i2", "f2", "f1", "i2", "i2", "i1", "f2", "f2", "i2", "i1"]

@@ -263,17 +263,10 @@ def _group_key(e):
 
 
 def _spatial_element(e):
-    """True for elements that attach to spatial (frame-node) bodies.
-
-    The spatial element library (bodies, joints, forces of ``femb.elements.spatial_*``)
-    and any element type with a true class attribute ``spatial``.
-    """
-    if getattr(type(e), "spatial", False):
-        return True
-    from femb.elements.spatial_bodies import SpatialBody
-    from femb.elements.spatial_forces import _Load
-    from femb.elements.spatial_joints import SpatialPairElement
-    return isinstance(e, (SpatialBody, SpatialPairElement, _Load))
+    """True for elements that attach to spatial (frame-node) bodies: element types with a true
+    class attribute ``spatial`` (the spatial bodies, joints, loads and beams of
+    ``femb.elements.spatial_*`` set it on their base classes; a user's spatial type sets it too)."""
+    return bool(getattr(type(e), "spatial", False))
 
 
 def compile_model(mech, *, length_scale=None):

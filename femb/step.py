@@ -56,11 +56,18 @@ W_EV, W_ATOLV, W_WQ, W_DU, W_LK = 24, 25, 26, 27, 28
 B_ROLE, B_BASE, B_HASC, B_KERNEL, B_RATES = 0, 1, 2, 3, 4
 NB = 5
 ROLE_FORCE, ROLE_CONSTRAINT = 0, 1
-# ---- a force batch's arrays in G, from its base (femb/codegen.py, FORCE_FIELDS) -----------
+# ---- a force batch's arrays in G, from its base: (name, kind f/i and rank), packed in this
+# order by femb/codegen.py, and their numbers
+FORCE_FIELDS = [("P", "f2"), ("dofs", "i2"), ("tfi", "i2"), ("tnn", "i3"), ("xe", "f2"), ("ve", "f2"),
+                ("tf", "f3"), ("fe", "f2"), ("fq", "f3"), ("fv", "f3"), ("xdofs", "i2"), ("tblk", "i3")]
 F_P, F_DOFS, F_TFI, F_TNN, F_XE, F_VE, F_TF, F_FE, F_FQ, F_FV, F_XDOFS, F_TBLK = range(12)
-# ---- a constraint batch's arrays in G, from its base (CONSTRAINT_FIELDS) --------------------
+# ---- a constraint batch's arrays in G, from its base, and their numbers
+CONSTRAINT_FIELDS = [("P", "f2"), ("dofs", "i2"), ("lamidx", "i2"), ("tfi", "i2"), ("tnn", "i3"), ("tB", "i3"),
+                     ("tBt", "i3"), ("xe", "f2"), ("ve", "f2"), ("le", "f2"), ("tf", "f3"), ("Phe", "f2"),
+                     ("Be", "f3"), ("He", "f3"), ("Pt", "f2"), ("gm", "f2"), ("xdofs", "i2"), ("tblk", "i3")]
 (K_P, K_DOFS, K_LAMIDX, K_TFI, K_TNN, K_TB, K_TBT, K_XE, K_VE, K_LE, K_TF, K_PHE, K_BE, K_HE, K_PT, K_GM,
  K_XDOFS, K_TBLK) = range(18)
+assert len(FORCE_FIELDS) == F_TBLK + 1 and len(CONSTRAINT_FIELDS) == K_TBLK + 1
 
 # ---- status codes returned to Python (femb/solver.py raises femb's errors) -------------
 ST_CHUNK = 0          # requested number of steps done
@@ -542,10 +549,7 @@ def newton_step(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam, t1,
                 rhs[iperm[nv + nc + j]] = -sr * E[1][j]
         solve(AB, ip, env, ipiv, rhs)
         stats[NS_SOLVE] += 1
-        if ggl:
-            dqmax, qmax, dqw, qddmax = apply_correction_ggl(C, ip, q, qd, qdd, lam, rhs, wq, bp, gp, c, lie)
-        else:
-            dqmax, qmax, dqw, qddmax = apply_correction(C, ip, q, qd, qdd, lam, rhs, wq, bp, gp, c, lie)
+        dqmax, qmax, dqw, qddmax = apply_correction(C, ip, q, qd, qdd, lam, rhs, wq, bp, gp, c, lie, ggl)
         k += 1
         if ntest == 0:
             # round-off floor: a correction at the level of the coordinates' own round-off
@@ -699,68 +703,23 @@ def constraint_norm(Phi, g, gp, ggl):
 
 
 @njit(**INNER)
-def apply_correction(C, ip, q, qd, qdd, lam, rhs, wq, bp, gp, c, lie):
-    """Index 3: q ∘ exp(Δq), q̇ += γ'Δq, q̈ += β'Δq, λ += Δλ/c from the solved ``rhs``.
+def apply_correction(C, ip, q, qd, qdd, lam, rhs, wq, bp, gp, c, lie, ggl):
+    """The solved Newton correction ``rhs`` into the iterate, in place.
 
-    Returns (max |Δq_i|, max |q_i| of additive entries, max |Δq_i|/wq_i, max |q̈_i|).
+    Index 3: q ∘ exp(Δq), q̇ += γ'Δq, q̈ += β'Δq, λ += Δλ/c. Index 2 (``ggl``): q̇ and q̈ from
+    δΔ, η += δη, and q ∘ exp(δΔ + B_nᵀδη).
+
+    Returns (max |Δ_i| of the q̇/q̈ increment, max |q_i| of additive entries, max |δq_i|/wq_i,
+    max |q̈_i|).
     """
     nv = ip[IP_NV]
     nc = ip[IP_NC]
     iperm = iview1(C, C_IPERM)
-    xm = iview1(C, C_XMAP)
-    D = fview1(C, C_D)
-    dqmax = 0.0
-    qmax = 0.0
-    dqw = 0.0
-    qddmax = 0.0
-    for i in range(nv):
-        dq = rhs[iperm[i]]
-        j = xm[i]
-        if j >= 0:
-            q[j] += dq
-            if abs(q[j]) > qmax:
-                qmax = abs(q[j])
-        else:
-            D[i] += dq
-        qd[i] += gp * dq
-        qdd[i] += bp * dq
-        if abs(dq) > dqmax:
-            dqmax = abs(dq)
-        if abs(qdd[i]) > qddmax:
-            qddmax = abs(qdd[i])
-        v = abs(dq) / wq[i]
-        if v > dqw:
-            dqw = v
-    if lie:
-        lie_update(q, C)
     inv_c = 1.0 / c
     for j in range(nc):
         lam[j] += rhs[iperm[nv + j]] * inv_c
-    return dqmax, qmax, dqw, qddmax
-
-
-@njit(**INNER)
-def apply_correction_ggl(C, ip, q, qd, qdd, lam, rhs, wq, bp, gp, c, lie):
-    """Index 2: λ += δλ/c, η += δη, q̇ += γ'δΔ, q̈ += β'δΔ, q ∘ exp(δΔ + B_nᵀδη).
-
-    Returns as :func:`apply_correction` (the q̇/q̈ increments measured on δΔ, the q ones on δq).
-    """
-    nv = ip[IP_NV]
-    nc = ip[IP_NC]
-    iperm = iview1(C, C_IPERM)
-    xm = iview1(C, C_XMAP)
-    D = fview1(C, C_D)
-    fl = iview2(C, C_FL)
-    Bn = fview2(C, C_BW)[0]
-    eta = fview2(C, C_GGLW)[0]
     dqmax = 0.0
-    qmax = 0.0
-    dqw = 0.0
     qddmax = 0.0
-    inv_c = 1.0 / c
-    for j in range(nc):
-        lam[j] += rhs[iperm[nv + j]] * inv_c
-        eta[j] += rhs[iperm[nv + nc + j]]
     for i in range(nv):
         dD = rhs[iperm[i]]
         qd[i] += gp * dD
@@ -769,11 +728,22 @@ def apply_correction_ggl(C, ip, q, qd, qdd, lam, rhs, wq, bp, gp, c, lie):
             dqmax = abs(dD)
         if abs(qdd[i]) > qddmax:
             qddmax = abs(qdd[i])
-    # δq = δΔ + B_nᵀ δη, accumulated in rhs's Δ entries (their values are used above)
-    for kk in range(fl.shape[0]):
-        cj = fl[kk, 0]
-        if cj >= 0:
-            rhs[iperm[fl[kk, 1]]] += Bn[kk] * rhs[iperm[nv + nc + cj]]
+    if ggl:
+        fl = iview2(C, C_FL)
+        Bn = fview2(C, C_BW)[0]
+        eta = fview2(C, C_GGLW)[0]
+        for j in range(nc):
+            eta[j] += rhs[iperm[nv + nc + j]]
+        # δq = δΔ + B_nᵀ δη, accumulated in rhs's Δ entries (their values were used above)
+        for kk in range(fl.shape[0]):
+            cj = fl[kk, 0]
+            if cj >= 0:
+                rhs[iperm[fl[kk, 1]]] += Bn[kk] * rhs[iperm[nv + nc + cj]]
+    # q ∘ exp(δq): additive entries in place, rotations from q_n and the accumulated D
+    xm = iview1(C, C_XMAP)
+    D = fview1(C, C_D)
+    qmax = 0.0
+    dqw = 0.0
     for i in range(nv):
         dq = rhs[iperm[i]]
         j = xm[i]

@@ -27,7 +27,7 @@ _KINDS = {"SpatialRigidBody": "body", "SpatialRigidBodyFrame": "body_frame", "Sp
           "CylindricalJoint": "cylindrical", "UniversalJoint": "universal", "FixedJoint": "fixed",
           "DistanceJoint": "distance", "PointSpringDamper": "spring", "Bushing": "bushing",
           "RotationalSpringDamper": "torsion", "SpatialForce": "load", "SpatialTorque": "load",
-          "SpatialGround": "ground", "SpatialBeam": "beam"}
+          "SpatialGround": "ground"}
 
 #: How a body is drawn (cell data ``body_look``): its given shape, the hull of its
 #: named points, or (neither given) the box with its mass and inertia.
