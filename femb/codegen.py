@@ -289,18 +289,24 @@ class Compiled:
 
     @staticmethod
     def batch_table(model):
-        """(nbatch, 5) int64: per batch its role, first array in G, q̇ flag and kernel addresses."""
+        """(nbatch, NB) int64: per batch its role, first array in G, q̇ flag and kernel addresses
+        (columns ``B_*`` of :mod:`femb.step`)."""
         from femb.kernels import compiled_kernel
-        rows = []
         nF = len(model.force_groups)
+        table = np.zeros((nF + len(model.constraint_groups), _S.NB), dtype=np.int64)
         for gi, g in enumerate(model.force_groups):
-            _, addr = compiled_kernel(g.cls.__name__, "force", g.cls.kernels["force"])
-            rows.append((0, len(FORCE_FIELDS) * gi, int(bool(g.traits["force_depends_on_qd"])), addr, 0))
+            row = table[gi]
+            row[_S.B_ROLE] = _S.ROLE_FORCE
+            row[_S.B_BASE] = len(FORCE_FIELDS) * gi
+            row[_S.B_HASC] = int(bool(g.traits["force_depends_on_qd"]))
+            row[_S.B_KERNEL] = compiled_kernel(g.cls.__name__, "force", g.cls.kernels["force"])[1]
         for gi, g in enumerate(model.constraint_groups):
-            _, ac = compiled_kernel(g.cls.__name__, "constraint", g.cls.kernels["constraint"])
-            _, ar = compiled_kernel(g.cls.__name__, "rates", g.cls.kernels["rates"])
-            rows.append((1, len(FORCE_FIELDS) * nF + len(CONSTRAINT_FIELDS) * gi, 0, ac, ar))
-        return np.array(rows, dtype=np.int64).reshape(-1, 5)
+            row = table[nF + gi]
+            row[_S.B_ROLE] = _S.ROLE_CONSTRAINT
+            row[_S.B_BASE] = len(FORCE_FIELDS) * nF + len(CONSTRAINT_FIELDS) * gi
+            row[_S.B_KERNEL] = compiled_kernel(g.cls.__name__, "constraint", g.cls.kernels["constraint"])[1]
+            row[_S.B_RATES] = compiled_kernel(g.cls.__name__, "rates", g.cls.kernels["rates"])[1]
+        return table
 
 
 def _envelope(pr, pc, N, kl, ku):
