@@ -30,7 +30,6 @@ def _f(a):
 # kernels compiled once per element type (and cached on disk)
 # --------------------------------------------------------------------------
 _compiled = {}
-_announced = set()
 
 
 def debug_mode() -> bool:
