@@ -741,7 +741,7 @@ class SpatialSection:
         J = a b³ (1/3 − 0.21 (b/a)(1 − b⁴/(12 a⁴))), a ≥ b the sides (Roark, Table 10.7,
         within 4 % for all ratios, exact as a/b → ∞).
         """
-        w, h = float(width), float(height)
+        w, h = _positive("SpatialSection.rectangle", width=width), _positive("SpatialSection.rectangle", height=height)
         A = w * h
         I2 = w * h ** 3 / 12.0
         I3 = h * w ** 3 / 12.0
@@ -754,7 +754,7 @@ class SpatialSection:
     @classmethod
     def circle(cls, E, G, diameter, density=0.0, shear_factor=None, damping=0.0):
         """Solid circle: I = π d⁴/64, J = π d⁴/32; shear factor default Cowper's 6(1+ν)/(7+6ν), ν = E/2G − 1."""
-        d = float(diameter)
+        d = _positive("SpatialSection.circle", diameter=diameter)
         A = math.pi * d * d / 4.0
         I = math.pi * d ** 4 / 64.0
         nu = _cowper_nu(E, G)
@@ -766,7 +766,7 @@ class SpatialSection:
     def tube(cls, E, G, outer_diameter, inner_diameter, density=0.0, shear_factor=None, damping=0.0):
         """Circular tube: I = π(D⁴ − d⁴)/64, J = 2I; shear factor default Cowper's
         6(1+ν)(1+m²)²/((7+6ν)(1+m²)² + (20+12ν)m²), m = d/D."""
-        Do, Di = float(outer_diameter), float(inner_diameter)
+        Do, Di = _positive("SpatialSection.tube", outer_diameter=outer_diameter), float(inner_diameter)
         if not 0.0 <= Di < Do:
             raise ModelError(f"SpatialSection.tube: need 0 ≤ inner < outer diameter, got {Di}, {Do}")
         A = math.pi * (Do * Do - Di * Di) / 4.0
@@ -777,6 +777,18 @@ class SpatialSection:
              if shear_factor is None else float(shear_factor))
         return cls.from_properties(E * A, k * G * A, k * G * A, G * 2.0 * I, E * I, E * I,
                                    density * A, density * np.array([2.0 * I, I, I]), damping)
+
+
+def _positive(where, **value):
+    """The one keyword's value as a float, refused unless finite and > 0."""
+    (key, v), = value.items()
+    try:
+        x = float(v)
+    except (TypeError, ValueError):
+        raise ModelError(f"{where}: {key} must be a number, got {v!r}") from None
+    if not (math.isfinite(x) and x > 0.0):
+        raise ModelError(f"{where}: {key} must be finite and > 0, got {v!r}")
+    return x
 
 
 # ---------------------------------------------------------------------------
@@ -1065,8 +1077,11 @@ class SpatialBeamMesh:
         return np.stack([model.node_coordinates(nm, q)[..., 3:7] for nm in self.node_names], axis=-2)
 
 
-def _frame_from(t, normal):
+def _frame_from(t, normal, where="spatial_beam"):
     e1 = np.asarray(t, dtype=float)
+    if not np.all(np.isfinite(e1)) or np.linalg.norm(e1) == 0.0:
+        raise ModelError(f"{where}: the beam axis has no direction there (a segment of zero length, or a "
+                         f"curve whose tangent is zero or not finite): {t!r}")
     e1 = e1 / np.linalg.norm(e1)
     if normal is None:
         normal = (0.0, 0.0, 1.0) if abs(e1[2]) < 0.9 else (0.0, 1.0, 0.0)
@@ -1130,7 +1145,8 @@ def spatial_beam(mech, name, section, path, n_elements, *, normal=None, frames=N
             F = [np.asarray(frames(si), dtype=float) for si in s]
         else:
             h = 1e-6
-            F = [_frame_from((np.asarray(path(si + h), float) - np.asarray(path(si - h), float)) / (2 * h), normal)
+            F = [_frame_from((np.asarray(path(si + h), float) - np.asarray(path(si - h), float)) / (2 * h), normal,
+                             f"spatial_beam '{name}' at s = {si:g}")
                  for si in s]
         pts, fa, fb = X, F[:-1], F[1:]
         node_frames = F
@@ -1144,7 +1160,7 @@ def spatial_beam(mech, name, section, path, n_elements, *, normal=None, frames=N
             raise ModelError(f"spatial_beam '{name}': need one element count ≥ 1 per segment ({nseg})")
         pts, fa, fb, node_frames = [P[0]], [], [], []
         for k in range(nseg):
-            Fk = _frame_from(P[k + 1] - P[k], normal)
+            Fk = _frame_from(P[k + 1] - P[k], normal, f"spatial_beam '{name}', segment {k} from {P[k]} to {P[k + 1]}")
             if k == 0:
                 node_frames.append(Fk)
             for j in range(1, counts[k] + 1):

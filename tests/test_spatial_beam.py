@@ -19,7 +19,9 @@ from spatial_fd import oplus, random_quat, tangent_jacobian  # noqa: E402
 from femb import rotations as rt  # noqa: E402
 from femb.elements import spatial_beam as sb  # noqa: E402
 from femb.elements.spatial_beam import (SpatialBeam, SpatialBeamNode, SpatialSection,  # noqa: E402
-                                        spatial_beam_force, spatial_beam_mass)
+                                        spatial_beam, spatial_beam_force, spatial_beam_mass)
+from femb import Mechanism  # noqa: E402
+from femb.errors import ModelError  # noqa: E402
 
 
 def _section(damping=0.0):
@@ -204,3 +206,23 @@ def test_sections():
     assert np.allclose(t.C, SpatialSection.circle(E, G, 0.1).C)
     with pytest.raises(Exception):
         SpatialSection(np.diag([1, 1, 1, 1, 1, -1.0]))
+
+
+@pytest.mark.parametrize("make, words", [
+    (lambda: SpatialSection.circle(2.1e11, 8.1e10, -0.02, 7850.0), "diameter"),
+    (lambda: SpatialSection.rectangle(2.1e11, 8.1e10, 0.0, 0.01), "width"),
+    (lambda: SpatialSection.rectangle(2.1e11, 8.1e10, 0.01, float("nan")), "height"),
+    (lambda: SpatialSection.tube(2.1e11, 8.1e10, "big", 0.01), "outer_diameter"),
+])
+def test_section_helpers_refuse_bad_dimensions(make, words):
+    with pytest.raises(ModelError, match=words):
+        make()
+
+
+@pytest.mark.parametrize("path", [[(0, 0, 0), (0, 0, 0)], [(0, 0, 0), (1, 0, 0), (1, 0, 0)],
+                                  lambda s: np.array([1.0, 2.0, 3.0])])
+def test_mesher_refuses_a_beam_axis_without_direction(path):
+    sec = SpatialSection.circle(2.1e11, 8.1e10, 0.02, 7850.0)
+    m = Mechanism("zero")
+    with pytest.raises(ModelError, match="spatial_beam 'b'.*no direction"):
+        spatial_beam(m, "b", sec, path, 4, start="clamp")
