@@ -97,6 +97,37 @@ def error_constants(alpha):
     return Cq, Cv
 
 
+#: largest h·ω (ω² ≈ ‖j₀‖/‖q̇₀‖, the fastest motion the start sets going) for which the consistent
+#: start's expansion in h is used
+START_RESOLUTION = 1.0
+
+
+def start_is_resolved(h, v0, j0):
+    """Whether the step h resolves the motion that the initial jerk j₀ shows (fixed steps).
+
+    The consistent start a₀ = q̈₀ + (α_m − α_f) h j₀ (Arnold & Brüls 2007, stepsize.md §2) is the
+    leading term of an expansion in h: it needs h ω ≪ 1 for the motions present at t₀. For an
+    oscillation of frequency ω, j₀ ≈ −ω² q̇₀, so ω ≈ √(‖j₀‖/‖q̇₀‖) estimates the fastest one the start
+    sets going. A start at rest (q̇₀ = 0) counts as resolved: its jerk comes from drivers and loads.
+
+    Parameters
+    ----------
+    h : float
+    v0, j0 : (nq,) ndarray
+        Initial velocities and the jerk (central differences of the constrained accelerations).
+
+    Returns
+    -------
+    bool
+        ``h · ω ≤ START_RESOLUTION``.
+    """
+    nv = float(np.linalg.norm(v0))
+    nj = float(np.linalg.norm(j0))
+    if nv == 0.0 or nj == 0.0:
+        return math.isfinite(nj)
+    return h * math.sqrt(nj / nv) <= START_RESOLUTION
+
+
 class GeneralizedAlphaSolver:
     """Generalized-α integrator: index 3 (Algorithm 1 of Arnold & Brüls 2007, fixed or adaptive
     steps) or stabilized index 2 (GGL-type; planar and spatial models, fixed or adaptive steps).
@@ -423,7 +454,14 @@ class GeneralizedAlphaSolver:
                 h0 = min(h0, 0.05 * (self.t_end - t0), self.h_max)
                 self.sf[3] = h0
                 self.sf[4] = h0
-            if self.start == "consistent":
+            self.start_used = self.start
+            if self.start == "consistent" and not self.adaptive and not start_is_resolved(h0, v0, j0):
+                # the jerk is that of a motion the step does not resolve (a stiff element set moving
+                # impulsively, e.g. a beam node turned by a driver at t0): the expansion behind the
+                # consistent start does not hold, and its correction d·h·j₀ would be far larger than
+                # the motion; the seed's start (a₀ = q̈₀, exact q̇₀) is used, with its O(h) transient in λ
+                self.start_used = "seed (start not resolved by h)"
+            if self.start_used == "consistent":
                 d = self.alpha.alpha_m - self.alpha.alpha_f
                 self.a[:] = self.qdd + d * h0 * j0
                 # the index-2 scheme keeps B q̇ + Φ_t = 0 exactly: no normal-velocity offset to match,
@@ -608,6 +646,7 @@ class GeneralizedAlphaSolver:
                 "atol": float(self.atol[0]) if np.all(self.atol == self.atol[0]) else self.atol.tolist(),
                 "rho_inf": a.rho_inf, "alpha_m": a.alpha_m, "alpha_f": a.alpha_f,
                 "beta": a.beta, "gamma": a.gamma, "scaling": self.scaling, "start": self.start,
+                "start_used": getattr(self, "start_used", self.start),
                 "error_per": self.error_per, "newton_test": self.newton_test, "newton_rtol": self.newton_rtol,
                 "newton_atol": self.newton_atol, "phi_tol": self.phi_tol, "max_iter": self.max_iter,
                 "min_iter": self.min_iter, "newton": self.newton, "linear_solver": self.linear_solver,
