@@ -41,8 +41,9 @@ P_MAX, W_LIM = _p_max()
 P_REF = 2.0 * P_MAX                          # μ = 1 lies beyond the snap-through, on the far branch
 
 
-def spatial_truss(n):
-    """Two bars of n SE(3) elements each, pinned by revolute joints (axis z) at the supports and the apex."""
+def spatial_truss(n, load=True):
+    """Two bars of n SE(3) elements each, pinned by revolute joints (axis z) at the supports and the apex
+    (``load``: the apex load P_ref downwards)."""
     from femb.elements.spatial_beam import SpatialSection, spatial_beam
     from femb.elements.spatial_forces import SpatialForce
     from femb.elements.spatial_joints import RevoluteJoint
@@ -53,7 +54,8 @@ def spatial_truss(n):
     m.add(RevoluteJoint("pin1", "ground", b1.nodes[0], at=(-A, 0, 0), axis=(0, 0, 1)))
     m.add(RevoluteJoint("pin2", "ground", b2.nodes[0], at=(A, 0, 0), axis=(0, 0, 1)))
     m.add(RevoluteJoint("apex", b1.nodes[-1], b2.nodes[-1], at=(0, H, 0), axis=(0, 0, 1)))
-    m.add(SpatialForce("P", b1.nodes[-1], (0.0, -P_REF, 0.0)))
+    if load:
+        m.add(SpatialForce("P", b1.nodes[-1], (0.0, -P_REF, 0.0)))
     return m, b1.nodes[-1].node.name
 
 
@@ -91,6 +93,31 @@ def test_von_mises_truss_follows_the_exact_path_through_both_limit_points(kind, 
     mu_lim = res.limit_load_factors()
     assert np.abs(mu_lim - np.array([0.5, -0.5])).max() < 1e-3                 # exact: ±P_max / P_REF
     assert w.max() == w[-1] and np.all(np.diff(w) > 0.0)                       # displacement grows monotonically
+
+
+def test_snap_back_of_the_truss_loaded_through_a_soft_spring():
+    """The load acts on a node above the apex, joined to it by a spring k (the node moves vertically
+    only). Its deflection u = w + P/k turns back (du/dw = 1 + P'(w)/k < 0 where P' < −k): a snap-back,
+    which neither load nor displacement control can follow. Every point on the exact curve (P(w), u(w))."""
+    from femb.elements.spatial_beam import SpatialBeamNode
+    from femb.elements.spatial_forces import PointSpringDamper, SpatialForce
+    k, d = 2000.0, 0.5
+    m, apex = spatial_truss(1, load=False)
+    top = m.add(SpatialBeamNode("top", (0.0, H + d, 0.0), fixed_translation=(True, False, True),
+                                fixed_rotation=True))
+    m.add(PointSpringDamper("spring", top, m[apex], k))
+    m.add(SpatialForce("Q", top, (0.0, -P_REF, 0.0)))
+    model = m.compile()
+    res = solve_static(model, method="arc_length")
+    assert res.t[-1] == 1.0
+    w = H - model.node_coordinates(apex, res.q)[:, 1]
+    u = H + d - model.node_coordinates("top", res.q)[:, 1]
+    P = res.t * P_REF
+    assert np.abs(P - p_exact(w)).max() <= 1e-8 * P_MAX
+    assert np.abs(u - (w + P / k)).max() <= 1e-9 * d
+    du = np.diff(u)
+    assert np.any(du < 0.0) and u[-1] > u.max() * 0.999                      # u turns back, then on again
+    assert len(res.limit_points()) == 2 and np.all(np.diff(w) > 0.0)
 
 
 def test_spatial_truss_bar_strain_and_forces_from_result_beam():
