@@ -698,7 +698,7 @@ def solve_static(model, *, load_steps=None, load_factors=None, t=0.0, state=None
     limit point (a maximum of the load along the path). ``method="arc_length"``
     follows the equilibrium path from μ = 0 with steps of prescribed length in
     (displacement, load factor) space, through limit points (snap-through) and
-    snap-backs; see *Arc length* below.
+    snap-backs; see *Arc length* in the notes.
 
     Parameters
     ----------
@@ -788,10 +788,25 @@ def solve_static(model, *, load_steps=None, load_factors=None, t=0.0, state=None
         included, in order; ``load_factor`` (= ``t``) is then not monotonic
         (:meth:`StaticResult.limit_points` gives the indices of its extrema).
 
-    Arc length
-    ----------
-    Pseudo-arc-length continuation with a bordered Newton corrector (Keller
-    1977; the normal-plane constraint of Riks 1979): a step of length Δs from the
+    Raises
+    ------
+    ConvergenceError
+        When neither the direct attempt nor load stepping (down to an
+        increment of ``min_step``) converges; ``err.path`` holds the attempts.
+    SingularMatrixError
+        When a Newton solve fails at a configuration whose constrained
+        stiffness matrix is singular (a free body or a mechanism degree of
+        freedom without stiffness against the loads, or a limit point: statics
+        is undefined there, and neither load stepping nor cut-backs help);
+        raised at once, ``err.path`` holds the attempts.
+    ParameterError
+        Bad parameters (the message names the parameter), or
+        ``method="arc_length"`` on a model without applied loads.
+
+    Notes
+    -----
+    **Arc length.** Pseudo-arc-length continuation with a bordered Newton
+    corrector (Keller 1977; the normal-plane constraint of Riks 1979): a step of length Δs from the
     equilibrium (q_n, λ_n, μ_n) with unit tangent t = (t_q, t_μ) (in the norm
     above) starts at the predictor (q_n ∘ exp(Δs t_q), λ_n + Δs t_λ, μ_n + Δs t_μ)
     and corrects (q, λ, μ) by Newton's method on r = 0, Φ = 0 and
@@ -814,33 +829,18 @@ def solve_static(model, *, load_steps=None, load_factors=None, t=0.0, state=None
     >>> m = Mechanism("hanging")
     >>> p = m.add(PointMass("p", 1.0, position=(0.0, -1.0)))
     >>> _ = m.add(SpringDamper("s", "ground", p, 100.0), Gravity((0.0, -10.0)))
+    >>> res = solve_static(m.compile())
+    >>> round(float(res.body("p")[-1, 1]), 6), res.strategy
+    (-1.1, 'direct')
+
+    Arc length (the path from μ = 0 to the target load factor 1; a second spring
+    gives the unloaded mass a lateral stiffness, without which the tangent at
+    μ = 0 is singular):
+
     >>> _ = m.add(SpringDamper("h", "ground", p, 100.0, point_a=(1.0, -1.0)))   # holds x at μ = 0
     >>> res = solve_static(m.compile(), method="arc_length")
     >>> round(float(res.load_factor[-1]), 12), round(float(res.body("p")[-1, 1]), 4), res.strategy
     (1.0, -1.0999, 'arc length')
-
-    Raises
-    ------
-    ConvergenceError
-        When neither the direct attempt nor load stepping (down to an
-        increment of ``min_step``) converges; ``err.path`` holds the attempts.
-    SingularMatrixError
-        When a Newton solve fails at a configuration whose constrained
-        stiffness matrix is singular (a free body or a mechanism degree of
-        freedom without stiffness against the loads, or a limit point: statics
-        is undefined there, and neither load stepping nor cut-backs help);
-        raised at once, ``err.path`` holds the attempts.
-
-    Examples
-    --------
-    >>> from femb import Mechanism
-    >>> from femb.elements import PointMass, SpringDamper, Gravity
-    >>> m = Mechanism("hanging")
-    >>> p = m.add(PointMass("p", 1.0, position=(0.0, -1.0)))
-    >>> _ = m.add(SpringDamper("s", "ground", p, 100.0), Gravity((0.0, -10.0)))
-    >>> res = solve_static(m.compile())
-    >>> round(float(res.body("p")[-1, 1]), 6), res.strategy
-    (-1.1, 'direct')
     """
     if method not in ("load_control", "arc_length"):
         raise ParameterError(f"method must be 'load_control' or 'arc_length', got {method!r}")
@@ -973,7 +973,7 @@ def solve_static(model, *, load_steps=None, load_factors=None, t=0.0, state=None
                 accept(mu, sol, rec)
 
     def arc():
-        """Arc-length continuation from μ = 0 (see the notes above); returns the stop reason."""
+        """Arc-length continuation from μ = 0 (see the notes of solve_static); returns the stop reason."""
         sol, rec = attempt(0.0, q0, lam0, "given")
         if sol is None:
             raise fail(f"static Newton failed at zero load from the given configuration: {rec['reason']}", 0.0)

@@ -233,3 +233,22 @@ def test_deep_arch_limit_load_against_dadeppo_schmidt():
     with pytest.raises(ConvergenceError) as err:
         solve_static(model, load_factors=[0.3, 0.6, 0.8, 1.0])
     assert abs(err.value.path[-1]["mu"] / mu_lim - 1.0) < 1e-3                # fails at the limit point
+
+
+def test_deep_arch_scene_is_registered_and_runs(tmp_path, capsys):
+    import json
+
+    from femb import cli
+    from femb.benchmarks import registry
+    assert "deep_arch" in registry.static_names() and "deep_arch" not in registry.names()
+    sc = registry.load("deep_arch")
+    assert sc.module.ANALYSIS == "static" and set(sc.outputs(sc.module.solve(sc.model(n_elements=10)))) == \
+        set(sc.module.OUTPUTS)
+    assert cli.main(["run", "deep_arch", "--set", "n_elements=20", "--json", str(tmp_path / "a.json")]) == 0
+    data = json.loads((tmp_path / "a.json").read_text())
+    assert data["analysis"] == "static" and abs(data["outputs"]["limit_load"] / 9.1474 - 1.0) < 1e-4
+    assert data["levels"][0] == 0.0 and len(data["levels"]) > 10
+    assert cli.main(["list", "deep_arch"]) == 0
+    assert "limit_load" in capsys.readouterr().out
+    with pytest.raises(ValueError, match="even"):
+        sc.model(n_elements=7)
