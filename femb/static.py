@@ -1001,6 +1001,7 @@ def solve_static(model, *, load_steps=None, load_factors=None, t=0.0, state=None
             0.05 * (abs(target) if target is not None else 1.0) / tan[2]
         ds_min = float(arc_length_min) if arc_length_min is not None else ds / 1024.0
         ds_max = float(arc_length_max) if arc_length_max is not None else 10.0 * ds
+        ds_min, ds_max = min(ds_min, ds_max), max(ds_min, ds_max)      # one bound given, beyond the other's default
         ds = min(max(ds, ds_min), ds_max)
         nmax = int(max_steps) if max_steps is not None else 200
         steps = passed = 0
