@@ -98,6 +98,7 @@ STATIC_SCENES = {
     "beam_rollup": "femb.benchmarks.beam_rollup",
     "beam_bend45": "femb.benchmarks.beam_bend45",
     "argyris_frame": "femb.benchmarks.argyris_frame",
+    "deep_arch": "femb.benchmarks.deep_arch",
 }
 
 #: Run settings used for a scene file without DEFAULTS (only ρ∞; t_end and h must be given).

@@ -45,6 +45,12 @@ Strategy (default)
    ``load_steps`` / ``load_factors``): load stepping from μ = 0 with bisection
    of failed increments (Crisfield 1991, Ch. 9), each level solved as in 1.
 
+3. **Arc length** (``method="arc_length"``): the load factor becomes an unknown
+   and the path is followed in steps of prescribed length (pseudo-arc-length
+   continuation with a bordered Newton corrector, Keller 1977, Riks 1979;
+   adaptive step length as Crisfield 1981), through limit points and
+   snap-backs where load stepping must fail (see :func:`solve_static`).
+
 The route taken is reported in :attr:`StaticResult.path`.
 
 Applied loads are, by default, the constant forces of the model (constant
@@ -55,6 +61,20 @@ References
 ----------
 M. A. Crisfield, Non-linear Finite Element Analysis of Solids and
 Structures, Vol. 1, Wiley, 1991, Ch. 9 (incremental–iterative solution).
+
+M. A. Crisfield, A fast incremental/iterative solution procedure that handles
+"snap-through", Computers & Structures 13 (1981) 55–62 (arc length, step-length
+adaptation (I_d/I)^½).
+
+E. Riks, An incremental approach to the solution of snapping and buckling
+problems, Int. J. Solids Struct. 15 (1979) 529–551.
+
+H. B. Keller, Numerical solution of bifurcation and nonlinear eigenvalue
+problems, in: P. H. Rabinowitz (ed.), Applications of Bifurcation Theory,
+Academic Press, 1977, 359–384 (pseudo-arc-length continuation, bordered system).
+
+E. L. Allgower, K. Georg, Numerical Continuation Methods, Springer, 1990,
+Ch. 2 (tangent orientation, predictor–corrector).
 
 M. Géradin, A. Cardona, Flexible Multibody Dynamics, Wiley, 2001, Ch. 10
 (static equilibrium of constrained flexible systems).
@@ -100,7 +120,8 @@ class StaticResult(Result):
         Time at which loads and rheonomic constraints were evaluated.
     strategy : str
         ``"direct"`` (full load at once), ``"continuation"`` (the direct
-        attempt failed, load stepping found it) or ``"load steps"`` (asked for).
+        attempt failed, load stepping found it), ``"load steps"`` (asked for) or
+        ``"arc length"`` (``method="arc_length"``).
     path : list of dict
         Every Newton solve attempted, in order, converged or not: ``mu`` (load
         factor), ``start`` (``"given"``, ``"previous"`` or ``"secant"``),
@@ -110,12 +131,20 @@ class StaticResult(Result):
         (‖r‖∞ in N with moments / L, ‖Φ‖∞ in m) per iterate), ``damped``
         (iterations that needed a shortened or regularized step) and
         ``reason`` (why it failed, or ""); the direct attempt also has
-        ``stability`` (see :func:`stability`).
+        ``stability`` (see :func:`stability`). Arc-length steps have ``start``
+        ``"tangent"``, ``newton`` ``"arc length"`` and ``arc_length`` (Δs); ``mu``
+        is the load factor of their last iterate.
+    arc : dict or None
+        With ``method="arc_length"``, per stored state (nt,): ``"s"`` the path
+        parameter (sum of the step lengths in the arc-length norm, 0 at the
+        start) and ``"dmu_ds"`` the load-factor component t_μ of the unit tangent
+        there (NaN where not computed); None otherwise.
     """
 
     time: float = 0.0
     strategy: str = "direct"
     path: list = field(default_factory=list)
+    arc: dict = None
 
     @property
     def load_factor(self):
@@ -127,6 +156,50 @@ class StaticResult(Result):
         nv = self.model.nq          # velocities: nq (rotation nodes store 7 coordinates, move with 6)
         return State(self.time, self.q[-1].copy(), np.zeros(nv), np.zeros(nv), self.lam[-1].copy())
 
+    def limit_points(self):
+        """Indices k of the stored states where the load factor has a local extremum (int array).
+
+        On a path followed by arc length (``strategy == "arc length"``): the stored
+        points nearest the limit points, where μ turns from increasing to decreasing
+        or back (μ_k − μ_{k−1} and μ_{k+1} − μ_k of opposite signs).
+        """
+        mu = np.asarray(self.t, dtype=float)
+        if len(mu) < 3:
+            return np.zeros(0, dtype=int)
+        d = np.diff(mu)
+        return np.nonzero(d[:-1] * d[1:] < 0.0)[0] + 1
+
+    def limit_load_factors(self):
+        """Load factors at the limit points of an arc-length path, refined between stored points (nl,).
+
+        Where the tangent's t_μ = dμ/ds changes sign between stored points k and
+        k + 1, μ(s) is interpolated by the cubic Hermite polynomial through
+        (s, μ, dμ/ds) at both points and its extremum returned (error O(Δs⁴) for a
+        smooth path). Needs ``arc`` (``method="arc_length"``); empty if the path
+        has no limit point.
+        """
+        if self.arc is None:
+            raise ParameterError("limit_load_factors needs a path followed by method='arc_length'")
+        s, d, mu = np.asarray(self.arc["s"]), np.asarray(self.arc["dmu_ds"]), np.asarray(self.t, dtype=float)
+        out = []
+        for k in range(len(s) - 1):
+            if not (np.isfinite(d[k]) and np.isfinite(d[k + 1]) and d[k] * d[k + 1] < 0.0):
+                continue
+            h = s[k + 1] - s[k]
+            # μ(s_k + x h) = h00 μ_k + h10 h d_k + h01 μ_k+1 + h11 h d_k+1 (x in [0, 1]); μ' = 0 is quadratic in x
+            a0, a1, b0, b1 = mu[k], mu[k + 1], h * d[k], h * d[k + 1]
+            c2 = 3.0 * (2.0 * a0 + b0 - 2.0 * a1 + b1)          # coefficients of dμ/dx = c2 x² + c1 x + c0
+            c1 = 2.0 * (-3.0 * a0 - 2.0 * b0 + 3.0 * a1 - b1)
+            c0 = b0
+            roots = np.roots([c2, c1, c0]) if abs(c2) > 0.0 else np.array([-c0 / c1])
+            roots = [r.real for r in np.atleast_1d(roots) if abs(r.imag) < 1e-12 and -1e-9 <= r.real <= 1 + 1e-9]
+            if not roots:
+                continue
+            x = roots[0]
+            out.append((2 * x**3 - 3 * x**2 + 1) * a0 + (x**3 - 2 * x**2 + x) * b0
+                       + (-2 * x**3 + 3 * x**2) * a1 + (x**3 - x**2) * b1)
+        return np.array(out)
+
     def describe_path(self):
         """The route to the equilibrium as text, one line per Newton solve."""
         lines = [f"static solution ({self.strategy}):"]
@@ -134,7 +207,9 @@ class StaticResult(Result):
             r, phi = p["residuals"][-1] if p["residuals"] else (float("nan"), float("nan"))
             lines.append(f"  mu = {p['mu']:<10.6g} from {p['start']:<8s} {p['newton']:<10s} {'converged' if p['converged'] else 'FAILED':9s} "
                          f"in {p['iterations']:2d} iterations ({p['damped']} damped), "
-                         f"|r| = {r:.3e} N, |Phi| = {phi:.3e} m" + (f"  [{p['reason']}]" if p["reason"] else ""))
+                         f"|r| = {r:.3e} N, |Phi| = {phi:.3e} m"
+                         + (f", arc length {p['arc_length']:.3g}" if "arc_length" in p else "")
+                         + (f"  [{p['reason']}]" if p["reason"] else ""))
         return "\n".join(lines)
 
 
@@ -212,6 +287,48 @@ def _solve(K, B, rhs):
             return None
         y = lu.solve(b)
     x = D @ y
+    return x if np.all(np.isfinite(x)) else None
+
+
+def _solve_bordered(K, B, b, c, d, rhs):
+    """Solve the bordered system [[K, Bᵀ, b], [B, 0, 0], [cᵀ, 0, d]] x = rhs; None when singular.
+
+    The matrix of arc-length continuation: the saddle-point matrix of :func:`_solve`
+    with one more unknown (the load factor) and one more equation (the arc-length
+    condition). It is not symmetric, so it is equilibrated by rows and then by
+    columns (each scaled by the inverse of its largest entry) before the LU
+    factorization (sparse LU at every size); the singularity test is that of
+    :func:`_solve` (a pivot below 1e-15 of the largest). At a limit point K is singular but this matrix is not
+    (Keller 1977; Allgower & Georg 1990, Ch. 2).
+    """
+    nq, nc = K.shape[0], B.shape[0]
+    bcol = sp.csc_matrix(np.asarray(b, dtype=float).reshape(nq, 1))
+    crow = sp.csr_matrix(np.asarray(c, dtype=float).reshape(1, nq))
+    dd = sp.csr_matrix(np.array([[float(d)]]))
+    if nc:
+        A = sp.bmat([[K, B.T, bcol], [B, None, None], [crow, None, dd]], format="csr")
+    else:
+        A = sp.bmat([[K, bcol], [crow, dd]], format="csr")
+    rmax = np.asarray(abs(A).max(axis=1).todense()).ravel()
+    if np.any(rmax == 0.0) or not np.all(np.isfinite(rmax)):
+        return None
+    Dr = sp.diags(1.0 / rmax)
+    A1 = (Dr @ A).tocsc()
+    cmax = np.asarray(abs(A1).max(axis=0).todense()).ravel()
+    if np.any(cmax == 0.0):
+        return None
+    Dc = sp.diags(1.0 / cmax)
+    As = (A1 @ Dc).tocsc()
+    bs = Dr @ rhs
+    try:                                   # sparse LU at every size: the beams' matrices are banded
+        lu = spla.splu(As)
+    except RuntimeError:
+        return None
+    dg = np.abs(lu.U.diagonal())
+    if not np.all(np.isfinite(dg)) or dg.min() <= 1e-15 * dg.max():
+        return None
+    y = lu.solve(bs)
+    x = Dc @ y
     return x if np.all(np.isfinite(x)) else None
 
 
@@ -426,6 +543,118 @@ class _Newton:
         return None
 
 
+class _ArcLength:
+    """Pseudo-arc-length continuation (bordered Newton) of the static equations.
+
+    Unknowns (q, λ, μ). With the metric ⟨a, b⟩ = Σ s_i² a_i b_i + ψ² a_μ b_μ on
+    (tangent increment, load factor) — s_i = 1/L on translations, 1 on rotations
+    (rad) and other non-translational coordinates, L = model.length_scale; the
+    multipliers are not in it — and t = (t_q, t_μ) the unit tangent of the path
+    at the last equilibrium (q_n, μ_n), a step of length Δs solves
+
+        r(q, λ, μ) = 0,  Φ(q) = 0,  ⟨t, (Δq, μ − μ_n)⟩ − Δs = 0,
+
+    Δq the sum of the tangent increments of the step (the predictor Δs t_q and the
+    corrections: q = q_n ∘ exp(predictor) ∘ exp(δq_1) ∘ …; on vector spaces
+    Δq = q − q_n), by Newton's method on the bordered matrix
+
+        [ K_t   Φ_qᵀ  −f_ext ] [δq]     [ r ]
+        [ Φ_q   0      0     ] [δλ] = − [ Φ ]
+        [ s²t_q 0      ψ²t_μ ] [δμ]     [ g ],
+
+    regular at limit points where K_t is singular (the pseudo-arc-length method of
+    Keller 1977; Riks 1979 constrains the step to the same normal plane). The
+    tangent at a new equilibrium solves the same matrix with right side (0, 0, 1)
+    and the previous tangent in the last row, so ⟨t_new, t_old⟩ > 0: the path keeps
+    its direction through limit points (μ decreasing after a maximum) and snap-backs.
+    """
+
+    def __init__(self, model, newton, s2, psi2):
+        self.model, self.newton, self.s2, self.psi2 = model, newton, s2, psi2
+        self.nq = model.nq
+        self.nact = int(np.count_nonzero(newton.act))
+
+    def fext(self, q):
+        n = self.newton
+        return _external(self.model, n.groups, n.t, q, False)[0]
+
+    def tangent(self, mu, q, lam, prev):
+        """Unit tangent (t_q, t_λ, t_μ) at an equilibrium; ``prev`` the previous (t_q, t_μ) or None (dμ > 0)."""
+        K, B = self.newton.matrix(mu, q, lam)
+        fe = self.fext(q)
+        if prev is None:
+            c, d = np.zeros(self.nq), 1.0
+        else:
+            c, d = self.s2 * prev[0], self.psi2 * prev[1]
+        rhs = np.zeros(self.nq + self.nact + 1)
+        rhs[-1] = 1.0
+        x = _solve_bordered(K, B, -fe, c, d, rhs)
+        if x is None:
+            return None
+        v, nu = self.newton._split(x[:-1])
+        tau = x[-1]
+        return self.normalized(v, nu, tau)
+
+    def norm(self, dq, dmu):
+        return math.sqrt(float(np.sum(self.s2 * dq * dq)) + self.psi2 * dmu * dmu)
+
+    def normalized(self, v, nu, tau):
+        nrm = self.norm(v, tau)
+        if not (nrm > 0.0 and math.isfinite(nrm)):
+            return None
+        return v / nrm, nu / nrm, tau / nrm
+
+    def step(self, mu, q, lam, tan, ds, rec):
+        """One arc-length step of length ``ds`` from the equilibrium (μ, q, λ) along ``tan``.
+
+        Returns (μ, q, λ, Δq, Δμ) or None (``rec`` says why).
+        """
+        n, m = self.newton, self.model
+        L = m.length_scale
+        tq, tl, tmu = tan
+        Dq, Dmu = ds * tq, ds * tmu
+        qi, li, mui = m.compose(q, Dq), lam + ds * tl, mu + Dmu
+        last = None
+        for k in range(n.max_iter + 1):
+            r, Phi, F = n.residual(mui, qi, li)
+            g = float(np.sum(self.s2 * tq * Dq)) + self.psi2 * tmu * Dmu - ds
+            err_r = np.abs(r * n.w).max(initial=0.0)
+            err_phi = np.abs(Phi).max(initial=0.0)
+            rec["residuals"].append((float(err_r), float(err_phi)))
+            rec["iterations"] = k
+            rec["mu"] = float(mui)
+            if not (math.isfinite(err_r) and math.isfinite(err_phi) and math.isfinite(g)):
+                rec["reason"] = "non-finite residual"
+                return None
+            arc_ok = abs(g) <= 1e-8 * ds
+            if arc_ok and err_phi <= n.tol_phi and (err_r <= n.rtol * F + n.atol
+                                                   or (last is not None and last <= n.xtol * L)):
+                rec["converged"] = True
+                return mui, qi, li, Dq, Dmu
+            if k == n.max_iter:
+                rec["reason"] = f"|r| = {err_r:.3e} N, |Phi| = {err_phi:.3e} m after {k} iterations"
+                return None
+            K, B = n.matrix(mui, qi, li)
+            rhs = -np.concatenate((r, Phi, [g]))
+            x = _solve_bordered(K, B, -self.fext(qi), self.s2 * tq, self.psi2 * tmu, rhs)
+            if x is None:
+                rec["reason"] = "singular bordered matrix (a bifurcation point, or no stiffness against a motion)"
+                return None
+            dq, dl = n._split(x[:-1])
+            dmu = float(x[-1])
+            qi = m.compose(qi, dq)
+            li = li + dl
+            mui = mui + dmu
+            Dq = Dq + dq
+            Dmu = Dmu + dmu
+            last = np.abs(dq).max(initial=0.0)
+            if self.norm(Dq, Dmu) > 3.0 * ds:
+                rec["reason"] = (f"the corrector left the step (distance {self.norm(Dq, Dmu) / ds:.3g} arc "
+                                 "lengths from the last equilibrium)")
+                return None
+        return None                                   # pragma: no cover
+
+
 def stability(model, q, lam, t=0.0, max_size=1500):
     """Stability of an equilibrium: smallest eigenvalue of the reduced stiffness.
 
@@ -459,8 +688,17 @@ def stability(model, q, lam, t=0.0, max_size=1500):
 
 def solve_static(model, *, load_steps=None, load_factors=None, t=0.0, state=None, load_types=None,
                  rtol=1e-10, atol=0.0, phi_tol=1e-12, xtol=1e-12, max_iter=30, min_step=1e-4,
-                 fallback_steps=10, predictor="secant", observer=None):
-    """Static equilibrium: full load at once, load stepping when that fails or when asked.
+                 fallback_steps=10, predictor="secant", observer=None, method="load_control",
+                 arc_length=None, arc_length_min=None, arc_length_max=None, load_weight=None,
+                 target_load_factor=1.0, max_steps=None, max_limit_points=None, desired_iterations=6):
+    """Static equilibrium: full load at once, load stepping, or arc-length continuation.
+
+    ``method="load_control"`` (default): full load at once, load stepping when
+    that fails or when asked (``load_steps``, ``load_factors``). It cannot pass a
+    limit point (a maximum of the load along the path). ``method="arc_length"``
+    follows the equilibrium path from μ = 0 with steps of prescribed length in
+    (displacement, load factor) space, through limit points (snap-through) and
+    snap-backs; see *Arc length* in the notes.
 
     Parameters
     ----------
@@ -501,13 +739,54 @@ def solve_static(model, *, load_steps=None, load_factors=None, t=0.0, state=None
         In load stepping, start each level from a linear extrapolation of the
         last two converged levels, or from the last one.
     observer : callable(mu, q, lam, iterations), optional
-        Called after each converged level.
+        Called after each converged level (each point of the path with arc length).
+    method : {"load_control", "arc_length"}
+        Load control (the load factor prescribed: direct solve or load stepping)
+        or arc-length continuation (the load factor an unknown).
+    arc_length : float, optional
+        ``method="arc_length"`` only. Length Δs of the first step in the scaled
+        norm ‖(Δq, Δμ)‖ = (Σ (s_i Δq_i)² + ψ² Δμ²)^½ (dimensionless): s_i = 1/L
+        for translations, 1 for rotations (rad) and the other non-translational
+        coordinates, L = ``model.length_scale`` (a rotation of 1 rad counts as a
+        displacement by L, the convention of the Newton trust radius); Δq are the
+        increments in tangent coordinates (rotations of frame nodes in body axes);
+        the multipliers λ are not in the norm. Default: the length of the
+        tangent step to the load factor ``0.05 · |target_load_factor|`` (0.05
+        without a target).
+    arc_length_min, arc_length_max : float, optional
+        ``method="arc_length"`` only. Bounds of the adaptive arc length (default:
+        ``arc_length / 1024`` and ``10 · arc_length``). A failed step is retried
+        with half the arc length; below ``arc_length_min`` the continuation stops
+        with :class:`~femb.errors.ConvergenceError`.
+    load_weight : float, optional
+        ``method="arc_length"`` only. ψ ≥ 0, the weight of the load factor in the
+        norm (ψ = 0: the cylindrical arc length, displacements only; Crisfield
+        1981). Default: the scaled norm of dq/dμ at the start, so that load and
+        displacement contribute equally to the first step.
+    target_load_factor : float or None
+        ``method="arc_length"`` only. Stop when the path reaches this load factor
+        (crossing it in either direction after the start; the last point is then
+        solved at exactly this load factor); None: stop after ``max_steps``.
+    max_steps : int, optional
+        ``method="arc_length"`` only. Largest number of converged steps (default
+        200); the continuation stops there.
+    max_limit_points : int, optional
+        ``method="arc_length"`` only. Also stop at the first stored point after
+        the path has passed this many limit points (sign changes of dμ/ds, e.g. 1:
+        just past the first maximum of the load).
+    desired_iterations : int
+        ``method="arc_length"`` only. Adaptive arc length: after a step that took
+        I Newton iterations the next is Δs · (desired_iterations / I)^½, limited
+        to [Δs/2, 2Δs] and the bounds above (Crisfield 1981).
 
     Returns
     -------
     StaticResult
         One stored step per converged level; ``path`` and ``strategy`` tell
         how it was reached (:meth:`StaticResult.describe_path` prints it).
+        With arc length: every converged point of the path, the start (μ = 0)
+        included, in order; ``load_factor`` (= ``t``) is then not monotonic
+        (:meth:`StaticResult.limit_points` gives the indices of its extrema).
 
     Raises
     ------
@@ -520,6 +799,28 @@ def solve_static(model, *, load_steps=None, load_factors=None, t=0.0, state=None
         freedom without stiffness against the loads, or a limit point: statics
         is undefined there, and neither load stepping nor cut-backs help);
         raised at once, ``err.path`` holds the attempts.
+    ParameterError
+        Bad parameters (the message names the parameter), or
+        ``method="arc_length"`` on a model without applied loads.
+
+    Notes
+    -----
+    **Arc length.** Pseudo-arc-length continuation with a bordered Newton
+    corrector (Keller 1977; the normal-plane constraint of Riks 1979): a step of length Δs from the
+    equilibrium (q_n, λ_n, μ_n) with unit tangent t = (t_q, t_μ) (in the norm
+    above) starts at the predictor (q_n ∘ exp(Δs t_q), λ_n + Δs t_λ, μ_n + Δs t_μ)
+    and corrects (q, λ, μ) by Newton's method on r = 0, Φ = 0 and
+    ⟨t, (Δq, μ − μ_n)⟩ = Δs, the bordered matrix [[K_t, Φ_qᵀ, −f_ext],
+    [Φ_q, 0, 0], [s² t_q, 0, ψ² t_μ]] (one LU per iteration). Chosen over
+    Crisfield's quadratic (spherical/cylindrical) constraint because the bordered
+    matrix stays regular at limit points, there is no root of a quadratic to
+    select (nor complex roots to recover from), and constraints and multipliers
+    enter as in the load-controlled solver. The tangent at each new
+    equilibrium solves the same matrix with right side (0, 0, 1) and the
+    previous tangent as last row: its direction continues the previous one
+    (⟨t_new, t_old⟩ > 0), which turns the load factor down after a limit point.
+    Corrector iterates farther than 3 Δs from the last equilibrium count as a
+    failed step (against jumping to another branch).
 
     Examples
     --------
@@ -531,7 +832,49 @@ def solve_static(model, *, load_steps=None, load_factors=None, t=0.0, state=None
     >>> res = solve_static(m.compile())
     >>> round(float(res.body("p")[-1, 1]), 6), res.strategy
     (-1.1, 'direct')
+
+    Arc length (the path from μ = 0 to the target load factor 1; a second spring
+    gives the unloaded mass a lateral stiffness, without which the tangent at
+    μ = 0 is singular):
+
+    >>> _ = m.add(SpringDamper("h", "ground", p, 100.0, point_a=(1.0, -1.0)))   # holds x at μ = 0
+    >>> res = solve_static(m.compile(), method="arc_length")
+    >>> round(float(res.load_factor[-1]), 12), round(float(res.body("p")[-1, 1]), 4), res.strategy
+    (1.0, -1.0999, 'arc length')
     """
+    if method not in ("load_control", "arc_length"):
+        raise ParameterError(f"method must be 'load_control' or 'arc_length', got {method!r}")
+    arc_given = {k: v for k, v in (("arc_length", arc_length), ("arc_length_min", arc_length_min),
+                                   ("arc_length_max", arc_length_max), ("load_weight", load_weight),
+                                   ("max_steps", max_steps), ("max_limit_points", max_limit_points))
+                 if v is not None}
+    if method == "arc_length":
+        if load_steps is not None or load_factors is not None:
+            raise ParameterError("method='arc_length' chooses its own load factors: do not give load_steps "
+                                 "or load_factors")
+        for k, v in arc_given.items():
+            if k in ("max_steps", "max_limit_points"):
+                if int(v) != v or int(v) < 1:
+                    raise ParameterError(f"{k} must be a positive integer, got {v!r}")
+            elif k == "load_weight":
+                if not (math.isfinite(float(v)) and float(v) >= 0.0):
+                    raise ParameterError(f"load_weight must be a finite number ≥ 0, got {v!r}")
+            elif not (math.isfinite(float(v)) and float(v) > 0.0):
+                raise ParameterError(f"{k} must be a positive finite number, got {v!r}")
+        if arc_length_min is not None and arc_length_max is not None and arc_length_min > arc_length_max:
+            raise ParameterError(f"arc_length_min ({arc_length_min!r}) exceeds arc_length_max ({arc_length_max!r})")
+        if arc_length is not None and ((arc_length_min is not None and arc_length < arc_length_min)
+                                       or (arc_length_max is not None and arc_length > arc_length_max)):
+            raise ParameterError(f"arc_length ({arc_length!r}) is outside [arc_length_min, arc_length_max]")
+        if target_load_factor is not None and not math.isfinite(float(target_load_factor)):
+            raise ParameterError(f"target_load_factor must be a finite number or None, got {target_load_factor!r}")
+        if target_load_factor is not None and float(target_load_factor) == 0.0:
+            raise ParameterError("target_load_factor must not be 0 (the path starts there); give None to "
+                                 "stop after max_steps")
+        if int(desired_iterations) != desired_iterations or int(desired_iterations) < 1:
+            raise ParameterError(f"desired_iterations must be a positive integer, got {desired_iterations!r}")
+    elif arc_given:
+        raise ParameterError(f"{', '.join(arc_given)}: only for method='arc_length' (method is {method!r})")
     asked = load_steps is not None or load_factors is not None
     if load_steps is not None and load_factors is not None:
         raise ParameterError("give either load_steps or load_factors, not both")
@@ -629,7 +972,91 @@ def solve_static(model, *, load_steps=None, load_factors=None, t=0.0, state=None
                 mu = trial if abs(trial - target) > 1e-15 else target
                 accept(mu, sol, rec)
 
-    if not asked:
+    def arc():
+        """Arc-length continuation from μ = 0 (see the notes of solve_static); returns the stop reason."""
+        sol, rec = attempt(0.0, q0, lam0, "given")
+        if sol is None:
+            raise fail(f"static Newton failed at zero load from the given configuration: {rec['reason']}", 0.0)
+        accept(0.0, sol, rec)
+        q, lam, mu = sol[0], sol[1], 0.0
+        s2 = 1.0 / (model.force_weight * model.length_scale) ** 2
+        al = _ArcLength(model, newton, s2, 1.0)
+        fe = al.fext(q)
+        if not np.any(fe != 0.0):
+            raise ParameterError(f"model '{model.name}': method='arc_length' needs applied loads (the scaled "
+                                 "loads f_ext are zero: no Force/Torque of load_types, no gravity)")
+        raw = al.tangent(0.0, q, lam, None)              # with ψ = 1; only its displacement part is used
+        if raw is None:
+            last_singular[0] = True
+            raise fail("singular static stiffness matrix at zero load: no tangent to start the path", 0.0)
+        vq = raw[0] / raw[2]                              # dq/dμ
+        vnorm = math.sqrt(float(np.sum(s2 * vq * vq)))
+        psi = float(load_weight) if load_weight is not None else (vnorm if vnorm > 0.0 else 1.0)
+        al.psi2 = psi * psi
+        tan = al.normalized(vq, raw[1] / raw[2], 1.0)
+        if tan is None:
+            raise fail("no tangent to start the path (zero load weight and no displacement under the loads)", 0.0)
+        target = None if target_load_factor is None else float(target_load_factor)
+        ds = float(arc_length) if arc_length is not None else \
+            0.05 * (abs(target) if target is not None else 1.0) / tan[2]
+        ds_min = float(arc_length_min) if arc_length_min is not None else ds / 1024.0
+        ds_max = float(arc_length_max) if arc_length_max is not None else 10.0 * ds
+        ds_min, ds_max = min(ds_min, ds_max), max(ds_min, ds_max)      # one bound given, beyond the other's default
+        ds = min(max(ds, ds_min), ds_max)
+        nmax = int(max_steps) if max_steps is not None else 200
+        steps = passed = 0
+        S.append(0.0), T.append(float(tan[2]))
+        while steps < nmax:
+            rec = {"mu": float(mu), "start": "tangent", "newton": "arc length", "converged": False,
+                   "iterations": 0, "residuals": [], "damped": 0, "reason": "", "arc_length": ds}
+            out = al.step(mu, q, lam, tan, ds, rec)
+            path.append(rec)
+            if out is None:
+                last_singular[0] = rec["reason"].startswith("singular")
+                if ds <= ds_min * (1.0 + 1e-12):
+                    raise fail(f"arc-length step failed at load factor {rec['mu']:.6g} (last converged {mu:.6g}) "
+                               f"with the smallest arc length {ds:.3g}: {rec['reason']}", rec["mu"])
+                ds = max(0.5 * ds, ds_min)
+                continue
+            mu1, q1, lam1, Dq, Dmu = out
+            if target is not None and (mu - target) * (mu1 - target) < 0.0:
+                # crossed the target: the last point at exactly μ = target, from the interpolation
+                frac = (target - mu) / (mu1 - mu)
+                sol, rec2 = attempt(target, model.compose(q, frac * Dq), lam + frac * (lam1 - lam), "secant")
+                if sol is not None:
+                    accept(target, sol, rec2)
+                    S.append(S[-1] + al.norm(model.difference(sol[0], q), target - mu)), T.append(float("nan"))
+                    return f"reached the target load factor {target:.6g}"
+                rec2["reason"] += " (landing on the target failed: the crossing point is kept)"
+                accept(mu1, (q1, lam1), rec)
+                S.append(S[-1] + al.norm(Dq, Dmu)), T.append(float("nan"))
+                return f"crossed the target load factor {target:.6g} at {mu1:.6g}"
+            accept(mu1, (q1, lam1), rec)
+            S.append(S[-1] + al.norm(Dq, Dmu))
+            steps += 1
+            new = al.tangent(mu1, q1, lam1, (tan[0], tan[2]))
+            if new is None:                               # singular (a bifurcation): continue along the secant
+                new = al.normalized(Dq, (lam1 - lam), Dmu)
+                T.append(float("nan"))
+            else:
+                T.append(float(new[2]))
+            if target is not None and mu1 == target:
+                return f"reached the target load factor {target:.6g}"
+            if math.isfinite(T[-1]) and T[-1] * tan[2] < 0.0:
+                passed += 1
+                if max_limit_points is not None and passed >= int(max_limit_points):
+                    return f"passed {passed} limit point(s); stopped at load factor {mu1:.6g}"
+            mu, q, lam, tan = mu1, q1, lam1, new
+            grow = math.sqrt(int(desired_iterations) / max(rec["iterations"], 1))
+            ds = min(max(ds * min(max(grow, 0.5), 2.0), ds_min), ds_max)
+        return f"stopped after max_steps = {nmax} steps at load factor {mu:.6g}"
+
+    stop = ""
+    S, T = [], []                                         # arc-length path parameter and dμ/ds per stored state
+    if method == "arc_length":
+        strategy = "arc length"
+        stop = arc()
+    elif not asked:
         sol, rec = attempt(1.0, q0, lam0, "given")
         unstable = False
         if sol is not None:
@@ -674,7 +1101,15 @@ def solve_static(model, *, load_steps=None, load_factors=None, t=0.0, state=None
     return StaticResult(model=model, t=np.array(mus), q=Qa, qd=np.zeros_like(Qa), qdd=np.zeros_like(Qa),
                         lam=np.array(L).reshape(len(mus), nc), newton_iterations=np.array(its, dtype=np.int32),
                         status="success",
-                        message=f"reached load factor {mus[-1]:.6g} ({strategy}, {len(path)} Newton solves)",
+                        message=(f"{stop} ({strategy}, {len(path)} Newton solves)" if stop else
+                                 f"reached load factor {mus[-1]:.6g} ({strategy}, {len(path)} Newton solves)"),
                         settings={"t": t, "rtol": rtol, "atol": atol, "phi_tol": phi_tol, "xtol": xtol,
-                                  "max_iter": max_iter, "min_step": min_step, "predictor": predictor},
-                        time=float(t), strategy=strategy, path=path)
+                                  "max_iter": max_iter, "min_step": min_step, "predictor": predictor,
+                                  "method": method, **({"arc_length": arc_length, "arc_length_min": arc_length_min,
+                                                        "arc_length_max": arc_length_max, "load_weight": load_weight,
+                                                        "target_load_factor": target_load_factor,
+                                                        "max_steps": max_steps, "max_limit_points": max_limit_points,
+                                                        "desired_iterations": desired_iterations}
+                                                       if method == "arc_length" else {})},
+                        time=float(t), strategy=strategy, path=path,
+                        arc={"s": np.array(S), "dmu_ds": np.array(T)} if method == "arc_length" else None)
