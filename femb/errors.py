@@ -102,5 +102,11 @@ SINGULAR_HINT_STEP = (
     "swamps the mass at this h. Reduce h (or use adaptive steps, simulate(..., rtol=...))"
 )
 
+class PathJumpWarning(UserWarning):
+    """Load stepping left the equilibrium path: a converged state far from the path's continuation
+    (a limit point passed, snap-through); :func:`femb.static.solve_static` with
+    ``method="arc_length"`` follows the path instead."""
+
+
 class AccuracyWarning(UserWarning):
     """A fixed-step run whose local error estimate says the steps are far too large."""

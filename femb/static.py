@@ -97,7 +97,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from femb import assembly, kernels
-from femb.errors import ConvergenceError, ParameterError, SingularMatrixError
+from femb.errors import ConvergenceError, ParameterError, PathJumpWarning, SingularMatrixError
 from femb.model import State
 from femb.result import Result
 
@@ -655,6 +655,25 @@ class _ArcLength:
         return None                                   # pragma: no cover
 
 
+#: a secant-predicted load step whose Newton correction is this many times the predicted step
+#: counts as a jump off the path (a smooth path: the correction is O(Δμ) smaller than the step)
+JUMP_RATIO = 3.0
+
+
+def _check_jump(model, q_prev, q_pred, q_new, mu_prev, mu_new):
+    """Warn (:class:`PathJumpWarning`) when load stepping jumped: the converged state q_new is farther
+    from the secant prediction q_pred than :data:`JUMP_RATIO` times the predicted step q_pred − q_prev
+    (tangent vectors on the group, Euclidean norm; coordinates that did not move are left out)."""
+    step = np.linalg.norm(model.difference(q_pred, q_prev))
+    corr = np.linalg.norm(model.difference(q_new, q_pred))
+    if corr > JUMP_RATIO * step and corr > 1e-9 * (model.length_scale + np.linalg.norm(q_prev)):
+        warnings.warn(f"model '{model.name}': load stepping jumped between load factors {mu_prev:.6g} and "
+                      f"{mu_new:.6g}: the converged state is {corr / max(step, 1e-300):.3g} predicted steps away "
+                      "from the path's continuation (a limit point passed: snap-through). The states before "
+                      "and after are not on one continuous path; solve_static(..., method=\"arc_length\") "
+                      "follows it through the limit point", PathJumpWarning, stacklevel=4)
+
+
 def stability(model, q, lam, t=0.0, max_size=1500):
     """Stability of an equilibrium: smallest eigenvalue of the reduced stiffness.
 
@@ -968,6 +987,11 @@ def solve_static(model, *, load_steps=None, load_factors=None, t=0.0, state=None
                                    f"{dmu:.3g} (last converged {mu:.6g}): {rec['reason']}", trial)
                     dmu *= 0.5
                     step = dmu
+                if len(mus) >= 2 and mus[-1] != mus[-2]:
+                    # the secant continuation of the path, whichever start converged
+                    s_ = (trial - mus[-1]) / (mus[-1] - mus[-2])
+                    _check_jump(model, Q[-1], model.compose(Q[-1], s_ * model.difference(Q[-1], Q[-2])), sol[0],
+                                mus[-1], trial)
                 q, lam = sol
                 mu = trial if abs(trial - target) > 1e-15 else target
                 accept(mu, sol, rec)

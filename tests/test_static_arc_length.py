@@ -16,6 +16,8 @@ import math
 import numpy as np
 import pytest
 
+from femb.errors import PathJumpWarning
+
 from femb import Mechanism
 from femb.errors import ConvergenceError, ParameterError
 from femb.static import solve_static
@@ -140,7 +142,8 @@ def test_load_stepping_jumps_over_the_unstable_branch_of_the_truss():
     for the far one (w > 2h) in one increment, and never shows a falling load."""
     m, apex = spatial_truss(1)
     model = m.compile()
-    res = solve_static(model, load_steps=10)
+    with pytest.warns(PathJumpWarning, match="jumped between load factors 0.5 and 0.6"):
+        res = solve_static(model, load_steps=10)
     w = H - model.node_coordinates(apex, res.q)[:, 1]
     assert np.all(np.diff(res.t) > 0.0)
     assert not np.any((w > W_LIM * 1.001) & (w < 2.0 * H))
@@ -203,7 +206,8 @@ def test_arc_length_needs_loads():
 
 def test_limit_load_factors_needs_an_arc_length_path():
     m, _ = spatial_truss(1)
-    res = solve_static(m.compile(), load_steps=2)
+    with pytest.warns(PathJumpWarning):
+        res = solve_static(m.compile(), load_steps=2)
     with pytest.raises(ParameterError, match="arc_length"):
         res.limit_load_factors()
 
