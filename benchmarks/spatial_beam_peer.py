@@ -1,0 +1,420 @@
+"""Per-step cost of femb's SE(3) spatial beam against Exudyn's ObjectBeamGeometricallyExact, same rod, same run.
+
+The cantilever of :mod:`femb.benchmarks.spatial_beam_scaling`: a steel rod
+(L = 1 m, d = 20 mm, E = 210 GPa, G = 80.8 GPa, ρ = 7850 kg/m³) along x, clamped at
+x = 0, released undeformed from rest under gravity (0, 0, −9.81) m/s², n two-node
+elements, fixed steps h = 1e-4 s, generalized-α with ρ∞ = 0.7, index-3 constraints.
+
+femb: :class:`~femb.elements.spatial_beam.SpatialBeam` elements meshed by
+:func:`~femb.elements.spatial_beam.spatial_beam` (``start="clamp"``,
+``mass="consistent"``), :class:`~femb.elements.spatial_forces.SpatialGravity`,
+``femb.simulate(model, t_end, h, rho_inf=0.7, store=False)`` with its default Newton
+options (weighted-correction test, refactorization only when the contraction is
+slow). Timed: the time loop (``Result.wall_time``; consistent initial values and
+compilation excluded).
+
+Exudyn (``pip install femb[peers]``; measured with Exudyn 1.13.6): the same rod
+built as in Exudyn's own test models of this element
+(``main/pythonDev/TestModels/geometricallyExactBeamTest.py`` and
+``rightAngleFrame.py`` of github.com/jgerstmayr/EXUDYN, read at commit
+e44aca1b4fe3e5f4d820ff407fb3fd30b6581c1c, Exudyn 1.11.0): ``NodeRigidBodyEP``
+nodes (Euler parameters), ``ObjectBeamGeometricallyExact`` elements with an
+``exu.BeamSection`` of stiffness diag(EA, kGA, kGA, GJ, EI, EI) (k = 6(1+ν)/(7+6ν),
+Cowper, ν = E/2G − 1, as femb's ``SpatialSection.circle``), mass per length ρA and
+section inertia ρ diag(2I, I, I); the root node clamped to a ground node by a
+``GenericJoint`` (all six axes); gravity by ``LoadMassProportional`` on each element.
+Scheme: ``MainSolverImplicitSecondOrder`` (generalized-α), ``spectralRadius = 0.7``,
+``useIndex2Constraints = False``, ``useNewmark = False``, fixed steps, sparse LU
+(``EigenSparse``), one thread, and Newton's test on the size of the coordinate
+increment (``newton.residualMode = 1``, ``relativeTolerance = 1e-8``) with either
+Exudyn's default modified Newton (``"modified"``, the headline) or full Newton
+(``"full"``). Timed: ``SolveSteps`` alone (``Assemble`` and ``InitializeSolver``,
+which computes the initial accelerations, excluded).
+
+What made Exudyn run (Exudyn 1.13.6; :func:`lie_group_attempt` reproduces the first
+point):
+
+* ``NodeRigidBodyRotVecLG`` (Lie-group rotation-vector nodes) does not run this
+  element dynamically: Newton stalls on the first step with a contraction of
+  0.99 for n = 1 … 1000, with or without ``lieGroupAddTangentOperator``, with
+  numerical differentiation, Newmark or index 2, dense or sparse solver, tip load
+  or gravity, GenericJoint or coordinate clamp. Exudyn's own test models of the
+  element use Euler-parameter nodes (and note that the Lie-group nodes did not
+  work in the static solver).
+* With ``NodeRigidBodyEP`` the default residual test (``relativeTolerance = 1e-8``
+  of the step's initial residual) is below the round-off floor of the residual of
+  this stiff rod (EA/l_e up to 7e10 N/m): 1.8e-8 at n = 10, 1.5e-6 at n = 1000,
+  so Newton "fails" on the second or a later step. The increment test
+  (``residualMode = 1``) converges in 2–3 iterations per step for every n.
+
+What differs between the two models: the beams are the same discrete model (both
+the two-node SE(3) element with the constant strain ε = (log(H_A⁻¹H_B) − d0)/L of
+Sonneville, Cardona & Brüls 2014, the same section stiffness and loads; their
+static deflections agree to all printed digits) except for the rotary inertia:
+Exudyn 1.13.6's mass matrix (``exudyn.solver.ComputeLinearizedSystem`` at the
+reference configuration) is ρA L/6 [2 1; 1 2] for the translations, as femb's
+``mass="consistent"``, and ρJ L/6 [2 1; 1 2] in the nodes' local angular velocities,
+where femb lumps ρJ L/2 at each node. For this slender rod the rotary inertia is
+r²/(4 l_e²) ≤ 2.5e-3 … 2.5 of the translational mass per element (n = 10 … 1000) and
+acts on the small nodal rotations only. The rotation parameters and their time
+discretization differ (Exudyn: Euler parameters with their norm constraint in
+the vector-space generalized-α; femb: unit quaternions updated on the Lie group
+with the tangent operator), and so do the Newton tests (above).
+
+Agreement (:func:`compare`): the tip trajectory of both codes at h and at h/2 over
+the first ``t_end``; the femb–Exudyn difference is printed next to each code's own
+h → h/2 change (an estimate of its time-discretization error at h).
+
+References
+----------
+J. Gerstmayr, Exudyn – a C++-based Python package for flexible multibody
+systems, Multibody Syst. Dyn. 60 (2024) 533–561; github.com/jgerstmayr/EXUDYN
+(``main/src/Objects/CObjectBeamGeometricallyExact.cpp``, the element).
+V. Sonneville, A. Cardona, O. Brüls, Geometrically exact beam finite element
+formulated on the special Euclidean group SE(3), Comput. Methods Appl. Mech.
+Eng. 268 (2014) 451–474.
+J. C. Simo, L. Vu-Quoc, A three-dimensional finite-strain rod model. Part II,
+Comput. Methods Appl. Mech. Eng. 58 (1986) 79–116.
+G. R. Cowper, The shear coefficient in Timoshenko's beam theory, J. Appl. Mech.
+33 (1966) 335–340.
+
+Usage::
+
+    python -m femb.benchmarks.spatial_beam_peer [--n 10 100 1000] [--runs 3] [--t-compare 0.01]
+"""
+from __future__ import annotations
+
+import argparse
+import contextlib
+import io
+import math
+import statistics
+import time
+import warnings
+
+import numpy as np
+
+#: The rod of :mod:`femb.benchmarks.spatial_beam_scaling` (SI units).
+DATA = dict(L=1.0, d=0.02, E=2.1e11, G=8.08e10, rho=7850.0, g=(0.0, 0.0, -9.81))
+H = 1e-4
+RHO_INF = 0.7
+
+#: Exudyn's Newton settings timed: its default modified Newton and full Newton, both with
+#: the coordinate-increment test (``residualMode = 1``; see the module docstring).
+EXUDYN_SETTINGS = {"modified": {"useModifiedNewton": True, "residualMode": 1, "relativeTolerance": 1e-8},
+                   "full": {"useModifiedNewton": False, "residualMode": 1, "relativeTolerance": 1e-8}}
+
+
+def steps_for(n):
+    """Timed steps for n elements (as spatial_beam_scaling: 40000 // n, between 20 and 400)."""
+    return int(np.clip(40000 // int(n), 20, 400))
+
+
+def section_properties():
+    """(EA, kGA, GJ, EI, ρA, ρ·(2I, I, I)) of the rod; k = 6(1+ν)/(7+6ν), ν = E/2G − 1."""
+    D = DATA
+    A = math.pi * D["d"] ** 2 / 4.0
+    I = math.pi * D["d"] ** 4 / 64.0
+    nu = D["E"] / (2.0 * D["G"]) - 1.0
+    k = 6.0 * (1.0 + nu) / (7.0 + 6.0 * nu)
+    return (D["E"] * A, k * D["G"] * A, D["G"] * 2.0 * I, D["E"] * I, D["rho"] * A,
+            D["rho"] * np.array([2.0 * I, I, I]))
+
+
+# --------------------------------------------------------------------------
+# femb
+# --------------------------------------------------------------------------
+def build(n, mass="consistent"):
+    """The cantilever with n SpatialBeam elements (nodes ``rod.n0`` clamped … ``rod.n{n}``)."""
+    from femb import Mechanism
+    from femb.elements.spatial_beam import SpatialSection, spatial_beam
+    from femb.elements.spatial_forces import SpatialGravity
+
+    D = DATA
+    m = Mechanism(f"rod{n}")
+    sec = SpatialSection.circle(D["E"], D["G"], D["d"], density=D["rho"])
+    spatial_beam(m, "rod", sec, [(0, 0, 0), (D["L"], 0, 0)], int(n), start="clamp", mass=mass)
+    m.add(SpatialGravity(D["g"]))
+    return m
+
+
+def femb_tip(model, n, t_end, h):
+    """Tip position (rows t, x, y, z) of a femb run."""
+    import femb
+
+    res = femb.simulate(model, t_end, h, rho_inf=RHO_INF)
+    return np.column_stack([res.t, res.body(f"rod.n{int(n)}")[:, :3]])
+
+
+# --------------------------------------------------------------------------
+# Exudyn
+# --------------------------------------------------------------------------
+def exudyn_version():
+    """Exudyn's version, or None when it is not installed."""
+    try:
+        import exudyn
+    except Exception:       # ImportError or a broken binary
+        return None
+    return str(getattr(exudyn, "__version__", "unknown"))
+
+
+def exudyn_build(n, node="EP", record=False):
+    """The rod in Exudyn (see the module docstring); returns (SC, mbs, tip node, tip sensor or None).
+
+    ``node``: ``"EP"`` (``NodeRigidBodyEP``, used for all measurements) or ``"LG"``
+    (``NodeRigidBodyRotVecLG``, for :func:`lie_group_attempt`).
+    """
+    import exudyn as exu
+    from exudyn import itemInterface as ii
+
+    EA, kGA, GJ, EI, rhoA, rhoJ = section_properties()
+    SC = exu.SystemContainer()
+    mbs = SC.AddSystem()
+    sec = exu.BeamSection()
+    sec.stiffnessMatrix = np.diag([EA, kGA, kGA, GJ, EI, EI]).tolist()
+    sec.dampingMatrix = np.zeros((6, 6)).tolist()
+    sec.massPerLength = rhoA
+    sec.inertia = np.diag(rhoJ).tolist()
+    n = int(n)
+    le = DATA["L"] / n
+    if node == "EP":
+        node_class, rot0 = ii.NodeRigidBodyEP, [1.0, 0.0, 0.0, 0.0]
+    elif node == "LG":
+        node_class, rot0 = ii.NodeRigidBodyRotVecLG, [0.0, 0.0, 0.0]
+    else:
+        raise ValueError(f"node must be 'EP' or 'LG', got {node!r}")
+    nodes = [mbs.AddNode(node_class(referenceCoordinates=[i * le, 0.0, 0.0] + rot0)) for i in range(n + 1)]
+    for i in range(n):
+        ob = mbs.AddObject(ii.ObjectBeamGeometricallyExact(nodeNumbers=[nodes[i], nodes[i + 1]], length=le,
+                                                           sectionData=sec))
+        mm = mbs.AddMarker(ii.MarkerBodyMass(bodyNumber=ob))
+        mbs.AddLoad(ii.LoadMassProportional(markerNumber=mm, loadVector=list(DATA["g"])))
+    ng = mbs.AddNode(ii.NodePointGround(referenceCoordinates=[0.0, 0.0, 0.0]))
+    mg = mbs.AddMarker(ii.MarkerNodeRigid(nodeNumber=ng))
+    m0 = mbs.AddMarker(ii.MarkerNodeRigid(nodeNumber=nodes[0]))
+    mbs.AddObject(ii.GenericJoint(markerNumbers=[mg, m0], constrainedAxes=[1, 1, 1, 1, 1, 1]))
+    sensor = None
+    if record:
+        sensor = mbs.AddSensor(ii.SensorNode(nodeNumber=nodes[-1], storeInternal=True, writeToFile=False,
+                                             outputVariableType=exu.OutputVariableType.Position))
+    mbs.Assemble()
+    return SC, mbs, nodes[-1], sensor
+
+
+def exudyn_settings(steps, h, newton):
+    """SimulationSettings of the generalized-α run (fixed steps, index 3, sparse LU, one thread)."""
+    import exudyn as exu
+
+    s = exu.SimulationSettings()
+    ti = s.timeIntegration
+    ti.numberOfSteps = int(steps)
+    ti.endTime = int(steps) * float(h)
+    ti.generalizedAlpha.spectralRadius = RHO_INF
+    ti.generalizedAlpha.useIndex2Constraints = False
+    ti.generalizedAlpha.useNewmark = False
+    ti.generalizedAlpha.computeInitialAccelerations = True
+    ti.adaptiveStep = False
+    ti.verboseMode = 0
+    for key, value in (newton or {}).items():
+        setattr(ti.newton, key, value)
+    s.linearSolver.solverType = exu.LinearSolverType.EigenSparse
+    s.parallel.numberOfThreads = 1
+    s.solution.file.write = False
+    s.solution.sensors.writePeriod = float(h)
+    s.show.computationTime = False
+    s.show.statistics = False
+    return s
+
+
+def exudyn_run(n, steps, h=H, newton=EXUDYN_SETTINGS["modified"], node="EP", record=False):
+    """One Exudyn run; dict ``ok``, ``message``, ``wall_s`` (SolveSteps), ``steps``, ``newton``
+    (iterations), ``jacobians``, ``tip`` (rows t, x, y, z; with ``record``)."""
+    import exudyn as exu
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", DeprecationWarning)
+        SC, mbs, tip, sensor = exudyn_build(n, node=node, record=record)
+        s = exudyn_settings(steps, h, newton)
+    solver = exu.MainSolverImplicitSecondOrder()
+    buf = io.StringIO()
+    ok, message, wall = True, "", None
+    try:
+        with contextlib.redirect_stdout(buf), contextlib.redirect_stderr(buf):
+            if not solver.InitializeSolver(mbs, s):
+                raise RuntimeError("InitializeSolver failed")
+            t0 = time.perf_counter()
+            done = solver.SolveSteps(mbs, s)
+            wall = time.perf_counter() - t0
+            solver.FinalizeSolver(mbs, s)
+        if not done:
+            ok = False
+            message = f"Newton did not converge at t = {solver.it.currentTime:g} s ({steps} steps of {h:g} s asked)"
+    except Exception as exc:     # a failing peer is a measurement
+        ok = False
+        message = f"{type(exc).__name__}: {str(exc).splitlines()[0] if str(exc) else ''}"
+    log = [ln.strip() for ln in buf.getvalue().splitlines() if "convergence failed" in ln]
+    if log and not ok:
+        message += f" ({log[0]})"
+    out = {"ok": ok, "message": message, "wall_s": wall, "steps": int(steps),
+           "newton": int(solver.it.newtonStepsCount), "jacobians": int(solver.it.newtonJacobiCount),
+           "tip": None}
+    if record and sensor is not None:
+        out["tip"] = np.asarray(mbs.GetSensorStoredData(sensor))
+    return out
+
+
+def lie_group_attempt(n=10, steps=3):
+    """Exudyn's element on ``NodeRigidBodyRotVecLG`` nodes (Lie-group generalized-α with the tangent
+    operator, full and modified Newton, Exudyn's default residual test and the increment test)."""
+    out = {}
+    for label, newton in (("default residual test, modified Newton", {}),
+                          ("default residual test, full Newton", {"useModifiedNewton": False}),
+                          ("increment test, full Newton", EXUDYN_SETTINGS["full"])):
+        out[label] = exudyn_run(n, steps, H, newton=newton, node="LG")
+    return out
+
+
+# --------------------------------------------------------------------------
+# agreement and timing
+# --------------------------------------------------------------------------
+def _on_times(tip, times):
+    rows = [int(np.argmin(np.abs(tip[:, 0] - t))) for t in times]
+    return tip[rows, 1:4]
+
+
+def compare(n, t_end=0.01, h=H, exudyn_newton=EXUDYN_SETTINGS["full"]):
+    """Tip trajectories of femb and Exudyn at h and h/2 over [0, t_end].
+
+    Returns
+    -------
+    dict
+        ``diff`` (max over the steps of h of |x_femb − x_Exudyn| at the tip, m),
+        ``femb_h2`` and ``exudyn_h2`` (each code's max |x(h) − x(h/2)|, m),
+        ``tip_z`` (femb's tip deflection at t_end, m), ``times`` and the
+        trajectories; or ``error``.
+    """
+    if exudyn_version() is None:
+        return {"error": "Exudyn not installed"}
+    steps = int(round(t_end / h))
+    times = h * np.arange(steps + 1)
+    model = build(n).compile()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        f1 = _on_times(femb_tip(model, n, steps * h, h), times)
+        f2 = _on_times(femb_tip(model, n, steps * h, h / 2), times)
+    e1 = exudyn_run(n, steps, h, newton=exudyn_newton, record=True)
+    e2 = exudyn_run(n, 2 * steps, h / 2, newton=exudyn_newton, record=True)
+    if not (e1["ok"] and e2["ok"]):
+        return {"error": f"Exudyn failed: {e1['message'] or e2['message']}"}
+    x1, x2 = _on_times(e1["tip"], times), _on_times(e2["tip"], times)
+    return {"n": int(n), "t_end": steps * h, "h": h, "times": times, "femb": f1, "exudyn": x1,
+            "diff": float(np.max(np.linalg.norm(f1 - x1, axis=1))),
+            "femb_h2": float(np.max(np.linalg.norm(f1 - f2, axis=1))),
+            "exudyn_h2": float(np.max(np.linalg.norm(x1 - x2, axis=1))),
+            "tip_z": float(f1[-1, 2])}
+
+
+def measure(n, runs=3, steps=None, exudyn=True):
+    """ms per step of femb and Exudyn on the rod, in this process.
+
+    Each code runs once untimed (compilation, first call), then the codes run in
+    turn ``runs`` times (interleaved, so that load from other processes falls on
+    both); the medians are reported.
+
+    Returns
+    -------
+    dict
+        ``femb_ms`` (time loop per step), ``femb_total_ms`` (the whole
+        ``simulate`` call per step, consistent initial values included),
+        ``femb_newton`` (iterations per step), ``exudyn`` (setting → {``ms``,
+        ``runs``, ``newton``, ``jacobians`` per run, ``ratio`` femb / Exudyn} or
+        {``error``}), ``steps``, ``n``, ``exudyn_version``.
+    """
+    import femb
+
+    steps = int(steps or steps_for(n))
+    model = build(n).compile()
+    version = exudyn_version() if exudyn else None
+    settings = dict(EXUDYN_SETTINGS) if version else {}
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        femb.simulate(model, steps * H, H, rho_inf=RHO_INF, store=False)          # compile / warm up
+    for nw in settings.values():
+        exudyn_run(n, min(steps, 20), H, newton=nw)
+    loop, total, res = [], [], None
+    ex = {k: {"runs": [], "newton": None, "jacobians": None, "error": None} for k in settings}
+    for _ in range(int(runs)):
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            t0 = time.perf_counter()
+            res = femb.simulate(model, steps * H, H, rho_inf=RHO_INF, store=False)
+            total.append(1e3 * (time.perf_counter() - t0) / res.steps)
+        loop.append(1e3 * res.wall_time / res.steps)
+        for key, nw in settings.items():
+            r = exudyn_run(n, steps, H, newton=nw)
+            if not r["ok"]:
+                ex[key]["error"] = r["message"]
+                continue
+            ex[key]["runs"].append(1e3 * r["wall_s"] / steps)
+            ex[key]["newton"] = r["newton"] / steps
+            ex[key]["jacobians"] = r["jacobians"]
+    out = {"n": int(n), "steps": res.steps, "femb_ms": statistics.median(loop), "femb_runs": loop,
+           "femb_total_ms": statistics.median(total), "femb_newton": float(np.mean(res.newton_iterations)),
+           "exudyn": {}, "exudyn_version": version}
+    for key, e in ex.items():
+        if e["runs"]:
+            ms = statistics.median(e["runs"])
+            out["exudyn"][key] = {"ms": ms, "runs": e["runs"], "newton": e["newton"], "jacobians": e["jacobians"],
+                                  "ratio": out["femb_ms"] / ms}
+        else:
+            out["exudyn"][key] = {"error": e["error"]}
+    return out
+
+
+def _fmt_exudyn(e):
+    if "ms" not in e:
+        return f"({e['error']})"
+    return f"{e['ms']:9.3f} {e['newton']:6.2f} {e['ratio']:6.3f}"
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--n", type=int, nargs="+", default=[10, 100, 1000])
+    ap.add_argument("--runs", type=int, default=3, help="timed runs per code (median)")
+    ap.add_argument("--t-compare", type=float, default=0.01, help="time span of the tip comparison (s)")
+    ap.add_argument("--no-compare", action="store_true", help="skip the tip comparison")
+    ap.add_argument("--lie-group", action="store_true",
+                    help="also show what Exudyn does with NodeRigidBodyRotVecLG nodes (n = 10)")
+    a = ap.parse_args(argv)
+    version = exudyn_version()
+    print(f"spatial beam against Exudyn {version or '(not installed)'}: rod L = {DATA['L']} m, d = {DATA['d']} m, "
+          f"clamped, gravity; h = {H:g} s, rho_inf = {RHO_INF}; median of {a.runs} runs (time.perf_counter); "
+          f"femb: time loop, Exudyn: SolveSteps (EP nodes, increment test, 1 thread)")
+    if a.lie_group and version:
+        for label, r in lie_group_attempt().items():
+            print(f"  Exudyn on NodeRigidBodyRotVecLG, {label}: "
+                  + ("ran" if r["ok"] else f"failed: {r['message']}")
+                  + f" ({r['newton']} Newton iterations)")
+    head = (f"{'n':>5s} {'steps':>5s} | {'femb ms/step':>12s} {'Newton':>6s} | {'Exudyn mod. ms':>14s} "
+            f"{'Newton':>6s} {'ratio':>6s} | {'Exudyn full ms':>14s} {'Newton':>6s} {'ratio':>6s} | "
+            f"{'tip diff m':>10s} {'femb h/2':>9s} {'Exu h/2':>9s} {'tip z m':>10s}")
+    print(head)
+    rows = []
+    for n in a.n:
+        r = measure(n, a.runs, exudyn=version is not None)
+        c = {"error": "skipped"} if a.no_compare or not version else compare(n, a.t_compare)
+        rows.append((r, c))
+        em = r["exudyn"].get("modified", {"error": "not installed"})
+        ef = r["exudyn"].get("full", {"error": "not installed"})
+        cs = (f"{c['diff']:10.2e} {c['femb_h2']:9.2e} {c['exudyn_h2']:9.2e} {c['tip_z']:10.3e}" if "diff" in c
+              else f"({c['error']})")
+        print(f"{n:5d} {r['steps']:5d} | {r['femb_ms']:12.3f} {r['femb_newton']:6.2f} | "
+              f"{_fmt_exudyn(em):>28s} | {_fmt_exudyn(ef):>28s} | {cs}")
+    if not a.no_compare and version:
+        print(f"tip diff: max over t in [0, {a.t_compare:g}] s of |x_femb - x_Exudyn| at the tip (h); "
+              f"femb h/2, Exu h/2: each code's max |x(h) - x(h/2)|; ratio = femb / Exudyn ms per step")
+    return rows
+
+
+if __name__ == "__main__":
+    main()
