@@ -25,27 +25,37 @@ section inertia ρ diag(2I, I, I); the root node clamped to a ground node by a
 ``GenericJoint`` (all six axes); gravity by ``LoadMassProportional`` on each element.
 Scheme: ``MainSolverImplicitSecondOrder`` (generalized-α), ``spectralRadius = 0.7``,
 ``useIndex2Constraints = False``, ``useNewmark = False``, fixed steps, sparse LU
-(``EigenSparse``), one thread, and Newton's test on the size of the coordinate
-increment (``newton.residualMode = 1``, ``relativeTolerance = 1e-8``) with either
-Exudyn's default modified Newton (``"modified"``, the headline) or full Newton
-(``"full"``). Timed: ``SolveSteps`` alone (``Assemble`` and ``InitializeSolver``,
-which computes the initial accelerations, excluded).
+(``EigenSparse``), one thread, with three Newton settings (:data:`EXUDYN_SETTINGS`):
+Exudyn's default modified Newton and residual test with the relative tolerance
+raised to 1e-4 (``"residual"``, the headline: the cheapest setting found that runs
+every n and still gives the converged answer), the same with the test on the
+coordinate increment (``newton.residualMode = 1``, relative 1e-8; ``"increment"``),
+and full Newton with the increment test (``"full"``). Timed: ``SolveSteps`` alone
+(``Assemble`` and ``InitializeSolver``, which computes the initial accelerations, excluded).
 
 What made Exudyn run (Exudyn 1.13.6; :func:`lie_group_attempt` reproduces the first
 point):
 
-* ``NodeRigidBodyRotVecLG`` (Lie-group rotation-vector nodes) does not run this
-  element dynamically: Newton stalls on the first step with a contraction of
-  0.99 for n = 1 … 1000, with or without ``lieGroupAddTangentOperator``, with
-  numerical differentiation, Newmark or index 2, dense or sparse solver, tip load
-  or gravity, GenericJoint or coordinate clamp. Exudyn's own test models of the
-  element use Euler-parameter nodes (and note that the Lie-group nodes did not
-  work in the static solver).
-* With ``NodeRigidBodyEP`` the default residual test (``relativeTolerance = 1e-8``
-  of the step's initial residual) is below the round-off floor of the residual of
-  this stiff rod (EA/l_e up to 7e10 N/m): 1.8e-8 at n = 10, 1.5e-6 at n = 1000,
-  so Newton "fails" on the second or a later step. The increment test
-  (``residualMode = 1``) converges in 2–3 iterations per step for every n.
+* ``NodeRigidBodyRotVecLG`` (Lie-group rotation-vector nodes, the nodes of the
+  earlier attempt): with Exudyn's default tolerance Newton stalls on the first step
+  (contraction 0.99 per iteration, 25 iterations) for n = 1, 2, 10, with or without
+  ``lieGroupAddTangentOperator``, with ``lieGroupSimplifiedKinematicRelations``
+  (dense solver), numerical differentiation of the element, Newmark or index 2,
+  full or modified Newton, a dense or sparse solver, a tip load or gravity, a
+  GenericJoint or coordinate constraints as the clamp, h from 1e-5 to 1e-3 s; the
+  increment test fails as well. The iteration does not diverge: the positions
+  settle after the first iteration (later increments of the tip position < 1e-13 m), while a part of
+  the residual, about 1 % of the initial one at n = 10 (with the rotation
+  coordinates' accelerations), stays. Accepting it (relative tolerance 0.1, one
+  iteration per step) runs every n, and the tip agrees with the Euler-parameter
+  run to about 1e-11 m; this is timed as ``"lie-group"``. Exudyn's own test
+  models of the element use Euler-parameter nodes (and note that the Lie-group
+  nodes did not work in the static solver).
+* With ``NodeRigidBodyEP`` Exudyn's default residual test (``relativeTolerance =
+  1e-8`` of the step's initial residual) lies below the round-off floor of the
+  residual of this stiff rod (EA/l_e up to 7e10 N/m): about 1.8e-8 at n = 10 and
+  1.5e-6 at n = 1000, so Newton "fails" on the second or a later step. A relative
+  tolerance of 1e-4, or the increment test, runs every n.
 
 What differs between the two models: the beams are the same discrete model (both
 the two-node SE(3) element with the constant strain ε = (log(H_A⁻¹H_B) − d0)/L of
@@ -54,9 +64,9 @@ static deflections agree to all printed digits) except for the rotary inertia:
 Exudyn 1.13.6's mass matrix (``exudyn.solver.ComputeLinearizedSystem`` at the
 reference configuration) is ρA L/6 [2 1; 1 2] for the translations, as femb's
 ``mass="consistent"``, and ρJ L/6 [2 1; 1 2] in the nodes' local angular velocities,
-where femb lumps ρJ L/2 at each node. For this slender rod the rotary inertia is
-r²/(4 l_e²) ≤ 2.5e-3 … 2.5 of the translational mass per element (n = 10 … 1000) and
-acts on the small nodal rotations only. The rotation parameters and their time
+where femb lumps ρJ L/2 at each node (the two differ by a term that vanishes as
+l_e → 0; for this slender rod, radius 10 mm, rotary inertia is a small correction to
+the bending motion in either form). The rotation parameters and their time
 discretization differ (Exudyn: Euler parameters with their norm constraint in
 the vector-space generalized-α; femb: unit quaternions updated on the Lie group
 with the tangent operator), and so do the Newton tests (above).
@@ -99,10 +109,25 @@ DATA = dict(L=1.0, d=0.02, E=2.1e11, G=8.08e10, rho=7850.0, g=(0.0, 0.0, -9.81))
 H = 1e-4
 RHO_INF = 0.7
 
-#: Exudyn's Newton settings timed: its default modified Newton and full Newton, both with
-#: the coordinate-increment test (``residualMode = 1``; see the module docstring).
-EXUDYN_SETTINGS = {"modified": {"useModifiedNewton": True, "residualMode": 1, "relativeTolerance": 1e-8},
-                   "full": {"useModifiedNewton": False, "residualMode": 1, "relativeTolerance": 1e-8}}
+#: Exudyn's settings timed (generalized-α, sparse LU, one thread; node type ``"node"``, the
+#: rest Newton settings): ``"residual"`` its default modified Newton and residual test with the
+#: relative tolerance loosened from 1e-8 (below the round-off floor of this stiff rod) to 1e-4,
+#: the cheapest setting found that runs every n and still gives the converged answer
+#: (``compare``); ``"increment"`` the same with the coordinate-increment test (``residualMode =
+#: 1``, relative 1e-8); ``"full"`` the increment test with full Newton (a new Jacobian every
+#: iteration); ``"lie-group"`` ``NodeRigidBodyRotVecLG`` nodes with the Lie-group tangent
+#: operator and a relative tolerance of 0.1, above the level at which its Newton iteration
+#: stalls (one iteration per step is accepted).
+EXUDYN_SETTINGS = {"residual": {"node": "EP", "useModifiedNewton": True, "residualMode": 0,
+                                "relativeTolerance": 1e-4},
+                   "increment": {"node": "EP", "useModifiedNewton": True, "residualMode": 1,
+                                 "relativeTolerance": 1e-8},
+                   "full": {"node": "EP", "useModifiedNewton": False, "residualMode": 1, "relativeTolerance": 1e-8},
+                   "lie-group": {"node": "LG", "useModifiedNewton": True, "residualMode": 0,
+                                 "relativeTolerance": 0.1}}
+
+#: The headline setting (the ratio of the docs' table).
+HEADLINE = "residual"
 
 
 def steps_for(n):
@@ -216,7 +241,8 @@ def exudyn_settings(steps, h, newton):
     ti.adaptiveStep = False
     ti.verboseMode = 0
     for key, value in (newton or {}).items():
-        setattr(ti.newton, key, value)
+        if key != "node":
+            setattr(ti.newton, key, value)
     s.linearSolver.solverType = exu.LinearSolverType.EigenSparse
     s.parallel.numberOfThreads = 1
     s.solution.file.write = False
@@ -226,11 +252,12 @@ def exudyn_settings(steps, h, newton):
     return s
 
 
-def exudyn_run(n, steps, h=H, newton=EXUDYN_SETTINGS["modified"], node="EP", record=False):
-    """One Exudyn run; dict ``ok``, ``message``, ``wall_s`` (SolveSteps), ``steps``, ``newton``
+def exudyn_run(n, steps, h=H, newton=EXUDYN_SETTINGS[HEADLINE], node="EP", record=False):
+    """One Exudyn run (``newton["node"]``, when given, overrides ``node``); dict ``ok``, ``message``, ``wall_s`` (SolveSteps), ``steps``, ``newton``
     (iterations), ``jacobians``, ``tip`` (rows t, x, y, z; with ``record``)."""
     import exudyn as exu
 
+    node = (newton or {}).get("node", node)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", DeprecationWarning)
         SC, mbs, tip, sensor = exudyn_build(n, node=node, record=record)
@@ -269,7 +296,8 @@ def lie_group_attempt(n=10, steps=3):
     out = {}
     for label, newton in (("default residual test, modified Newton", {}),
                           ("default residual test, full Newton", {"useModifiedNewton": False}),
-                          ("increment test, full Newton", EXUDYN_SETTINGS["full"])):
+                          ("increment test, full Newton", {"useModifiedNewton": False, "residualMode": 1,
+                                                           "relativeTolerance": 1e-8})):
         out[label] = exudyn_run(n, steps, H, newton=newton, node="LG")
     return out
 
@@ -282,19 +310,22 @@ def _on_times(tip, times):
     return tip[rows, 1:4]
 
 
-def compare(n, t_end=0.01, h=H, exudyn_newton=EXUDYN_SETTINGS["full"]):
-    """Tip trajectories of femb and Exudyn at h and h/2 over [0, t_end].
+def compare(n, t_end=0.01, h=H, settings=None):
+    """Tip trajectories of femb and Exudyn over [0, t_end]: femb at h and h/2, Exudyn at h in each
+    Newton setting and at h/2 with ``"full"`` (the tightest).
 
     Returns
     -------
     dict
-        ``diff`` (max over the steps of h of |x_femb − x_Exudyn| at the tip, m),
-        ``femb_h2`` and ``exudyn_h2`` (each code's max |x(h) − x(h/2)|, m),
-        ``tip_z`` (femb's tip deflection at t_end, m), ``times`` and the
-        trajectories; or ``error``.
+        ``diff`` (setting → max over the steps of h of |x_femb − x_Exudyn| at the
+        tip, m), ``femb_h2`` and ``exudyn_h2`` (each code's max |x(h) − x(h/2)|,
+        m; an estimate of its time-discretization error at h), ``tip_z``
+        (femb's tip deflection at t_end, m), ``times``, ``femb`` and ``exudyn``
+        (setting → (nt, 3)) tip positions; or ``error``.
     """
     if exudyn_version() is None:
         return {"error": "Exudyn not installed"}
+    settings = dict(EXUDYN_SETTINGS) if settings is None else dict(settings)
     steps = int(round(t_end / h))
     times = h * np.arange(steps + 1)
     model = build(n).compile()
@@ -302,15 +333,21 @@ def compare(n, t_end=0.01, h=H, exudyn_newton=EXUDYN_SETTINGS["full"]):
         warnings.simplefilter("ignore")
         f1 = _on_times(femb_tip(model, n, steps * h, h), times)
         f2 = _on_times(femb_tip(model, n, steps * h, h / 2), times)
-    e1 = exudyn_run(n, steps, h, newton=exudyn_newton, record=True)
-    e2 = exudyn_run(n, 2 * steps, h / 2, newton=exudyn_newton, record=True)
-    if not (e1["ok"] and e2["ok"]):
-        return {"error": f"Exudyn failed: {e1['message'] or e2['message']}"}
-    x1, x2 = _on_times(e1["tip"], times), _on_times(e2["tip"], times)
-    return {"n": int(n), "t_end": steps * h, "h": h, "times": times, "femb": f1, "exudyn": x1,
-            "diff": float(np.max(np.linalg.norm(f1 - x1, axis=1))),
+    xe, diff = {}, {}
+    for key, nw in settings.items():
+        e = exudyn_run(n, steps, h, newton=nw, record=True)
+        if not e["ok"]:
+            return {"error": f"Exudyn ({key}) failed: {e['message']}"}
+        xe[key] = _on_times(e["tip"], times)
+        diff[key] = float(np.max(np.linalg.norm(f1 - xe[key], axis=1)))
+    e2 = exudyn_run(n, 2 * steps, h / 2, newton=EXUDYN_SETTINGS["full"], record=True)
+    if not e2["ok"]:
+        return {"error": f"Exudyn (full, h/2) failed: {e2['message']}"}
+    x2 = _on_times(e2["tip"], times)
+    ref = xe.get("full", next(iter(xe.values())))
+    return {"n": int(n), "t_end": steps * h, "h": h, "times": times, "femb": f1, "exudyn": xe, "diff": diff,
             "femb_h2": float(np.max(np.linalg.norm(f1 - f2, axis=1))),
-            "exudyn_h2": float(np.max(np.linalg.norm(x1 - x2, axis=1))),
+            "exudyn_h2": float(np.max(np.linalg.norm(ref - x2, axis=1))),
             "tip_z": float(f1[-1, 2])}
 
 
@@ -371,12 +408,6 @@ def measure(n, runs=3, steps=None, exudyn=True):
     return out
 
 
-def _fmt_exudyn(e):
-    if "ms" not in e:
-        return f"({e['error']})"
-    return f"{e['ms']:9.3f} {e['newton']:6.2f} {e['ratio']:6.3f}"
-
-
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--n", type=int, nargs="+", default=[10, 100, 1000])
@@ -389,30 +420,36 @@ def main(argv=None):
     version = exudyn_version()
     print(f"spatial beam against Exudyn {version or '(not installed)'}: rod L = {DATA['L']} m, d = {DATA['d']} m, "
           f"clamped, gravity; h = {H:g} s, rho_inf = {RHO_INF}; median of {a.runs} runs (time.perf_counter); "
-          f"femb: time loop, Exudyn: SolveSteps (EP nodes, increment test, 1 thread)")
+          f"femb: time loop; Exudyn: SolveSteps, EP nodes, sparse LU, 1 thread")
     if a.lie_group and version:
         for label, r in lie_group_attempt().items():
             print(f"  Exudyn on NodeRigidBodyRotVecLG, {label}: "
                   + ("ran" if r["ok"] else f"failed: {r['message']}")
                   + f" ({r['newton']} Newton iterations)")
-    head = (f"{'n':>5s} {'steps':>5s} | {'femb ms/step':>12s} {'Newton':>6s} | {'Exudyn mod. ms':>14s} "
-            f"{'Newton':>6s} {'ratio':>6s} | {'Exudyn full ms':>14s} {'Newton':>6s} {'ratio':>6s} | "
-            f"{'tip diff m':>10s} {'femb h/2':>9s} {'Exu h/2':>9s} {'tip z m':>10s}")
-    print(head)
+    print(f"{'n':>5s} {'steps':>5s} {'femb ms/step':>12s} {'Newton':>6s}  {'Exudyn setting':<14s} "
+          f"{'ms/step':>9s} {'Newton':>6s} {'ratio':>6s}  {'tip diff m':>10s}")
     rows = []
     for n in a.n:
         r = measure(n, a.runs, exudyn=version is not None)
         c = {"error": "skipped"} if a.no_compare or not version else compare(n, a.t_compare)
         rows.append((r, c))
-        em = r["exudyn"].get("modified", {"error": "not installed"})
-        ef = r["exudyn"].get("full", {"error": "not installed"})
-        cs = (f"{c['diff']:10.2e} {c['femb_h2']:9.2e} {c['exudyn_h2']:9.2e} {c['tip_z']:10.3e}" if "diff" in c
-              else f"({c['error']})")
-        print(f"{n:5d} {r['steps']:5d} | {r['femb_ms']:12.3f} {r['femb_newton']:6.2f} | "
-              f"{_fmt_exudyn(em):>28s} | {_fmt_exudyn(ef):>28s} | {cs}")
-    if not a.no_compare and version:
-        print(f"tip diff: max over t in [0, {a.t_compare:g}] s of |x_femb - x_Exudyn| at the tip (h); "
-              f"femb h/2, Exu h/2: each code's max |x(h) - x(h/2)|; ratio = femb / Exudyn ms per step")
+        first = f"{n:5d} {r['steps']:5d} {r['femb_ms']:12.3f} {r['femb_newton']:6.2f}"
+        if not r["exudyn"]:
+            print(first + "  (Exudyn not installed)")
+        for i, (key, e) in enumerate(r["exudyn"].items()):
+            lead = first if i == 0 else " " * len(first)
+            d = c.get("diff", {}).get(key)
+            ds = f"{d:10.2e}" if d is not None else ""
+            if "ms" in e:
+                print(f"{lead}  {key:<14s} {e['ms']:9.3f} {e['newton']:6.2f} {e['ratio']:6.3f}  {ds}")
+            else:
+                print(f"{lead}  {key:<14s} ({e['error']})")
+        if "femb_h2" in c:
+            print(f"{'':>5s} tip over [0, {c['t_end']:g}] s: z(t_end) = {c['tip_z']:.4e} m; h -> h/2 change: "
+                  f"femb {c['femb_h2']:.2e} m, Exudyn {c['exudyn_h2']:.2e} m")
+        elif "error" in c and c["error"] != "skipped":
+            print(f"{'':>5s} comparison: {c['error']}")
+    print("ratio = femb / Exudyn ms per step; tip diff = max over the steps of |x_femb - x_Exudyn| at the tip")
     return rows
 
 
