@@ -253,8 +253,14 @@ def exudyn_settings(steps, h, newton):
 
 
 def exudyn_run(n, steps, h=H, newton=EXUDYN_SETTINGS[HEADLINE], node="EP", record=False):
-    """One Exudyn run (``newton["node"]``, when given, overrides ``node``); dict ``ok``, ``message``, ``wall_s`` (SolveSteps), ``steps``, ``newton``
-    (iterations), ``jacobians``, ``tip`` (rows t, x, y, z; with ``record``)."""
+    """One Exudyn run (``newton["node"]``, when given, overrides ``node``).
+
+    Returns
+    -------
+    dict
+        ``ok``, ``message``, ``wall_s`` (``SolveSteps``), ``steps``, ``newton``
+        (iterations in all), ``jacobians``, ``tip`` (rows t, x, y, z; with ``record``).
+    """
     import exudyn as exu
 
     node = (newton or {}).get("node", node)
