@@ -9,9 +9,11 @@ femb: :class:`~femb.elements.spatial_beam.SpatialBeam` elements meshed by
 :func:`~femb.elements.spatial_beam.spatial_beam` (``start="clamp"``,
 ``mass="consistent"``), :class:`~femb.elements.spatial_forces.SpatialGravity`,
 ``femb.simulate(model, t_end, h, rho_inf=0.7, store=False)`` with its default Newton
-options (weighted-correction test, refactorization only when the contraction is
-slow). Timed: the time loop (``Result.wall_time``; consistent initial values and
-compilation excluded).
+options (``"default"``: weighted-correction test, refactorization only when the
+contraction is slow) and with modified Newton and the force-residual test at a
+relative 1e-4 (``"residual"``, the counterpart of Exudyn's headline setting;
+:data:`FEMB_SETTINGS`). Timed: the time loop (``Result.wall_time``; consistent
+initial values and compilation excluded).
 
 Exudyn (``pip install femb[peers]``; measured with Exudyn 1.13.6): the same rod
 built as in Exudyn's own test models of this element
