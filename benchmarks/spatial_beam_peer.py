@@ -476,8 +476,8 @@ def main(argv=None):
             d = c.get("diff", {}).get(key)
             ds = f"{d:10.2e}" if d is not None else ""
             if "ms" in e:
-                print(f"{lead}  {'Exudyn':<6s} {key:<10s} {e['ms']:9.3f} {e['newton']:6.2f}  "
-                      + "  ".join(f"{e['ratio'][k]:13.3f}" for k in fk) + f"  {ds}")
+                print((f"{lead}  {'Exudyn':<6s} {key:<10s} {e['ms']:9.3f} {e['newton']:6.2f}  "
+                       + "  ".join(f"{e['ratio'][k]:13.3f}" for k in fk) + f"  {ds}").rstrip())
             else:
                 print(f"{lead}  {'Exudyn':<6s} {key:<10s} ({e['error']})")
         if "femb_h2" in c:
@@ -485,7 +485,8 @@ def main(argv=None):
                   f"femb {c['femb_h2']:.2e} m, Exudyn {c['exudyn_h2']:.2e} m")
         elif "error" in c and c["error"] != "skipped":
             print(f"{'':>11s}  comparison: {c['error']}")
-    print("tip diff: max over the steps of |x - x_femb default| at the tip (Exudyn rows: at h in that setting)")
+    if not a.no_compare and version:
+        print("tip diff: max over the steps of |x - x_femb default| at the tip (Exudyn rows: at h in that setting)")
     return rows
 
 
