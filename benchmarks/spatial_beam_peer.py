@@ -95,6 +95,7 @@ G. R. Cowper, The shear coefficient in Timoshenko's beam theory, J. Appl. Mech.
 Usage::
 
     python -m femb.benchmarks.spatial_beam_peer [--n 10 100 1000] [--runs 3] [--t-compare 0.01]
+        [--no-compare] [--lie-group]
 """
 from __future__ import annotations
 
