@@ -79,6 +79,13 @@ Agreement (:func:`compare`): the tip trajectory of both codes at h and at h/2 ov
 the first ``t_end``; the femb–Exudyn difference is printed next to each code's own
 h → h/2 change (an estimate of its time-discretization error at h).
 
+Measured (``--runs 5``, Exudyn 1.13.6, two cores shared with other jobs; docs/beams.md,
+"Against Exudyn's geometrically exact beam"): femb default / Exudyn ``"residual"``
+0.23, 0.26, 0.30 of the time per step for n = 10, 100, 1000; femb ``"residual"`` / Exudyn
+``"residual"`` 0.13 for each n; the tips differ by 9.5e-9 m (n = 10) down to 1e-12 m
+(n = 1000) over the first 10 ms, against each code's own h → h/2 change of about
+2.2e-7 m.
+
 References
 ----------
 J. Gerstmayr, Exudyn – a C++-based Python package for flexible multibody
