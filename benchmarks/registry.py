@@ -86,7 +86,6 @@ SCENES = {
     "rigid_chain_3d": "femb.benchmarks.rigid_chain_3d",
     "spin_up_3d": "femb.benchmarks.spin_up_3d",
     "flexible_fourbar_3d": "femb.benchmarks.flexible_fourbar_3d",
-    "bauchau_fourbar": "femb.benchmarks.bauchau_fourbar",
 }
 
 #: Scenes that are not time integrations (static equilibria, linearized buckling): name -> module.
