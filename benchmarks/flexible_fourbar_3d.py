@@ -272,8 +272,9 @@ def time_convergence(hs=(2e-3, 1e-3, 5e-4, 2.5e-4, 1.25e-4), t_end=0.6, rho_inf=
 
     ``reference`` (default :data:`REFERENCE`): ``h`` of the reference (each h a multiple of
     it) and its solver options. The reference is the stabilized index-2 form: index-3
-    multipliers carry round-off amplified by 1/h² (here about 1e-6 of the largest force at
-    h = 62.5 µs and 2e-5 at 15.6 µs), which a reference at a small h would add to every error.
+    multipliers carry round-off amplified by 1/h² (here R_O_x: 3e-7, 1.3e-6, 5e-6 of its largest
+    value at h = 62.5, 31.25, 15.6 µs, whatever the Newton tolerance), which a reference at a
+    small h would add to every error.
 
     Returns
     -------
@@ -350,6 +351,35 @@ def ringing(ramp="cosine", h=7.8125e-6, t_end=0.6, window=4e-3):
     return res
 
 
+def reference_noise(hs=(6.25e-5, 3.125e-5, 1.5625e-5), t_end=0.6):
+    """How well small steps make a reference for the reactions (R_O_x relative to its largest value).
+
+    Returns
+    -------
+    dict
+        ``index3`` (k,): largest |index-3 − index-2 (:data:`REFERENCE` options)| at each h of
+        ``hs`` (round-off amplified by 1/h² in the index-3 multipliers); ``index2_default``,
+        ``index2_tight``: largest |y_h − y_{h/2}| of the index-2 form at the last h with the
+        default Newton test and with the tight one of :data:`REFERENCE`.
+    """
+    model = build().compile()
+    tight = {k: v for k, v in REFERENCE.items() if k != "h"}
+
+    def rox(h, **opt):
+        return outputs(simulate(model, t_end, h, **opt))["R_O_x"]
+
+    i3 = []
+    scale = None
+    for h in hs:
+        y2 = rox(h, **tight)
+        scale = scale or np.abs(y2).max()
+        i3.append(np.abs(rox(h) - y2).max() / scale)
+    h = hs[-1]
+    d_def = np.abs(rox(h, formulation="index2") - rox(h / 2, formulation="index2")[::2]).max() / scale
+    d_tight = np.abs(rox(h, **tight) - rox(h / 2, **tight)[::2]).max() / scale
+    return {"h": list(hs), "index3": np.array(i3), "index2_default": d_def, "index2_tight": d_tight}
+
+
 def rigid_limit(stiffness=1e6, n_elements=4, t_end=1.0, h=1e-3, rho_inf=0.8):
     """Largest differences between the stiff-beam and the rigid-coupler four-bar over a run.
 
@@ -392,13 +422,23 @@ def main(argv=None):
                 worst = max(CONVERGENCE["lambda"], key=lambda k: c["errors"][k][i])
                 print(f"  {h:.4g}  {c['h_omega'][i]:6.3f}  {c['err_q'][i]:.3e}  {c['err_lam'][i]:.3e}  {worst}")
             print("  orders q", np.round(c["order_q"], 2), "lambda", np.round(c["order_lam"], 2))
+        for eta in (1e-5, 1e-4):
+            c = time_convergence(ramp="cosine", damping=eta)
+            print(f"ramp = 'cosine', material damping {eta:g} s: err_lam", np.array2string(c["err_lam"], precision=2),
+                  "orders lambda", np.round(c["order_lam"], 2))
+        rn = reference_noise()
+        print("R_O_x, index 3 minus index 2 at the same h (relative):",
+              ", ".join(f"h = {h:g}: {e:.1e}" for h, e in zip(rn["h"], rn["index3"])))
+        print(f"R_O_x, index 2, h = {rn['h'][-1]:g} minus h/2: {rn['index2_default']:.1e} (default Newton test), "
+              f"{rn['index2_tight']:.1e} (newton_test='residual', newton_rtol=1e-13)")
         rg = ringing("cosine")
         print(f"axial ringing, ramp 'cosine' (omega1 = {rg['omega']:.1f} rad/s, T1 = "
               f"{2e3 * math.pi / rg['omega']:.3f} ms): measured / predicted 2 a2/omega1^2")
         for k in ("R_O_x", "R_B_y", "T_drive"):
             print(f"  {k}: {rg[k][0]:.2e} / {rg[k][1]:.2e}")
         rs = ringing("smooth")
-        print("axial ringing, ramp 'smooth' (with the round-off the undamped mode collects at this h): "
+        print("high-frequency content, ramp 'smooth' (Newton residue and round-off kept by the undamped axial "
+              "modes at this h; the ramp's own ringing is about 2e-9 N): "
               + ", ".join(f"{k} {rs[k][0]:.1e}" for k in ("R_O_x", "R_B_y", "T_drive")))
         for s in (1e4, 1e6, 1e8):
             rl = rigid_limit(s)
