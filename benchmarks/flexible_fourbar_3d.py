@@ -380,6 +380,65 @@ def reference_noise(hs=(6.25e-5, 3.125e-5, 1.5625e-5), t_end=0.6):
     return {"h": list(hs), "index3": np.array(i3), "index2_default": d_def, "index2_tight": d_tight}
 
 
+def slider_crank(ramp="smooth", n_elements=6, damping=0.0):
+    """A second mechanism for the ramp study: the IFToMM spatial slider–crank
+    (:mod:`femb.benchmarks.spatial_slider_crank`: its points, crank and slider) with an
+    aluminium SE(3)-beam rod (d = 8 mm, ``n_elements``), the crank driven about x by
+    :func:`crank_profile` with ω_s = 4π rad/s, T_s = 0.5 s, gravity; a compiled model. In
+    its first axial mode (1613 rad/s at the static equilibrium) the rod carries the 2 kg
+    slider along x, at 48° to the rod."""
+    from .spatial_slider_crank import PARAMS as SP, geometry as sc_geometry
+    from femb.elements.spatial_joints import PrismaticJoint
+    A, B, D, e0, _ = sc_geometry(SP)
+    x = np.array([1.0, 0.0, 0.0])
+    m = Mechanism("flexible_slider_crank_3d")
+    crank = m.add(SpatialRigidBody("crank", SP["m_crank"], SP["J_crank"], position=0.5 * (A + B)))
+    slider = m.add(SpatialRigidBody("slider", SP["m_slider"], SP["J_slider"], position=D))
+    m.add(RevoluteJoint("O", m.ground, crank, at=A, axis=x))
+    m.add(DrivenRevoluteAngle("drive", m.ground, crank, crank_profile(ramp, dict(omega_s=4 * math.pi, T_s=0.5)),
+                              at=A, axis=x))
+    sec = SpatialSection.circle(DATA["E"], DATA["G"], 0.008, density=DATA["rho"], damping=damping)
+    b = spatial_beam(m, "rod", sec, [B, D], int(n_elements))
+    pin = np.cross(e0, x)
+    m.add(SphericalJoint("B", crank, b.nodes[0], at=B))
+    m.add(UniversalJoint("D", slider, b.nodes[-1], axis_a=x, axis_b=pin / np.linalg.norm(pin), at=D))
+    m.add(PrismaticJoint("guide", m.ground, slider, at=D, axis=x))
+    m.add(SpatialGravity(SP["g"]))
+    return m.compile()
+
+
+def slider_crank_convergence(ramp="smooth", hs=(2e-3, 1e-3, 5e-4, 2.5e-4, 1.25e-4), t_end=0.6, rho_inf=0.8):
+    """Fixed-step errors of :func:`slider_crank` from its static equilibrium, as in
+    :func:`time_convergence`: slider x (m), and the largest relative error of the multipliers
+    whose largest magnitude exceeds 1e-3 of the largest one.
+
+    Returns
+    -------
+    dict
+        ``h``, ``err_q``, ``err_lam``, ``order_q``, ``order_lam``.
+    """
+    model = slider_crank(ramp)
+    reference = dict(REFERENCE)
+    h_ref = reference.pop("h")
+
+    def run(h, **opt):
+        r = simulate(model, t_end, h, rho_inf=rho_inf, **opt)
+        return model.node_coordinates("slider", r.q)[:, 0], r.lam
+
+    xr, lr = run(h_ref, **reference)
+    scale = np.abs(lr).max(axis=0)
+    cols = scale > 1e-3 * scale.max()
+    eq, el = [], []
+    for h in hs:
+        xh, lh = run(h)
+        st = int(round(h / h_ref))
+        eq.append(np.abs(xh - xr[::st]).max())
+        el.append((np.abs(lh - lr[::st]).max(axis=0)[cols] / scale[cols]).max())
+    eq, el = np.array(eq), np.array(el)
+    return {"h": list(hs), "err_q": eq, "err_lam": el, "order_q": np.log2(eq[:-1] / eq[1:]),
+            "order_lam": np.log2(el[:-1] / el[1:])}
+
+
 def rigid_limit(stiffness=1e6, n_elements=4, t_end=1.0, h=1e-3, rho_inf=0.8):
     """Largest differences between the stiff-beam and the rigid-coupler four-bar over a run.
 
@@ -422,6 +481,11 @@ def main(argv=None):
                 worst = max(CONVERGENCE["lambda"], key=lambda k: c["errors"][k][i])
                 print(f"  {h:.4g}  {c['h_omega'][i]:6.3f}  {c['err_q'][i]:.3e}  {c['err_lam'][i]:.3e}  {worst}")
             print("  orders q", np.round(c["order_q"], 2), "lambda", np.round(c["order_lam"], 2))
+        for ramp in ("smooth", "cosine"):
+            c = slider_crank_convergence(ramp)
+            print(f"spatial slider-crank with a beam rod, ramp = {ramp!r}: err slider x",
+                  np.array2string(c["err_q"], precision=2), "orders", np.round(c["order_q"], 2))
+            print("  err_lam", np.array2string(c["err_lam"], precision=2), "orders", np.round(c["order_lam"], 2))
         for eta in (1e-5, 1e-4):
             c = time_convergence(ramp="cosine", damping=eta)
             print(f"ramp = 'cosine', material damping {eta:g} s: err_lam", np.array2string(c["err_lam"], precision=2),
