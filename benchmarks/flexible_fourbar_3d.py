@@ -308,12 +308,15 @@ def time_convergence(hs=(2e-3, 1e-3, 5e-4, 2.5e-4, 1.25e-4), t_end=0.6, rho_inf=
 
 def axial_omega(model):
     """ω₁ (rad/s): the lowest mode of the driven mechanism at its static equilibrium (t = 0)
-    whose coupler motion is mostly along the coupler (axial), from :func:`femb.modal.modal_analysis`."""
+    whose coupler motion is mostly along the coupler (axial), from :func:`femb.modal.modal_analysis`;
+    NaN for the rigid coupler."""
     from femb.modal import modal_analysis
+    nodes = [nm for nm in model.node_index if nm.startswith("coupler.n")]
+    if not nodes:
+        return math.nan
     r = modal_analysis(model, initial_state(model), n_modes=12)
     _, B, C, _ = geometry()
     e1 = (C - B) / np.linalg.norm(C - B)
-    nodes = [nm for nm in model.node_index if nm.startswith("coupler.n")]
     for k, w in enumerate(r.omega):
         u = np.array([r.node_mode(nm, k)[:3] for nm in nodes])
         if np.sum((u @ e1) ** 2) > 0.5 * np.sum(u * u):
@@ -481,6 +484,10 @@ def main(argv=None):
                 worst = max(CONVERGENCE["lambda"], key=lambda k: c["errors"][k][i])
                 print(f"  {h:.4g}  {c['h_omega'][i]:6.3f}  {c['err_q'][i]:.3e}  {c['err_lam'][i]:.3e}  {worst}")
             print("  orders q", np.round(c["order_q"], 2), "lambda", np.round(c["order_lam"], 2))
+        for form in ("index3", "index2"):
+            c = time_convergence(rigid=True, options={"formulation": form})
+            print(f"rigid coupler, {form}: err_lam", np.array2string(c["err_lam"], precision=2),
+                  "orders lambda", np.round(c["order_lam"], 2), "(positions exact: err_q", f"{c['err_q'].max():.1e})")
         for ramp in ("smooth", "cosine"):
             c = slider_crank_convergence(ramp)
             print(f"spatial slider-crank with a beam rod, ramp = {ramp!r}: err slider x",

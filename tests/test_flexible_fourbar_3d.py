@@ -30,12 +30,20 @@ def test_positions_second_order_in_h(study):
 
 def test_reactions_second_order_in_h(study):
     # measured relative errors 1.4e-4, 3.5e-5, 8.8e-6, 2.2e-6, 5.6e-7: orders 2.00, 2.00, 2.01, 1.97
-    # (before the smooth ramp: a floor near 1e-5 from the coupler's axial ringing, orders down to 0.1)
-    assert np.all(study["order_lam"] >= 1.9), study["order_lam"]
+    # (before the smooth ramp: a floor near 1e-5 from the coupler's axial ringing, orders 1.64, 1.70,
+    # 0.90, 0.09). At h = 0.125 ms the index-3 round-off in λ (1.4e-7) and the reference's (≈1e-7)
+    # are no longer negligible: the last order is 1.91 … 1.97 with references at 15.6 … 31.25 µs.
+    assert np.all(study["order_lam"][:3] >= 1.9) and study["order_lam"][3] >= 1.8, study["order_lam"]
     assert study["err_lam"][-1] < 1e-6
     for k in ("R_O_x", "R_B_y", "T_drive"):          # the in-plane reactions, carried axially
         e = study["errors"][k]
         assert np.all(np.log2(e[:-1] / e[1:]) >= 1.8), (k, e)
+
+
+def test_rigid_coupler_reactions_second_order(scene):
+    # measured 1.4e-4, 3.5e-5, 8.8e-6, 2.3e-6 (orders 2.00, 2.00, 1.95); positions exact (1e-15)
+    c = scene.time_convergence(hs=(2e-3, 1e-3, 5e-4, 2.5e-4), rigid=True)
+    assert np.all(c["order_lam"] >= 1.9), c["order_lam"]
 
 
 def test_cosine_ramp_rings_the_axial_mode(scene):
