@@ -741,7 +741,8 @@ class SpatialSection:
         J = a b³ (1/3 − 0.21 (b/a)(1 − b⁴/(12 a⁴))), a ≥ b the sides (Roark, Table 10.7,
         within 4 % for all ratios, exact as a/b → ∞).
         """
-        w, h = _positive("SpatialSection.rectangle", width=width), _positive("SpatialSection.rectangle", height=height)
+        w, h = (_check_scalar("SpatialSection.rectangle", "width", width, positive=True),
+                _check_scalar("SpatialSection.rectangle", "height", height, positive=True))
         A = w * h
         I2 = w * h ** 3 / 12.0
         I3 = h * w ** 3 / 12.0
@@ -754,7 +755,7 @@ class SpatialSection:
     @classmethod
     def circle(cls, E, G, diameter, density=0.0, shear_factor=None, damping=0.0):
         """Solid circle: I = π d⁴/64, J = π d⁴/32; shear factor default Cowper's 6(1+ν)/(7+6ν), ν = E/2G − 1."""
-        d = _positive("SpatialSection.circle", diameter=diameter)
+        d = _check_scalar("SpatialSection.circle", "diameter", diameter, positive=True)
         A = math.pi * d * d / 4.0
         I = math.pi * d ** 4 / 64.0
         nu = _cowper_nu(E, G)
@@ -766,7 +767,7 @@ class SpatialSection:
     def tube(cls, E, G, outer_diameter, inner_diameter, density=0.0, shear_factor=None, damping=0.0):
         """Circular tube: I = π(D⁴ − d⁴)/64, J = 2I; shear factor default Cowper's
         6(1+ν)(1+m²)²/((7+6ν)(1+m²)² + (20+12ν)m²), m = d/D."""
-        Do, Di = _positive("SpatialSection.tube", outer_diameter=outer_diameter), float(inner_diameter)
+        Do, Di = _check_scalar("SpatialSection.tube", "outer_diameter", outer_diameter, positive=True), float(inner_diameter)
         if not 0.0 <= Di < Do:
             raise ModelError(f"SpatialSection.tube: need 0 ≤ inner < outer diameter, got {Di}, {Do}")
         A = math.pi * (Do * Do - Di * Di) / 4.0
@@ -777,18 +778,6 @@ class SpatialSection:
              if shear_factor is None else float(shear_factor))
         return cls.from_properties(E * A, k * G * A, k * G * A, G * 2.0 * I, E * I, E * I,
                                    density * A, density * np.array([2.0 * I, I, I]), damping)
-
-
-def _positive(where, **value):
-    """The one keyword's value as a float, refused unless finite and > 0."""
-    (key, v), = value.items()
-    try:
-        x = float(v)
-    except (TypeError, ValueError):
-        raise ModelError(f"{where}: {key} must be a number, got {v!r}") from None
-    if not (math.isfinite(x) and x > 0.0):
-        raise ModelError(f"{where}: {key} must be finite and > 0, got {v!r}")
-    return x
 
 
 # ---------------------------------------------------------------------------
