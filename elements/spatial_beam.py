@@ -612,16 +612,6 @@ def _ddot(U, W, s, sm, vA, vB):
 
 
 @kernel
-def _forces(U, W, s, sig):
-    """(h_A, h_B) = (−T_SE3⁻ᵀ(−d) σ, T_SE3⁻ᵀ(d) σ), each a pair of 3-tuples."""
-    sU = (sig[0], sig[1], sig[2])
-    sW = (sig[3], sig[4], sig[5])
-    a = tinvt_se3(_neg3(U), _neg3(W), s, sU, sW)
-    b = tinvt_se3(U, W, s, sU, sW)
-    return (_neg3(a[0]), _neg3(a[1])), b
-
-
-@kernel
 def _rbar(Pe, o):
     """R̄ (9-tuple) of the offset quaternion at P[o:o+4]."""
     return rt.quat_to_matrix_t(Pe[o], Pe[o + 1], Pe[o + 2], Pe[o + 3])
@@ -769,7 +759,17 @@ def spatial_beam_force(P, t, tf, xe, ve, jac, fe, fq, fv):
             eps = (eps[0] + bL * dd[0], eps[1] + bL * dd[1], eps[2] + bL * dd[2],
                    eps[3] + bL * dd[3], eps[4] + bL * dd[4], eps[5] + bL * dd[5])
         sig = _c6(Pe, eps)
-        hA, hB = _forces(U, W, s, sig)
+        # T⁻¹(Ω) and T_UΩ once as matrices, for the forces and the tangent: at −d they are
+        # the transposes, so h_B = T_SE3⁻ᵀ(d)σ = (Mᵀσ_U, Mᵀ(σ_Ω − Nᵀ b_U)) and
+        # h_A = −T_SE3⁻ᵀ(−d)σ = −(Mσ_U, M(σ_Ω − N b_U)) (:func:`tinvt_se3`)
+        M = _tinv_mat(W, s[2])
+        N = _tuw_mat(U, W, s)
+        sU = (sig[0], sig[1], sig[2])
+        sW = (sig[3], sig[4], sig[5])
+        bUB = sp.mtv(M, sU)
+        bUA = sp.mv(M, sU)
+        hB = (bUB, sp.mtv(M, sp.sub3(sW, sp.mtv(N, bUB))))
+        hA = (_neg3(bUA), _neg3(sp.mv(M, sp.sub3(sW, sp.mv(N, bUA)))))
         fxa = sp.mv(RsA, hA[0])
         fta = sp.mv(RbA, hA[1])
         fxb = sp.mv(RsB, hB[0])
@@ -785,9 +785,6 @@ def spatial_beam_force(P, t, tf, xe, ve, jac, fe, fq, fv):
             continue
         # Scratch on the stack (no heap arrays in kernels): Q = ∂d/∂(δx, δθ) (6 × 12, row k at
         # 12k), Z = Qᵀ C/L (12 × 6, row i at 72 + 6i), E = ∂ḋ/∂d (6 × 6, column k at 144 + 6k).
-        # T⁻¹(Ω) and T_UΩ once as matrices: at −d they are the transposes (node A)
-        M = _tinv_mat(W, s[2])
-        N = _tuw_mat(U, W, s)
         Mt = sp.tr9(M)
         Nt = sp.tr9(N)
         buf = _scratch()
@@ -873,8 +870,6 @@ def spatial_beam_force(P, t, tf, xe, ve, jac, fe, fq, fv):
                                            + buf[o + 3] * q[3] + buf[o + 4] * q[4] + buf[o + 5] * q[5])
         # G (12 × 6) = ∂(h_A, h_B)/∂d at fixed σ (analytic, :func:`_g_blocks`); Z += Aᵀ G, then
         # fq −= Z Q = Qᵀ(C/L)Q + Aᵀ G Q
-        sU = (sig[0], sig[1], sig[2])
-        sW = (sig[3], sig[4], sig[5])
         _g_blocks(_neg3(U), _neg3(W), s, ds, Mt, Nt, sU, sW, RsA, RbA, buf, 0)
         _g_blocks(U, W, s, ds, M, N, sU, sW, RsB, RbB, buf, 6)
         _zq(buf, fq[e], 1.0)
