@@ -6,7 +6,9 @@ in which every step does Newton work on all elements. n elements, fixed steps
 h = 1e-4 s, ρ∞ = 0.7, from t = 0; the time loop's wall time per step (consistent
 initial values excluded) is the median over ``--runs`` runs (time.perf_counter inside
 :func:`femb.simulate`). The exponent p of the least-squares fit ms/step ∝ n^p is printed
-for n ≥ 10³.
+for n ≥ 10³. Also printed: Newton iterations and band factorizations (``LU``) per step, and
+whether the iteration matrix is carried over steps (``femb/step.py``, ``carry_rule``: band
+systems of at least 1000 unknowns) or built at every step.
 
 The force kernel (:func:`femb.elements.spatial_beam.spatial_beam_force`) is timed on its own
 as well, per element, with and without the Jacobian (batches of ``nel`` elements with
@@ -66,7 +68,8 @@ def measure(n, runs=3, steps=None):
         per_step.append(1e3 * res.wall_time / res.steps)
     return {"n": n, "nq": model.nq, "steps": res.steps, "ms_per_step": statistics.median(per_step),
             "runs": per_step, "newton_per_step": float(res.newton_iterations.mean()),
-            "linear_solver": res.settings["linear_solver"]}
+            "factorizations_per_step": res.stats["factorizations"] / res.steps,
+            "linear_solver": res.settings["linear_solver"], "newton_matrix": res.settings["newton_matrix"]}
 
 
 def kernel_cost(nel=2000, damping=0.0, repeat=15):
@@ -192,8 +195,8 @@ def main(argv=None):
         print(f"force kernel, {nel} elements: {kc['jacobian']:.2f} us/element with Jacobian "
               f"({kd['jacobian']:.2f} with damping), {kc['force']:.2f} us/element force only")
     print(f"dynamic cantilever under gravity, h = {H:g} s, rho_inf = {RHO_INF}, median of {a.runs} runs")
-    print(f"{'n':>6s} {'nq':>7s} {'steps':>6s} {'ms/step':>9s} {'us/(step el)':>13s} {'newton':>7s}  "
-          f"{'exudyn ms/step':>14s} {'ratio':>6s}")
+    print(f"{'n':>6s} {'nq':>7s} {'steps':>6s} {'ms/step':>9s} {'us/(step el)':>13s} {'newton':>7s} {'LU':>5s} "
+          f"{'matrix':>8s}  {'exudyn ms/step':>14s} {'ratio':>6s}")
     rows = []
     for n in a.n:
         r = measure(n, a.runs)
@@ -202,7 +205,7 @@ def main(argv=None):
         exs = f"{ex['ms_per_step']:14.3f} {ex['ms_per_step'] / r['ms_per_step']:6.2f}" if "ms_per_step" in ex \
             else f"  ({ex['error']})"
         print(f"{n:6d} {r['nq']:7d} {r['steps']:6d} {r['ms_per_step']:9.3f} {1e3 * r['ms_per_step'] / n:13.3f} "
-              f"{r['newton_per_step']:7.2f}  {exs}")
+              f"{r['newton_per_step']:7.2f} {r['factorizations_per_step']:5.2f} {r['newton_matrix']:>8s}  {exs}")
     ns = np.array([r["n"] for r in rows], dtype=float)
     ms = np.array([r["ms_per_step"] for r in rows])
     big = ns >= 1000

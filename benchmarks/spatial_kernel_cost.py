@@ -3,7 +3,9 @@
 Run: ``python -m femb.benchmarks.spatial_kernel_cost [nel]``. Random states, one
 batch of ``nel`` elements per type; prints the median time per element of the
 constraint kernel (Φ, B, H), the rates kernel and the force kernels (f, fq, fv),
-measured with time.perf_counter after a warm-up call (compilation excluded).
+measured with time.perf_counter after a warm-up call (compilation excluded). The SE(3)
+beam (``SpatialBeam``, diagonal section stiffness) is timed here between two random frames;
+``benchmarks/spatial_beam_scaling.py`` times it on a meshed beam near its reference.
 """
 from __future__ import annotations
 
@@ -16,6 +18,7 @@ from femb import Mechanism
 from femb import rotations as rt
 from femb.elements import spatial_forces as sf
 from femb.elements import spatial_joints as sj
+from femb.elements.spatial_beam import SpatialBeam, SpatialSection
 from femb.elements.spatial_bodies import SpatialRigidBody
 
 
@@ -48,10 +51,11 @@ def main(nel=2000):
               sj.UniversalJoint("uni", a, b, axis_a=(1, 0, 0), axis_b=(0, 1, 0), at=at),
               sj.PrismaticJoint("pri", a, b, at=at, axis=ax), sj.FixedJoint("fix", a, b, at=at, axis=ax),
               sj.DistanceJoint("dist", a, b), sj.DrivenRevoluteAngle("drv", a, b, 0.3, at=at, axis=ax)]
+    sec = SpatialSection.from_properties(1e6, 1e6, 1e6, 1e3, 1e3, 1e3, rhoA=1.0, rhoJ=(2, 1, 1))
     forces = [sf.PointSpringDamper("spring", a, b, 10.0, 1.0), sf.Bushing("bush", a, b, (1, 2, 3), (4, 5, 6), (1, 1, 1),
                                                                           (1, 1, 1), at=at, axis=ax),
               sf.RotationalSpringDamper("torsion", a, b, 3.0, 0.1, at=at, axis=ax),
-              sf.SpatialForce("force", a, (1, 2, 3), point=(0.1, 0, 0)), a]
+              sf.SpatialForce("force", a, (1, 2, 3), point=(0.1, 0, 0)), a, SpatialBeam("beam", a, b, sec)]
     lookup = lambda ref, role: mech[ref] if isinstance(ref, str) else ref  # noqa: E731
     print(f"spatial kernel cost, nel = {nel}, median of 15 calls, ns per element")
     print(f"{'element':22s} {'constraint+H':>13s} {'constraint':>11s} {'rates':>9s}")

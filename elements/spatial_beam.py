@@ -35,10 +35,13 @@ P V the change of the section velocities R_sᵀẋ under δθ. G and E are the
 derivatives of the closed forms of T_SE3⁻ᵀ σ and T_SE3⁻¹ ξ̇ (spatial.md §1) along the
 six directions of d, by the chain rule through their factored evaluation
 (b_U = T⁻¹(−Ω) a_U, b_Ω = T⁻¹(−Ω)(a_Ω − T_UΩᵀ b_U), and the transposed order for
-T_SE3⁻¹): T_UΩ is linear in U, so the three U-directions cost one T_UΩ product each;
-along Ω the coefficients s2 … s6 change with x = φ² through the closed-form derivatives
+T_SE3⁻¹): T_UΩ is linear in U, so its U-derivative is one 3 × 3 matrix; along Ω the
+coefficients s2 … s6 change with x = φ² through the closed-form derivatives
 of :func:`dsfun` (s2' = (s1/2 − s2)/x, s3' = (s2 − 3s3)/(2x), s4', s5', s6' = (s5 − 5s6)/(2x);
-series below x = 0.01). Exact (no difference step); checked against finite
+series below x = 0.01). G is built by 3 × 3 blocks (:func:`_g_blocks`): T⁻¹(Ω) and T_UΩ are
+formed once as matrices, and at −d (node A) they are their transposes, so that Q, the
+derivatives of b_U, b_Ω and the rotations R_s, R̄ of the rows are 3 × 3 products and
+rank-one sums. Exact (no difference step); checked against finite
 differences of the force in tests/test_spatial_beam.py. ``fv = −(β/L) Qᵀ C Q`` plus the
 gyroscopic part below.
 
@@ -276,36 +279,216 @@ def dtinv_se3(U, W, s, ds, aU, aW, dU, dW):
 
 
 @kernel
-def _g_side(Ub, Wb, s, ds, aU, aW, Rx, Rt, buf, r0):
-    """Add Aᵀ ∂(T_SE3⁻ᵀ(d_b) a)/∂d_b (6 columns) to Z = buf[72:144] at rows r0 … r0 + 5.
+def _sdfun(phi2):
+    """(:func:`sfun`, :func:`dsfun`) of φ² together: one square root, sine and cosine for both."""
+    x = phi2
+    if abs(x) < 0.01:
+        return sfun(x), dsfun(x)
+    phi = np.sqrt(x)
+    sn = np.sin(phi)
+    c = np.cos(phi)
+    s2 = (1.0 - c) / x
+    s3 = (phi - sn) / (x * phi)
+    s4 = (1.0 - 0.5 * phi * sn / (1.0 - c)) / x
+    s5 = (2.0 - 2.0 * c - phi * sn) / (x * x)
+    s6 = (phi * (2.0 + c) - 3.0 * sn) / (x * x * phi)
+    d2 = (0.5 * sn / phi - s2) / x
+    d3 = (s2 - 3.0 * s3) / (2.0 * x)
+    d4 = -((sn - phi) / (4.0 * phi * (1.0 - c)) + s4) / x
+    d5 = (sn - phi * c) / (2.0 * phi * x * x) - 2.0 * s5 / x
+    d6 = (s5 - 5.0 * s6) / (2.0 * x)
+    return (s2, s3, s4, s5, s6), (d2, d3, d4, d5, d6)
 
-    Side B: d_b = d; side A: d_b = −d (h_A = −T_SE3⁻ᵀ(−d)σ, whose derivative along δ is
-    that of T_SE3⁻ᵀ(·)σ at −d along δ). Through :func:`tinvt_se3`: b_U = T⁻¹(−Ω) a_U,
-    t = T_UΩᵀ b_U, b_Ω = T⁻¹(−Ω)(a_Ω − t). Along U (T_UΩ is linear in U, b_U does not
-    depend on U): δt = T_{δU,Ω}ᵀ b_U, δb_Ω = −T⁻¹(−Ω) δt; along Ω the chain rule of
-    :func:`_dtinv3` and :func:`_dtuw`. Rows: R_x δb_U (r0 … r0 + 2), R_t δb_Ω (r0 + 3 …).
+
+# 3 × 3 matrices are row-major 9-tuples (as in elements/_spatial.py)
+@kernel
+def _mm(A, B):
+    """A B."""
+    return (A[0] * B[0] + A[1] * B[3] + A[2] * B[6], A[0] * B[1] + A[1] * B[4] + A[2] * B[7],
+            A[0] * B[2] + A[1] * B[5] + A[2] * B[8],
+            A[3] * B[0] + A[4] * B[3] + A[5] * B[6], A[3] * B[1] + A[4] * B[4] + A[5] * B[7],
+            A[3] * B[2] + A[4] * B[5] + A[5] * B[8],
+            A[6] * B[0] + A[7] * B[3] + A[8] * B[6], A[6] * B[1] + A[7] * B[4] + A[8] * B[7],
+            A[6] * B[2] + A[7] * B[5] + A[8] * B[8])
+
+
+@kernel
+def _mmt(A, B):
+    """A Bᵀ."""
+    return (A[0] * B[0] + A[1] * B[1] + A[2] * B[2], A[0] * B[3] + A[1] * B[4] + A[2] * B[5],
+            A[0] * B[6] + A[1] * B[7] + A[2] * B[8],
+            A[3] * B[0] + A[4] * B[1] + A[5] * B[2], A[3] * B[3] + A[4] * B[4] + A[5] * B[5],
+            A[3] * B[6] + A[4] * B[7] + A[5] * B[8],
+            A[6] * B[0] + A[7] * B[1] + A[8] * B[2], A[6] * B[3] + A[7] * B[4] + A[8] * B[5],
+            A[6] * B[6] + A[7] * B[7] + A[8] * B[8])
+
+
+@kernel
+def _tinv_mat(W, s4):
+    """T⁻¹(Ω) = I + ½Ω~ + s4 Ω~² = I + ½Ω~ + s4(ΩΩᵀ − φ² I) (T⁻¹(−Ω) is its transpose)."""
+    dg = 1.0 - s4 * sp.dot3(W, W)
+    return (dg + s4 * W[0] * W[0], -0.5 * W[2] + s4 * W[0] * W[1], 0.5 * W[1] + s4 * W[0] * W[2],
+            0.5 * W[2] + s4 * W[1] * W[0], dg + s4 * W[1] * W[1], -0.5 * W[0] + s4 * W[1] * W[2],
+            -0.5 * W[1] + s4 * W[2] * W[0], 0.5 * W[0] + s4 * W[2] * W[1], dg + s4 * W[2] * W[2])
+
+
+@kernel
+def _rank3(a, b, c, d, e, f, g, kap):
+    """a bᵀ + c dᵀ + e fᵀ + g~ + κ I (3-tuples a … g, scalar κ)."""
+    return (a[0] * b[0] + c[0] * d[0] + e[0] * f[0] + kap, a[0] * b[1] + c[0] * d[1] + e[0] * f[1] - g[2],
+            a[0] * b[2] + c[0] * d[2] + e[0] * f[2] + g[1],
+            a[1] * b[0] + c[1] * d[0] + e[1] * f[0] + g[2], a[1] * b[1] + c[1] * d[1] + e[1] * f[1] + kap,
+            a[1] * b[2] + c[1] * d[2] + e[1] * f[2] - g[0],
+            a[2] * b[0] + c[2] * d[0] + e[2] * f[0] - g[1], a[2] * b[1] + c[2] * d[1] + e[2] * f[1] + g[0],
+            a[2] * b[2] + c[2] * d[2] + e[2] * f[2] + kap)
+
+
+@kernel
+def _rank1s(a, b, g, kap):
+    """a bᵀ + g~ + κ I."""
+    return (a[0] * b[0] + kap, a[0] * b[1] - g[2], a[0] * b[2] + g[1],
+            a[1] * b[0] + g[2], a[1] * b[1] + kap, a[1] * b[2] - g[0],
+            a[2] * b[0] - g[1], a[2] * b[1] + g[0], a[2] * b[2] + kap)
+
+
+@kernel
+def _rank2s(a, b, c, d, g, kap):
+    """a bᵀ + c dᵀ + g~ + κ I."""
+    return (a[0] * b[0] + c[0] * d[0] + kap, a[0] * b[1] + c[0] * d[1] - g[2], a[0] * b[2] + c[0] * d[2] + g[1],
+            a[1] * b[0] + c[1] * d[0] + g[2], a[1] * b[1] + c[1] * d[1] + kap, a[1] * b[2] + c[1] * d[2] - g[0],
+            a[2] * b[0] + c[2] * d[0] - g[1], a[2] * b[1] + c[2] * d[1] + g[0], a[2] * b[2] + c[2] * d[2] + kap)
+
+
+@kernel
+def _tuw_mat(U, W, s):
+    """T_UΩ of :func:`_tuw` as a matrix (T_UΩ at −d is its transpose).
+
+    −s2 U~ + s3(U~Ω~ + Ω~U~) + s5(Ω·U)Ω~ − s6(Ω·U)Ω~² with a~b~ = b aᵀ − (a·b) I:
+    s3(Ω Uᵀ + U Ωᵀ) − s6(Ω·U) Ω Ωᵀ + (−s2 U + s5(Ω·U)Ω)~ + (Ω·U)(s6 φ² − 2 s3) I.
     """
-    z = (0.0, 0.0, 0.0)
-    mW = _neg3(Wb)
-    bU = _tinv3(mW, s[2], aU)
-    t = _tuw(Ub, Wb, s, bU, -1.0)
-    r = sp.sub3(aW, t)
-    for k in range(6):
-        if k < 3:
-            dt = _tuw(_unit3(k), Wb, s, bU, -1.0)
-            dbW = _tinv3(mW, s[2], _neg3(dt))
-            gx = z
-        else:
-            dW = _unit3(k - 3)
-            mdW = _neg3(dW)
-            dbU = _dtinv3(mW, s[2], ds[2], aU, mdW, z)
-            dt = _dtuw(Ub, Wb, s, ds, bU, -1.0, z, dW, dbU)
-            dbW = _dtinv3(mW, s[2], ds[2], r, mdW, _neg3(dt))
-            gx = sp.mv(Rx, dbU)
-        gt = sp.mv(Rt, dbW)
-        for i in range(3):
-            buf[72 + 6 * (r0 + i) + k] += gx[i]
-            buf[72 + 6 * (r0 + 3 + i) + k] += gt[i]
+    s2, s3, s4, s5, s6 = s
+    wu = sp.dot3(W, U)
+    c6 = -s6 * wu
+    g = (-s2 * U[0] + s5 * wu * W[0], -s2 * U[1] + s5 * wu * W[1], -s2 * U[2] + s5 * wu * W[2])
+    return _rank3((s3 * W[0], s3 * W[1], s3 * W[2]), U, (s3 * U[0], s3 * U[1], s3 * U[2]), W,
+                  (c6 * W[0], c6 * W[1], c6 * W[2]), W, g, wu * (s6 * sp.dot3(W, W) - 2.0 * s3))
+
+
+@kernel
+def _dtinvt_mat(W, s4, ds4, a):
+    """∂(T⁻¹(−Ω) a)/∂Ω (3 × 3) for T⁻¹(−Ω) a = a − ½ Ω × a + s4 Ω × (Ω × a):
+    ½ a~ + s4((Ω·a) I + Ω aᵀ − 2 a Ωᵀ) + 2 s4' (Ω × (Ω × a)) Ωᵀ."""
+    wwa = sp.cross3(W, sp.cross3(W, a))
+    c = 2.0 * ds4
+    s = 2.0 * s4
+    v = (c * wwa[0] - s * a[0], c * wwa[1] - s * a[1], c * wwa[2] - s * a[2])
+    return _rank2s(v, W, (s4 * W[0], s4 * W[1], s4 * W[2]), a, (0.5 * a[0], 0.5 * a[1], 0.5 * a[2]),
+                   s4 * sp.dot3(W, a))
+
+
+@kernel
+def _put9(buf, o, st, A):
+    """buf[o + st i + k] = A[3i + k] (i, k < 3): constant tuple indices (no spill of A to memory)."""
+    buf[o] = A[0]
+    buf[o + 1] = A[1]
+    buf[o + 2] = A[2]
+    buf[o + st] = A[3]
+    buf[o + st + 1] = A[4]
+    buf[o + st + 2] = A[5]
+    buf[o + 2 * st] = A[6]
+    buf[o + 2 * st + 1] = A[7]
+    buf[o + 2 * st + 2] = A[8]
+
+
+@kernel
+def _add9(buf, o, st, A):
+    """buf[o + st i + k] += A[3i + k] (i, k < 3)."""
+    buf[o] += A[0]
+    buf[o + 1] += A[1]
+    buf[o + 2] += A[2]
+    buf[o + st] += A[3]
+    buf[o + st + 1] += A[4]
+    buf[o + st + 2] += A[5]
+    buf[o + 2 * st] += A[6]
+    buf[o + 2 * st + 1] += A[7]
+    buf[o + 2 * st + 2] += A[8]
+
+
+@kernel
+def _q_blocks(Mb, Nb, Rs, Rb, buf, c0, sg):
+    """Columns c0 … c0 + 5 of Q = ∂d/∂(δx, δθ) into buf (row k at 12k): one node's block.
+
+    Node B (sg = 1): T_SE3⁻¹(d) applied to ξ = (R_sᵀ δx, R̄ᵀ δθ); node A (sg = −1):
+    −T_SE3⁻¹(−d). With T_SE3⁻¹ = [T⁻¹, −T⁻¹T_UΩT⁻¹; 0, T⁻¹] (spatial.md §1), ``Mb`` = T⁻¹
+    and ``Nb`` = T_UΩ at ±d (transposes of each other): the block is
+    [sg Mb R_sᵀ, −Mb Nb Y; 0, Y] with Y = sg Mb R̄ᵀ.
+    """
+    X = _mmt(Mb, Rs)
+    Y = _mmt(Mb, Rb)
+    if sg < 0.0:
+        X = sp.neg9(X)
+        Y = sp.neg9(Y)
+    P = sp.neg9(_mm(Mb, _mm(Nb, Y)))
+    _put9(buf, c0, 12, X)
+    _put9(buf, 36 + c0, 12, (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0))
+    _put9(buf, c0 + 3, 12, P)
+    _put9(buf, 36 + c0 + 3, 12, Y)
+
+
+@kernel
+def _g_blocks(Ub, Wb, s, ds, Mb, Nb, aU, aW, Rx, Rt, buf, r0):
+    """Add Aᵀ ∂(T_SE3⁻ᵀ(d_b) a)/∂d_b (6 columns) to Z = buf[72:144] at rows r0 … r0 + 5, by 3 × 3 blocks.
+
+    Side B: d_b = d; side A: d_b = −d (h_A = −T_SE3⁻ᵀ(−d)σ, whose derivative along δ is that
+    of T_SE3⁻ᵀ(·)σ at −d along δ). ``Mb`` = T⁻¹(Ω_b), ``Nb`` = T_UΩ at d_b. Through
+    :func:`tinvt_se3`: b_U = Mbᵀ a_U, t = Nbᵀ b_U, b_Ω = Mbᵀ r, r = a_Ω − t, with
+    Nbᵀ b = s2 U × b + s3(U × (Ω × b) + Ω × (U × b)) − (Ω·U)(s5 Ω × b + s6 Ω × (Ω × b)):
+
+    * along U (b_U does not depend on U; T_UΩ is linear in U): ∂b_Ω/∂U = −Mbᵀ D_U,
+      D_U = ∂(Nbᵀ b_U)/∂U = (−s2 b − s3 Ω × b)~ + s3(Ω·b) I − v Ωᵀ, v = s3 b + s5 Ω × b + s6 Ω × (Ω × b);
+    * along Ω: ∂b_U/∂Ω = D(a_U) (:func:`_dtinvt_mat`) and ∂b_Ω/∂Ω = D(r) − Mbᵀ(D_Ω + Nbᵀ D(a_U)),
+      D_Ω = ∂(Nbᵀ b)/∂Ω at fixed b = v₁Ωᵀ − v Uᵀ − s6(Ω·U) Ω bᵀ + (−s3 U × b + s5(Ω·U) b)~
+      + (s3 U·b − s6(Ω·U) Ω·b) I, v₁ = 2[s2' U × b + s3'(U × (Ω × b) + Ω × (U × b))
+      − (Ω·U)(s5' Ω × b + s6' Ω × (Ω × b) − s6 b)] (s' = ds/dφ², :func:`dsfun`).
+
+    Rows: R_x ∂b_U (r0 … r0 + 2; zero along U), R_t ∂b_Ω (r0 + 3 …).
+    """
+    s2, s3, s4, s5, s6 = s
+    d2, d3, d4, d5, d6 = ds
+    U = Ub
+    W = Wb
+    b = sp.mtv(Mb, aU)
+    r = sp.sub3(aW, sp.mtv(Nb, b))
+    wu = sp.dot3(W, U)
+    wb = sp.cross3(W, b)
+    wwb = sp.cross3(W, wb)
+    ub = sp.cross3(U, b)
+    uwb = sp.cross3(U, wb)
+    wub = sp.cross3(W, ub)
+    mv = (-s3 * b[0] - s5 * wb[0] - s6 * wwb[0], -s3 * b[1] - s5 * wb[1] - s6 * wwb[1],
+          -s3 * b[2] - s5 * wb[2] - s6 * wwb[2])
+    gu = (-s2 * b[0] - s3 * wb[0], -s2 * b[1] - s3 * wb[1], -s2 * b[2] - s3 * wb[2])
+    DU = _rank1s(mv, W, gu, s3 * sp.dot3(W, b))
+    v1 = (2.0 * (d2 * ub[0] + d3 * (uwb[0] + wub[0]) - wu * (d5 * wb[0] + d6 * wwb[0] - s6 * b[0])),
+          2.0 * (d2 * ub[1] + d3 * (uwb[1] + wub[1]) - wu * (d5 * wb[1] + d6 * wwb[1] - s6 * b[1])),
+          2.0 * (d2 * ub[2] + d3 * (uwb[2] + wub[2]) - wu * (d5 * wb[2] + d6 * wwb[2] - s6 * b[2])))
+    c6 = -s6 * wu
+    gw = (-s3 * ub[0] + s5 * wu * b[0], -s3 * ub[1] + s5 * wu * b[1], -s3 * ub[2] + s5 * wu * b[2])
+    DW = _rank3(v1, W, mv, U, (c6 * W[0], c6 * W[1], c6 * W[2]), b, gw, s3 * sp.dot3(U, b) + c6 * sp.dot3(W, b))
+    Da = _dtinvt_mat(W, s4, d4, aU)
+    Dr = _dtinvt_mat(W, s4, d4, r)
+    RM = _mmt(Rt, Mb)                        # R_t Mbᵀ
+    X = _mm(Rx, Da)                          # rows x, columns Ω
+    YU = _mm(RM, DU)                         # rows θ, columns U (with a minus sign)
+    Ki = sp.mtm(Nb, Da)
+    YW = _mm(RM, (DW[0] + Ki[0], DW[1] + Ki[1], DW[2] + Ki[2], DW[3] + Ki[3], DW[4] + Ki[4], DW[5] + Ki[5],
+                  DW[6] + Ki[6], DW[7] + Ki[7], DW[8] + Ki[8]))
+    RD = _mm(Rt, Dr)
+    o = 72 + 6 * r0
+    _add9(buf, o + 3, 6, X)
+    _add9(buf, o + 18, 6, sp.neg9(YU))
+    _add9(buf, o + 21, 6, (RD[0] - YW[0], RD[1] - YW[1], RD[2] - YW[2], RD[3] - YW[3], RD[4] - YW[4],
+                           RD[5] - YW[5], RD[6] - YW[6], RD[7] - YW[7], RD[8] - YW[8]))
 
 
 @kernel
@@ -357,6 +540,14 @@ def section_frames(Pe, x):
     Section rotations R_s = R R̄ with R̄ from the offset quaternions in P; d = (U, Θ) =
     log(H_A⁻¹ H_B) with Θ = log(R_sAᵀ R_sB), U = T⁻¹(−Θ) R_sAᵀ (x_B − x_A).
     """
+    RA, RB, RsA, RsB, xA, xB, U, Th, s, ds = _frames(Pe, x, False)
+    return RA, RB, RsA, RsB, xA, xB, U, Th
+
+
+@kernel
+def _frames(Pe, x, with_ds):
+    """:func:`section_frames` and s = :func:`sfun` (|Θ|²), with ``with_ds`` also ds = :func:`dsfun`
+    (else zeros): the kernel evaluates the sine and cosine of |Θ| once."""
     qa = _qmul(x[3], x[4], x[5], x[6], Pe[QA], Pe[QA + 1], Pe[QA + 2], Pe[QA + 3])
     qb = _qmul(x[10], x[11], x[12], x[13], Pe[QB], Pe[QB + 1], Pe[QB + 2], Pe[QB + 3])
     na = 1.0 / math.sqrt(qa[0] * qa[0] + qa[1] * qa[1] + qa[2] * qa[2] + qa[3] * qa[3])
@@ -372,9 +563,13 @@ def section_frames(Pe, x):
     xA = sp.vec3(x, 0)
     xB = sp.vec3(x, 7)
     xab = sp.mtv(RsA, sp.sub3(xB, xA))
-    s = sfun(sp.dot3(Th, Th))
+    if with_ds:
+        s, ds = _sdfun(sp.dot3(Th, Th))
+    else:
+        s = sfun(sp.dot3(Th, Th))
+        ds = (0.0, 0.0, 0.0, 0.0, 0.0)
     U = _tinv3(_neg3(Th), s[2], xab)
-    return RA, RB, RsA, RsB, xA, xB, U, Th
+    return RA, RB, RsA, RsB, xA, xB, U, Th, s, ds
 
 
 @kernel
@@ -398,44 +593,22 @@ def _c6(Pe, a):
 
 
 @kernel
+def _diagonal6(Pe):
+    """C (P[CM:CM+36]) is diagonal."""
+    for i in range(6):
+        for j in range(6):
+            if i != j and Pe[CM + 6 * i + j] != 0.0:
+                return False
+    return True
+
+
+@kernel
 def _ddot(U, W, s, sm, vA, vB):
     """ḋ = −T_SE3⁻¹(−d) ξ̇_A + T_SE3⁻¹(d) ξ̇_B (vA, vB pairs of 3-tuples; sm = sfun at −d, same)."""
     a = tinv_se3(_neg3(U), _neg3(W), sm, vA[0], vA[1])
     b = tinv_se3(U, W, s, vB[0], vB[1])
     return (b[0][0] - a[0][0], b[0][1] - a[0][1], b[0][2] - a[0][2],
             b[1][0] - a[1][0], b[1][1] - a[1][1], b[1][2] - a[1][2])
-
-
-@kernel
-def _forces(U, W, s, sig):
-    """(h_A, h_B) = (−T_SE3⁻ᵀ(−d) σ, T_SE3⁻ᵀ(d) σ), each a pair of 3-tuples."""
-    sU = (sig[0], sig[1], sig[2])
-    sW = (sig[3], sig[4], sig[5])
-    a = tinvt_se3(_neg3(U), _neg3(W), s, sU, sW)
-    b = tinvt_se3(U, W, s, sU, sW)
-    return (_neg3(a[0]), _neg3(a[1])), b
-
-
-@kernel
-def _qcols(U, W, s, Rs, Rb, buf, c0, sg):
-    """Columns c0 … c0 + 5 of Q = ∂d/∂(δx, δθ) into buf (row k at 12k): one node's block.
-
-    Node B (sg = 1): T_SE3⁻¹(d) applied to ξ = (R_sᵀ δx, R̄ᵀ δθ); node A (sg = −1):
-    −T_SE3⁻¹(−d). With T_SE3⁻¹ = [T⁻¹, −T⁻¹T_UΩT⁻¹; 0, T⁻¹] (spatial.md §1) a δx column
-    (row m of R_s) maps to (T⁻¹ a, 0) and a δθ column a (row m of R̄) to
-    (−T⁻¹ T_UΩ T⁻¹ a, T⁻¹ a), T = T(Ω) at ±d.
-    """
-    Ub = U if sg > 0.0 else _neg3(U)
-    Wb = W if sg > 0.0 else _neg3(W)
-    for m in range(3):
-        bx = _tinv3(Wb, s[2], (Rs[3 * m], Rs[3 * m + 1], Rs[3 * m + 2]))
-        bw = _tinv3(Wb, s[2], (Rb[3 * m], Rb[3 * m + 1], Rb[3 * m + 2]))
-        bu = _tinv3(Wb, s[2], _tuw(Ub, Wb, s, bw, 1.0))
-        for k in range(3):
-            buf[12 * k + c0 + m] = sg * bx[k]
-            buf[12 * (3 + k) + c0 + m] = 0.0
-            buf[12 * k + c0 + 3 + m] = -sg * bu[k]
-            buf[12 * (3 + k) + c0 + 3 + m] = sg * bw[k]
 
 
 @kernel
@@ -514,7 +687,10 @@ if jit_disabled():                          # plain Python (NUMBA_DISABLE_JIT=1)
 
 @kernel
 def _zq(buf, F, c):
-    """F −= c Z Q with Q (6 × 12) at buf[0:72] (row-major), Z (12 × 6) at buf[72:144]."""
+    """F −= c Z Q with Q (6 × 12) at buf[0:72] (row-major), Z (12 × 6) at buf[72:144].
+
+    The δx columns of Q (0 … 2, 6 … 8) have no Ω rows: three products instead of six.
+    """
     for i in range(12):
         o = 72 + 6 * i
         z0 = c * buf[o]
@@ -523,9 +699,13 @@ def _zq(buf, F, c):
         z3 = c * buf[o + 3]
         z4 = c * buf[o + 4]
         z5 = c * buf[o + 5]
-        for j in range(12):
-            F[i, j] -= (z0 * buf[j] + z1 * buf[12 + j] + z2 * buf[24 + j] + z3 * buf[36 + j]
-                        + z4 * buf[48 + j] + z5 * buf[60 + j])
+        for jb in range(0, 12, 6):
+            for m in range(3):
+                j = jb + m
+                F[i, j] -= z0 * buf[j] + z1 * buf[12 + j] + z2 * buf[24 + j]
+                j = jb + 3 + m
+                F[i, j] -= (z0 * buf[j] + z1 * buf[12 + j] + z2 * buf[24 + j] + z3 * buf[36 + j]
+                            + z4 * buf[48 + j] + z5 * buf[60 + j])
 
 
 @kernel
@@ -555,27 +735,41 @@ def spatial_beam_force(P, t, tf, xe, ve, jac, fe, fq, fv):
         Pe = P[e]
         x = xe[e]
         v = ve[e]
-        RA, RB, RsA, RsB, xA, xB, U, W = section_frames(Pe, x)
-        s = sfun(sp.dot3(W, W))
+        RA, RB, RsA, RsB, xA, xB, U, W, s, ds = _frames(Pe, x, jac)
         L = Pe[LEN]
+        iL = 1.0 / L
         beta = Pe[BETA]
-        d = (U[0], U[1], U[2], W[0], W[1], W[2])
-        eps = ((d[0] - Pe[0]) / L, (d[1] - Pe[1]) / L, (d[2] - Pe[2]) / L,
-               (d[3] - Pe[3]) / L, (d[4] - Pe[4]) / L, (d[5] - Pe[5]) / L)
+        eps = ((U[0] - Pe[0]) * iL, (U[1] - Pe[1]) * iL, (U[2] - Pe[2]) * iL,
+               (W[0] - Pe[3]) * iL, (W[1] - Pe[4]) * iL, (W[2] - Pe[5]) * iL)
         xdA = sp.vec3(v, 0)
         xdB = sp.vec3(v, 6)
         wA = sp.vec3(v, 3)
         wB = sp.vec3(v, 9)
         RbA = _rbar(Pe, QA)
         RbB = _rbar(Pe, QB)
-        vA = (sp.mtv(RsA, xdA), sp.mtv(RbA, wA))
-        vB = (sp.mtv(RsB, xdB), sp.mtv(RbB, wB))
-        dd = _ddot(U, W, s, s, vA, vB)
+        z3 = (0.0, 0.0, 0.0)
+        vA = (z3, z3)
+        vB = (z3, z3)
         if beta != 0.0:
-            eps = (eps[0] + beta * dd[0] / L, eps[1] + beta * dd[1] / L, eps[2] + beta * dd[2] / L,
-                   eps[3] + beta * dd[3] / L, eps[4] + beta * dd[4] / L, eps[5] + beta * dd[5] / L)
+            # section velocities and the strain rate only with damping
+            vA = (sp.mtv(RsA, xdA), sp.mtv(RbA, wA))
+            vB = (sp.mtv(RsB, xdB), sp.mtv(RbB, wB))
+            dd = _ddot(U, W, s, s, vA, vB)
+            bL = beta * iL
+            eps = (eps[0] + bL * dd[0], eps[1] + bL * dd[1], eps[2] + bL * dd[2],
+                   eps[3] + bL * dd[3], eps[4] + bL * dd[4], eps[5] + bL * dd[5])
         sig = _c6(Pe, eps)
-        hA, hB = _forces(U, W, s, sig)
+        # T⁻¹(Ω) and T_UΩ once as matrices, for the forces and the tangent: at −d they are
+        # the transposes, so h_B = T_SE3⁻ᵀ(d)σ = (Mᵀσ_U, Mᵀ(σ_Ω − Nᵀ b_U)) and
+        # h_A = −T_SE3⁻ᵀ(−d)σ = −(Mσ_U, M(σ_Ω − N b_U)) (:func:`tinvt_se3`)
+        M = _tinv_mat(W, s[2])
+        N = _tuw_mat(U, W, s)
+        sU = (sig[0], sig[1], sig[2])
+        sW = (sig[3], sig[4], sig[5])
+        bUB = sp.mtv(M, sU)
+        bUA = sp.mv(M, sU)
+        hB = (bUB, sp.mtv(M, sp.sub3(sW, sp.mtv(N, bUB))))
+        hA = (_neg3(bUA), _neg3(sp.mv(M, sp.sub3(sW, sp.mv(N, bUA)))))
         fxa = sp.mv(RsA, hA[0])
         fta = sp.mv(RbA, hA[1])
         fxb = sp.mv(RsB, hB[0])
@@ -591,14 +785,41 @@ def spatial_beam_force(P, t, tf, xe, ve, jac, fe, fq, fv):
             continue
         # Scratch on the stack (no heap arrays in kernels): Q = ∂d/∂(δx, δθ) (6 × 12, row k at
         # 12k), Z = Qᵀ C/L (12 × 6, row i at 72 + 6i), E = ∂ḋ/∂d (6 × 6, column k at 144 + 6k).
+        Mt = sp.tr9(M)
+        Nt = sp.tr9(N)
         buf = _scratch()
-        _qcols(U, W, s, RsA, RbA, buf, 0, -1.0)
-        _qcols(U, W, s, RsB, RbB, buf, 6, 1.0)
-        for i in range(12):
-            cq = _c6(Pe, (buf[i], buf[12 + i], buf[24 + i], buf[36 + i], buf[48 + i], buf[60 + i]))
-            for k in range(6):
-                buf[72 + 6 * i + k] = cq[k] / L
-        ds = dsfun(sp.dot3(W, W))
+        _q_blocks(Mt, Nt, RsA, RbA, buf, 0, -1.0)
+        _q_blocks(M, N, RsB, RbB, buf, 6, 1.0)
+        if _diagonal6(Pe):
+            # the usual section (principal axes, shear centre at the centroid): C diagonal
+            c0 = Pe[CM] * iL
+            c1 = Pe[CM + 7] * iL
+            c2 = Pe[CM + 14] * iL
+            c3 = Pe[CM + 21] * iL
+            c4 = Pe[CM + 28] * iL
+            c5 = Pe[CM + 35] * iL
+            for i in range(12):
+                o = 72 + 6 * i
+                buf[o] = c0 * buf[i]
+                buf[o + 1] = c1 * buf[12 + i]
+                buf[o + 2] = c2 * buf[24 + i]
+                buf[o + 3] = c3 * buf[36 + i]
+                buf[o + 4] = c4 * buf[48 + i]
+                buf[o + 5] = c5 * buf[60 + i]
+        else:
+            for i in range(12):
+                if i % 6 < 3:
+                    # a δx column of Q has no Ω rows
+                    cq = _c6(Pe, (buf[i], buf[12 + i], buf[24 + i], 0.0, 0.0, 0.0))
+                else:
+                    cq = _c6(Pe, (buf[i], buf[12 + i], buf[24 + i], buf[36 + i], buf[48 + i], buf[60 + i]))
+                o = 72 + 6 * i
+                buf[o] = cq[0] * iL
+                buf[o + 1] = cq[1] * iL
+                buf[o + 2] = cq[2] * iL
+                buf[o + 3] = cq[3] * iL
+                buf[o + 4] = cq[4] * iL
+                buf[o + 5] = cq[5] * iL
         if beta != 0.0:
             # fv = −β Qᵀ(C/L)Q; fq −= β Qᵀ(C/L)(E Q + P V): E = ∂ḋ/∂d at fixed section
             # velocities (analytic), P V the change of R_sᵀẋ under δθ (columns θ_A, θ_B)
@@ -647,12 +868,10 @@ def spatial_beam_force(P, t, tf, xe, ve, jac, fe, fq, fv):
                                            + buf[o + 4] * z4 + buf[o + 5] * z5)
                     fv[e, i, j] -= beta * (zi * q[0] + buf[o + 1] * q[1] + buf[o + 2] * q[2]
                                            + buf[o + 3] * q[3] + buf[o + 4] * q[4] + buf[o + 5] * q[5])
-        # G (12 × 6) = ∂(h_A, h_B)/∂d at fixed σ (analytic, :func:`_g_side`); Z += Aᵀ G, then
+        # G (12 × 6) = ∂(h_A, h_B)/∂d at fixed σ (analytic, :func:`_g_blocks`); Z += Aᵀ G, then
         # fq −= Z Q = Qᵀ(C/L)Q + Aᵀ G Q
-        sU = (sig[0], sig[1], sig[2])
-        sW = (sig[3], sig[4], sig[5])
-        _g_side(_neg3(U), _neg3(W), s, ds, sU, sW, RsA, RbA, buf, 0)
-        _g_side(U, W, s, ds, sU, sW, RsB, RbB, buf, 6)
+        _g_blocks(_neg3(U), _neg3(W), s, ds, Mt, Nt, sU, sW, RsA, RbA, buf, 0)
+        _g_blocks(U, W, s, ds, M, N, sU, sW, RsB, RbB, buf, 6)
         _zq(buf, fq[e], 1.0)
         # the rotation of the force directions: ∂(−R R̄ h_U)/∂δθ = R (R̄ h_U)~
         ma = sp.rskew(RA, sp.mv(RbA, hA[0]))

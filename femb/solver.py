@@ -342,7 +342,8 @@ class GeneralizedAlphaSolver:
                       1 if newton == "full" else 0, {"zero": 0, "previous": 1, "extrapolate": 2}[predictor],
                       self.n_steps, 1, 1, 1 if cp.python_tf else 0, 1 if self.adaptive else 0,
                       1 if newton_test == "correction" else 0, 0 if self.adaptive else check_every,
-                      1 if cp.dense else 0, 1 if self.formulation == "index2" else 0]
+                      1 if cp.dense else 0, 1 if self.formulation == "index2" else 0,
+                      cp.mod.carry_rule(N, cp.dense, newton_test == "correction", self.formulation == "index2")]
         self.fp = np.zeros(NFP)
         self.fp[:] = [self.h or 0.0, self.t0, al.alpha_m, al.alpha_f, al.beta, al.gamma, self.newton_rtol,
                       self.newton_atol, self.phi_tol, model.length_scale, 64.0 * np.finfo(float).eps,
@@ -651,7 +652,8 @@ class GeneralizedAlphaSolver:
                 "newton_atol": self.newton_atol, "phi_tol": self.phi_tol, "max_iter": self.max_iter,
                 "min_iter": self.min_iter, "newton": self.newton, "linear_solver": self.linear_solver,
                 "predictor": self.predictor, "formulation": self.formulation, "band": (self.cp.kl, self.cp.ku),
-                "storage": "dense" if self.cp.dense else "band"}
+                "storage": "dense" if self.cp.dense else "band",
+                "newton_matrix": "carried" if self.ip[self.cp.mod.IP_CARRY] else "per step"}
 
 
 # --------------------------------------------------------------------------

@@ -83,8 +83,8 @@ ST_KKT_SINGULAR = -6  # the matrix [[M, Bᵀ], [B, 0]] of the error estimate is 
 # ---- indices of the integer parameters ip[...] ------------------------------------------
 IP_NV, IP_NC, IP_NFIX, IP_N, IP_KL, IP_KU = 0, 1, 2, 3, 4, 5
 IP_MAXIT, IP_MINIT, IP_FULL, IP_PRED, IP_NSTEPS, IP_STRIDE, IP_STORE, IP_PYTF = 6, 7, 8, 9, 10, 11, 12, 13
-IP_MODE, IP_NTEST, IP_CHECK, IP_DENSE, IP_GGL = 14, 15, 16, 17, 18
-NIP = 19
+IP_MODE, IP_NTEST, IP_CHECK, IP_DENSE, IP_GGL, IP_CARRY = 14, 15, 16, 17, 18, 19
+NIP = 20
 # ---- indices of the float parameters fp[...] ---------------------------------------------
 FP_H, FP_T0, FP_AM, FP_AF, FP_BETA, FP_GAMMA, FP_RTOL, FP_ATOL = 0, 1, 2, 3, 4, 5, 6, 7
 FP_PHITOL, FP_L, FP_XTOL, FP_SCALED, FP_SINGTOL, FP_TEND, FP_FCONST = 8, 9, 10, 11, 12, 13, 14
@@ -93,11 +93,11 @@ FP_TOLQ, FP_NEWTC = 23, 24
 NFP = 25
 # ---- indices of the run state si[...] (int) and sf[...] (float) ---------------------------
 SI_STEP, SI_HASPREV, SI_LUVALID, SI_STORED, SI_REJECTED, SI_NFAIL, SI_NOGROW, SI_LASTFAIL = 0, 1, 2, 3, 4, 5, 6, 7
-SI_HAVEJ, SI_PROJ, SI_RMODE, SI_RCOUNT, SI_SAVED, SI_HASPREV_S = 8, 9, 10, 11, 12, 13
-NSI = 14
+SI_HAVEJ, SI_PROJ, SI_RMODE, SI_RCOUNT, SI_SAVED, SI_HASPREV_S, SI_CARRY, SI_LUFRESH = 8, 9, 10, 11, 12, 13, 14, 15
+NSI = 16
 SF_FREF, SF_TFTIME, SF_T, SF_HNEXT, SF_HPREV, SF_ERRPREV, SF_ERRMAX, SF_ERRMAX_T, SF_WARN_T = 0, 1, 2, 3, 4, 5, 6, 7, 8
-SF_WARN_ERR, SF_ETA, SF_RCHECKH, SF_FREF_S = 9, 10, 11, 12
-NSF = 13
+SF_WARN_ERR, SF_ETA, SF_RCHECKH, SF_FREF_S, SF_LUH = 9, 10, 11, 12, 13
+NSF = 14
 # ---- statistics counters ------------------------------------------------------------------
 NS_STEPS, NS_EVAL, NS_FACT, NS_SOLVE, NS_ROUNDOFF, NS_KKT, NS_REFINE = 0, 1, 2, 3, 4, 5, 6
 NNS = 7
@@ -107,6 +107,15 @@ NNS = 7
 NEWTON_FROZEN_MAX = 4.0
 #: exponent of the carried contraction estimate, η₀ = max(η_prev, ε)^0.8 (Hairer & Wanner, Radau5)
 NEWTON_ETA_EXP = 0.8
+#: the correction rule carries the factorized iteration matrix over steps (modified Newton
+#: across steps, as stiff solvers do) for band systems of at least this many unknowns
+#: (``ip[IP_CARRY]``, set by :func:`carry_rule`): there the tangent and its band LU cost
+#: several plain evaluations and solves (a 10⁴-element spatial beam, N = 60 000: 19 ms
+#: against 4 ms), while small systems keep one fresh matrix per step (and their Newton counts)
+NEWTON_CARRY_MIN_N = 1000
+#: a carried matrix is used while the carried contraction estimate η₀ (θ/(1 − θ) of the
+#: last measured rate, :func:`newton_rate_start`) is at most this (θ ≤ 0.2)
+NEWTON_CARRY_ETA = 1e-3
 # ---- constrained accelerations of the error estimate --------------------------------------
 #: modes of :func:`kkt_accelerations`: factorize, estimate of q, estimate of q and q̇
 KKT_FACTOR, KKT_EST_Q, KKT_EST_QV = 0, 1, 2
@@ -117,6 +126,16 @@ REFINE_CHECK = 16
 REFINE_SHARE = 0.05
 #: a check is also due when the step has grown by this factor since the last one
 REFINE_HGROW = 1.25
+
+
+def carry_rule(N, dense, correction_test, index2):
+    """1 if the iteration matrix may be carried over steps (``ip[IP_CARRY]``), else 0.
+
+    Only with the correction rule (its contraction estimates decide when a carried matrix
+    is used and when it is refreshed), the index-3 step (the index-2 matrix holds B(q_n) of
+    its own step) and band storage of at least ``NEWTON_CARRY_MIN_N`` unknowns.
+    """
+    return 1 if (correction_test and not index2 and not dense and N >= NEWTON_CARRY_MIN_N) else 0
 
 
 @njit(**INNER)
@@ -164,7 +183,8 @@ def newton_first_accept(eta0, size, phi_ratio, fresh):
 
     ``size`` is ‖Δ₁‖ in tolerance units, ``phi_ratio`` ‖Φ‖/tolerance at the
     iterate the correction started from. Only for a correction of a freshly
-    factored iteration matrix and a known carried estimate η₀
+    factored iteration matrix, or of one carried over from the previous steps
+    (whose rate η₀ then measures), and a known carried estimate η₀
     (:func:`newton_rate_start`). The accepted iterate is not evaluated: Newton's
     residuals contract at the rate of its corrections, so η₀‖Φ₀‖ estimates Φ there
     (without that test, stress runs at large steps ended with ‖Φ‖ above tolerance).
@@ -479,13 +499,21 @@ def newton_step(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam, t1,
     F_ref = sf[SF_FREF]
     # correction rule, index 3: the contraction estimate carried over from the previous step
     eta0 = newton_rate_start(sf) if (ntest != 0 and not ggl) else -1.0
+    # large band systems: the factorized matrix of an earlier step is used again while it was
+    # built for this h (the same β', γ', c) and the carried estimate promises fast contraction;
+    # the correction rule refreshes it when the contraction turns out poor (NT_REFRESH)
+    carry = ip[IP_CARRY] != 0 and ntest != 0 and not ggl
+    carried = (carry and si[SI_CARRY] != 0 and si[SI_LUVALID] != 0 and sf[SF_LUH] == h
+               and 0.0 <= eta0 <= NEWTON_CARRY_ETA)
+    si[SI_CARRY] = 0
+    si[SI_LUFRESH] = 0
     theta_first = -1.0
     prev_norm = -1.0
     theta_prev_bad = 0
     k = 0
     maxit = ip[IP_MAXIT]
     F = F_ref
-    have_lu = False
+    have_lu = carried
     err_f = 0.0
     err_phi = 0.0
     redo = False
@@ -536,7 +564,10 @@ def newton_step(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam, t1,
                 si[SI_LUVALID] = 0
                 return ST_DIVERGED_SINGULAR if k > 0 else ST_SINGULAR
             si[SI_LUVALID] = 1
+            si[SI_LUFRESH] = 1
+            sf[SF_LUH] = h
             have_lu = True
+            carried = False
             stats[NS_FACT] += 1
         if ntest == 0 and not full:
             prev_norm = max(err_f / max(F, 1e-300), err_phi / max(tol_phi, 1e-300))
@@ -559,8 +590,12 @@ def newton_step(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam, t1,
                 stats[NS_ROUNDOFF] += 1
                 break
         else:
-            action, size, theta = correction_test(ip, fp, k, jac, dqmax, qmax, dqw, qddmax, bp, eta0, prev_norm,
-                                                  err_phi / tol_phi, theta_prev_bad)
+            # a carried matrix accepts its first correction by the η₀ test only without
+            # constraints: its constraint rows belong to an earlier configuration, so η₀‖Φ₀‖
+            # does not bound Φ after the correction (a chain of 400 bricks ended its runs with
+            # ‖Φ‖ up to half the tolerance, 2e-4 of it with fresh matrices)
+            action, size, theta = correction_test(ip, fp, k, jac, carried and nc == 0, dqmax, qmax, dqw, qddmax,
+                                                  bp, eta0, prev_norm, err_phi / tol_phi, theta_prev_bad)
             if theta_first < 0.0 and theta >= 0.0:
                 theta_first = theta
             if action == NT_ROUNDOFF:
@@ -582,6 +617,8 @@ def newton_step(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam, t1,
         sf[SF_FREF] = F
     if ntest != 0 and not ggl:
         newton_rate_end(sf, eta0, theta_first)
+    if carry:
+        si[SI_CARRY] = 1
     si[SI_HASPREV] = 1
     return k
 
@@ -762,7 +799,8 @@ def apply_correction(C, ip, q, qd, qdd, lam, rhs, wq, bp, gp, c, lie, ggl):
 
 
 @njit(**INNER)
-def correction_test(ip, fp, k, jac, dqmax, qmax, dqw, qddmax, bp, eta0, prev_norm, phi_ratio, theta_prev_bad):
+def correction_test(ip, fp, k, jac, carried, dqmax, qmax, dqw, qddmax, bp, eta0, prev_norm, phi_ratio,
+                    theta_prev_bad):
     """The correction rule (stepsize.md §5) after correction k: what Newton does next.
 
     The correction is measured in q units (max_i |Δq_i|/wq_i) and in acceleration units
@@ -770,7 +808,10 @@ def correction_test(ip, fp, k, jac, dqmax, qmax, dqw, qddmax, bp, eta0, prev_nor
     iterate is accepted once the size is ≤ 1, or early once θ/(1 − θ)·size passes (θ the
     contraction rate), or at the first correction when η₀·size ≤ 1 with the rate η₀
     carried from the previous steps (:func:`newton_first_accept`, Hairer & Wanner's Radau5
-    test); always with the constraints within tolerance (``phi_ratio`` ≤ 1). The matrix is
+    test; ``jac``: the matrix was factorized at this step's first iterate, ``carried``: it
+    was carried over from earlier steps and may accept too, see :func:`newton_step`); always
+    with the constraints within tolerance
+    (``phi_ratio`` ≤ 1). A growing correction of a carried matrix only refreshes it. The matrix is
     refreshed when the corrections contract slowly (θ > 0.5), grow (θ ≥ 1; Newton gives up
     when corrections of fresh matrices grow twice), or when the frozen iteration would still
     need more than ``NEWTON_FROZEN_MAX`` corrections at the observed rate
@@ -789,7 +830,7 @@ def correction_test(ip, fp, k, jac, dqmax, qmax, dqw, qddmax, bp, eta0, prev_nor
     eps = 2.220446049250313e-16
     acc_tol = 1e-8 * (1.0 + qddmax) + fp[FP_NEWTC] * eps * (1.0 + qmax) * bp * math.sqrt(max(1.0, nv / 100.0))
     size = max(dqw, bp * dqmax / acc_tol)
-    if k == 1 and k >= minit and newton_first_accept(eta0, size, phi_ratio, jac):
+    if k == 1 and k >= minit and newton_first_accept(eta0, size, phi_ratio, jac or carried):
         return NT_ACCEPT, size, -1.0
     theta = -1.0
     action = NT_CONTINUE
@@ -1162,7 +1203,9 @@ def run(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam, tfv, AB, ip
             # accepted: next step size (PI controller)
             sf[SF_HNEXT] = h * step_factor(si, sf, err, kexp)
             if si[SI_RMODE] == 0 and ip[IP_GGL] == 0:
-                si[SI_PROJ] = 1          # projections at the next step change use the Newton matrix
+                # projections at the next step change use the Newton matrix if it was built in this
+                # step (its constraint rows are B there); a matrix carried from earlier steps is not
+                si[SI_PROJ] = 1 if si[SI_LUFRESH] != 0 else 0
             else:
                 copy_into(KBacc, KB)
                 copy_into(kpivacc, kpiv)
@@ -1298,6 +1341,7 @@ def back_to_accepted(si, sf, q, qd, qdd, lam, a, pqdd, plam, W):
     restore_state(q, qd, qdd, lam, a, pqdd, plam, W)
     si[SI_HASPREV] = si[SI_HASPREV_S]
     sf[SF_FREF] = sf[SF_FREF_S]
+    si[SI_CARRY] = 0
     if si[SI_PROJ] == 1:
         si[SI_PROJ] = 0
 
