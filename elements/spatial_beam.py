@@ -415,16 +415,19 @@ def _add9(buf, o, st, A):
 
 
 @kernel
-def _q_blocks(Mb, Nb, Rs, Rb, buf, c0, sg):
+def _q_blocks(Mb, Nb, Rs, Rb, ident, buf, c0, sg):
     """Columns c0 … c0 + 5 of Q = ∂d/∂(δx, δθ) into buf (row k at 12k): one node's block.
 
     Node B (sg = 1): T_SE3⁻¹(d) applied to ξ = (R_sᵀ δx, R̄ᵀ δθ); node A (sg = −1):
     −T_SE3⁻¹(−d). With T_SE3⁻¹ = [T⁻¹, −T⁻¹T_UΩT⁻¹; 0, T⁻¹] (spatial.md §1), ``Mb`` = T⁻¹
     and ``Nb`` = T_UΩ at ±d (transposes of each other): the block is
-    [sg Mb R_sᵀ, −Mb Nb Y; 0, Y] with Y = sg Mb R̄ᵀ.
+    [sg Mb R_sᵀ, −Mb Nb Y; 0, Y] with Y = sg Mb R̄ᵀ (``ident``: R̄ = I, Y = sg Mb).
     """
     X = _mmt(Mb, Rs)
-    Y = _mmt(Mb, Rb)
+    if ident:
+        Y = Mb
+    else:
+        Y = _mmt(Mb, Rb)
     if sg < 0.0:
         X = sp.neg9(X)
         Y = sp.neg9(Y)
@@ -436,7 +439,7 @@ def _q_blocks(Mb, Nb, Rs, Rb, buf, c0, sg):
 
 
 @kernel
-def _g_blocks(Ub, Wb, s, ds, Mb, Nb, aU, aW, Rx, Rt, buf, r0):
+def _g_blocks(Ub, Wb, s, ds, Mb, Nb, aU, aW, Rx, Rt, ident, buf, r0):
     """Add Aᵀ ∂(T_SE3⁻ᵀ(d_b) a)/∂d_b (6 columns) to Z = buf[72:144] at rows r0 … r0 + 5, by 3 × 3 blocks.
 
     Side B: d_b = d; side A: d_b = −d (h_A = −T_SE3⁻ᵀ(−d)σ, whose derivative along δ is that
@@ -451,7 +454,7 @@ def _g_blocks(Ub, Wb, s, ds, Mb, Nb, aU, aW, Rx, Rt, buf, r0):
       + (s3 U·b − s6(Ω·U) Ω·b) I, v₁ = 2[s2' U × b + s3'(U × (Ω × b) + Ω × (U × b))
       − (Ω·U)(s5' Ω × b + s6' Ω × (Ω × b) − s6 b)] (s' = ds/dφ², :func:`dsfun`).
 
-    Rows: R_x ∂b_U (r0 … r0 + 2; zero along U), R_t ∂b_Ω (r0 + 3 …).
+    Rows: R_x ∂b_U (r0 … r0 + 2; zero along U), R_t ∂b_Ω (r0 + 3 …); ``ident``: R_t = I.
     """
     s2, s3, s4, s5, s6 = s
     d2, d3, d4, d5, d6 = ds
@@ -477,13 +480,19 @@ def _g_blocks(Ub, Wb, s, ds, Mb, Nb, aU, aW, Rx, Rt, buf, r0):
     DW = _rank3(v1, W, mv, U, (c6 * W[0], c6 * W[1], c6 * W[2]), b, gw, s3 * sp.dot3(U, b) + c6 * sp.dot3(W, b))
     Da = _dtinvt_mat(W, s4, d4, aU)
     Dr = _dtinvt_mat(W, s4, d4, r)
-    RM = _mmt(Rt, Mb)                        # R_t Mbᵀ
+    if ident:
+        RM = sp.tr9(Mb)
+    else:
+        RM = _mmt(Rt, Mb)                    # R_t Mbᵀ
     X = _mm(Rx, Da)                          # rows x, columns Ω
     YU = _mm(RM, DU)                         # rows θ, columns U (with a minus sign)
     Ki = sp.mtm(Nb, Da)
     YW = _mm(RM, (DW[0] + Ki[0], DW[1] + Ki[1], DW[2] + Ki[2], DW[3] + Ki[3], DW[4] + Ki[4], DW[5] + Ki[5],
                   DW[6] + Ki[6], DW[7] + Ki[7], DW[8] + Ki[8]))
-    RD = _mm(Rt, Dr)
+    if ident:
+        RD = Dr
+    else:
+        RD = _mm(Rt, Dr)
     o = 72 + 6 * r0
     _add9(buf, o + 3, 6, X)
     _add9(buf, o + 18, 6, sp.neg9(YU))
@@ -745,6 +754,9 @@ def spatial_beam_force(P, t, tf, xe, ve, jac, fe, fq, fv):
         xdB = sp.vec3(v, 6)
         wA = sp.vec3(v, 3)
         wB = sp.vec3(v, 9)
+        # R̄_A = R̄_B = I (node axes = section axes, as meshed by spatial_beam): the R̄ products skipped
+        ident = (Pe[QA] == 1.0 and Pe[QA + 1] == 0.0 and Pe[QA + 2] == 0.0 and Pe[QA + 3] == 0.0
+                 and Pe[QB] == 1.0 and Pe[QB + 1] == 0.0 and Pe[QB + 2] == 0.0 and Pe[QB + 3] == 0.0)
         RbA = _rbar(Pe, QA)
         RbB = _rbar(Pe, QB)
         z3 = (0.0, 0.0, 0.0)
@@ -752,8 +764,12 @@ def spatial_beam_force(P, t, tf, xe, ve, jac, fe, fq, fv):
         vB = (z3, z3)
         if beta != 0.0:
             # section velocities and the strain rate only with damping
-            vA = (sp.mtv(RsA, xdA), sp.mtv(RbA, wA))
-            vB = (sp.mtv(RsB, xdB), sp.mtv(RbB, wB))
+            if ident:
+                vA = (sp.mtv(RsA, xdA), wA)
+                vB = (sp.mtv(RsB, xdB), wB)
+            else:
+                vA = (sp.mtv(RsA, xdA), sp.mtv(RbA, wA))
+                vB = (sp.mtv(RsB, xdB), sp.mtv(RbB, wB))
             dd = _ddot(U, W, s, s, vA, vB)
             bL = beta * iL
             eps = (eps[0] + bL * dd[0], eps[1] + bL * dd[1], eps[2] + bL * dd[2],
@@ -771,9 +787,13 @@ def spatial_beam_force(P, t, tf, xe, ve, jac, fe, fq, fv):
         hB = (bUB, sp.mtv(M, sp.sub3(sW, sp.mtv(N, bUB))))
         hA = (_neg3(bUA), _neg3(sp.mv(M, sp.sub3(sW, sp.mv(N, bUA)))))
         fxa = sp.mv(RsA, hA[0])
-        fta = sp.mv(RbA, hA[1])
         fxb = sp.mv(RsB, hB[0])
-        ftb = sp.mv(RbB, hB[1])
+        if ident:
+            fta = hA[1]
+            ftb = hB[1]
+        else:
+            fta = sp.mv(RbA, hA[1])
+            ftb = sp.mv(RbB, hB[1])
         gA, mgA = _gyro(Pe, JN, wA)
         gB, mgB = _gyro(Pe, JNB, wB)
         for i in range(3):
@@ -788,8 +808,8 @@ def spatial_beam_force(P, t, tf, xe, ve, jac, fe, fq, fv):
         Mt = sp.tr9(M)
         Nt = sp.tr9(N)
         buf = _scratch()
-        _q_blocks(Mt, Nt, RsA, RbA, buf, 0, -1.0)
-        _q_blocks(M, N, RsB, RbB, buf, 6, 1.0)
+        _q_blocks(Mt, Nt, RsA, RbA, ident, buf, 0, -1.0)
+        _q_blocks(M, N, RsB, RbB, ident, buf, 6, 1.0)
         if _diagonal6(Pe):
             # the usual section (principal axes, shear centre at the centroid): C diagonal
             c0 = Pe[CM] * iL
@@ -870,12 +890,16 @@ def spatial_beam_force(P, t, tf, xe, ve, jac, fe, fq, fv):
                                            + buf[o + 3] * q[3] + buf[o + 4] * q[4] + buf[o + 5] * q[5])
         # G (12 × 6) = ∂(h_A, h_B)/∂d at fixed σ (analytic, :func:`_g_blocks`); Z += Aᵀ G, then
         # fq −= Z Q = Qᵀ(C/L)Q + Aᵀ G Q
-        _g_blocks(_neg3(U), _neg3(W), s, ds, Mt, Nt, sU, sW, RsA, RbA, buf, 0)
-        _g_blocks(U, W, s, ds, M, N, sU, sW, RsB, RbB, buf, 6)
+        _g_blocks(_neg3(U), _neg3(W), s, ds, Mt, Nt, sU, sW, RsA, RbA, ident, buf, 0)
+        _g_blocks(U, W, s, ds, M, N, sU, sW, RsB, RbB, ident, buf, 6)
         _zq(buf, fq[e], 1.0)
         # the rotation of the force directions: ∂(−R R̄ h_U)/∂δθ = R (R̄ h_U)~
-        ma = sp.rskew(RA, sp.mv(RbA, hA[0]))
-        mb = sp.rskew(RB, sp.mv(RbB, hB[0]))
+        if ident:
+            ma = sp.rskew(RA, hA[0])
+            mb = sp.rskew(RB, hB[0])
+        else:
+            ma = sp.rskew(RA, sp.mv(RbA, hA[0]))
+            mb = sp.rskew(RB, sp.mv(RbB, hB[0]))
         for i in range(3):
             for j in range(3):
                 fq[e, i, 3 + j] += ma[3 * i + j]
