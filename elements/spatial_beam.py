@@ -387,6 +387,25 @@ def _dtinvt_mat(W, s4, ds4, a):
 
 
 @kernel
+def _dtinvt_pair(W, s4, ds4, a):
+    """:func:`_dtinvt_mat` at Ω and at −Ω (the same values): ½ a~ ± S with S, the part odd
+    in Ω, formed once."""
+    wwa = sp.cross3(W, sp.cross3(W, a))
+    c = 2.0 * ds4
+    s = 2.0 * s4
+    v = (c * wwa[0] - s * a[0], c * wwa[1] - s * a[1], c * wwa[2] - s * a[2])
+    sw = (s4 * W[0], s4 * W[1], s4 * W[2])
+    k = s4 * sp.dot3(W, a)
+    S = (v[0] * W[0] + sw[0] * a[0] + k, v[0] * W[1] + sw[0] * a[1], v[0] * W[2] + sw[0] * a[2],
+         v[1] * W[0] + sw[1] * a[0], v[1] * W[1] + sw[1] * a[1] + k, v[1] * W[2] + sw[1] * a[2],
+         v[2] * W[0] + sw[2] * a[0], v[2] * W[1] + sw[2] * a[1], v[2] * W[2] + sw[2] * a[2] + k)
+    g = (0.5 * a[0], 0.5 * a[1], 0.5 * a[2])
+    return ((S[0], S[1] - g[2], S[2] + g[1], S[3] + g[2], S[4], S[5] - g[0], S[6] - g[1], S[7] + g[0], S[8]),
+            (-S[0], -S[1] - g[2], -S[2] + g[1], -S[3] + g[2], -S[4], -S[5] - g[0], -S[6] - g[1], -S[7] + g[0],
+             -S[8]))
+
+
+@kernel
 def _put9(buf, o, st, A):
     """buf[o + st i + k] = A[3i + k] (i, k < 3): constant tuple indices (no spill of A to memory)."""
     buf[o] = A[0]
@@ -439,7 +458,7 @@ def _q_blocks(Mb, Nb, Rs, Rb, ident, buf, c0, sg):
 
 
 @kernel
-def _g_blocks(Ub, Wb, s, ds, Mb, Nb, aU, aW, Rx, Rt, ident, buf, r0):
+def _g_blocks(Ub, Wb, s, ds, Mb, Nb, b, r, Da, Rx, Rt, ident, buf, r0):
     """Add Aᵀ ∂(T_SE3⁻ᵀ(d_b) a)/∂d_b (6 columns) to Z = buf[72:144] at rows r0 … r0 + 5, by 3 × 3 blocks.
 
     Side B: d_b = d; side A: d_b = −d (h_A = −T_SE3⁻ᵀ(−d)σ, whose derivative along δ is that
@@ -454,14 +473,13 @@ def _g_blocks(Ub, Wb, s, ds, Mb, Nb, aU, aW, Rx, Rt, ident, buf, r0):
       + (s3 U·b − s6(Ω·U) Ω·b) I, v₁ = 2[s2' U × b + s3'(U × (Ω × b) + Ω × (U × b))
       − (Ω·U)(s5' Ω × b + s6' Ω × (Ω × b) − s6 b)] (s' = ds/dφ², :func:`dsfun`).
 
+    ``b`` = b_U, ``r`` and ``Da`` = D(a_U) come from the force evaluation (:func:`_dtinvt_pair`).
     Rows: R_x ∂b_U (r0 … r0 + 2; zero along U), R_t ∂b_Ω (r0 + 3 …); ``ident``: R_t = I.
     """
     s2, s3, s4, s5, s6 = s
     d2, d3, d4, d5, d6 = ds
     U = Ub
     W = Wb
-    b = sp.mtv(Mb, aU)
-    r = sp.sub3(aW, sp.mtv(Nb, b))
     wu = sp.dot3(W, U)
     wb = sp.cross3(W, b)
     wwb = sp.cross3(W, wb)
@@ -478,7 +496,6 @@ def _g_blocks(Ub, Wb, s, ds, Mb, Nb, aU, aW, Rx, Rt, ident, buf, r0):
     c6 = -s6 * wu
     gw = (-s3 * ub[0] + s5 * wu * b[0], -s3 * ub[1] + s5 * wu * b[1], -s3 * ub[2] + s5 * wu * b[2])
     DW = _rank3(v1, W, mv, U, (c6 * W[0], c6 * W[1], c6 * W[2]), b, gw, s3 * sp.dot3(U, b) + c6 * sp.dot3(W, b))
-    Da = _dtinvt_mat(W, s4, d4, aU)
     Dr = _dtinvt_mat(W, s4, d4, r)
     if ident:
         RM = sp.tr9(Mb)
@@ -784,8 +801,10 @@ def spatial_beam_force(P, t, tf, xe, ve, jac, fe, fq, fv):
         sW = (sig[3], sig[4], sig[5])
         bUB = sp.mtv(M, sU)
         bUA = sp.mv(M, sU)
-        hB = (bUB, sp.mtv(M, sp.sub3(sW, sp.mtv(N, bUB))))
-        hA = (_neg3(bUA), _neg3(sp.mv(M, sp.sub3(sW, sp.mv(N, bUA)))))
+        rB = sp.sub3(sW, sp.mtv(N, bUB))
+        rA = sp.sub3(sW, sp.mv(N, bUA))
+        hB = (bUB, sp.mtv(M, rB))
+        hA = (_neg3(bUA), _neg3(sp.mv(M, rA)))
         fxa = sp.mv(RsA, hA[0])
         fxb = sp.mv(RsB, hB[0])
         if ident:
@@ -890,8 +909,9 @@ def spatial_beam_force(P, t, tf, xe, ve, jac, fe, fq, fv):
                                            + buf[o + 3] * q[3] + buf[o + 4] * q[4] + buf[o + 5] * q[5])
         # G (12 × 6) = ∂(h_A, h_B)/∂d at fixed σ (analytic, :func:`_g_blocks`); Z += Aᵀ G, then
         # fq −= Z Q = Qᵀ(C/L)Q + Aᵀ G Q
-        _g_blocks(_neg3(U), _neg3(W), s, ds, Mt, Nt, sU, sW, RsA, RbA, ident, buf, 0)
-        _g_blocks(U, W, s, ds, M, N, sU, sW, RsB, RbB, ident, buf, 6)
+        DaB, DaA = _dtinvt_pair(W, s[2], ds[2], sU)
+        _g_blocks(_neg3(U), _neg3(W), s, ds, Mt, Nt, bUA, rA, DaA, RsA, RbA, ident, buf, 0)
+        _g_blocks(U, W, s, ds, M, N, bUB, rB, DaB, RsB, RbB, ident, buf, 6)
         _zq(buf, fq[e], 1.0)
         # the rotation of the force directions: ∂(−R R̄ h_U)/∂δθ = R (R̄ h_U)~
         if ident:
