@@ -53,7 +53,7 @@ def build(n):
 
 
 def steps_for(n):
-    return int(np.clip(40000 // n, 20, 400))
+    return int(np.clip(40000 // n, 40, 400))
 
 
 def measure(n, runs=3, steps=None):
