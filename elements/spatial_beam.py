@@ -300,29 +300,7 @@ def _sdfun(phi2):
     return (s2, s3, s4, s5, s6), (d2, d3, d4, d5, d6)
 
 
-# 3 × 3 matrices are row-major 9-tuples (as in elements/_spatial.py)
-@kernel
-def _mm(A, B):
-    """A B."""
-    return (A[0] * B[0] + A[1] * B[3] + A[2] * B[6], A[0] * B[1] + A[1] * B[4] + A[2] * B[7],
-            A[0] * B[2] + A[1] * B[5] + A[2] * B[8],
-            A[3] * B[0] + A[4] * B[3] + A[5] * B[6], A[3] * B[1] + A[4] * B[4] + A[5] * B[7],
-            A[3] * B[2] + A[4] * B[5] + A[5] * B[8],
-            A[6] * B[0] + A[7] * B[3] + A[8] * B[6], A[6] * B[1] + A[7] * B[4] + A[8] * B[7],
-            A[6] * B[2] + A[7] * B[5] + A[8] * B[8])
-
-
-@kernel
-def _mmt(A, B):
-    """A Bᵀ."""
-    return (A[0] * B[0] + A[1] * B[1] + A[2] * B[2], A[0] * B[3] + A[1] * B[4] + A[2] * B[5],
-            A[0] * B[6] + A[1] * B[7] + A[2] * B[8],
-            A[3] * B[0] + A[4] * B[1] + A[5] * B[2], A[3] * B[3] + A[4] * B[4] + A[5] * B[5],
-            A[3] * B[6] + A[4] * B[7] + A[5] * B[8],
-            A[6] * B[0] + A[7] * B[1] + A[8] * B[2], A[6] * B[3] + A[7] * B[4] + A[8] * B[5],
-            A[6] * B[6] + A[7] * B[7] + A[8] * B[8])
-
-
+# 3 × 3 matrices are row-major 9-tuples (products: elements/_spatial.py)
 @kernel
 def _tinv_mat(W, s4):
     """T⁻¹(Ω) = I + ½Ω~ + s4 Ω~² = I + ½Ω~ + s4(ΩΩᵀ − φ² I) (T⁻¹(−Ω) is its transpose)."""
@@ -442,15 +420,15 @@ def _q_blocks(Mb, Nb, Rs, Rb, ident, buf, c0, sg):
     and ``Nb`` = T_UΩ at ±d (transposes of each other): the block is
     [sg Mb R_sᵀ, −Mb Nb Y; 0, Y] with Y = sg Mb R̄ᵀ (``ident``: R̄ = I, Y = sg Mb).
     """
-    X = _mmt(Mb, Rs)
+    X = sp.mmt(Mb, Rs)
     if ident:
         Y = Mb
     else:
-        Y = _mmt(Mb, Rb)
+        Y = sp.mmt(Mb, Rb)
     if sg < 0.0:
         X = sp.neg9(X)
         Y = sp.neg9(Y)
-    P = sp.neg9(_mm(Mb, _mm(Nb, Y)))
+    P = sp.neg9(sp.mm(Mb, sp.mm(Nb, Y)))
     _put9(buf, c0, 12, X)
     _put9(buf, 36 + c0, 12, (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0))
     _put9(buf, c0 + 3, 12, P)
@@ -500,16 +478,16 @@ def _g_blocks(Ub, Wb, s, ds, Mb, Nb, b, r, Da, Rx, Rt, ident, buf, r0):
     if ident:
         RM = sp.tr9(Mb)
     else:
-        RM = _mmt(Rt, Mb)                    # R_t Mbᵀ
-    X = _mm(Rx, Da)                          # rows x, columns Ω
-    YU = _mm(RM, DU)                         # rows θ, columns U (with a minus sign)
+        RM = sp.mmt(Rt, Mb)                    # R_t Mbᵀ
+    X = sp.mm(Rx, Da)                          # rows x, columns Ω
+    YU = sp.mm(RM, DU)                         # rows θ, columns U (with a minus sign)
     Ki = sp.mtm(Nb, Da)
-    YW = _mm(RM, (DW[0] + Ki[0], DW[1] + Ki[1], DW[2] + Ki[2], DW[3] + Ki[3], DW[4] + Ki[4], DW[5] + Ki[5],
+    YW = sp.mm(RM, (DW[0] + Ki[0], DW[1] + Ki[1], DW[2] + Ki[2], DW[3] + Ki[3], DW[4] + Ki[4], DW[5] + Ki[5],
                   DW[6] + Ki[6], DW[7] + Ki[7], DW[8] + Ki[8]))
     if ident:
         RD = Dr
     else:
-        RD = _mm(Rt, Dr)
+        RD = sp.mm(Rt, Dr)
     o = 72 + 6 * r0
     _add9(buf, o + 3, 6, X)
     _add9(buf, o + 18, 6, sp.neg9(YU))
@@ -545,21 +523,6 @@ def _qmul(a0, a1, a2, a3, b0, b1, b2, b3):
 
 
 @kernel
-def _qlog(q):
-    """Rotation vector of a quaternion (sign flipped to q0 ≥ 0, normalised; spatial.md §1)."""
-    n = math.sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2] + q[3] * q[3])
-    sg = 1.0 if q[0] >= 0.0 else -1.0
-    p0 = sg * q[0] / n
-    v0, v1, v2 = sg * q[1] / n, sg * q[2] / n, sg * q[3] / n
-    s = math.sqrt(v0 * v0 + v1 * v1 + v2 * v2)
-    if s < 1e-4:
-        c = (2.0 / p0) * (1.0 - s * s / (3.0 * p0 * p0))
-    else:
-        c = 2.0 * math.atan2(s, p0) / s
-    return (c * v0, c * v1, c * v2)
-
-
-@kernel
 def section_frames(Pe, x):
     """Section frames of one element: (R_A, R_B (node), R_sA, R_sB (section), x_A, x_B, U, Θ).
 
@@ -581,7 +544,7 @@ def _frames(Pe, x, with_ds):
     qa = (qa[0] * na, qa[1] * na, qa[2] * na, qa[3] * na)
     qb = (qb[0] * nb, qb[1] * nb, qb[2] * nb, qb[3] * nb)
     rel = _qmul(qa[0], -qa[1], -qa[2], -qa[3], qb[0], qb[1], qb[2], qb[3])
-    Th = _qlog(rel)
+    Th = rt.quat_log3(rel)
     RA = rt.quat_to_matrix_t(x[3], x[4], x[5], x[6])
     RB = rt.quat_to_matrix_t(x[10], x[11], x[12], x[13])
     RsA = rt.quat_to_matrix_t(qa[0], qa[1], qa[2], qa[3])
@@ -1082,7 +1045,7 @@ def _qmul_np(a, b):
 def _se3_log_np(qa, xa, qb, xb):
     """d = log(H_A⁻¹ H_B) (6,) of section frames given by unit quaternions and positions."""
     rel = _qmul_np(np.array([qa[0], -qa[1], -qa[2], -qa[3]]), qb)
-    Th = np.array(_qlog.py_func(rel))
+    Th = np.array(rt.quat_log3.py_func(rel))
     RsA = rt.quat_to_matrix(np.ascontiguousarray(qa))
     xab = RsA.T @ (np.asarray(xb) - np.asarray(xa))
     s = sfun.py_func(float(Th @ Th))

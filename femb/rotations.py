@@ -200,9 +200,9 @@ def quat_exp(theta):
     return out
 
 
-@kernel(allocates=True)
-def quat_log(p):
-    """Rotation vector θ with exp(θ) = R(p), |θ| ≤ π, shape (3,).
+@kernel
+def quat_log3(p):
+    """Rotation vector θ with exp(θ) = R(p), |θ| ≤ π, as a tuple of three floats (no allocation).
 
     The sign of p is flipped to p0 ≥ 0 first (p and −p are one rotation);
     θ = 2 atan2(|p⃗|, p0) p⃗/|p⃗|, by its series for |p⃗| < 1e-4.
@@ -216,7 +216,14 @@ def quat_log(p):
         c = (2.0 / p0) * (1.0 - s * s / (3.0 * p0 * p0))
     else:
         c = 2.0 * math.atan2(s, p0) / s
-    return np.array([c * v0, c * v1, c * v2])
+    return (c * v0, c * v1, c * v2)
+
+
+@kernel(allocates=True)
+def quat_log(p):
+    """Rotation vector θ with exp(θ) = R(p), |θ| ≤ π, shape (3,) (:func:`quat_log3`)."""
+    t = quat_log3(p)
+    return np.array([t[0], t[1], t[2]])
 
 
 @kernel(allocates=True)

@@ -68,7 +68,7 @@ def test_chain_refreshes_a_slowly_contracting_matrix(per_step):
     slowly than a fresh one (its carried rate passes NEWTON_CARRY_ETA), so it is refreshed every
     few steps; the accuracy is that of a fresh matrix per step."""
     r = _same_accuracy(rigid_chain_3d.build(n=100).compile(), 0.1, 1e-3, 0.8, per_step)
-    assert 1 < r.stats["factorizations"] < r.stats["steps"]
+    assert 1 < r.stats["factorizations"] <= r.stats["steps"] // 2           # measured 31 in 100 steps
 
 
 def test_adaptive_steps_carry_it_while_h_stays(per_step):
