@@ -116,10 +116,9 @@ import warnings
 
 import numpy as np
 
-#: The rod of :mod:`femb.benchmarks.spatial_beam_scaling` (SI units).
-DATA = dict(L=1.0, d=0.02, E=2.1e11, G=8.08e10, rho=7850.0, g=(0.0, 0.0, -9.81))
-H = 1e-4
-RHO_INF = 0.7
+# the rod (SI units), its step and ρ∞ are those of the scaling benchmark
+from .spatial_beam_scaling import DATA, H, RHO_INF, build
+
 
 #: Exudyn's settings timed (generalized-α, sparse LU, one thread; node type ``"node"``, the
 #: rest Newton settings): ``"residual"`` its default modified Newton and residual test with the
@@ -169,20 +168,6 @@ def section_properties():
 # --------------------------------------------------------------------------
 # femb
 # --------------------------------------------------------------------------
-def build(n, mass="consistent"):
-    """The cantilever with n SpatialBeam elements (nodes ``rod.n0`` clamped … ``rod.n{n}``)."""
-    from femb import Mechanism
-    from femb.elements.spatial_beam import SpatialSection, spatial_beam
-    from femb.elements.spatial_forces import SpatialGravity
-
-    D = DATA
-    m = Mechanism(f"rod{n}")
-    sec = SpatialSection.circle(D["E"], D["G"], D["d"], density=D["rho"])
-    spatial_beam(m, "rod", sec, [(0, 0, 0), (D["L"], 0, 0)], int(n), start="clamp", mass=mass)
-    m.add(SpatialGravity(D["g"]))
-    return m
-
-
 def femb_tip(model, n, t_end, h, options=None):
     """Tip position (rows t, x, y, z) of a femb run (``options``: keywords of femb.simulate)."""
     import femb

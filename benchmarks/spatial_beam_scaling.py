@@ -14,10 +14,10 @@ The force kernel (:func:`femb.elements.spatial_beam.spatial_beam_force`) is time
 as well, per element, with and without the Jacobian (batches of ``nel`` elements with
 random rotations, median of 15 calls after a warm-up).
 
-With Exudyn installed (``pip install femb[peers]``) the same rod is built from Exudyn's
-``ObjectBeamGeometricallyExact`` elements on ``NodeRigidBodyRotVecLG`` nodes and solved
-with its implicit generalized-α (same h, ρ∞, steps), where Exudyn accepts it; the
-ratio of wall times per step is printed (or why the peer run failed).
+With Exudyn installed (``pip install femb[peers]``) the same rod is run in Exudyn as
+:mod:`femb.benchmarks.spatial_beam_peer` sets it up (its headline setting; same h, ρ∞,
+steps) and the ratio femb / Exudyn of the wall times per step is printed (or why the peer run failed); that
+module compares the two codes in detail.
 
 Usage::
 
@@ -26,8 +26,6 @@ Usage::
 from __future__ import annotations
 
 import argparse
-import contextlib
-import io
 import statistics
 import time
 
@@ -38,7 +36,7 @@ H = 1e-4
 RHO_INF = 0.7
 
 
-def build(n):
+def build(n, mass="consistent"):
     """The cantilever with n SpatialBeam elements (nodes ``rod.n0`` clamped … ``rod.n{n}``)."""
     from femb import Mechanism
     from femb.elements.spatial_beam import SpatialSection, spatial_beam
@@ -47,7 +45,7 @@ def build(n):
     D = DATA
     m = Mechanism(f"rod{n}")
     sec = SpatialSection.circle(D["E"], D["G"], D["d"], density=D["rho"])
-    spatial_beam(m, "rod", sec, [(0, 0, 0), (D["L"], 0, 0)], int(n), start="clamp")
+    spatial_beam(m, "rod", sec, [(0, 0, 0), (D["L"], 0, 0)], int(n), start="clamp", mass=mass)
     m.add(SpatialGravity(D["g"]))
     return m
 
@@ -106,75 +104,20 @@ def kernel_cost(nel=2000, damping=0.0, repeat=15):
 
 
 def exudyn_measure(n, runs=3, steps=None):
-    """The same rod in Exudyn (ObjectBeamGeometricallyExact); dict with ms_per_step or ``error``."""
-    try:
-        import exudyn as exu
-        from exudyn import itemInterface as ii
-    except ImportError:
+    """The same rod in Exudyn, set up and run by :func:`femb.benchmarks.spatial_beam_peer.exudyn_run`
+    in its headline setting; dict with ``ms_per_step`` (median of ``runs``) or ``error``."""
+    from . import spatial_beam_peer as peer
+
+    if peer.exudyn_version() is None:
         return {"n": n, "error": "exudyn not installed"}
-    D = DATA
     steps = steps or steps_for(n)
-    A = np.pi * D["d"] ** 2 / 4
-    I = np.pi * D["d"] ** 4 / 64
-    nu = D["E"] / (2 * D["G"]) - 1
-    k = 6 * (1 + nu) / (7 + 6 * nu)
     wall = []
     for _ in range(runs):
-        SC = exu.SystemContainer()
-        mbs = SC.AddSystem()
-        sec = exu.BeamSection()
-        sec.stiffnessMatrix = np.diag([D["E"] * A, k * D["G"] * A, k * D["G"] * A, D["G"] * 2 * I, D["E"] * I,
-                                       D["E"] * I]).tolist()
-        sec.dampingMatrix = np.zeros((6, 6)).tolist()
-        sec.massPerLength = D["rho"] * A
-        sec.inertia = (D["rho"] * np.diag([2 * I, I, I])).tolist()
-        Le = D["L"] / n
-        nodes = [mbs.AddNode(ii.NodeRigidBodyRotVecLG(referenceCoordinates=[i * Le, 0, 0, 0, 0, 0]))
-                 for i in range(n + 1)]
-        for i in range(n):
-            ob = mbs.AddObject(ii.ObjectBeamGeometricallyExact(nodeNumbers=[nodes[i], nodes[i + 1]],
-                                                               length=Le, sectionData=sec))
-            mm = mbs.AddMarker(ii.MarkerBodyMass(bodyNumber=ob))
-            mbs.AddLoad(ii.LoadMassProportional(markerNumber=mm, loadVector=list(D["g"])))
-        mg = _ground_coordinate_marker(mbs, ii)
-        for c in range(6):                  # clamp: the root node's six coordinates held at 0
-            mc = mbs.AddMarker(ii.MarkerNodeCoordinate(nodeNumber=nodes[0], coordinate=c))
-            mbs.AddObject(ii.ObjectConnectorCoordinate(markerNumbers=[mg, mc]))
-        mbs.Assemble()
-        s = exu.SimulationSettings()
-        ti = s.timeIntegration
-        ti.numberOfSteps = int(steps)
-        ti.endTime = steps * H
-        ti.generalizedAlpha.spectralRadius = RHO_INF
-        ti.generalizedAlpha.useIndex2Constraints = False
-        ti.generalizedAlpha.useNewmark = False
-        ti.generalizedAlpha.lieGroupAddTangentOperator = True
-        ti.adaptiveStep = False
-        ti.verboseMode = 0
-        s.solution.file.write = False
-        s.linearSolver.solverType = exu.LinearSolverType.EigenSparse
-        s.show.computationTime = False
-        s.show.statistics = False
-        buf = io.StringIO()
-        t0 = time.perf_counter()
-        try:
-            with contextlib.redirect_stdout(buf), contextlib.redirect_stderr(buf):
-                ok = mbs.SolveDynamic(s)
-        except Exception as exc:
-            log = [ln for ln in buf.getvalue().splitlines() if ln.strip()]
-            return {"n": n, "error": f"{type(exc).__name__}: {str(exc).splitlines()[0] if str(exc) else ''}",
-                    "log": log[-5:]}
-        wall.append(time.perf_counter() - t0)
-        if ok is False:
-            last = buf.getvalue().strip().splitlines()
-            return {"n": n, "error": "SolveDynamic returned False" + (f": {last[-1]}" if last else "")}
-    return {"n": n, "ms_per_step": 1e3 * statistics.median(wall) / steps, "steps": steps,
-            "tip_z": float(mbs.GetNodeOutput(nodes[-1], exu.OutputVariableType.Position)[2])}
-
-
-def _ground_coordinate_marker(mbs, ii):
-    ng = mbs.AddNode(ii.NodePointGround(referenceCoordinates=[0.0, 0.0, 0.0]))
-    return mbs.AddMarker(ii.MarkerNodeCoordinate(nodeNumber=ng, coordinate=0))
+        r = peer.exudyn_run(n, steps, H, peer.EXUDYN_SETTINGS[peer.HEADLINE])
+        if not r["ok"]:
+            return {"n": n, "error": r["message"]}
+        wall.append(r["wall_s"])
+    return {"n": n, "ms_per_step": 1e3 * statistics.median(wall) / steps, "steps": steps}
 
 
 def fit_exponent(ns, ys):
@@ -196,13 +139,13 @@ def main(argv=None):
               f"({kd['jacobian']:.2f} with damping), {kc['force']:.2f} us/element force only")
     print(f"dynamic cantilever under gravity, h = {H:g} s, rho_inf = {RHO_INF}, median of {a.runs} runs")
     print(f"{'n':>6s} {'nq':>7s} {'steps':>6s} {'ms/step':>9s} {'us/(step el)':>13s} {'newton':>7s} {'LU':>5s} "
-          f"{'matrix':>8s}  {'exudyn ms/step':>14s} {'ratio':>6s}")
+          f"{'matrix':>8s}  {'exudyn ms/step':>14s} {'femb/exudyn':>11s}")
     rows = []
     for n in a.n:
         r = measure(n, a.runs)
         ex = {"error": "skipped"} if a.no_exudyn or n > a.exudyn_max else exudyn_measure(n, a.runs)
         rows.append(r)
-        exs = f"{ex['ms_per_step']:14.3f} {ex['ms_per_step'] / r['ms_per_step']:6.2f}" if "ms_per_step" in ex \
+        exs = f"{ex['ms_per_step']:14.3f} {r['ms_per_step'] / ex['ms_per_step']:6.2f}" if "ms_per_step" in ex \
             else f"  ({ex['error']})"
         print(f"{n:6d} {r['nq']:7d} {r['steps']:6d} {r['ms_per_step']:9.3f} {1e3 * r['ms_per_step'] / n:13.3f} "
               f"{r['newton_per_step']:7.2f} {r['factorizations_per_step']:5.2f} {r['newton_matrix']:>8s}  {exs}")
