@@ -90,7 +90,7 @@ from femb.jit import jit_disabled, kernel
 
 from . import _spatial as sp
 from .bodies import _check_scalar
-from .spatial_bodies import FrameNode, SpatialBody, rotation_input, vector3
+from .spatial_bodies import FrameNode, SpatialBody, rotation_input
 
 # parameter layout of P (per element)
 D0, LEN, CM, MD, MO, JN, BETA, QA, QB, JNB, NPAR = 0, 6, 7, 43, 44, 45, 54, 55, 59, 63, 72
@@ -1032,10 +1032,6 @@ class SpatialBeamNode(SpatialBody, Element):
 
     def nodes(self):
         return [self.node]
-
-
-def _quat(R):
-    return rt.matrix_to_quat(np.ascontiguousarray(R, dtype=float))
 
 
 def _qmul_np(a, b):

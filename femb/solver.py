@@ -270,6 +270,7 @@ class GeneralizedAlphaSolver:
         if start not in ("consistent", "seed"):
             raise ParameterError(f"start must be 'consistent' or 'seed', got {start!r}")
         self.start = start
+        self.start_used = start          # the start that ran (_start may fall back to the seed's)
         if newton_test not in ("correction", "residual"):
             raise ParameterError(f"newton_test must be 'correction' or 'residual', got {newton_test!r}")
         self.newton_test = newton_test
@@ -647,7 +648,7 @@ class GeneralizedAlphaSolver:
                 "atol": float(self.atol[0]) if np.all(self.atol == self.atol[0]) else self.atol.tolist(),
                 "rho_inf": a.rho_inf, "alpha_m": a.alpha_m, "alpha_f": a.alpha_f,
                 "beta": a.beta, "gamma": a.gamma, "scaling": self.scaling, "start": self.start,
-                "start_used": getattr(self, "start_used", self.start),
+                "start_used": self.start_used,
                 "error_per": self.error_per, "newton_test": self.newton_test, "newton_rtol": self.newton_rtol,
                 "newton_atol": self.newton_atol, "phi_tol": self.phi_tol, "max_iter": self.max_iter,
                 "min_iter": self.min_iter, "newton": self.newton, "linear_solver": self.linear_solver,
