@@ -205,9 +205,20 @@ def band_lu(ABf, N, kl, ku, env, ipiv, rel_tol):
     clamped to a hub) then costs the work of its local band, not of its widest
     one. Returns 0, or 1 if a pivot is zero, non-finite, or below ``rel_tol``
     times the largest pivot (singular for the purpose of the Newton iteration).
+
+    **Compact factors.** When no row was interchanged (the usual case of an iteration
+    matrix dominated by its mass and stiffness blocks), U has no fill above its ku
+    superdiagonals; the factors are then moved in place into the first N (kl + ku + 1)
+    entries, column j at j (kl + ku + 1) holding rows j − ku … j + kl, and ``ipiv[N]``
+    (``ipiv`` has 2N entries) is set to 1 for :func:`band_solve`. The solve then reads
+    two thirds of the storage (a large model's solve is bound by memory traffic) and
+    skips the kl empty rows above each column of U.
     """
     d = kl + ku
     AB = ABf.reshape((N, 2 * kl + ku + 1))
+    compact = ipiv.shape[0] > N
+    if compact:
+        ipiv[N] = 0
     pmax = 0.0
     pmin = 1e308
     for j in range(N):
@@ -224,6 +235,7 @@ def band_lu(ABf, N, kl, ku, env, ipiv, rel_tol):
         if not (amax > 0.0) or amax > 1e300:
             return 1
         if p != j:
+            compact = False
             for c in range(j, ju + 1):
                 tmp = AB[c, d + j - c]
                 AB[c, d + j - c] = AB[c, d + p - c]
@@ -244,12 +256,40 @@ def band_lu(ABf, N, kl, ku, env, ipiv, rel_tol):
                     AB[c, off + i] -= AB[j, d + i - j] * a
     if pmin <= rel_tol * pmax:
         return 1
+    if compact:
+        # no interchange: rows j − ku − kl … j − ku − 1 of column j are empty; column j moves
+        # to j ld2 (ld2 ≤ ldab: each destination lies before its source, so in place, in order)
+        ld2 = kl + ku + 1
+        ldab = 2 * kl + ku + 1
+        for j in range(N):
+            src = j * ldab + kl
+            dst = j * ld2
+            for k in range(ld2):
+                ABf[dst + k] = ABf[src + k]
+        ipiv[N] = 1
     return 0
 
 
 @engine(**ENTRY)
 def band_solve(ABf, N, kl, ku, env, ipiv, b):
     """Solve with the factors of :func:`band_lu`, in place on ``b`` (permuted order)."""
+    if ipiv.shape[0] > N and ipiv[N] == 1:
+        # compact factors, no interchanges (:func:`band_lu`): entry (i, j) at j ld2 + ku + i − j
+        ld2 = kl + ku + 1
+        for j in range(N):
+            bj = b[j]
+            if bj != 0.0:
+                o = j * ld2 + ku - j
+                for i in range(j + 1, env[0, j] + 1):
+                    b[i] -= ABf[o + i] * bj
+        for j in range(N - 1, -1, -1):
+            o = j * ld2 + ku - j
+            b[j] /= ABf[o + j]
+            bj = b[j]
+            if bj != 0.0:
+                for i in range(max(env[2, j], j - ku), j):
+                    b[i] -= ABf[o + i] * bj
+        return
     d = kl + ku
     AB = ABf.reshape((N, 2 * kl + ku + 1))
     for j in range(N):

@@ -89,6 +89,41 @@ def test_band_lu_matches_dense_solve_and_flags_singularity():
         assert mod.band_lu(ABf2, N, kl, ku, env, piv, 1e-13) == 1
 
 
+def test_band_lu_without_interchanges_compacts_its_factors():
+    """No row interchange: the factors move into N (kl + ku + 1) entries (``ipiv[N]`` = 1) and the
+    compact solve gives the same solution; one interchange keeps the full storage."""
+    from femb.codegen import _envelope, compiled
+    mod = compiled(andrews.build().compile()).mod
+    rng = np.random.default_rng(11)
+    for N, kl, ku in [(9, 2, 3), (60, 11, 11), (50, 5, 2)]:
+        A = np.zeros((N, N))
+        for i in range(N):
+            for j in range(max(0, i - kl), min(N, i + ku + 1)):
+                A[i, j] = rng.standard_normal()
+        A[np.arange(N), np.arange(N)] = 3.0 * (kl + ku + 1)     # dominant diagonal: no interchange
+        ldab = 2 * kl + ku + 1
+        rows, cols = np.nonzero(A)
+        env = _envelope(rows, cols, N, kl, ku)
+        b = rng.standard_normal(N)
+        for swap in (False, True):
+            A1 = A.copy()
+            if swap:
+                A1[1, 0] = 10.0 * A1[0, 0]                     # row 1 is the first pivot
+            AB = np.zeros((N, ldab))
+            for j in range(N):
+                for i in range(max(0, j - ku), min(N, j + kl + 1)):
+                    AB[j, kl + ku + i - j] = A1[i, j]
+            ABf = AB.reshape(-1).copy()
+            piv = np.full(2 * N, -7, dtype=np.int64)
+            assert mod.band_lu(ABf, N, kl, ku, env, piv, 1e-13) == 0
+            assert piv[N] == (0 if swap else 1)
+            if not swap:
+                assert np.all(piv[:N] == np.arange(N))
+            x = b.copy()
+            mod.band_solve(ABf, N, kl, ku, env, piv, x)
+            np.testing.assert_allclose(A1 @ x, b, rtol=1e-10, atol=1e-10 * np.abs(b).max())
+
+
 def test_dense_lu_on_the_nonzero_pattern_solves_sparse_systems_and_flags_singularity():
     """The dense LU records the factors' pattern as it pivots; its solve visits those entries only."""
     from femb.codegen import compiled
