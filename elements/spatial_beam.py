@@ -92,6 +92,16 @@ from . import _spatial as sp
 from .bodies import _check_scalar
 from .spatial_bodies import FrameNode, SpatialBody, rotation_input
 
+#: options of the kernels that form the tangent only: fused multiply–adds (``contract``; no other
+#: fast-math licence). The forces, hence the residual and the converged states, are computed by
+#: the kernels without it, so they do not depend on whether a tangent was formed (docs/beams.md,
+#: "Kernel cost").
+TANGENT = dict(fastmath={"contract"})
+# the 3 × 3 products of elements/_spatial.py compiled once more with TANGENT, for the tangent blocks
+_mm = kernel(**TANGENT)(sp.mm.py_func)
+_mmt = kernel(**TANGENT)(sp.mmt.py_func)
+_mtm = kernel(**TANGENT)(sp.mtm.py_func)
+
 # parameter layout of P (per element)
 D0, LEN, CM, MD, MO, JN, BETA, QA, QB, JNB, NPAR = 0, 6, 7, 43, 44, 45, 54, 55, 59, 63, 72
 
@@ -172,7 +182,7 @@ def _neg3(a):
     return (-a[0], -a[1], -a[2])
 
 
-@kernel
+@kernel(**TANGENT)
 def dsfun(phi2):
     """Derivatives (s2', s3', s4', s5', s6') of :func:`sfun` with respect to x = φ².
 
@@ -202,7 +212,7 @@ def dsfun(phi2):
     return d2, d3, d4, d5, d6
 
 
-@kernel
+@kernel(**TANGENT)
 def _dtinv3(W, s4, ds4, a, dW, da):
     """Directional derivative of T⁻¹(W) a = a + ½ W × a + s4 W × (W × a) along (dW, da)."""
     wa = sp.cross3(W, a)
@@ -214,7 +224,7 @@ def _dtinv3(W, s4, ds4, a, dW, da):
             da[2] + 0.5 * dwa[2] + c * wwa[2] + s4 * dwwa[2])
 
 
-@kernel
+@kernel(**TANGENT)
 def _dtuw(U, W, s, ds, a, sgn, dU, dW, da):
     """Directional derivative of :func:`_tuw` (T_UΩ a or T_UΩᵀ a) along (dU, dW, da)."""
     s2, s3, s4, s5, s6 = s
@@ -248,7 +258,7 @@ def _dtuw(U, W, s, ds, a, sgn, dU, dW, da):
     return (r0, r1, r2)
 
 
-@kernel
+@kernel(**TANGENT)
 def dtinvt_se3(U, W, s, ds, aU, aW, dU, dW):
     """Derivative of T_SE3⁻ᵀ(d) a (a fixed) along d-direction (dU, dW): returns (dbU, dbW).
 
@@ -265,7 +275,7 @@ def dtinvt_se3(U, W, s, ds, aU, aW, dU, dW):
     return dbU, dbW
 
 
-@kernel
+@kernel(**TANGENT)
 def dtinv_se3(U, W, s, ds, aU, aW, dU, dW):
     """Derivative of T_SE3⁻¹(d) a (a fixed) along (dU, dW), through :func:`tinv_se3`:
     b_Ω = T⁻¹(Ω) a_Ω, b_U = T⁻¹(Ω)(a_U − T_UΩ b_Ω)."""
@@ -292,11 +302,15 @@ def _sdfun(phi2):
     s4 = (1.0 - 0.5 * phi * sn / (1.0 - c)) / x
     s5 = (2.0 - 2.0 * c - phi * sn) / (x * x)
     s6 = (phi * (2.0 + c) - 3.0 * sn) / (x * x * phi)
-    d2 = (0.5 * sn / phi - s2) / x
-    d3 = (s2 - 3.0 * s3) / (2.0 * x)
-    d4 = -((sn - phi) / (4.0 * phi * (1.0 - c)) + s4) / x
-    d5 = (sn - phi * c) / (2.0 * phi * x * x) - 2.0 * s5 / x
-    d6 = (s5 - 5.0 * s6) / (2.0 * x)
+    # the derivatives serve the tangent only: reciprocals instead of eight divisions (the
+    # values s above are those of sfun, operation for operation, as the forces need)
+    ix = 1.0 / x
+    ip = 1.0 / phi
+    d2 = (0.5 * sn * ip - s2) * ix
+    d3 = 0.5 * (s2 - 3.0 * s3) * ix
+    d4 = -(0.25 * (sn - phi) * ip / (1.0 - c) + s4) * ix
+    d5 = (0.5 * (sn - phi * c) * ip * ix - 2.0 * s5) * ix
+    d6 = 0.5 * (s5 - 5.0 * s6) * ix
     return (s2, s3, s4, s5, s6), (d2, d3, d4, d5, d6)
 
 
@@ -321,7 +335,7 @@ def _rank3(a, b, c, d, e, f, g, kap):
             a[2] * b[2] + c[2] * d[2] + e[2] * f[2] + kap)
 
 
-@kernel
+@kernel(**TANGENT)
 def _rank1s(a, b, g, kap):
     """a bᵀ + g~ + κ I."""
     return (a[0] * b[0] + kap, a[0] * b[1] - g[2], a[0] * b[2] + g[1],
@@ -329,12 +343,16 @@ def _rank1s(a, b, g, kap):
             a[2] * b[0] - g[1], a[2] * b[1] + g[0], a[2] * b[2] + kap)
 
 
-@kernel
+@kernel(**TANGENT)
 def _rank2s(a, b, c, d, g, kap):
     """a bᵀ + c dᵀ + g~ + κ I."""
     return (a[0] * b[0] + c[0] * d[0] + kap, a[0] * b[1] + c[0] * d[1] - g[2], a[0] * b[2] + c[0] * d[2] + g[1],
             a[1] * b[0] + c[1] * d[0] + g[2], a[1] * b[1] + c[1] * d[1] + kap, a[1] * b[2] + c[1] * d[2] - g[0],
             a[2] * b[0] + c[2] * d[0] - g[1], a[2] * b[1] + c[2] * d[1] + g[0], a[2] * b[2] + c[2] * d[2] + kap)
+
+
+# :func:`_rank3` serves the forces (T_UΩ); its copy with TANGENT the tangent blocks
+_rank3t = kernel(**TANGENT)(_rank3.py_func)
 
 
 @kernel
@@ -352,7 +370,7 @@ def _tuw_mat(U, W, s):
                   (c6 * W[0], c6 * W[1], c6 * W[2]), W, g, wu * (s6 * sp.dot3(W, W) - 2.0 * s3))
 
 
-@kernel
+@kernel(**TANGENT)
 def _dtinvt_mat(W, s4, ds4, a):
     """∂(T⁻¹(−Ω) a)/∂Ω (3 × 3) for T⁻¹(−Ω) a = a − ½ Ω × a + s4 Ω × (Ω × a):
     ½ a~ + s4((Ω·a) I + Ω aᵀ − 2 a Ωᵀ) + 2 s4' (Ω × (Ω × a)) Ωᵀ."""
@@ -364,7 +382,7 @@ def _dtinvt_mat(W, s4, ds4, a):
                    s4 * sp.dot3(W, a))
 
 
-@kernel
+@kernel(**TANGENT)
 def _dtinvt_pair(W, s4, ds4, a):
     """:func:`_dtinvt_mat` at Ω and at −Ω (the same values): ½ a~ ± S with S, the part odd
     in Ω, formed once."""
@@ -411,31 +429,35 @@ def _add9(buf, o, st, A):
     buf[o + 2 * st + 2] += A[8]
 
 
-@kernel
-def _q_blocks(Mb, Nb, Rs, Rb, ident, buf, c0, sg):
+@kernel(**TANGENT)
+def _q_blocks(Mb, K, Rs, Rb, ident, buf, c0, sg):
     """Columns c0 … c0 + 5 of Q = ∂d/∂(δx, δθ) into buf (row k at 12k): one node's block.
 
     Node B (sg = 1): T_SE3⁻¹(d) applied to ξ = (R_sᵀ δx, R̄ᵀ δθ); node A (sg = −1):
     −T_SE3⁻¹(−d). With T_SE3⁻¹ = [T⁻¹, −T⁻¹T_UΩT⁻¹; 0, T⁻¹] (spatial.md §1), ``Mb`` = T⁻¹
-    and ``Nb`` = T_UΩ at ±d (transposes of each other): the block is
-    [sg Mb R_sᵀ, −Mb Nb Y; 0, Y] with Y = sg Mb R̄ᵀ (``ident``: R̄ = I, Y = sg Mb).
+    and N = T_UΩ at ±d (transposes of each other): the block is
+    [sg Mb R_sᵀ, −sg K R̄ᵀ; 0, sg Mb R̄ᵀ] with ``K`` = Mb N Mb (at −d the transpose of
+    its value at d; ``ident``: R̄ = I).
     """
-    X = sp.mmt(Mb, Rs)
+    X = _mmt(Mb, Rs)
     if ident:
         Y = Mb
+        P = K
     else:
-        Y = sp.mmt(Mb, Rb)
+        Y = _mmt(Mb, Rb)
+        P = _mmt(K, Rb)
     if sg < 0.0:
         X = sp.neg9(X)
         Y = sp.neg9(Y)
-    P = sp.neg9(sp.mm(Mb, sp.mm(Nb, Y)))
+    else:
+        P = sp.neg9(P)
     _put9(buf, c0, 12, X)
     _put9(buf, 36 + c0, 12, (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0))
     _put9(buf, c0 + 3, 12, P)
     _put9(buf, 36 + c0 + 3, 12, Y)
 
 
-@kernel
+@kernel(**TANGENT)
 def _g_blocks(Ub, Wb, s, ds, Mb, Nb, b, r, Da, Rx, Rt, ident, buf, r0):
     """Add Aᵀ ∂(T_SE3⁻ᵀ(d_b) a)/∂d_b (6 columns) to Z = buf[72:144] at rows r0 … r0 + 5, by 3 × 3 blocks.
 
@@ -473,21 +495,21 @@ def _g_blocks(Ub, Wb, s, ds, Mb, Nb, b, r, Da, Rx, Rt, ident, buf, r0):
           2.0 * (d2 * ub[2] + d3 * (uwb[2] + wub[2]) - wu * (d5 * wb[2] + d6 * wwb[2] - s6 * b[2])))
     c6 = -s6 * wu
     gw = (-s3 * ub[0] + s5 * wu * b[0], -s3 * ub[1] + s5 * wu * b[1], -s3 * ub[2] + s5 * wu * b[2])
-    DW = _rank3(v1, W, mv, U, (c6 * W[0], c6 * W[1], c6 * W[2]), b, gw, s3 * sp.dot3(U, b) + c6 * sp.dot3(W, b))
+    DW = _rank3t(v1, W, mv, U, (c6 * W[0], c6 * W[1], c6 * W[2]), b, gw, s3 * sp.dot3(U, b) + c6 * sp.dot3(W, b))
     Dr = _dtinvt_mat(W, s4, d4, r)
     if ident:
         RM = sp.tr9(Mb)
     else:
-        RM = sp.mmt(Rt, Mb)                    # R_t Mbᵀ
-    X = sp.mm(Rx, Da)                          # rows x, columns Ω
-    YU = sp.mm(RM, DU)                         # rows θ, columns U (with a minus sign)
-    Ki = sp.mtm(Nb, Da)
-    YW = sp.mm(RM, (DW[0] + Ki[0], DW[1] + Ki[1], DW[2] + Ki[2], DW[3] + Ki[3], DW[4] + Ki[4], DW[5] + Ki[5],
+        RM = _mmt(Rt, Mb)                    # R_t Mbᵀ
+    X = _mm(Rx, Da)                          # rows x, columns Ω
+    YU = _mm(RM, DU)                         # rows θ, columns U (with a minus sign)
+    Ki = _mtm(Nb, Da)
+    YW = _mm(RM, (DW[0] + Ki[0], DW[1] + Ki[1], DW[2] + Ki[2], DW[3] + Ki[3], DW[4] + Ki[4], DW[5] + Ki[5],
                   DW[6] + Ki[6], DW[7] + Ki[7], DW[8] + Ki[8]))
     if ident:
         RD = Dr
     else:
-        RD = sp.mm(Rt, Dr)
+        RD = _mm(Rt, Dr)
     o = 72 + 6 * r0
     _add9(buf, o + 3, 6, X)
     _add9(buf, o + 18, 6, sp.neg9(YU))
@@ -495,13 +517,13 @@ def _g_blocks(Ub, Wb, s, ds, Mb, Nb, b, r, Da, Rx, Rt, ident, buf, r0):
                            RD[5] - YW[5], RD[6] - YW[6], RD[7] - YW[7], RD[8] - YW[8]))
 
 
-@kernel
+@kernel(**TANGENT)
 def _unit3(k):
     """e_k (k in 0..2), or zero for k outside."""
     return (1.0 if k == 0 else 0.0, 1.0 if k == 1 else 0.0, 1.0 if k == 2 else 0.0)
 
 
-@kernel
+@kernel(**TANGENT)
 def _ecol_a(k, U, W, s, ds, vA, vB):
     """Column k of E = ∂ḋ/∂d at fixed section velocities (analytic), a 6-tuple:
     ḋ = −T_SE3⁻¹(−d) ξ̇_A + T_SE3⁻¹(d) ξ̇_B, so ∂ḋ[δ] = D(T_SE3⁻¹ ξ̇_A)(−d)[δ] + D(T_SE3⁻¹ ξ̇_B)(d)[δ]."""
@@ -601,6 +623,13 @@ def _ddot(U, W, s, sm, vA, vB):
 
 
 @kernel
+def _damped_strain(eps, bL, dd):
+    """ε + (β/L) ḋ (a force-path helper: compiled without ``TANGENT``)."""
+    return (eps[0] + bL * dd[0], eps[1] + bL * dd[1], eps[2] + bL * dd[2],
+            eps[3] + bL * dd[3], eps[4] + bL * dd[4], eps[5] + bL * dd[5])
+
+
+@kernel
 def _rbar(Pe, o):
     """R̄ (9-tuple) of the offset quaternion at P[o:o+4]."""
     return rt.quat_to_matrix_t(Pe[o], Pe[o + 1], Pe[o + 2], Pe[o + 3])
@@ -624,7 +653,7 @@ def _nonzero9(Pe, o):
     return False
 
 
-@kernel
+@kernel(**TANGENT)
 def _gyro_jac(Pe, oj, w, h, fv, o):
     """fv[o:o+3, o:o+3] += −(Ω~J − (JΩ)~), J at P[oj:oj+9]."""
     for j in range(3):
@@ -674,12 +703,15 @@ if jit_disabled():                          # plain Python (NUMBA_DISABLE_JIT=1)
         return np.zeros(NSCRATCH)
 
 
-@kernel
+@kernel(**TANGENT)
 def _zq(buf, F, c):
     """F −= c Z Q with Q (6 × 12) at buf[0:72] (row-major), Z (12 × 6) at buf[72:144].
 
-    The δx columns of Q (0 … 2, 6 … 8) have no Ω rows: three products instead of six.
+    Each row of F is one loop over its columns (the Ω rows of Q hold zeros in the δx
+    columns); its bound is read from F, so that the compiler keeps the loop and
+    vectorizes it instead of unrolling it into scalar operations.
     """
+    ncol = F.shape[1]
     for i in range(12):
         o = 72 + 6 * i
         z0 = c * buf[o]
@@ -688,13 +720,9 @@ def _zq(buf, F, c):
         z3 = c * buf[o + 3]
         z4 = c * buf[o + 4]
         z5 = c * buf[o + 5]
-        for jb in range(0, 12, 6):
-            for m in range(3):
-                j = jb + m
-                F[i, j] -= z0 * buf[j] + z1 * buf[12 + j] + z2 * buf[24 + j]
-                j = jb + 3 + m
-                F[i, j] -= (z0 * buf[j] + z1 * buf[12 + j] + z2 * buf[24 + j] + z3 * buf[36 + j]
-                            + z4 * buf[48 + j] + z5 * buf[60 + j])
+        for j in range(ncol):
+            F[i, j] -= (z0 * buf[j] + z1 * buf[12 + j] + z2 * buf[24 + j] + z3 * buf[36 + j]
+                        + z4 * buf[48 + j] + z5 * buf[60 + j])
 
 
 @kernel
@@ -750,10 +778,7 @@ def spatial_beam_force(P, t, tf, xe, ve, jac, fe, fq, fv):
             else:
                 vA = (sp.mtv(RsA, xdA), sp.mtv(RbA, wA))
                 vB = (sp.mtv(RsB, xdB), sp.mtv(RbB, wB))
-            dd = _ddot(U, W, s, s, vA, vB)
-            bL = beta * iL
-            eps = (eps[0] + bL * dd[0], eps[1] + bL * dd[1], eps[2] + bL * dd[2],
-                   eps[3] + bL * dd[3], eps[4] + bL * dd[4], eps[5] + bL * dd[5])
+            eps = _damped_strain(eps, beta * iL, _ddot(U, W, s, s, vA, vB))
         sig = _c6(Pe, eps)
         # T⁻¹(Ω) and T_UΩ once as matrices, for the forces and the tangent: at −d they are
         # the transposes, so h_B = T_SE3⁻ᵀ(d)σ = (Mᵀσ_U, Mᵀ(σ_Ω − Nᵀ b_U)) and
@@ -790,8 +815,9 @@ def spatial_beam_force(P, t, tf, xe, ve, jac, fe, fq, fv):
         Mt = sp.tr9(M)
         Nt = sp.tr9(N)
         buf = _scratch()
-        _q_blocks(Mt, Nt, RsA, RbA, ident, buf, 0, -1.0)
-        _q_blocks(M, N, RsB, RbB, ident, buf, 6, 1.0)
+        MNM = _mm(M, _mm(N, M))
+        _q_blocks(Mt, sp.tr9(MNM), RsA, RbA, ident, buf, 0, -1.0)
+        _q_blocks(M, MNM, RsB, RbB, ident, buf, 6, 1.0)
         if _diagonal6(Pe):
             # the usual section (principal axes, shear centre at the centroid): C diagonal
             c0 = Pe[CM] * iL
