@@ -103,7 +103,12 @@ _mmt = kernel(**TANGENT)(sp.mmt.py_func)
 _mtm = kernel(**TANGENT)(sp.mtm.py_func)
 
 # parameter layout of P (per element)
-D0, LEN, CM, MD, MO, JN, BETA, QA, QB, JNB, NPAR = 0, 6, 7, 43, 44, 45, 54, 55, 59, 63, 72
+# (what the force kernel reads first, the 6 × 6 C last: a batch whose sections are all diagonal,
+# the usual case, stores none, and the force kernel reads 43 numbers per element instead of 79)
+D0, LEN, BETA, FLAGS, QA, QB, CD, JN, JNB, MD, MO, CM = 0, 6, 7, 8, 9, 13, 17, 23, 32, 41, 42, 43
+NPAR_DIAG, NPAR = 43, 79
+#: bits of P[FLAGS]: C diagonal (its diagonal at CD), both section offsets the identity, rotary inertia
+F_DIAG, F_IDENT, F_ROTARY = 1, 2, 4
 
 
 # ---------------------------------------------------------------------------
@@ -585,7 +590,10 @@ def _frames(Pe, x, with_ds):
 
 @kernel
 def _c6(Pe, a):
-    """C a (C row-major at P[CM:CM+36]); a a 6-tuple."""
+    """C a (a a 6-tuple): the diagonal at P[CD:CD+6] (flag F_DIAG), else C row-major at P[CM:CM+36]."""
+    if _flag(Pe, F_DIAG):
+        return (Pe[CD] * a[0], Pe[CD + 1] * a[1], Pe[CD + 2] * a[2], Pe[CD + 3] * a[3], Pe[CD + 4] * a[4],
+                Pe[CD + 5] * a[5])
     r0 = 0.0
     r1 = 0.0
     r2 = 0.0
@@ -604,13 +612,9 @@ def _c6(Pe, a):
 
 
 @kernel
-def _diagonal6(Pe):
-    """C (P[CM:CM+36]) is diagonal."""
-    for i in range(6):
-        for j in range(6):
-            if i != j and Pe[CM + 6 * i + j] != 0.0:
-                return False
-    return True
+def _flag(Pe, bit):
+    """Bit ``bit`` of P[FLAGS] is set."""
+    return (int(Pe[FLAGS]) & bit) != 0
 
 
 @kernel
@@ -642,15 +646,6 @@ def _gyro(Pe, o, w):
          Pe[o + 3] * w[0] + Pe[o + 4] * w[1] + Pe[o + 5] * w[2],
          Pe[o + 6] * w[0] + Pe[o + 7] * w[1] + Pe[o + 8] * w[2])
     return h, _neg3(sp.cross3(w, h))
-
-
-@kernel
-def _nonzero9(Pe, o):
-    """Some entry of P[o:o+9] is non-zero."""
-    for i in range(9):
-        if Pe[o + i] != 0.0:
-            return True
-    return False
 
 
 @kernel(**TANGENT)
@@ -745,7 +740,8 @@ def spatial_beam_mass(P, xe, Me):
 def spatial_beam_force(P, t, tf, xe, ve, jac, fe, fq, fv):
     """Elastic, damping and gyroscopic forces of the SE(3) beam (module docstring).
 
-    P (nel, 72): d0 (6), L, C (36, row-major), m_d, m_o, J_nA (9), β, p̄_A (4), p̄_B (4), J_nB (9).
+    P (nel, 43 or 79): d0 (6), L, β, flags (F_DIAG, F_IDENT, F_ROTARY), p̄_A (4), p̄_B (4), diag C (6),
+    J_nA (9), J_nB (9), m_d, m_o and, only in a batch with a non-diagonal C, C (36, row-major).
     xe (nel, 14) = (x_A, p_A, x_B, p_B); ve (nel, 12) = (ẋ_A, Ω_A, ẋ_B, Ω_B).
     """
     for e in range(xe.shape[0]):
@@ -763,8 +759,7 @@ def spatial_beam_force(P, t, tf, xe, ve, jac, fe, fq, fv):
         wA = sp.vec3(v, 3)
         wB = sp.vec3(v, 9)
         # R̄_A = R̄_B = I (node axes = section axes, as meshed by spatial_beam): the R̄ products skipped
-        ident = (Pe[QA] == 1.0 and Pe[QA + 1] == 0.0 and Pe[QA + 2] == 0.0 and Pe[QA + 3] == 0.0
-                 and Pe[QB] == 1.0 and Pe[QB + 1] == 0.0 and Pe[QB + 2] == 0.0 and Pe[QB + 3] == 0.0)
+        ident = _flag(Pe, F_IDENT)
         RbA = _rbar(Pe, QA)
         RbB = _rbar(Pe, QB)
         z3 = (0.0, 0.0, 0.0)
@@ -818,14 +813,14 @@ def spatial_beam_force(P, t, tf, xe, ve, jac, fe, fq, fv):
         MNM = _mm(M, _mm(N, M))
         _q_blocks(Mt, sp.tr9(MNM), RsA, RbA, ident, buf, 0, -1.0)
         _q_blocks(M, MNM, RsB, RbB, ident, buf, 6, 1.0)
-        if _diagonal6(Pe):
+        if _flag(Pe, F_DIAG):
             # the usual section (principal axes, shear centre at the centroid): C diagonal
-            c0 = Pe[CM] * iL
-            c1 = Pe[CM + 7] * iL
-            c2 = Pe[CM + 14] * iL
-            c3 = Pe[CM + 21] * iL
-            c4 = Pe[CM + 28] * iL
-            c5 = Pe[CM + 35] * iL
+            c0 = Pe[CD] * iL
+            c1 = Pe[CD + 1] * iL
+            c2 = Pe[CD + 2] * iL
+            c3 = Pe[CD + 3] * iL
+            c4 = Pe[CD + 4] * iL
+            c5 = Pe[CD + 5] * iL
             for i in range(12):
                 o = 72 + 6 * i
                 buf[o] = c0 * buf[i]
@@ -913,10 +908,19 @@ def spatial_beam_force(P, t, tf, xe, ve, jac, fe, fq, fv):
             for j in range(3):
                 fq[e, i, 3 + j] += ma[3 * i + j]
                 fq[e, 6 + i, 9 + j] += mb[3 * i + j]
-        if _nonzero9(Pe, JN) or _nonzero9(Pe, JNB):     # fv is touched only by types that declare it
+        if _flag(Pe, F_ROTARY):     # fv is touched only by types that declare it
             V = fv[e]
             _gyro_jac(Pe, JN, wA, gA, V, 3)
             _gyro_jac(Pe, JNB, wB, gB, V, 9)
+
+
+def section_stiffness(P):
+    """The section stiffnesses C (nel, 6, 6) of packed elements ``P`` (either layout)."""
+    if P.shape[1] >= NPAR:
+        return P[:, CM:CM + 36].reshape(-1, 6, 6).copy()
+    C = np.zeros((len(P), 6, 6))
+    C[:, np.arange(6), np.arange(6)] = P[:, CD:CD + 6]
+    return C
 
 
 # ---------------------------------------------------------------------------
@@ -1164,14 +1168,21 @@ class SpatialBeam(Element):
 
     @classmethod
     def pack(cls, elements):
-        """``P`` (nel, 72): d0, L, C, m_d, m_o, J_nA, β, p̄_A, p̄_B, J_nB (see :func:`spatial_beam_force`)."""
-        P = np.zeros((len(elements), NPAR))
+        """``P`` (nel, 43) or, when some section's C is not diagonal, (nel, 79): the layout of
+        :func:`spatial_beam_force`."""
+        full = any(np.count_nonzero(e.section.C - np.diag(np.diag(e.section.C))) for e in elements)
+        P = np.zeros((len(elements), NPAR if full else NPAR_DIAG))
         for k, e in enumerate(elements):
             s = e.section
             m = s.rhoA * e.L
             P[k, D0:D0 + 6] = e.d0
             P[k, LEN] = e.L
-            P[k, CM:CM + 36] = s.C.reshape(-1)
+            diag = not np.count_nonzero(s.C - np.diag(np.diag(s.C)))
+            P[k, CD:CD + 6] = np.diag(s.C)
+            if full:
+                P[k, CM:CM + 36] = s.C.reshape(-1)
+            ident = all(np.array_equal(q, [1.0, 0.0, 0.0, 0.0]) for q in (e.qbar_a, e.qbar_b))
+            P[k, FLAGS] = (F_DIAG if diag else 0) + (F_IDENT if ident else 0) + (F_ROTARY if np.any(s.rhoJ) else 0)
             if e.mass_kind == "consistent":
                 P[k, MD], P[k, MO] = m / 3.0, m / 6.0
             elif e.mass_kind == "averaged":
@@ -1230,15 +1241,14 @@ class SpatialBeam(Element):
         else:
             eps, rate = cls.strains(p, qe, qde)
             eps = eps + P[:, BETA:BETA + 1] * rate
-        return np.einsum("eij,ej->ei", P[:, CM:CM + 36].reshape(-1, 6, 6), eps)
+        return np.einsum("eij,ej->ei", section_stiffness(P), eps)
 
     @classmethod
     def strain_energy(cls, p, qe):
         """½ L εᵀ C ε per element (nel,)."""
         P = p["P"]
         eps = cls.strains(p, qe)
-        C = P[:, CM:CM + 36].reshape(-1, 6, 6)
-        return 0.5 * P[:, LEN] * np.einsum("ei,eij,ej->e", eps, C, eps)
+        return 0.5 * P[:, LEN] * np.einsum("ei,eij,ej->e", eps, section_stiffness(P), eps)
 
     @classmethod
     def geometry(cls, p, t, qe, qde, lame, names):
@@ -1541,8 +1551,7 @@ def beam_series(result, name):
             qde = model.ext_velocity(result.qd[k])[g.dofs[idx]]
             eps, rate = SpatialBeam.strains(p, qe, qde)
             strains[k, pos] = eps
-            C = p["P"][:, CM:CM + 36].reshape(-1, 6, 6)
-            forces[k, pos] = np.einsum("eij,ej->ei", C, eps + p["P"][:, BETA:BETA + 1] * rate)
+            forces[k, pos] = np.einsum("eij,ej->ei", section_stiffness(p["P"]), eps + p["P"][:, BETA:BETA + 1] * rate)
     arc = np.concatenate(([0.0], np.cumsum([e.L for _, _, e in els])))
     return BeamSeries(name, np.asarray(result.t).copy(), nodes, [e.name for _, _, e in els], arc,
                       X[..., 0:3].copy(), frames, forces, strains)
