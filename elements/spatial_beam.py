@@ -38,12 +38,17 @@ six directions of d, by the chain rule through their factored evaluation
 T_SE3⁻¹): T_UΩ is linear in U, so its U-derivative is one 3 × 3 matrix; along Ω the
 coefficients s2 … s6 change with x = φ² through the closed-form derivatives
 of :func:`dsfun` (s2' = (s1/2 − s2)/x, s3' = (s2 − 3s3)/(2x), s4', s5', s6' = (s5 − 5s6)/(2x);
-series below x = 0.01). G is built by 3 × 3 blocks (:func:`_g_blocks`): T⁻¹(Ω) and T_UΩ are
-formed once as matrices, and at −d (node A) they are their transposes, so that Q, the
-derivatives of b_U, b_Ω and the rotations R_s, R̄ of the rows are 3 × 3 products and
-rank-one sums. Exact (no difference step); checked against finite
-differences of the force in tests/test_spatial_beam.py. ``fv = −(β/L) Qᵀ C Q`` plus the
-gyroscopic part below.
+series below x = 0.01). G and E are built by 3 × 3 blocks (:func:`_g_blocks`,
+:func:`_e_blocks`): T⁻¹(Ω) and T_UΩ are formed once as matrices, and at −d (node A) they
+are their transposes, so that Q, the derivatives of b_U, b_Ω and the rotations R_s, R̄ of
+the rows are 3 × 3 products and rank-one sums. Exact (no difference step); checked against
+finite differences of the force in tests/test_spatial_beam.py. ``fv = −(β/L) Qᵀ C Q`` plus
+the gyroscopic part below.
+
+Arithmetic: the kernels that form only the tangent compile with fused multiply–adds
+(``TANGENT``); the forces keep plain IEEE arithmetic, so the residual, hence every
+converged state, is the same whether or not a step forms a tangent, and the same as
+before the tangent was so compiled (docs/beams.md, "Kernel cost").
 
 Inertia: **consistent translational mass** for linear interpolation of the
 centroid, ρA L/6 [2 1; 1 2] ⊗ I₃ in (ẋ_A, ẋ_B), and **lumped rotary inertia**
@@ -215,82 +220,6 @@ def dsfun(phi2):
     d5 = (sn - phi * c) / (2.0 * phi * x * x) - 2.0 * s5 / x
     d6 = (s5 - 5.0 * s6) / (2.0 * x)
     return d2, d3, d4, d5, d6
-
-
-@kernel(**TANGENT)
-def _dtinv3(W, s4, ds4, a, dW, da):
-    """Directional derivative of T⁻¹(W) a = a + ½ W × a + s4 W × (W × a) along (dW, da)."""
-    wa = sp.cross3(W, a)
-    wwa = sp.cross3(W, wa)
-    dwa = sp.add3(sp.cross3(dW, a), sp.cross3(W, da))
-    dwwa = sp.add3(sp.cross3(dW, wa), sp.cross3(W, dwa))
-    c = 2.0 * ds4 * sp.dot3(W, dW)
-    return (da[0] + 0.5 * dwa[0] + c * wwa[0] + s4 * dwwa[0], da[1] + 0.5 * dwa[1] + c * wwa[1] + s4 * dwwa[1],
-            da[2] + 0.5 * dwa[2] + c * wwa[2] + s4 * dwwa[2])
-
-
-@kernel(**TANGENT)
-def _dtuw(U, W, s, ds, a, sgn, dU, dW, da):
-    """Directional derivative of :func:`_tuw` (T_UΩ a or T_UΩᵀ a) along (dU, dW, da)."""
-    s2, s3, s4, s5, s6 = s
-    d2, d3, d4, d5, d6 = ds
-    dx = 2.0 * sp.dot3(W, dW)
-    wu = sp.dot3(W, U)
-    dwu = sp.dot3(dW, U) + sp.dot3(W, dU)
-    ua = sp.cross3(U, a)
-    wa = sp.cross3(W, a)
-    uwa = sp.cross3(U, wa)
-    wua = sp.cross3(W, ua)
-    wwa = sp.cross3(W, wa)
-    dua = sp.add3(sp.cross3(dU, a), sp.cross3(U, da))
-    dwa = sp.add3(sp.cross3(dW, a), sp.cross3(W, da))
-    duwa = sp.add3(sp.cross3(dU, wa), sp.cross3(U, dwa))
-    dwua = sp.add3(sp.cross3(dW, ua), sp.cross3(W, dua))
-    dwwa = sp.add3(sp.cross3(dW, wa), sp.cross3(W, dwa))
-    c1 = -sgn * s2
-    c5 = sgn * s5 * wu
-    c6 = -s6 * wu
-    dc1 = -sgn * d2 * dx
-    dc3 = d3 * dx
-    dc5 = sgn * (d5 * dx * wu + s5 * dwu)
-    dc6 = -(d6 * dx * wu + s6 * dwu)
-    r0 = (dc1 * ua[0] + c1 * dua[0] + dc3 * (uwa[0] + wua[0]) + s3 * (duwa[0] + dwua[0]) + dc5 * wa[0]
-          + c5 * dwa[0] + dc6 * wwa[0] + c6 * dwwa[0])
-    r1 = (dc1 * ua[1] + c1 * dua[1] + dc3 * (uwa[1] + wua[1]) + s3 * (duwa[1] + dwua[1]) + dc5 * wa[1]
-          + c5 * dwa[1] + dc6 * wwa[1] + c6 * dwwa[1])
-    r2 = (dc1 * ua[2] + c1 * dua[2] + dc3 * (uwa[2] + wua[2]) + s3 * (duwa[2] + dwua[2]) + dc5 * wa[2]
-          + c5 * dwa[2] + dc6 * wwa[2] + c6 * dwwa[2])
-    return (r0, r1, r2)
-
-
-@kernel(**TANGENT)
-def dtinvt_se3(U, W, s, ds, aU, aW, dU, dW):
-    """Derivative of T_SE3⁻ᵀ(d) a (a fixed) along d-direction (dU, dW): returns (dbU, dbW).
-
-    Chain rule through :func:`tinvt_se3`: b_U = T⁻¹(−Ω) a_U, b_Ω = T⁻¹(−Ω)(a_Ω − T_UΩᵀ b_U).
-    """
-    z = (0.0, 0.0, 0.0)
-    mW = sp.scale3(-1.0, W)
-    mdW = sp.scale3(-1.0, dW)
-    bU = _tinv3(mW, s[2], aU)
-    dbU = _dtinv3(mW, s[2], ds[2], aU, mdW, z)
-    t = _tuw(U, W, s, bU, -1.0)
-    dt = _dtuw(U, W, s, ds, bU, -1.0, dU, dW, dbU)
-    dbW = _dtinv3(mW, s[2], ds[2], sp.sub3(aW, t), mdW, sp.scale3(-1.0, dt))
-    return dbU, dbW
-
-
-@kernel(**TANGENT)
-def dtinv_se3(U, W, s, ds, aU, aW, dU, dW):
-    """Derivative of T_SE3⁻¹(d) a (a fixed) along (dU, dW), through :func:`tinv_se3`:
-    b_Ω = T⁻¹(Ω) a_Ω, b_U = T⁻¹(Ω)(a_U − T_UΩ b_Ω)."""
-    z = (0.0, 0.0, 0.0)
-    bW = _tinv3(W, s[2], aW)
-    dbW = _dtinv3(W, s[2], ds[2], aW, dW, z)
-    t = _tuw(U, W, s, bW, 1.0)
-    dt = _dtuw(U, W, s, ds, bW, 1.0, dU, dW, dbW)
-    dbU = _dtinv3(W, s[2], ds[2], sp.sub3(aU, t), dW, sp.scale3(-1.0, dt))
-    return dbU, dbW
 
 
 @kernel
@@ -523,21 +452,87 @@ def _g_blocks(Ub, Wb, s, ds, Mb, Nb, b, r, Da, Rx, Rt, ident, buf, r0):
 
 
 @kernel(**TANGENT)
-def _unit3(k):
-    """e_k (k in 0..2), or zero for k outside."""
-    return (1.0 if k == 0 else 0.0, 1.0 if k == 1 else 0.0, 1.0 if k == 2 else 0.0)
+def _dplus_mat(W, s4, ds4, a):
+    """∂(T⁻¹(Ω) a)/∂Ω (3 × 3) for T⁻¹(Ω) a = a + ½ Ω × a + s4 Ω × (Ω × a):
+    −½ a~ + s4((Ω·a) I + Ω aᵀ − 2 a Ωᵀ) + 2 s4' (Ω × (Ω × a)) Ωᵀ (:func:`_dtinvt_mat` with the
+    sign of the ½ a~ term turned)."""
+    wwa = sp.cross3(W, sp.cross3(W, a))
+    c = 2.0 * ds4
+    s = 2.0 * s4
+    v = (c * wwa[0] - s * a[0], c * wwa[1] - s * a[1], c * wwa[2] - s * a[2])
+    return _rank2s(v, W, (s4 * W[0], s4 * W[1], s4 * W[2]), a, (-0.5 * a[0], -0.5 * a[1], -0.5 * a[2]),
+                   s4 * sp.dot3(W, a))
 
 
 @kernel(**TANGENT)
-def _ecol_a(k, U, W, s, ds, vA, vB):
-    """Column k of E = ∂ḋ/∂d at fixed section velocities (analytic), a 6-tuple:
-    ḋ = −T_SE3⁻¹(−d) ξ̇_A + T_SE3⁻¹(d) ξ̇_B, so ∂ḋ[δ] = D(T_SE3⁻¹ ξ̇_A)(−d)[δ] + D(T_SE3⁻¹ ξ̇_B)(d)[δ]."""
-    dU = _unit3(k)
-    dW = _unit3(k - 3)
-    a = dtinv_se3(_neg3(U), _neg3(W), s, ds, vA[0], vA[1], dU, dW)
-    b = dtinv_se3(U, W, s, ds, vB[0], vB[1], dU, dW)
-    return (a[0][0] + b[0][0], a[0][1] + b[0][1], a[0][2] + b[0][2],
-            a[1][0] + b[1][0], a[1][1] + b[1][1], a[1][2] + b[1][2])
+def _e_blocks(Ub, Wb, s, ds, Mb, Nb, a, buf, first):
+    """Add ∂(T_SE3⁻¹(d_b) a)/∂d_b (6 × 6) to E = buf[144:180] (column k at 144 + 6k), by 3 × 3
+    blocks; ``first``: set E instead of adding.
+
+    Side B: d_b = d, a = ξ̇_B; side A: d_b = −d, a = ξ̇_A (ḋ = −T_SE3⁻¹(−d) ξ̇_A + T_SE3⁻¹(d) ξ̇_B,
+    whose derivative along δ is the sum of the two). ``Mb`` = T⁻¹(Ω_b), ``Nb`` = T_UΩ at d_b.
+    Through :func:`tinv_se3`: b_Ω = Mb a_Ω, t = Nb b_Ω, r = a_U − t, b_U = Mb r, with
+    T_UΩ b = −s2 U × b + s3(U × (Ω × b) + Ω × (U × b)) + (Ω·U)(s5 Ω × b − s6 Ω × (Ω × b)):
+
+    * ∂b_Ω/∂U = 0, ∂b_Ω/∂Ω = D⁺(a_Ω) (:func:`_dplus_mat`);
+    * ∂b_U/∂U = −Mb D_U, D_U = ∂(T_UΩ b_Ω)/∂U = (s2 b − s3 Ω × b)~ + s3(Ω·b) I − v Ωᵀ,
+      v = s3 b − s5 Ω × b + s6 Ω × (Ω × b);
+    * ∂b_U/∂Ω = D⁺(r) − Mb(D_Ω + Nb D⁺(a_Ω)), D_Ω = ∂(T_UΩ b)/∂Ω at fixed b
+      = v₁Ωᵀ + u₁Uᵀ + (s3 U − s6(Ω·U)Ω) bᵀ + (−s5(Ω·U) b)~ + (s3 U·b − s6(Ω·U) Ω·b) I,
+      v₁ = 2[−s2' U × b + s3'(U × (Ω × b) + Ω × (U × b)) + (Ω·U)(s5' Ω × b − s6' Ω × (Ω × b)) + s6(Ω·U) b],
+      u₁ = −2 s3 b + s5 Ω × b − s6 Ω × (Ω × b) (the derivation of :func:`_g_blocks` with T_UΩ
+      in place of its transpose).
+    """
+    s2, s3, s4, s5, s6 = s
+    d2, d3, d4, d5, d6 = ds
+    U = Ub
+    W = Wb
+    aU = a[0]
+    aW = a[1]
+    b = sp.mv(Mb, aW)
+    t = sp.mv(Nb, b)
+    r = sp.sub3(aU, t)
+    wu = sp.dot3(W, U)
+    wb = sp.cross3(W, b)
+    wwb = sp.cross3(W, wb)
+    ub = sp.cross3(U, b)
+    uwb = sp.cross3(U, wb)
+    wub = sp.cross3(W, ub)
+    mv = (-s3 * b[0] + s5 * wb[0] - s6 * wwb[0], -s3 * b[1] + s5 * wb[1] - s6 * wwb[1],
+          -s3 * b[2] + s5 * wb[2] - s6 * wwb[2])
+    gu = (s2 * b[0] - s3 * wb[0], s2 * b[1] - s3 * wb[1], s2 * b[2] - s3 * wb[2])
+    DU = _rank1s(mv, W, gu, s3 * sp.dot3(W, b))
+    v1 = (2.0 * (-d2 * ub[0] + d3 * (uwb[0] + wub[0]) + wu * (d5 * wb[0] - d6 * wwb[0] + s6 * b[0])),
+          2.0 * (-d2 * ub[1] + d3 * (uwb[1] + wub[1]) + wu * (d5 * wb[1] - d6 * wwb[1] + s6 * b[1])),
+          2.0 * (-d2 * ub[2] + d3 * (uwb[2] + wub[2]) + wu * (d5 * wb[2] - d6 * wwb[2] + s6 * b[2])))
+    u1 = (-2.0 * s3 * b[0] + s5 * wb[0] - s6 * wwb[0], -2.0 * s3 * b[1] + s5 * wb[1] - s6 * wwb[1],
+          -2.0 * s3 * b[2] + s5 * wb[2] - s6 * wwb[2])
+    c6 = -s6 * wu
+    cU = (s3 * U[0] + c6 * W[0], s3 * U[1] + c6 * W[1], s3 * U[2] + c6 * W[2])
+    g = (-s5 * wu * b[0], -s5 * wu * b[1], -s5 * wu * b[2])
+    DW = _rank3t(v1, W, u1, U, cU, b, g, s3 * sp.dot3(U, b) + c6 * sp.dot3(W, b))
+    Daw = _dplus_mat(W, s4, d4, aW)
+    Dr = _dplus_mat(W, s4, d4, r)
+    Ki = _mm(Nb, Daw)
+    YU = _mm(Mb, DU)
+    YW = _mm(Mb, (DW[0] + Ki[0], DW[1] + Ki[1], DW[2] + Ki[2], DW[3] + Ki[3], DW[4] + Ki[4], DW[5] + Ki[5],
+                  DW[6] + Ki[6], DW[7] + Ki[7], DW[8] + Ki[8]))
+    # E[m, k] at 144 + 6k + m: the U rows (m < 3) and Ω rows (m ≥ 3) of the U columns (k < 3) and
+    # Ω columns (k ≥ 3)
+    for i in range(3):
+        for k in range(3):
+            uu = -YU[3 * i + k]
+            uw = Dr[3 * i + k] - YW[3 * i + k]
+            ww = Daw[3 * i + k]
+            if first:
+                buf[144 + 6 * k + i] = uu
+                buf[144 + 6 * (3 + k) + i] = uw
+                buf[144 + 6 * k + 3 + i] = 0.0
+                buf[144 + 6 * (3 + k) + 3 + i] = ww
+            else:
+                buf[144 + 6 * k + i] += uu
+                buf[144 + 6 * (3 + k) + i] += uw
+                buf[144 + 6 * (3 + k) + 3 + i] += ww
 
 
 @kernel
@@ -664,7 +659,7 @@ def _gyro_jac(Pe, oj, w, h, fv, o):
     fv[o + 2, o + 1] += h[0]
 
 
-NSCRATCH = 180
+NSCRATCH = 252
 
 
 def _make_scratch():
@@ -699,8 +694,9 @@ if jit_disabled():                          # plain Python (NUMBA_DISABLE_JIT=1)
 
 
 @kernel(**TANGENT)
-def _zq(buf, F, c):
-    """F −= c Z Q with Q (6 × 12) at buf[0:72] (row-major), Z (12 × 6) at buf[72:144].
+def _zq(buf, F, c, off):
+    """F −= c Z X with Z (12 × 6) at buf[72:144] and X (6 × 12, row-major) at buf[off:off+72]
+    (Q at 0, E Q + P V at 180).
 
     Each row of F is one loop over its columns (the Ω rows of Q hold zeros in the δx
     columns); its bound is read from F, so that the compiler keeps the loop and
@@ -716,8 +712,33 @@ def _zq(buf, F, c):
         z4 = c * buf[o + 4]
         z5 = c * buf[o + 5]
         for j in range(ncol):
-            F[i, j] -= (z0 * buf[j] + z1 * buf[12 + j] + z2 * buf[24 + j] + z3 * buf[36 + j]
-                        + z4 * buf[48 + j] + z5 * buf[60 + j])
+            F[i, j] -= (z0 * buf[off + j] + z1 * buf[off + 12 + j] + z2 * buf[off + 24 + j]
+                        + z3 * buf[off + 36 + j] + z4 * buf[off + 48 + j] + z5 * buf[off + 60 + j])
+
+
+@kernel(**TANGENT)
+def _eq_pv(buf, xdA, xdB, RA, RB, ncol):
+    """E Q + P V (6 × 12) into buf[180:252]: E (6 × 6) at buf[144:180] (column k at 144 + 6k),
+    Q at buf[0:72]; P V adds to the δθ columns of each node the Q columns of its δx times
+    ẋ × (column of R), the change of the section velocity R_sᵀẋ under δθ."""
+    for m in range(6):
+        e0 = buf[144 + m]
+        e1 = buf[150 + m]
+        e2 = buf[156 + m]
+        e3 = buf[162 + m]
+        e4 = buf[168 + m]
+        e5 = buf[174 + m]
+        o = 180 + 12 * m
+        for j in range(ncol):
+            buf[o + j] = (e0 * buf[j] + e1 * buf[12 + j] + e2 * buf[24 + j] + e3 * buf[36 + j]
+                          + e4 * buf[48 + j] + e5 * buf[60 + j])
+    for mm in range(3):
+        ca = sp.cross3(xdA, (RA[mm], RA[3 + mm], RA[6 + mm]))
+        cb = sp.cross3(xdB, (RB[mm], RB[3 + mm], RB[6 + mm]))
+        for k in range(6):
+            o = 12 * k
+            buf[180 + o + 3 + mm] += buf[o] * ca[0] + buf[o + 1] * ca[1] + buf[o + 2] * ca[2]
+            buf[180 + o + 9 + mm] += buf[o + 6] * cb[0] + buf[o + 7] * cb[1] + buf[o + 8] * cb[2]
 
 
 @kernel
@@ -845,58 +866,18 @@ def spatial_beam_force(P, t, tf, xe, ve, jac, fe, fq, fv):
                 buf[o + 5] = cq[5] * iL
         if beta != 0.0:
             # fv = −β Qᵀ(C/L)Q; fq −= β Qᵀ(C/L)(E Q + P V): E = ∂ḋ/∂d at fixed section
-            # velocities (analytic), P V the change of R_sᵀẋ under δθ (columns θ_A, θ_B)
-            for k in range(6):
-                ek = _ecol_a(k, U, W, s, ds, vA, vB)
-                for m in range(6):
-                    buf[144 + 6 * k + m] = ek[m]
-            for j in range(12):
-                q = (buf[j], buf[12 + j], buf[24 + j], buf[36 + j], buf[48 + j], buf[60 + j])
-                z0 = 0.0
-                z1 = 0.0
-                z2 = 0.0
-                z3 = 0.0
-                z4 = 0.0
-                z5 = 0.0
-                for k in range(6):
-                    c = q[k]
-                    o = 144 + 6 * k
-                    z0 += buf[o] * c
-                    z1 += buf[o + 1] * c
-                    z2 += buf[o + 2] * c
-                    z3 += buf[o + 3] * c
-                    z4 += buf[o + 4] * c
-                    z5 += buf[o + 5] * c
-                blk = j // 3
-                if blk == 1 or blk == 3:
-                    m = j - 3 * blk
-                    if blk == 1:
-                        cr = sp.cross3(xdA, (RA[m], RA[3 + m], RA[6 + m]))
-                        o = 0
-                    else:
-                        cr = sp.cross3(xdB, (RB[m], RB[3 + m], RB[6 + m]))
-                        o = 6
-                    for n in range(3):
-                        cn = cr[n]
-                        z0 += buf[o + n] * cn
-                        z1 += buf[12 + o + n] * cn
-                        z2 += buf[24 + o + n] * cn
-                        z3 += buf[36 + o + n] * cn
-                        z4 += buf[48 + o + n] * cn
-                        z5 += buf[60 + o + n] * cn
-                for i in range(12):
-                    o = 72 + 6 * i
-                    zi = buf[o]
-                    fq[e, i, j] -= beta * (buf[o] * z0 + buf[o + 1] * z1 + buf[o + 2] * z2 + buf[o + 3] * z3
-                                           + buf[o + 4] * z4 + buf[o + 5] * z5)
-                    fv[e, i, j] -= beta * (zi * q[0] + buf[o + 1] * q[1] + buf[o + 2] * q[2]
-                                           + buf[o + 3] * q[3] + buf[o + 4] * q[4] + buf[o + 5] * q[5])
+            # velocities (:func:`_e_blocks`), P V the change of R_sᵀẋ under δθ (columns θ_A, θ_B)
+            _zq(buf, fv[e], beta, 0)
+            _e_blocks(_neg3(U), _neg3(W), s, ds, Mt, Nt, vA, buf, True)
+            _e_blocks(U, W, s, ds, M, N, vB, buf, False)
+            _eq_pv(buf, xdA, xdB, RA, RB, fq.shape[2])
+            _zq(buf, fq[e], beta, 180)
         # G (12 × 6) = ∂(h_A, h_B)/∂d at fixed σ (analytic, :func:`_g_blocks`); Z += Aᵀ G, then
         # fq −= Z Q = Qᵀ(C/L)Q + Aᵀ G Q
         DaB, DaA = _dtinvt_pair(W, s[2], ds[2], sU)
         _g_blocks(_neg3(U), _neg3(W), s, ds, Mt, Nt, bUA, rA, DaA, RsA, RbA, ident, buf, 0)
         _g_blocks(U, W, s, ds, M, N, bUB, rB, DaB, RsB, RbB, ident, buf, 6)
-        _zq(buf, fq[e], 1.0)
+        _zq(buf, fq[e], 1.0, 0)
         # the rotation of the force directions: ∂(−R R̄ h_U)/∂δθ = R (R̄ h_U)~
         if ident:
             ma = sp.rskew(RA, hA[0])
