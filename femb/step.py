@@ -16,7 +16,8 @@ The iteration matrix is stored and factorized as a band matrix after a
 bandwidth-reducing symmetric permutation (computed once per model by
 :mod:`femb.codegen`): ``AB[j, d + i − j]`` holds entry (i, j) of the permuted
 matrix, ``d = kl + ku``, leaving room for the fill of partial pivoting (LAPACK's
-``gbtrf`` storage, transposed); small systems are stored densely.
+``gbtrf`` storage, transposed); factors without row interchanges are moved into compact
+storage for the solves (:func:`band_lu`); small systems are stored densely.
 
 References
 ----------
