@@ -151,15 +151,19 @@ def _tinv3(W, s4, a):
 
 
 @kernel
+def _uw_terms(U, W, a):
+    """(Ω·U, U × a, Ω × a, U × (Ω × a), Ω × (U × a), Ω × (Ω × a)): the terms of T_UΩ a and of its
+    derivatives."""
+    ua = sp.cross3(U, a)
+    wa = sp.cross3(W, a)
+    return sp.dot3(W, U), ua, wa, sp.cross3(U, wa), sp.cross3(W, ua), sp.cross3(W, wa)
+
+
+@kernel
 def _tuw(U, W, s, a, sgn):
     """T_UΩ a (sgn = 1) or T_UΩᵀ a (sgn = −1); s = sfun(|Ω|²)."""
     s2, s3, s4, s5, s6 = s
-    wu = sp.dot3(W, U)
-    ua = sp.cross3(U, a)
-    wa = sp.cross3(W, a)
-    uwa = sp.cross3(U, wa)
-    wua = sp.cross3(W, ua)
-    wwa = sp.cross3(W, wa)
+    wu, ua, wa, uwa, wua, wwa = _uw_terms(U, W, a)
     c1 = -sgn * s2
     c5 = sgn * s5 * wu
     c6 = -s6 * wu
@@ -305,20 +309,54 @@ def _tuw_mat(U, W, s):
 
 
 @kernel(**TANGENT)
-def _dtinvt_mat(W, s4, ds4, a):
-    """∂(T⁻¹(−Ω) a)/∂Ω (3 × 3) for T⁻¹(−Ω) a = a − ½ Ω × a + s4 Ω × (Ω × a):
-    ½ a~ + s4((Ω·a) I + Ω aᵀ − 2 a Ωᵀ) + 2 s4' (Ω × (Ω × a)) Ωᵀ."""
+def _dtinv_mat(W, s4, ds4, a, sgn):
+    """∂(T⁻¹(sgn Ω) a)/∂Ω (3 × 3) for T⁻¹(sgn Ω) a = a + ½ sgn Ω × a + s4 Ω × (Ω × a):
+    −½ sgn a~ + s4((Ω·a) I + Ω aᵀ − 2 a Ωᵀ) + 2 s4' (Ω × (Ω × a)) Ωᵀ."""
     wwa = sp.cross3(W, sp.cross3(W, a))
     c = 2.0 * ds4
     s = 2.0 * s4
+    h = -0.5 * sgn
     v = (c * wwa[0] - s * a[0], c * wwa[1] - s * a[1], c * wwa[2] - s * a[2])
-    return _rank2s(v, W, (s4 * W[0], s4 * W[1], s4 * W[2]), a, (0.5 * a[0], 0.5 * a[1], 0.5 * a[2]),
+    return _rank2s(v, W, (s4 * W[0], s4 * W[1], s4 * W[2]), a, (h * a[0], h * a[1], h * a[2]),
                    s4 * sp.dot3(W, a))
 
 
 @kernel(**TANGENT)
+def _dtuw_blocks(U, W, s, ds, b, sgn):
+    """(D_U, D_Ω): the derivatives of T_UΩ b (sgn = 1) or T_UΩᵀ b (sgn = −1) at fixed b along U
+    and along Ω (3 × 3 each). With σ = sgn, T b = −σ s2 U × b + s3(U × (Ω × b) + Ω × (U × b))
+    + (Ω·U)(σ s5 Ω × b − s6 Ω × (Ω × b)) (:func:`_tuw`), T linear in U:
+
+    D_U = (σ s2 b − s3 Ω × b)~ + s3(Ω·b) I + v Ωᵀ,  v = −s3 b + σ s5 Ω × b − s6 Ω × (Ω × b);
+    D_Ω = v₁Ωᵀ + (v − s3 b)Uᵀ + (s3 U − s6(Ω·U)Ω) bᵀ + (−σ s5(Ω·U) b)~ + (s3 U·b − s6(Ω·U) Ω·b) I,
+    v₁ = 2[−σ s2' U × b + s3'(U × (Ω × b) + Ω × (U × b)) + (Ω·U)(σ s5' Ω × b − s6' Ω × (Ω × b) + s6 b)]
+
+    (s' = ds/dφ², :func:`dsfun`; a~b~ = b aᵀ − (a·b) I and (a × b)~ = b aᵀ − a bᵀ).
+    """
+    s2, s3, s4, s5, s6 = s
+    d2, d3, d4, d5, d6 = ds
+    wu, ub, wb, uwb, wub, wwb = _uw_terms(U, W, b)
+    c5 = sgn * s5
+    v = (-s3 * b[0] + c5 * wb[0] - s6 * wwb[0], -s3 * b[1] + c5 * wb[1] - s6 * wwb[1],
+         -s3 * b[2] + c5 * wb[2] - s6 * wwb[2])
+    gu = (sgn * s2 * b[0] - s3 * wb[0], sgn * s2 * b[1] - s3 * wb[1], sgn * s2 * b[2] - s3 * wb[2])
+    DU = _rank1s(v, W, gu, s3 * sp.dot3(W, b))
+    e2 = -sgn * d2
+    e5 = sgn * d5
+    v1 = (2.0 * (e2 * ub[0] + d3 * (uwb[0] + wub[0]) + wu * (e5 * wb[0] - d6 * wwb[0] + s6 * b[0])),
+          2.0 * (e2 * ub[1] + d3 * (uwb[1] + wub[1]) + wu * (e5 * wb[1] - d6 * wwb[1] + s6 * b[1])),
+          2.0 * (e2 * ub[2] + d3 * (uwb[2] + wub[2]) + wu * (e5 * wb[2] - d6 * wwb[2] + s6 * b[2])))
+    c6 = -s6 * wu
+    u1 = (v[0] - s3 * b[0], v[1] - s3 * b[1], v[2] - s3 * b[2])
+    cU = (s3 * U[0] + c6 * W[0], s3 * U[1] + c6 * W[1], s3 * U[2] + c6 * W[2])
+    g = (-c5 * wu * b[0], -c5 * wu * b[1], -c5 * wu * b[2])
+    DW = _rank3t(v1, W, u1, U, cU, b, g, s3 * sp.dot3(U, b) + c6 * sp.dot3(W, b))
+    return DU, DW
+
+
+@kernel(**TANGENT)
 def _dtinvt_pair(W, s4, ds4, a):
-    """:func:`_dtinvt_mat` at Ω and at −Ω (the same values): ½ a~ ± S with S, the part odd
+    """:func:`_dtinv_mat` (sgn = −1) at Ω and at −Ω (the same values): ½ a~ ± S with S, the part odd
     in Ω, formed once."""
     wwa = sp.cross3(W, sp.cross3(W, a))
     c = 2.0 * ds4
@@ -397,40 +435,19 @@ def _g_blocks(Ub, Wb, s, ds, Mb, Nb, b, r, Da, Rx, Rt, ident, buf, r0):
 
     Side B: d_b = d; side A: d_b = −d (h_A = −T_SE3⁻ᵀ(−d)σ, whose derivative along δ is that
     of T_SE3⁻ᵀ(·)σ at −d along δ). ``Mb`` = T⁻¹(Ω_b), ``Nb`` = T_UΩ at d_b. Through
-    :func:`tinvt_se3`: b_U = Mbᵀ a_U, t = Nbᵀ b_U, b_Ω = Mbᵀ r, r = a_Ω − t, with
-    Nbᵀ b = s2 U × b + s3(U × (Ω × b) + Ω × (U × b)) − (Ω·U)(s5 Ω × b + s6 Ω × (Ω × b)):
+    :func:`tinvt_se3`: b_U = Mbᵀ a_U, t = Nbᵀ b_U, b_Ω = Mbᵀ r, r = a_Ω − t:
 
-    * along U (b_U does not depend on U; T_UΩ is linear in U): ∂b_Ω/∂U = −Mbᵀ D_U,
-      D_U = ∂(Nbᵀ b_U)/∂U = (−s2 b − s3 Ω × b)~ + s3(Ω·b) I − v Ωᵀ, v = s3 b + s5 Ω × b + s6 Ω × (Ω × b);
-    * along Ω: ∂b_U/∂Ω = D(a_U) (:func:`_dtinvt_mat`) and ∂b_Ω/∂Ω = D(r) − Mbᵀ(D_Ω + Nbᵀ D(a_U)),
-      D_Ω = ∂(Nbᵀ b)/∂Ω at fixed b = v₁Ωᵀ − v Uᵀ − s6(Ω·U) Ω bᵀ + (−s3 U × b + s5(Ω·U) b)~
-      + (s3 U·b − s6(Ω·U) Ω·b) I, v₁ = 2[s2' U × b + s3'(U × (Ω × b) + Ω × (U × b))
-      − (Ω·U)(s5' Ω × b + s6' Ω × (Ω × b) − s6 b)] (s' = ds/dφ², :func:`dsfun`).
+    * along U (b_U does not depend on U): ∂b_Ω/∂U = −Mbᵀ D_U;
+    * along Ω: ∂b_U/∂Ω = D(a_U) and ∂b_Ω/∂Ω = D(r) − Mbᵀ(D_Ω + Nbᵀ D(a_U)),
+
+    with D(a) = ∂(T⁻¹(−Ω) a)/∂Ω (:func:`_dtinv_mat`) and D_U, D_Ω the derivatives of Nbᵀ b_U
+    (:func:`_dtuw_blocks`, sgn = −1).
 
     ``b`` = b_U, ``r`` and ``Da`` = D(a_U) come from the force evaluation (:func:`_dtinvt_pair`).
     Rows: R_x ∂b_U (r0 … r0 + 2; zero along U), R_t ∂b_Ω (r0 + 3 …); ``ident``: R_t = I.
     """
-    s2, s3, s4, s5, s6 = s
-    d2, d3, d4, d5, d6 = ds
-    U = Ub
-    W = Wb
-    wu = sp.dot3(W, U)
-    wb = sp.cross3(W, b)
-    wwb = sp.cross3(W, wb)
-    ub = sp.cross3(U, b)
-    uwb = sp.cross3(U, wb)
-    wub = sp.cross3(W, ub)
-    mv = (-s3 * b[0] - s5 * wb[0] - s6 * wwb[0], -s3 * b[1] - s5 * wb[1] - s6 * wwb[1],
-          -s3 * b[2] - s5 * wb[2] - s6 * wwb[2])
-    gu = (-s2 * b[0] - s3 * wb[0], -s2 * b[1] - s3 * wb[1], -s2 * b[2] - s3 * wb[2])
-    DU = _rank1s(mv, W, gu, s3 * sp.dot3(W, b))
-    v1 = (2.0 * (d2 * ub[0] + d3 * (uwb[0] + wub[0]) - wu * (d5 * wb[0] + d6 * wwb[0] - s6 * b[0])),
-          2.0 * (d2 * ub[1] + d3 * (uwb[1] + wub[1]) - wu * (d5 * wb[1] + d6 * wwb[1] - s6 * b[1])),
-          2.0 * (d2 * ub[2] + d3 * (uwb[2] + wub[2]) - wu * (d5 * wb[2] + d6 * wwb[2] - s6 * b[2])))
-    c6 = -s6 * wu
-    gw = (-s3 * ub[0] + s5 * wu * b[0], -s3 * ub[1] + s5 * wu * b[1], -s3 * ub[2] + s5 * wu * b[2])
-    DW = _rank3t(v1, W, mv, U, (c6 * W[0], c6 * W[1], c6 * W[2]), b, gw, s3 * sp.dot3(U, b) + c6 * sp.dot3(W, b))
-    Dr = _dtinvt_mat(W, s4, d4, r)
+    DU, DW = _dtuw_blocks(Ub, Wb, s, ds, b, -1.0)
+    Dr = _dtinv_mat(Wb, s[2], ds[2], r, -1.0)
     if ident:
         RM = sp.tr9(Mb)
     else:
@@ -452,67 +469,28 @@ def _g_blocks(Ub, Wb, s, ds, Mb, Nb, b, r, Da, Rx, Rt, ident, buf, r0):
 
 
 @kernel(**TANGENT)
-def _dplus_mat(W, s4, ds4, a):
-    """∂(T⁻¹(Ω) a)/∂Ω (3 × 3) for T⁻¹(Ω) a = a + ½ Ω × a + s4 Ω × (Ω × a):
-    −½ a~ + s4((Ω·a) I + Ω aᵀ − 2 a Ωᵀ) + 2 s4' (Ω × (Ω × a)) Ωᵀ (:func:`_dtinvt_mat` with the
-    sign of the ½ a~ term turned)."""
-    wwa = sp.cross3(W, sp.cross3(W, a))
-    c = 2.0 * ds4
-    s = 2.0 * s4
-    v = (c * wwa[0] - s * a[0], c * wwa[1] - s * a[1], c * wwa[2] - s * a[2])
-    return _rank2s(v, W, (s4 * W[0], s4 * W[1], s4 * W[2]), a, (-0.5 * a[0], -0.5 * a[1], -0.5 * a[2]),
-                   s4 * sp.dot3(W, a))
-
-
-@kernel(**TANGENT)
 def _e_blocks(Ub, Wb, s, ds, Mb, Nb, a, buf, first):
     """Add ∂(T_SE3⁻¹(d_b) a)/∂d_b (6 × 6) to E = buf[144:180] (column k at 144 + 6k), by 3 × 3
     blocks; ``first``: set E instead of adding.
 
     Side B: d_b = d, a = ξ̇_B; side A: d_b = −d, a = ξ̇_A (ḋ = −T_SE3⁻¹(−d) ξ̇_A + T_SE3⁻¹(d) ξ̇_B,
     whose derivative along δ is the sum of the two). ``Mb`` = T⁻¹(Ω_b), ``Nb`` = T_UΩ at d_b.
-    Through :func:`tinv_se3`: b_Ω = Mb a_Ω, t = Nb b_Ω, r = a_U − t, b_U = Mb r, with
-    T_UΩ b = −s2 U × b + s3(U × (Ω × b) + Ω × (U × b)) + (Ω·U)(s5 Ω × b − s6 Ω × (Ω × b)):
+    Through :func:`tinv_se3`: b_Ω = Mb a_Ω, t = Nb b_Ω, r = a_U − t, b_U = Mb r:
 
-    * ∂b_Ω/∂U = 0, ∂b_Ω/∂Ω = D⁺(a_Ω) (:func:`_dplus_mat`);
-    * ∂b_U/∂U = −Mb D_U, D_U = ∂(T_UΩ b_Ω)/∂U = (s2 b − s3 Ω × b)~ + s3(Ω·b) I − v Ωᵀ,
-      v = s3 b − s5 Ω × b + s6 Ω × (Ω × b);
-    * ∂b_U/∂Ω = D⁺(r) − Mb(D_Ω + Nb D⁺(a_Ω)), D_Ω = ∂(T_UΩ b)/∂Ω at fixed b
-      = v₁Ωᵀ + u₁Uᵀ + (s3 U − s6(Ω·U)Ω) bᵀ + (−s5(Ω·U) b)~ + (s3 U·b − s6(Ω·U) Ω·b) I,
-      v₁ = 2[−s2' U × b + s3'(U × (Ω × b) + Ω × (U × b)) + (Ω·U)(s5' Ω × b − s6' Ω × (Ω × b)) + s6(Ω·U) b],
-      u₁ = −2 s3 b + s5 Ω × b − s6 Ω × (Ω × b) (the derivation of :func:`_g_blocks` with T_UΩ
-      in place of its transpose).
+    * ∂b_Ω/∂U = 0, ∂b_Ω/∂Ω = D⁺(a_Ω);
+    * ∂b_U/∂U = −Mb D_U, ∂b_U/∂Ω = D⁺(r) − Mb(D_Ω + Nb D⁺(a_Ω)),
+
+    with D⁺(a) = ∂(T⁻¹(Ω) a)/∂Ω (:func:`_dtinv_mat`) and D_U, D_Ω the derivatives of T_UΩ b_Ω
+    (:func:`_dtuw_blocks`, sgn = 1): the derivation of :func:`_g_blocks` with T_UΩ in place of
+    its transpose.
     """
-    s2, s3, s4, s5, s6 = s
-    d2, d3, d4, d5, d6 = ds
-    U = Ub
-    W = Wb
     aU = a[0]
     aW = a[1]
     b = sp.mv(Mb, aW)
-    t = sp.mv(Nb, b)
-    r = sp.sub3(aU, t)
-    wu = sp.dot3(W, U)
-    wb = sp.cross3(W, b)
-    wwb = sp.cross3(W, wb)
-    ub = sp.cross3(U, b)
-    uwb = sp.cross3(U, wb)
-    wub = sp.cross3(W, ub)
-    mv = (-s3 * b[0] + s5 * wb[0] - s6 * wwb[0], -s3 * b[1] + s5 * wb[1] - s6 * wwb[1],
-          -s3 * b[2] + s5 * wb[2] - s6 * wwb[2])
-    gu = (s2 * b[0] - s3 * wb[0], s2 * b[1] - s3 * wb[1], s2 * b[2] - s3 * wb[2])
-    DU = _rank1s(mv, W, gu, s3 * sp.dot3(W, b))
-    v1 = (2.0 * (-d2 * ub[0] + d3 * (uwb[0] + wub[0]) + wu * (d5 * wb[0] - d6 * wwb[0] + s6 * b[0])),
-          2.0 * (-d2 * ub[1] + d3 * (uwb[1] + wub[1]) + wu * (d5 * wb[1] - d6 * wwb[1] + s6 * b[1])),
-          2.0 * (-d2 * ub[2] + d3 * (uwb[2] + wub[2]) + wu * (d5 * wb[2] - d6 * wwb[2] + s6 * b[2])))
-    u1 = (-2.0 * s3 * b[0] + s5 * wb[0] - s6 * wwb[0], -2.0 * s3 * b[1] + s5 * wb[1] - s6 * wwb[1],
-          -2.0 * s3 * b[2] + s5 * wb[2] - s6 * wwb[2])
-    c6 = -s6 * wu
-    cU = (s3 * U[0] + c6 * W[0], s3 * U[1] + c6 * W[1], s3 * U[2] + c6 * W[2])
-    g = (-s5 * wu * b[0], -s5 * wu * b[1], -s5 * wu * b[2])
-    DW = _rank3t(v1, W, u1, U, cU, b, g, s3 * sp.dot3(U, b) + c6 * sp.dot3(W, b))
-    Daw = _dplus_mat(W, s4, d4, aW)
-    Dr = _dplus_mat(W, s4, d4, r)
+    r = sp.sub3(aU, sp.mv(Nb, b))
+    DU, DW = _dtuw_blocks(Ub, Wb, s, ds, b, 1.0)
+    Daw = _dtinv_mat(Wb, s[2], ds[2], aW, 1.0)
+    Dr = _dtinv_mat(Wb, s[2], ds[2], r, 1.0)
     Ki = _mm(Nb, Daw)
     YU = _mm(Mb, DU)
     YW = _mm(Mb, (DW[0] + Ki[0], DW[1] + Ki[1], DW[2] + Ki[2], DW[3] + Ki[3], DW[4] + Ki[4], DW[5] + Ki[5],
