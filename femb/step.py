@@ -273,26 +273,20 @@ def band_lu(ABf, N, kl, ku, env, ipiv, rel_tol):
 
 @engine(**ENTRY)
 def band_solve(ABf, N, kl, ku, env, ipiv, b):
-    """Solve with the factors of :func:`band_lu`, in place on ``b`` (permuted order)."""
+    """Solve with the factors of :func:`band_lu`, in place on ``b`` (permuted order).
+
+    Entry (i, j) of the factors is at j ld + off + i − j: ld = 2 kl + ku + 1, off = kl + ku
+    (full storage), or ld = kl + ku + 1, off = ku (compact factors, ``ipiv[N]`` = 1, no
+    interchanges, U within ku superdiagonals).
+    """
     if ipiv.shape[0] > N and ipiv[N] == 1:
-        # compact factors, no interchanges (:func:`band_lu`): entry (i, j) at j ld2 + ku + i − j
-        ld2 = kl + ku + 1
-        for j in range(N):
-            bj = b[j]
-            if bj != 0.0:
-                o = j * ld2 + ku - j
-                for i in range(j + 1, env[0, j] + 1):
-                    b[i] -= ABf[o + i] * bj
-        for j in range(N - 1, -1, -1):
-            o = j * ld2 + ku - j
-            b[j] /= ABf[o + j]
-            bj = b[j]
-            if bj != 0.0:
-                for i in range(max(env[2, j], j - ku), j):
-                    b[i] -= ABf[o + i] * bj
-        return
-    d = kl + ku
-    AB = ABf.reshape((N, 2 * kl + ku + 1))
+        ld = kl + ku + 1
+        off = ku
+        reach = ku
+    else:
+        ld = 2 * kl + ku + 1
+        off = kl + ku
+        reach = N
     for j in range(N):
         p = ipiv[j]
         if p != j:
@@ -301,14 +295,16 @@ def band_solve(ABf, N, kl, ku, env, ipiv, b):
             b[p] = tmp
         bj = b[j]
         if bj != 0.0:
+            o = j * ld + off - j
             for i in range(j + 1, env[0, j] + 1):
-                b[i] -= AB[j, d + i - j] * bj
+                b[i] -= ABf[o + i] * bj
     for j in range(N - 1, -1, -1):
-        b[j] /= AB[j, d]
+        o = j * ld + off - j
+        b[j] /= ABf[o + j]
         bj = b[j]
         if bj != 0.0:
-            for i in range(env[2, j], j):
-                b[i] -= AB[j, d + i - j] * bj
+            for i in range(max(env[2, j], j - reach), j):
+                b[i] -= ABf[o + i] * bj
 
 
 @njit(**INNER)
