@@ -131,13 +131,17 @@ def sfun(phi2):
         s6 = 1.0 / 60.0 - x / 1260.0 + x * x / 60480.0 - x * x * x / 4989600.0 + x * x * x * x / 622702080.0
         return s2, s3, s4, s5, s6
     phi = np.sqrt(x)
-    s = np.sin(phi)
-    c = np.cos(phi)
+    return _s_closed(x, phi, np.sin(phi), np.cos(phi))
+
+
+@kernel
+def _s_closed(x, phi, sn, c):
+    """(s2, …, s6) by their closed forms from x = φ², φ, sin φ, cos φ (:func:`sfun` above the series)."""
     s2 = (1.0 - c) / x
-    s3 = (phi - s) / (x * phi)
-    s4 = (1.0 - 0.5 * phi * s / (1.0 - c)) / x
-    s5 = (2.0 - 2.0 * c - phi * s) / (x * x)
-    s6 = (phi * (2.0 + c) - 3.0 * s) / (x * x * phi)
+    s3 = (phi - sn) / (x * phi)
+    s4 = (1.0 - 0.5 * phi * sn / (1.0 - c)) / x
+    s5 = (2.0 - 2.0 * c - phi * sn) / (x * x)
+    s6 = (phi * (2.0 + c) - 3.0 * sn) / (x * x * phi)
     return s2, s3, s4, s5, s6
 
 
@@ -217,12 +221,21 @@ def dsfun(phi2):
     phi = np.sqrt(x)
     sn = np.sin(phi)
     c = np.cos(phi)
-    s2, s3, s4, s5, s6 = sfun(x)
-    d2 = (0.5 * sn / phi - s2) / x
-    d3 = (s2 - 3.0 * s3) / (2.0 * x)
-    d4 = -((sn - phi) / (4.0 * phi * (1.0 - c)) + s4) / x
-    d5 = (sn - phi * c) / (2.0 * phi * x * x) - 2.0 * s5 / x
-    d6 = (s5 - 5.0 * s6) / (2.0 * x)
+    return _ds_closed(x, phi, sn, c, _s_closed(x, phi, sn, c))
+
+
+@kernel(**TANGENT)
+def _ds_closed(x, phi, sn, c, s):
+    """(s2', …, s6') by the closed forms of :func:`dsfun` (they serve the tangent only:
+    reciprocals instead of eight divisions)."""
+    s2, s3, s4, s5, s6 = s
+    ix = 1.0 / x
+    ip = 1.0 / phi
+    d2 = (0.5 * sn * ip - s2) * ix
+    d3 = 0.5 * (s2 - 3.0 * s3) * ix
+    d4 = -(0.25 * (sn - phi) * ip / (1.0 - c) + s4) * ix
+    d5 = (0.5 * (sn - phi * c) * ip * ix - 2.0 * s5) * ix
+    d6 = 0.5 * (s5 - 5.0 * s6) * ix
     return d2, d3, d4, d5, d6
 
 
@@ -235,21 +248,8 @@ def _sdfun(phi2):
     phi = np.sqrt(x)
     sn = np.sin(phi)
     c = np.cos(phi)
-    s2 = (1.0 - c) / x
-    s3 = (phi - sn) / (x * phi)
-    s4 = (1.0 - 0.5 * phi * sn / (1.0 - c)) / x
-    s5 = (2.0 - 2.0 * c - phi * sn) / (x * x)
-    s6 = (phi * (2.0 + c) - 3.0 * sn) / (x * x * phi)
-    # the derivatives serve the tangent only: reciprocals instead of eight divisions (the
-    # values s above are those of sfun, operation for operation, as the forces need)
-    ix = 1.0 / x
-    ip = 1.0 / phi
-    d2 = (0.5 * sn * ip - s2) * ix
-    d3 = 0.5 * (s2 - 3.0 * s3) * ix
-    d4 = -(0.25 * (sn - phi) * ip / (1.0 - c) + s4) * ix
-    d5 = (0.5 * (sn - phi * c) * ip * ix - 2.0 * s5) * ix
-    d6 = 0.5 * (s5 - 5.0 * s6) * ix
-    return (s2, s3, s4, s5, s6), (d2, d3, d4, d5, d6)
+    sv = _s_closed(x, phi, sn, c)
+    return sv, _ds_closed(x, phi, sn, c, sv)
 
 
 # 3 × 3 matrices are row-major 9-tuples (products: elements/_spatial.py)
@@ -638,6 +638,8 @@ def _gyro_jac(Pe, oj, w, h, fv, o):
 
 
 NSCRATCH = 252
+#: the 3 × 3 identity (row-major), R̄ of the identity section offsets
+I9 = (1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0)
 
 
 def _make_scratch():
@@ -759,8 +761,8 @@ def spatial_beam_force(P, t, tf, xe, ve, jac, fe, fq, fv):
         wB = sp.vec3(v, 9)
         # R̄_A = R̄_B = I (node axes = section axes, as meshed by spatial_beam): the R̄ products skipped
         ident = _flag(Pe, F_IDENT)
-        RbA = _rbar(Pe, QA)
-        RbB = _rbar(Pe, QB)
+        RbA = I9 if ident else _rbar(Pe, QA)
+        RbB = I9 if ident else _rbar(Pe, QB)
         z3 = (0.0, 0.0, 0.0)
         vA = (z3, z3)
         vB = (z3, z3)

@@ -16,7 +16,7 @@ def test_dsfun_matches_differences(x):
     assert np.abs(an - fd).max() <= 1e-6 * np.abs(fd).max()
 
 
-I9 = (1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0)
+I9 = sb.I9
 
 
 def _blocks(U, W, aU, aW, transpose):
