@@ -283,7 +283,13 @@ def cmd_run(args):
     except (FembError, ValueError, TypeError) as exc:
         raise UsageError(f"scene '{scene.name}': build() rejected the parameters: {exc}") from None
 
-    n_steps = max(1, int(round(t_end / h))) if not adaptive else 0
+    n_steps = 0
+    if not adaptive:
+        from femb.options import fixed_steps
+        try:
+            n_steps = fixed_steps(float(h), 0.0, float(t_end))[0]    # the rule simulate follows
+        except FembError as exc:
+            raise UsageError(str(exc)) from None
     show = {"auto": n_steps >= 5000 or args.vtk is not None or adaptive, "on": True, "off": False}[args.progress]
 
     stream = _NullContext(None)

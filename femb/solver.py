@@ -23,35 +23,27 @@ C. W. Gear, B. Leimkuhler, G. K. Gupta, J. Comput. Appl. Math. 12–13 (1985) 77
 """
 from __future__ import annotations
 
+import dataclasses
 import math
 import time
 import warnings
 
 import numpy as np
 
-from femb.alpha import GeneralizedAlpha
 from femb.errors import SINGULAR_HINT_DIVERGED, ConvergenceError, ModelError, ParameterError, SingularMatrixError
 from femb.initial import consistent_initial_state, singular_hint  # noqa: F401  (re-exported)
 from femb import step as S
 from femb.jit import pack
+from femb.options import MAX_STEPS, SolverOptions, check_positive, fixed_steps
 from femb.model import State
 from femb.result import Result
+from femb.storage import Storage
 
 #: systems with at most this many unknowns use dense LU in the (Python) initialization
 DENSE_LIMIT = 200
 #: steps per call of the compiled loop when nothing needs Python between steps
 CHUNK = 4096
 
-
-
-def _check_positive(name, value):
-    try:
-        v = float(value)
-    except (TypeError, ValueError):
-        raise ParameterError(f"{name} must be a number, got {value!r}") from None
-    if not (math.isfinite(v) and v > 0.0):
-        raise ParameterError(f"{name} must be a positive finite number, got {value!r}")
-    return v
 
 
 def _constraint_owner(model):
@@ -72,15 +64,15 @@ def _stepmod():
     return codegen
 
 
-FORMULATIONS = ("index3", "index2")
-
-
-def _check_formulation(formulation, model):
-    """The formulation name, or a ParameterError saying why it cannot run on this model."""
-    if not isinstance(formulation, str) or formulation not in FORMULATIONS:
-        raise ParameterError(f"formulation must be 'index3' (Arnold & Brüls 2007) or 'index2' (stabilized "
-                             f"index 2, GGL), got {formulation!r}")
-    return formulation
+def _integer_steps(n_steps):
+    """A step count given directly (``n_steps``): a positive integer up to ``MAX_STEPS``."""
+    try:
+        n = int(n_steps)
+    except (TypeError, ValueError, OverflowError):
+        raise ParameterError(f"n_steps must be a positive integer, got {n_steps!r}") from None
+    if n != n_steps or not 1 <= n <= MAX_STEPS:
+        raise ParameterError(f"n_steps must be an integer from 1 to {MAX_STEPS:.0e}, got {n_steps!r}")
+    return n
 
 
 def error_constants(alpha):
@@ -222,167 +214,114 @@ class GeneralizedAlphaSolver:
         Newton iterations (docs/method.md §7).
     """
 
-    def __init__(self, model, h=None, *, rho_inf=None, alpha=None, scaling=True, rtol=None, atol=None,
-                 h0=None, h_max=None, error_per="step", start="consistent", newton_test="correction",
-                 newton_rtol=1e-10, newton_atol=0.0, phi_tol=1e-12, max_iter=25, min_iter=1, newton="full",
-                 linear_solver="auto", predictor="extrapolate", check_every=16, warn_factor=10.0,
-                 state=None, t0=0.0, t_end=None, initialize=True, n_steps=None, formulation="index3"):
+    def __init__(self, model, h=None, *, options=None, state=None, t0=0.0, t_end=None, initialize=True,
+                 n_steps=None, **kw):
         from femb.model import Model
         if not isinstance(model, Model):
             raise ParameterError(f"expected a compiled Model (call mechanism.compile()), got {type(model).__name__}")
+        if options is None:
+            options = SolverOptions.create(h, **kw)
+        elif kw or (h is not None and h != options.h):
+            raise ParameterError("give the solver's options either as options=SolverOptions(...) or as keywords")
         self.model = model
-        self.adaptive = h is None
-        self.formulation = _check_formulation(formulation, model)
-        self.h = None if h is None else _check_positive("h", h)
-        if alpha is not None and rho_inf is not None:
-            raise ParameterError("give either rho_inf or alpha, not both")
-        if alpha is None:
-            self.alpha = GeneralizedAlpha.from_rho_inf(0.7 if rho_inf is None else rho_inf)
-            if self.alpha.rho_inf == 1.0 and self.formulation == "index3":
-                # the index-2 form runs without numerical damping (docs/spatial.md, heavy top at ρ∞ = 1)
-                warnings.warn("rho_inf = 1 is not strictly stable at infinity: with the index-3 formulation "
-                              "Lagrange multipliers oscillate and need not converge (Arnold & Brüls 2007, "
-                              "Fig. 8); formulation='index2' runs without numerical damping",
-                              category=__import__("femb.errors", fromlist=["ParameterWarning"]).ParameterWarning,
-                              stacklevel=2)
-        elif isinstance(alpha, GeneralizedAlpha):
-            self.alpha = alpha
-            alpha.check(warn=True)
-        else:
-            try:
-                am, af, b, g = alpha
-            except (TypeError, ValueError):
-                raise ParameterError(f"alpha must be (alpha_m, alpha_f, beta, gamma), got {alpha!r}") from None
-            self.alpha = GeneralizedAlpha.from_values(am, af, b, g)
-        self.scaling = bool(scaling)
-        self.rtol = 1e-3 if rtol is None else _check_positive("rtol", rtol)
-        atol = 1e-3 if (atol is None and not self.adaptive) else (1e-6 if atol is None else atol)
-        atolv = np.asarray(atol, dtype=float)
-        if atolv.ndim == 0:
-            atolv = np.full(model.nq, float(atolv))
-        if atolv.shape != (model.nq,) or not np.all(np.isfinite(atolv)) or np.any(atolv <= 0.0):
-            raise ParameterError(f"atol must be a positive number or an array of {model.nq} positive numbers, "
-                                 f"got {atol!r}")
-        self.atol = atolv
-        if error_per not in ("unit_step", "step"):
-            raise ParameterError(f"error_per must be 'unit_step' or 'step', got {error_per!r}")
-        self.error_per = error_per
-        if start not in ("consistent", "seed"):
-            raise ParameterError(f"start must be 'consistent' or 'seed', got {start!r}")
-        self.start = start
-        self.start_used = start          # the start that ran (_start may fall back to the seed's)
-        if newton_test not in ("correction", "residual"):
-            raise ParameterError(f"newton_test must be 'correction' or 'residual', got {newton_test!r}")
-        self.newton_test = newton_test
-        self.newton_rtol = _check_positive("newton_rtol", newton_rtol)
-        self.newton_atol = float(newton_atol)
-        if not (self.newton_atol >= 0.0 and math.isfinite(self.newton_atol)):
-            raise ParameterError(f"newton_atol must be a non-negative number, got {newton_atol!r}")
-        self.phi_tol = _check_positive("phi_tol", phi_tol)
-        if int(max_iter) < 1:
-            raise ParameterError(f"max_iter must be at least 1, got {max_iter!r}")
-        self.max_iter = int(max_iter)
-        if int(min_iter) not in (0, 1):
-            raise ParameterError(f"min_iter must be 0 or 1, got {min_iter!r}")
-        self.min_iter = int(min_iter)
-        if newton not in ("full", "modified"):
-            raise ParameterError(f"newton must be 'full' or 'modified', got {newton!r}")
-        self.newton = newton
-        if predictor not in ("zero", "previous", "extrapolate"):
-            raise ParameterError(f"predictor must be 'zero', 'previous' or 'extrapolate', got {predictor!r}")
-        self.predictor = predictor
-        if linear_solver not in ("auto", "band", "dense", "sparse"):
-            raise ParameterError(f"linear_solver must be 'auto', 'band', 'dense' or 'sparse', got {linear_solver!r}")
-        self.linear_solver = "dense" if linear_solver == "dense" else "band"
-        check_every = int(check_every)
-        if check_every < 0 or check_every == 1:
-            raise ParameterError(f"check_every must be 0 (off) or at least 2, got {check_every}")
-        self.check_every = check_every
-        self.warn_factor = _check_positive("warn_factor", warn_factor)
+        self.options = options
+        for f in dataclasses.fields(options):
+            setattr(self, f.name, getattr(options, f.name))
+        self.adaptive = options.adaptive
+        self.atol = options.atol_vector(model.nq)
+        self.start_used = self.start          # the start that ran (_start may fall back to the seed's)
         self.owner = _constraint_owner(model)
-        self.h0 = None if h0 is None else _check_positive("h0", h0)
+        self._initial_values(state, t0, initialize)
+        self._run_extent(t_end, n_steps)
+        self.cp = _stepmod().compiled(model, ordering="natural" if self.linear_solver == "dense" else "rcm",
+                                      layout=self.formulation)
+        self.Cq, self.Cv = error_constants(self.alpha)
+        self.ip = S.named_array(S.IP_FIELDS, self._int_parameters(), np.int64, "ip")
+        self.fp = S.named_array(S.FP_FIELDS, self._float_parameters(), np.float64, "fp")
+        self._run_state()
+        self._bufs = None
+        self._compile()
+        self._start()
 
+    # ------------------------------------------------------------------ set-up, by named fields
+    def _initial_values(self, state, t0, initialize):
+        """Consistent initial values (or the given state), timed."""
         t_init = time.perf_counter()
         if initialize:
-            st = consistent_initial_state(model, state, t0=float(t0 if state is None else state.t),
+            st = consistent_initial_state(self.model, state, t0=float(t0 if state is None else state.t),
                                           phi_tol=self.phi_tol)
         else:
-            st = (state or model.initial_state(t0)).copy()
+            st = (state or self.model.initial_state(t0)).copy()
         self.init_time = time.perf_counter() - t_init
         self._initialized = bool(initialize)
         self.initial_state = st.copy()
         self.t0 = st.t
+
+    def _run_extent(self, t_end, n_steps):
+        """t_end, the number of fixed steps and the step-size bounds."""
         if t_end is None:
             if self.adaptive:
                 raise ParameterError("adaptive steps need t_end")
             # fixed steps without an end: step() as often as the caller likes
             t_end = self.t0 + self.h * n_steps if n_steps is not None else math.inf
         self.t_end = float(t_end)
-        self.cp = _stepmod().compiled(model, ordering="natural" if self.linear_solver == "dense" else "rcm",
-                                      layout=self.formulation)
-        cp = self.cp
-        NFP, NNS, NSF, NSI = cp.mod.NFP, cp.mod.NNS, cp.mod.NSF, cp.mod.NSI
-        nv, nc = model.nq, model.nc
-        N = cp.N
-        al = self.alpha
-        self.Cq, self.Cv = error_constants(al)
-        if not self.adaptive:
-            if n_steps is not None:
-                self.n_steps = int(n_steps)
-            elif math.isfinite(self.t_end):
-                self.n_steps = max(1, int(round((self.t_end - self.t0) / self.h)))
-            else:
-                self.n_steps = 2 ** 62
-        else:
+        if self.adaptive or (n_steps is None and not math.isfinite(self.t_end)):
             self.n_steps = 2 ** 62
+        elif n_steps is not None:
+            self.n_steps = _integer_steps(n_steps)
+        else:
+            self.n_steps = fixed_steps(self.h, self.t0, self.t_end)[0]
         span = self.t_end - self.t0 if math.isfinite(self.t_end) else self.h * 1e6
-        self.h_max = math.inf if h_max is None else _check_positive("h_max", h_max)
         self.h_min = 1e-10 * max(abs(self.t_end) if math.isfinite(self.t_end) else 0.0, span)
-        self.ip = np.zeros(cp.mod.NIP, dtype=np.int64)
-        self.ip[:] = [nv, nc, model.nfix, N, cp.kl, cp.ku, self.max_iter, self.min_iter,
-                      1 if newton == "full" else 0, {"zero": 0, "previous": 1, "extrapolate": 2}[predictor],
-                      self.n_steps, 1, 1, 1 if cp.python_tf else 0, 1 if self.adaptive else 0,
-                      1 if newton_test == "correction" else 0, 0 if self.adaptive else check_every,
-                      1 if cp.dense else 0, 1 if self.formulation == "index2" else 0,
-                      cp.mod.carry_rule(N, cp.dense, newton_test == "correction", self.formulation == "index2")]
-        self.fp = np.zeros(NFP)
-        self.fp[:] = [self.h or 0.0, self.t0, al.alpha_m, al.alpha_f, al.beta, al.gamma, self.newton_rtol,
-                      self.newton_atol, self.phi_tol, model.length_scale, 64.0 * np.finfo(float).eps,
-                      1.0 if self.scaling else 0.0, 1e-13 if self.scaling else 0.0, self.t_end, 0.0,
-                      self.rtol, self.h_max, self.h_min, self.Cq, self.Cv,
-                      2.0 if error_per == "unit_step" else 3.0, 1.0 if error_per == "unit_step" else 0.0,
-                      self.warn_factor, 1e-3 if self.adaptive else 1e-13, 1e3]
-        self.si = np.zeros(NSI, dtype=np.int64)
-        self.sf = np.zeros(NSF)
-        self.sf[1] = math.nan
-        self.sf[8] = math.nan
-        self.sf[2] = self.t0
-        self.sf[cp.mod.SF_ETA] = -1.0     # no Newton contraction estimate yet (femb/step.py)
-        self.stats_arr = np.zeros(NNS, dtype=np.int64)
+
+    def _int_parameters(self):
+        """The integer parameters ``ip``, by field name (``femb/step.py``, ``IP_FIELDS``)."""
+        cp, m = self.cp, self.model
+        correction = self.newton_test == "correction"
+        ggl = self.formulation == "index2"
+        return dict(nv=m.nq, nc=m.nc, nfix=m.nfix, n=cp.N, kl=cp.kl, ku=cp.ku,
+                    maxit=self.max_iter, minit=self.min_iter, full=int(self.newton == "full"),
+                    pred={"zero": 0, "previous": 1, "extrapolate": 2}[self.predictor],
+                    nsteps=self.n_steps, stride=1, store=1, pytf=int(bool(cp.python_tf)),
+                    mode=int(self.adaptive), ntest=int(correction), check=0 if self.adaptive else self.check_every,
+                    dense=int(bool(cp.dense)), ggl=int(ggl), carry=cp.mod.carry_rule(cp.N, cp.dense, correction, ggl))
+
+    def _float_parameters(self):
+        """The float parameters ``fp``, by field name (``femb/step.py``, ``FP_FIELDS``)."""
+        al, unit = self.alpha, self.error_per == "unit_step"
+        return dict(h=self.h or 0.0, t0=self.t0, am=al.alpha_m, af=al.alpha_f, beta=al.beta, gamma=al.gamma,
+                    rtol=self.newton_rtol, atol=self.newton_atol, phitol=self.phi_tol, l=self.model.length_scale,
+                    xtol=64.0 * np.finfo(float).eps, scaled=1.0 if self.scaling else 0.0,
+                    singtol=1e-13 if self.scaling else 0.0, tend=self.t_end, fconst=0.0,
+                    ertol=self.rtol, hmax=self.h_max, hmin=self.h_min, cq=self.Cq, cv=self.Cv,
+                    kexp=2.0 if unit else 3.0, epus=1.0 if unit else 0.0, warn=self.warn_factor,
+                    tolq=1e-3 if self.adaptive else 1e-13, newtc=1e3)
+
+    def _run_state(self):
+        """The run state (si, sf, counters), the state and the work arrays of the compiled loop."""
+        cp, m, st = self.cp, self.model, self.initial_state
+        self.si = S.named_array(S.SI_FIELDS, dict.fromkeys(S.SI_FIELDS, 0), np.int64, "si")
+        sf0 = dict.fromkeys(S.SF_FIELDS, 0.0)
+        # no Python time functions evaluated yet; no warning; no Newton contraction estimate yet
+        sf0.update(tftime=math.nan, warn_t=math.nan, t=self.t0, eta=-1.0)
+        self.sf = S.named_array(S.SF_FIELDS, sf0, np.float64, "sf")
+        self.stats_arr = np.zeros(S.NNS, dtype=np.int64)
         self.q, self.qd, self.qdd, self.lam = st.q.copy(), st.qd.copy(), st.qdd.copy(), st.lam.copy()
         self.a = st.qdd.copy()
-        self.pqdd = np.zeros(nv)
-        self.plam = np.zeros(nc)
+        self.pqdd = np.zeros(m.nq)
+        self.plam = np.zeros(m.nc)
         self.AB = np.zeros(cp.storage_size)
         self.ipiv = np.zeros(cp.piv_size, dtype=np.int64)
-        self.r = np.zeros(nv)
-        self.Phi = np.zeros(nc)
-        self.rhs = np.zeros(N)
-        self.x = np.zeros(N)
+        self.r = np.zeros(m.nq)
+        self.Phi = np.zeros(m.nc)
+        self.rhs = np.zeros(cp.N)
+        self.x = np.zeros(cp.N)
         self.info = np.zeros(8)
-        z = np.zeros
-        nx = model.nx
-        # work arrays of the compiled loop, one pack (femb.jit.pack); the names under which
-        # femb/step.py reads them: q_s … plam_s (the accepted state), qpp, qpp_new, jn, jnew,
-        # KB, KBacc, kpiv, kpivacc, kr, kx, gam, Pt, zq, zl, Bv, tgt, eq, ev, atolv, wq, du, lk
-        self.W, self.Wv = pack(
-            [z(nx), z(nv), z(nv), z(nc), z(nv), z(nv), z(nc), z(nv), z(nv), z(nv), z(nv),
-             z(cp.storage_size), z(cp.storage_size), z(cp.piv_size, dtype=np.int64), z(cp.piv_size, dtype=np.int64),
-             z(nv), z(N), z(nc), z(nc), z(nv), z(nc), z(nc), z(nc), z(nv), z(nv), self.atol.copy(), z(nv),
-             z(nv), z(nc)])
-        self._bufs = None
-        self._compile()
-        self._start()
+        # the work arrays of the compiled loop, one pack (femb.jit.pack), by their names in W_FIELDS
+        size = {"nx": m.nx, "nv": m.nq, "nc": m.nc, "N": cp.N, "lu": cp.storage_size, "piv": cp.piv_size}
+        self.W, self.Wv = pack([np.zeros(size[n], dtype=np.int64 if n == "piv" else np.float64)
+                                for _, n in S.W_FIELDS])
+        self.Wv[S.W_ATOLV][:] = self.atol
 
     # ------------------------------------------------------------------ internals
     def _tf_at(self, t):
@@ -671,14 +610,18 @@ def simulate(model, t_end, h=None, *, rtol=None, atol=None, h0=None, h_max=None,
     t_end : float
         Final time, hit exactly.
     h : float, optional
-        Fixed step size: the number of steps is round((t_end − t0)/h) and h is
-        adjusted slightly so that they end on t_end. With ``rtol`` also given,
-        h is the first adaptive step instead.
+        Fixed step size: n = (t_end − t0)/h steps when that is an integer (to
+        round-off), otherwise n = ⌈(t_end − t0)/h⌉ equal steps of (t_end − t0)/n,
+        shorter than h: the run ends exactly on t_end and no step is longer than
+        asked (:func:`femb.options.fixed_steps`). At most 10¹¹ steps. With
+        ``rtol`` also given, h is the first adaptive step instead.
     rtol, atol : float, optional
         Adaptive steps with local error tolerance rtol·|x| + atol on q and q̇
-        (default when neither h nor rtol is given: rtol = 1e-3, atol = 1e-6).
-        With fixed steps they set the tolerance of the step-size check
-        (default 1e-3 both), which warns once when the steps are far too large.
+        (defaults: rtol = 1e-3; atol = 1e-3·rtol, so that an rtol given alone
+        sets the tolerance of coordinates near zero too). With fixed steps they
+        set the tolerance of the step-size check (default 1e-3 both; atol = rtol
+        when rtol alone is given), which warns once when the steps are far too
+        large.
     h0, h_max : float, optional
         First and largest adaptive step.
     t_eval : array_like, optional
@@ -742,96 +685,113 @@ def simulate(model, t_end, h=None, *, rtol=None, atol=None, h0=None, h_max=None,
         (adaptive); ``err.result`` holds what was stored until then.
     """
     from femb.mechanism import Mechanism
-    from femb.errors import AccuracyWarning
     if isinstance(model, Mechanism):
         model = model.compile()
     t0 = float(state.t) if state is not None else float(t0)
+    t_end = _check_t_end(t_end, t0)
+    stride = _check_stride(stride)
+    opts, n_steps, h_fixed = _run_options(h, rtol, atol, h0, t0, t_end, dict(
+        h_max=h_max, start=start, formulation=formulation, rho_inf=rho_inf, alpha=alpha, scaling=scaling,
+        **options))
+    if t_eval is not None:
+        t_eval = _check_t_eval(t_eval, t0, t_end)
+        stride, store = 1, True
+    storage = Storage(model, n_steps, stride, store)
+    solver = GeneralizedAlphaSolver(model, h_fixed, options=opts, state=state, t0=t0, t_end=t_end,
+                                    initialize=initialize, n_steps=n_steps)
+    solver.ip[S.IP_STRIDE] = stride
+    solver.ip[S.IP_STORE] = 1 if store else 0
+    st = solver.initial_state
+    storage.add_states(np.array([st.t]), st.q[None], st.qd[None], st.qdd[None], st.lam[None])
+    if observer is not None:
+        observer(st.copy(), 0)
+    wall0 = time.perf_counter()
+
+    def result(status, message):
+        res = storage.result(model, status, message, solver, time.perf_counter() - wall0)
+        if t_eval is not None and status == "success":
+            res = _interpolated(res, t_eval)
+        return res
+
+    _drive(solver, storage, observer, progress, result)
+    _after_run_checks(solver, opts, h_fixed, check_convergence)
+    n = solver.step_index
+    how = "adaptive steps" if opts.adaptive else "steps"
+    res = result("success", f"reached t = {storage.t_last:.6g} s in {n} {how}"
+                 + (f" ({solver.si[S.SI_REJECTED]} rejected)" if opts.adaptive else ""))
+    if not opts.adaptive and opts.check_every and n <= opts.check_every and solver.sf[S.SF_WARN_T] != \
+            solver.sf[S.SF_WARN_T]:
+        t_s = res.steps_t if t_eval is not None else res.t
+        q_s, qd_s = (storage.q.array(), storage.qd.array()) if t_eval is not None else (res.q, res.qd)
+        _short_run_check(solver, t_s, q_s, qd_s, h_fixed)
+    return res
+
+
+# ---- the parts of simulate ----------------------------------------------------------------------
+def _check_t_end(t_end, t0):
     try:
         t_end = float(t_end)
     except (TypeError, ValueError):
         raise ParameterError(f"t_end must be a number, got {t_end!r}") from None
     if not math.isfinite(t_end) or t_end <= t0:
         raise ParameterError(f"t_end must be a finite time after t0 = {t0}, got {t_end!r}")
+    return t_end
+
+
+def _check_stride(stride):
     try:
-        stride = int(stride)
-    except (TypeError, ValueError):
+        s = int(stride)
+    except (TypeError, ValueError, OverflowError):
         raise ParameterError(f"stride must be a positive integer, got {stride!r}") from None
-    if stride < 1:
+    if s < 1 or s != stride:
         raise ParameterError(f"stride must be a positive integer, got {stride!r}")
-    adaptive = rtol is not None or h is None
+    return s
+
+
+def _check_t_eval(t_eval, t0, t_end):
+    t_eval = np.asarray(t_eval, dtype=float).reshape(-1)
+    if t_eval.size == 0 or not np.all(np.isfinite(t_eval)) or np.any(np.diff(t_eval) < 0) \
+            or t_eval[0] < t0 - 1e-12 * max(1.0, abs(t0)) or t_eval[-1] > t_end * (1 + 1e-12) + 1e-300:
+        raise ParameterError(f"t_eval must be sorted finite times within [{t0}, {t_end}]")
+    return t_eval
+
+
+def _run_options(h, rtol, atol, h0, t0, t_end, options):
+    """simulate's options: ``(SolverOptions, n_steps or None, fixed h or None)``.
+
+    Adaptive steps when rtol is given or h is not (h is then the first step); fixed steps
+    follow :func:`femb.options.fixed_steps` (never longer than h, ending on t_end).
+    """
     if h is not None:
-        h = _check_positive("h", h)
-    if adaptive:
-        if h0 is None and h is not None:
-            h0 = h
-        n_steps = None
-        h_fixed = None
-    else:
-        n_steps = max(1, int(round((t_end - t0) / h)))
-        h_fixed = (t_end - t0) / n_steps
-        if h > t_end - t0:
-            from femb.errors import ParameterWarning
-            warnings.warn(f"the step h = {h:.3g} s is longer than the run (t_end − t0 = {t_end - t0:.3g} s): one "
-                          f"step of {h_fixed:.3g} s is taken. Use a smaller h", ParameterWarning, stacklevel=2)
-    if t_eval is not None:
-        t_eval = np.asarray(t_eval, dtype=float).reshape(-1)
-        if t_eval.size == 0 or not np.all(np.isfinite(t_eval)) or np.any(np.diff(t_eval) < 0) \
-                or t_eval[0] < t0 - 1e-12 * max(1.0, abs(t0)) or t_eval[-1] > t_end * (1 + 1e-12) + 1e-300:
-            raise ParameterError(f"t_eval must be sorted finite times within [{t0}, {t_end}]")
-        stride, store = 1, True
-    _check_formulation(formulation, model)
-    solver = GeneralizedAlphaSolver(model, h_fixed, rho_inf=rho_inf, alpha=alpha, scaling=scaling,
-                                    rtol=rtol, atol=atol, h0=h0, h_max=h_max, state=state, t0=t0, t_end=t_end,
-                                    initialize=initialize, n_steps=n_steps, start=start,
-                                    formulation=formulation, **options)
-    solver.ip[11] = stride
-    solver.ip[12] = 1 if store else 0
-    st = solver.initial_state
-    T, Q, QD, QDD, L = [st.t], [st.q.copy()], [st.qd.copy()], [st.qdd.copy()], [st.lam.copy()]
-    H, IT, ERR = [], [], []
-    if observer is not None:
-        observer(st.copy(), 0)
-    wall0 = time.perf_counter()
+        h = check_positive("h", h)
+    if rtol is not None or h is None:
+        return SolverOptions.create(None, rtol=rtol, atol=atol, h0=h if h0 is None else h0, **options), None, None
+    n_steps, h_fixed = fixed_steps(h, t0, t_end)
+    if h > t_end - t0:
+        from femb.errors import ParameterWarning
+        warnings.warn(f"the step h = {h:.3g} s is longer than the run (t_end − t0 = {t_end - t0:.3g} s): one "
+                      f"step of {h_fixed:.3g} s is taken. Use a smaller h", ParameterWarning, stacklevel=3)
+    return SolverOptions.create(h_fixed, rtol=rtol, atol=atol, h0=h0, **options), n_steps, h_fixed
+
+
+def _drive(solver, storage, observer, progress, result):
+    """Run the compiled loop chunk by chunk to t_end: storage, observer, progress bar, errors."""
+    t0, t_end = solver.t0, solver.t_end
     every = 1
     if observer is not None:
         every = getattr(observer, "every", 1)
         every = every if isinstance(every, (int, np.integer)) and every >= 1 else 1
     chunk = int(every) if observer is not None else (256 if progress else CHUNK)
-    bar = None
+    bar, done_pm = None, 0
     if progress:
         from femb.io.progress import progress as _progress
-        bar = _progress(1000, f"{model.name} (per mille of [t0, t_end])")
-        done_pm = 0
-
-    def result(status, message):
-        lam = np.array(L).reshape(len(T), model.nc)
-        res = Result(model=model, t=np.array(T), q=np.array(Q), qd=np.array(QD), qdd=np.array(QDD),
-                     lam=lam, newton_iterations=np.array(IT, dtype=np.int32),
-                     status=status, message=message, wall_time=time.perf_counter() - wall0,
-                     init_time=solver.init_time, stats=solver.stats, settings=solver.settings())
-        res.h_steps = np.array(H)
-        res.error_estimates = np.array(ERR)
-        res.n_rejected = int(solver.si[4])
-        res.n_newton_failures = int(solver.si[5])
-        if t_eval is not None and status == "success":
-            res = _interpolated(res, t_eval)
-        return res
-
-    def collect(m, k):
-        bt, bq, bqd, bqdd, bl, bh, bit, berr = solver._bufs
-        T.extend(bt[:m].tolist())
-        Q.extend(bq[:m].copy())
-        QD.extend(bqd[:m].copy())
-        QDD.extend(bqdd[:m].copy())
-        L.extend(bl[:m].copy())
-        H.extend(bh[:k].tolist())
-        IT.extend(bit[:k].tolist())
-        ERR.extend(berr[:k].tolist())
-
+        bar = _progress(1000, f"{solver.model.name} (per mille of [t0, t_end])")
     try:
         while True:
             status, m, k = solver.advance(chunk)
-            collect(m, k)
+            bt, bq, bqd, bqdd, bl, bh, bit, berr = solver._bufs
+            storage.add_states(bt[:m], bq[:m], bqd[:m], bqdd[:m], bl[:m])
+            storage.add_steps(bh[:k], bit[:k], berr[:k])
             if status < 0:
                 try:
                     solver.raise_status(status)
@@ -849,29 +809,29 @@ def simulate(model, t_end, h=None, *, rtol=None, atol=None, h0=None, h_max=None,
                     s.t = t_end
                 observer(s, solver.step_index)
             if status == 1:
-                break
+                return
     finally:
         if bar is not None:
             bar.close()
-    if not adaptive and solver.sf[8] == solver.sf[8]:
+
+
+def _after_run_checks(solver, opts, h_fixed, check_convergence):
+    """Fixed steps: the step-size check's warning, and the optional convergence check."""
+    from femb.errors import AccuracyWarning
+    if opts.adaptive:
+        return
+    if solver.sf[S.SF_WARN_T] == solver.sf[S.SF_WARN_T]:
         warnings.warn(
             f"the fixed step h = {h_fixed:.3g} s looks far too large: the local error estimate reached "
-            f"{solver.sf[9]:.3g} times the tolerance (rtol = {solver.rtol:g}, atol = {float(solver.atol.max()):g}) "
-            f"at t = {solver.sf[8]:.6g} s; the result may be wrong. Use a smaller h or adaptive steps "
-            f"(simulate(..., rtol=...))", AccuracyWarning, stacklevel=2)
-    if check_convergence and not adaptive:
+            f"{solver.sf[S.SF_WARN_ERR]:.3g} times the tolerance (rtol = {solver.rtol:g}, "
+            f"atol = {float(solver.atol.max()):g}) at t = {solver.sf[S.SF_WARN_T]:.6g} s; the result may be wrong. "
+            f"Use a smaller h or adaptive steps (simulate(..., rtol=...))", AccuracyWarning, stacklevel=3)
+    if check_convergence:
         from femb.diagnostics import fixed_step_warning
-        msg = fixed_step_warning(model, h_fixed, state=solver.initial_state, alpha=solver.alpha,
-                                 formulation=formulation, start=start, scaling=scaling)
+        msg = fixed_step_warning(solver.model, h_fixed, state=solver.initial_state, alpha=solver.alpha,
+                                 formulation=opts.formulation, start=opts.start, scaling=opts.scaling)
         if msg:
-            warnings.warn(msg, AccuracyWarning, stacklevel=2)
-    n = solver.step_index
-    how = "adaptive steps" if adaptive else "steps"
-    res = result("success", f"reached t = {T[-1]:.6g} s in {n} {how}"
-                 + (f" ({solver.si[4]} rejected)" if adaptive else ""))
-    if not adaptive and solver.check_every and n <= solver.check_every and solver.sf[8] != solver.sf[8]:
-        _short_run_check(solver, T, Q, QD, h_fixed)
-    return res
+            warnings.warn(msg, AccuracyWarning, stacklevel=3)
 
 
 def _short_run_check(solver, T, Q, QD, h):

@@ -45,12 +45,16 @@ C_MP, C_PERM, C_IPERM, C_W, C_WEXT, C_QFIX, C_FCONST, C_MI = 0, 1, 2, 3, 4, 5, 6
 C_TFKIND, C_TFOFF, C_TFCOEF, C_MX, C_TM, C_TFV, C_SCALE0, C_ACTIVE, C_TI, C_ENV = 8, 9, 10, 11, 12, 13, 14, 15, 16, 17
 C_TN, C_XMAP, C_ROT, C_PN, C_D, C_FL, C_PAIRS, C_TETA, C_BW, C_GGLW, C_BATCHES, C_LIE = (
     18, 19, 20, 21, 22, 23, 24, 25, 26, 27, 28, 29)
-# ---- the loop's work arrays in the pack W (femb/solver.py), by name: the accepted state, the
-# constrained accelerations and jerks, the KKT factorizations, error-estimate work, ...
-W_Q_S, W_QD_S, W_QDD_S, W_LAM_S, W_A_S, W_PQDD_S, W_PLAM_S, W_QPP = 0, 1, 2, 3, 4, 5, 6, 7
-W_QPP_NEW, W_JN, W_JNEW, W_KB, W_KBACC, W_KPIV, W_KPIVACC, W_KR = 8, 9, 10, 11, 12, 13, 14, 15
-W_KX, W_GAM, W_PT, W_ZQ, W_ZL, W_BV, W_TGT, W_EQ = 16, 17, 18, 19, 20, 21, 22, 23
-W_EV, W_ATOLV, W_WQ, W_DU, W_LK = 24, 25, 26, 27, 28
+# ---- the loop's work arrays in the pack W (built by name in femb/solver.py): the accepted
+# state, the constrained accelerations and jerks, the KKT factorizations, error-estimate work, ...
+#: (name, length) of each work array, in pack order; W_<NAME> is its number. Lengths are the
+#: model's sizes: nx, nv (= nq), nc, N (Newton unknowns), "lu"/"piv" (storage of a factorization)
+W_FIELDS = (("q_s", "nx"), ("qd_s", "nv"), ("qdd_s", "nv"), ("lam_s", "nc"), ("a_s", "nv"),
+            ("pqdd_s", "nv"), ("plam_s", "nc"), ("qpp", "nv"), ("qpp_new", "nv"), ("jn", "nv"),
+            ("jnew", "nv"), ("KB", "lu"), ("KBacc", "lu"), ("kpiv", "piv"), ("kpivacc", "piv"),
+            ("kr", "nv"), ("kx", "N"), ("gam", "nc"), ("Pt", "nc"), ("zq", "nv"), ("zl", "nc"),
+            ("Bv", "nc"), ("tgt", "nc"), ("eq", "nv"), ("ev", "nv"), ("atolv", "nv"), ("wq", "nv"),
+            ("du", "nv"), ("lk", "nc"))
 # ---- the batch table C_BATCHES: one row per batch ------------------------------------------
 #: role of the batch (ROLE_FORCE or ROLE_CONSTRAINT), its first array in G, the count of arrays,
 #: 1 if its forces depend on q̇, the kernel addresses (force or constraint; rates)
@@ -81,27 +85,73 @@ ST_SINGULAR = -4
 ST_HMIN = -5          # adaptive: the step size fell below its floor
 ST_KKT_SINGULAR = -6  # the matrix [[M, Bᵀ], [B, 0]] of the error estimate is singular
 
-# ---- indices of the integer parameters ip[...] ------------------------------------------
-IP_NV, IP_NC, IP_NFIX, IP_N, IP_KL, IP_KU = 0, 1, 2, 3, 4, 5
-IP_MAXIT, IP_MINIT, IP_FULL, IP_PRED, IP_NSTEPS, IP_STRIDE, IP_STORE, IP_PYTF = 6, 7, 8, 9, 10, 11, 12, 13
-IP_MODE, IP_NTEST, IP_CHECK, IP_DENSE, IP_GGL, IP_CARRY = 14, 15, 16, 17, 18, 19
-NIP = 20
-# ---- indices of the float parameters fp[...] ---------------------------------------------
-FP_H, FP_T0, FP_AM, FP_AF, FP_BETA, FP_GAMMA, FP_RTOL, FP_ATOL = 0, 1, 2, 3, 4, 5, 6, 7
-FP_PHITOL, FP_L, FP_XTOL, FP_SCALED, FP_SINGTOL, FP_TEND, FP_FCONST = 8, 9, 10, 11, 12, 13, 14
-FP_ERTOL, FP_HMAX, FP_HMIN, FP_CQ, FP_CV, FP_KEXP, FP_EPUS, FP_WARN = 15, 16, 17, 18, 19, 20, 21, 22
-FP_TOLQ, FP_NEWTC = 23, 24
-NFP = 25
-# ---- indices of the run state si[...] (int) and sf[...] (float) ---------------------------
-SI_STEP, SI_HASPREV, SI_LUVALID, SI_STORED, SI_REJECTED, SI_NFAIL, SI_NOGROW, SI_LASTFAIL = 0, 1, 2, 3, 4, 5, 6, 7
-SI_HAVEJ, SI_PROJ, SI_RMODE, SI_RCOUNT, SI_SAVED, SI_HASPREV_S, SI_CARRY, SI_LUFRESH = 8, 9, 10, 11, 12, 13, 14, 15
-NSI = 16
-SF_FREF, SF_TFTIME, SF_T, SF_HNEXT, SF_HPREV, SF_ERRPREV, SF_ERRMAX, SF_ERRMAX_T, SF_WARN_T = 0, 1, 2, 3, 4, 5, 6, 7, 8
-SF_WARN_ERR, SF_ETA, SF_RCHECKH, SF_FREF_S, SF_LUH = 9, 10, 11, 12, 13
-NSF = 14
-# ---- statistics counters ------------------------------------------------------------------
-NS_STEPS, NS_EVAL, NS_FACT, NS_SOLVE, NS_ROUNDOFF, NS_KKT, NS_REFINE = 0, 1, 2, 3, 4, 5, 6
-NNS = 7
+# ---- the named fields of the solver's parameter and state arrays ----------------------------
+# Each array that crosses into compiled code is described by ONE tuple of field names below;
+# the constants PREFIX_<NAME> (its index) and N<PREFIX> (its length) are generated from it
+# (:func:`_number`), and Python fills the arrays by name only (:func:`named_array`), which
+# refuses a missing, unknown or repeated name. Compiled code reads ``fp[FP_H]``: a constant index.
+#: integer parameters ip: sizes, Newton options, the loop's mode
+IP_FIELDS = ("nv", "nc", "nfix", "n", "kl", "ku",            # sizes; N Newton unknowns; band widths
+             "maxit", "minit", "full", "pred",               # Newton: iterations, full/modified, predictor
+             "nsteps", "stride", "store", "pytf",            # fixed steps; storage; Python time functions
+             "mode", "ntest", "check", "dense", "ggl", "carry")  # adaptive; Newton test; check; layout
+#: float parameters fp
+FP_FIELDS = ("h", "t0", "am", "af", "beta", "gamma",         # step, start, α_m, α_f, β, γ
+             "rtol", "atol", "phitol", "l", "xtol",          # Newton residual test; length scale; round-off
+             "scaled", "singtol", "tend", "fconst",          # scaling; pivot floor; end; constant force scale
+             "ertol", "hmax", "hmin", "cq", "cv",            # error control: rtol, h bounds, error constants
+             "kexp", "epus", "warn", "tolq", "newtc")        # controller exponent; per unit step; warn factor; ...
+#: integer run state si (the loop's counters and flags, kept between calls)
+SI_FIELDS = ("step", "hasprev", "luvalid", "stored", "rejected", "nfail", "nogrow", "lastfail",
+             "havej", "proj", "rmode", "rcount", "saved", "hasprev_s", "carry", "lufresh")
+#: float run state sf
+SF_FIELDS = ("fref", "tftime", "t", "hnext", "hprev", "errprev", "errmax", "errmax_t", "warn_t",
+             "warn_err", "eta", "rcheckh", "fref_s", "luh")
+#: statistics counters
+NS_FIELDS = ("steps", "eval", "fact", "solve", "roundoff", "kkt", "refine")
+
+
+def _number(prefix, names):
+    """``{PREFIX_NAME: index}`` for the fields ``names`` and ``{N<PREFIX>: len(names)}``."""
+    out = {f"{prefix}_{n.upper()}": k for k, n in enumerate(names)}
+    assert len(out) == len(names), f"repeated field name in {prefix}"
+    out["N" + prefix.replace("_", "")] = len(names)
+    return out
+
+
+globals().update(_number("IP", IP_FIELDS))
+globals().update(_number("FP", FP_FIELDS))
+globals().update(_number("SI", SI_FIELDS))
+globals().update(_number("SF", SF_FIELDS))
+globals().update(_number("NS", NS_FIELDS))
+globals().update(_number("W", [n for n, _ in W_FIELDS]))
+
+
+def named_array(fields, values, dtype, what):
+    """The array whose entry k is ``values[fields[k]]``: every field by name, each exactly once.
+
+    Parameters
+    ----------
+    fields : tuple of str
+        The field list (``IP_FIELDS``, ``FP_FIELDS``, ...).
+    values : dict
+        Field name → value; must name every field and nothing else.
+    dtype : numpy dtype
+    what : str
+        The array's name, for the error message.
+
+    Returns
+    -------
+    ndarray (len(fields),)
+    """
+    import numpy as np
+    missing = [n for n in fields if n not in values]
+    unknown = [n for n in values if n not in fields]
+    if missing or unknown:
+        raise KeyError(f"{what}: fields not set {missing}, unknown fields {unknown}")
+    return np.array([values[n] for n in fields], dtype=dtype)
+
+
 # ---- Newton ---------------------------------------------------------------------------------
 #: the correction rule refreshes the iteration matrix when the frozen one would
 #: still need more than this many corrections at the observed contraction rate

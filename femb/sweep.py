@@ -817,6 +817,24 @@ def _check_names(ref, names):
                              f"(known: {known})")
 
 
+def _check_solver_options(solver_options):
+    """The fixed solver options of every case, validated once before any case runs
+    (:class:`femb.options.SolverOptions`: any of its options but the run settings ``RUN_KEYS``)."""
+    from femb.options import SolverOptions
+
+    solver_options = dict(solver_options or {})
+    known = [k for k in SolverOptions.NAMES if k not in RUN_KEYS]
+    bad = [k for k in solver_options if k not in known]
+    if bad:
+        raise ParameterError(f"solver_options: unknown option(s) {', '.join(map(repr, bad))} "
+                             f"(known: {', '.join(known)})")
+    try:
+        SolverOptions.create(None, **solver_options)
+    except ParameterError as exc:
+        raise ParameterError(f"solver_options: {exc}") from None
+    return solver_options
+
+
 def _simulate_needs_h():
     from femb.solver import simulate
 
@@ -859,7 +877,9 @@ def sweep(scene, *, grid=None, cases=None, samples=None, ranges=None, sampling="
         left out (a given ``h`` is then the first step). Each is passed to
         :func:`femb.simulate` only when set.
     solver_options : dict, optional
-        Further keywords of :func:`femb.simulate` (``scaling``, ``max_iter``, ...).
+        Further options of :func:`femb.simulate` (``scaling``, ``max_iter``, ...: any
+        :class:`femb.options.SolverOptions` option but the run settings above), the
+        same for every case and validated before the first case runs.
     outputs : list of str, optional
         Output names of the scene to record (default: all of them).
     outputs_fn : callable, optional
@@ -922,11 +942,7 @@ def sweep(scene, *, grid=None, cases=None, samples=None, ranges=None, sampling="
     if overlap:
         raise ParameterError(f"parameter(s) {', '.join(map(repr, overlap))} are both fixed (params) and varied")
     _check_names(ref, varied + list(params))
-    solver_options = dict(solver_options or {})
-    bad = [k for k in solver_options if k not in SOLVER_KEYS]
-    if bad:
-        raise ParameterError(f"solver_options: unknown option(s) {', '.join(map(repr, bad))} "
-                             f"(known: {', '.join(SOLVER_KEYS)})")
+    solver_options = _check_solver_options(solver_options)
     d = ref.defaults
     run = {"t_end": t_end if t_end is not None else d.get("t_end"),
            "h": h, "rtol": rtol, "atol": atol,
