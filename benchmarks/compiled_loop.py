@@ -204,7 +204,7 @@ def process(runs=3, scenes=("heavy_top", "bricard", "spatial_slider_crank", "spa
         rows.append(("femb cache build, empty cache (engine and every built-in kernel)", [t_build]))
         os.makedirs(os.path.join(eng, "numba"))
         for d in os.listdir(os.path.join(full, "numba")):
-            if d.startswith(("step-", "rotations-")):
+            if d.startswith(("engine.", "rotations-")):
                 shutil.copytree(os.path.join(full, "numba", d), os.path.join(eng, "numba", d))
 
         def fresh(kind, tag):

@@ -7,7 +7,7 @@ h = 1e-4 s, ρ∞ = 0.7, from t = 0; the time loop's wall time per step (consist
 initial values excluded) is the median over ``--runs`` runs (time.perf_counter inside
 :func:`femb.simulate`). The exponent p of the least-squares fit ms/step ∝ n^p is printed
 for n ≥ 10³. Also printed: Newton iterations and band factorizations (``LU``) per step, and
-whether the iteration matrix is carried over steps (``femb/step.py``, ``carry_rule``: band
+whether the iteration matrix is carried over steps (``femb/engine/layout.py``, ``carry_rule``: band
 systems of at least 1000 unknowns) or built at every step.
 
 The force kernel (:func:`femb.elements.spatial_beam.spatial_beam_force`) is timed on its own

@@ -4,7 +4,7 @@ These documented functions (returning ``scipy.sparse`` matrices and numpy
 vectors) are for users who write their own integrator, linearize, or check, and
 for static and modal analysis. They call the same compiled element kernels as
 the time loop (through :mod:`femb.kernels`); the solver's hot path is the
-generated compiled code of :mod:`femb.codegen` / ``femb/step.py``.
+compiled engine (``femb/engine/``, run-time data from :mod:`femb.codegen`).
 
 Equations (Arnold & Brüls 2007): M q̈ = f − Φ_qᵀ λ, Φ = 0;
 K_t = ∂(M q̈ − f + Φ_qᵀλ)/∂q, C_t = −∂f/∂q̇ (method.md eq. 7).

@@ -3,7 +3,7 @@
 femb compiles two things, once each, and keeps the machine code on disk
 (:func:`femb.jit.cache_dir`, ``$FEMB_CACHE_DIR``; default ``~/.cache/femb``):
 
-* the **engine** (:mod:`femb.step`: Newton iteration, LU, error estimate,
+* the **engine** (:mod:`femb.engine`: Newton iteration, LU, error estimate,
   consistent start, time loop, gather/scatter of the element batches), shared by
   every model;
 * the **kernels of each element type** (:func:`femb.kernels.compiled_kernel`),
@@ -52,11 +52,12 @@ def build(progress=True, stream=None):
     """
     import sys
 
-    from femb import kernels, step
+    from femb import kernels
+    from femb.engine import ensure_engine
     from femb.io.progress import progress as bar
     out = sys.stderr if stream is None else stream
     t0 = time.perf_counter()
-    step.ensure_engine(verbose=progress, background=False)
+    ensure_engine(verbose=progress)
     t1 = time.perf_counter()
     todo = [(cls, role, fn) for cls in builtin_element_types()
             for role, fn in cls.kernels.items() if role in ("mass", "force", "constraint", "rates")]
@@ -121,7 +122,7 @@ def info():
     -------
     dict
         ``{"path": str, "bytes": int, "entries": [(name, files, bytes, functions), ...]}``: one
-        entry per compiled module and source key (``step-<key>`` is the engine), with the names
+        entry per compiled module and source key (``engine.<stage>-<key>`` are the engine's), with the names
         of the functions compiled there.
     """
     root = cache_dir()

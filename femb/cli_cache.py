@@ -21,7 +21,7 @@ def cmd_cache(args):
         d = cache.info()
         print(f"cache: {d['path']}")
         print(f"size:  {_size(d['bytes'])}")
-        eng = [e for e in d["entries"] if e[0].startswith("step-")]
+        eng = [e for e in d["entries"] if e[0].startswith("engine.")]
         print(f"engine: {'compiled' if eng else 'not compiled yet'}")
         print("entries (module-source key: files, size, compiled functions):")
         for name, files, size, funcs in d["entries"]:

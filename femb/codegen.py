@@ -1,4 +1,4 @@
-"""The run-time data of a model for the one compiled engine (:mod:`femb.step`).
+"""The run-time data of a model for the one compiled engine (:mod:`femb.engine`).
 
 :class:`Compiled` holds, computed once per model, what the engine needs besides
 the state: the arrays of every element batch (parameters, index arrays, scatter
@@ -18,7 +18,7 @@ import scipy.sparse as sp
 from scipy.sparse.csgraph import reverse_cuthill_mckee
 
 from femb.errors import ModelError
-from femb import step as _S
+from femb.engine import layout as _S
 from femb.jit import pack
 
 #: largest system stored densely (its LU skips zeros); larger ones always use the band storage
@@ -26,12 +26,10 @@ DENSE_MAX = 400
 #: systems up to this size are always stored densely
 DENSE_SMALL = 128
 #: the arrays of each batch, in the order they are packed into G: defined beside their numbers
-#: in femb/step.py (F_*, K_*)
+#: in femb/engine/layout.py (F_*, K_*)
 FORCE_FIELDS = _S.FORCE_FIELDS
 CONSTRAINT_FIELDS = _S.CONSTRAINT_FIELDS
-#: the model constants packed into C (femb/step.py reads them as views, by these numbers)
-CONSTANT_KINDS = ["i1", "i1", "i1", "f1", "f1", "f1", "f1", "i1", "i1", "i1", "f1", "f1", "i1", "f2", "f1",
-                  "i1", "i1", "i2", "f3", "i1", "i2", "f2", "f1", "i2", "i2", "i1", "f2", "f2", "i2", "i1"]
+#: the model constants packed into C, by name: ``C_FIELDS`` of femb/engine/layout.py
 
 
 # --------------------------------------------------------------------------
@@ -51,21 +49,21 @@ class Compiled:
     Attributes
     ----------
     mod : module
-        The engine, :mod:`femb.step` (``evaluate``, ``rates``, ``run``, ...).
+        The engine, :mod:`femb.engine` (``evaluate``, ``rates``, ``run``, ...).
     G : tuple (F, I, L)
         The arrays of every batch (parameters, index arrays, scatter targets, work
         arrays; :data:`FORCE_FIELDS`, :data:`CONSTRAINT_FIELDS`) as one pack
         (:func:`femb.jit.pack`); ``Gv`` the same arrays as numpy views.
     C : tuple (F, I, L)
         Model constants (mass matrix, permutation, weights, ...; their kinds in
-        :data:`CONSTANT_KINDS`, their meaning where ``femb/step.py`` reads them) as
+        ``C_FIELDS`` of femb/engine/layout.py, their meaning where ``femb/engine/`` reads them) as
         one pack; ``Cv[k]`` constant k as a numpy view.
     N, kl, ku, ldab : int
         Unknowns nq + nc (nq + 2 nc with the index-2 layout) and the band of the
         permuted iteration matrix.
     layout : {"index3", "index2"}
         "index2" adds nc rows and columns for the stabilized index-2 step
-        (``newton_step`` in femb/step.py, index 2): the velocity constraint rows
+        (``newton_step`` in femb/engine/newton.py, index 2): the velocity constraint rows
         (B in the q̇ columns) and the unknowns η, coupled to the Φ rows by
         B(q) B(q_n)ᵀ. Its ``evaluate`` puts the identity on the η block, so
         that the constrained-acceleration solves of the index-3 layout work
@@ -163,7 +161,7 @@ class Compiled:
         if self.dense:
             self.ldab = ldab = N
             self.storage_size = N * N
-            # pivots and the nonzero pattern of the factors (femb/step.py, dense_lu)
+            # pivots and the nonzero pattern of the factors (femb/engine/linalg.py, dense_lu)
             self.piv_size = 3 * N + 2 * N * N
 
             def target(r_, c_):
@@ -255,42 +253,45 @@ class Compiled:
         arrays = [a for batch in G_force + G_con for a in batch]
         self.G, self.Gv = pack(arrays)
         tf = model.time_function_table
-        C = (_i64(Mc.indptr), perm, iperm, _f64(model.force_weight), _f64(model.force_weight_ext),
-             _f64(model.q_fixed), _f64(model.f_const), _i64(Mc.indices),
-             _i64(tf["kind"]), _i64(tf["off"]), _f64(tf["coef"]), _f64(Mc.data),
-             _i64(target(Mcoo.row, Mcoo.col)), np.zeros((max(1, len(tf["kind"])), 3)),
-             np.array([float(np.abs(model.f_const * model.force_weight).max(initial=0.0))]),
-             active, _i64(tI), self.env,
-             # rotation nodes: T(Δθ) per free rotation (identity between steps), x index of each
-             # additive v entry (−1 on rotations), (x start, v start) of each free rotation, the
-             # quaternions at the start of the step, the step's increment Δ on rotation entries
-             np.tile(np.eye(3), (len(rot), 1, 1)), _i64(getattr(model, "xmap", np.arange(nv))),
-             _i64(rot).reshape(-1, 2), np.zeros((len(rot), 4)), np.zeros(nv),
-             # index-2 layout (empty otherwise): per flat entry of B (constraint, coordinate, target
-             # in the velocity rows), the products of B(q) B(q_n)ᵀ (entry, entry, target), the η
-             # diagonal of active constraints, work: B(q_n), B(q) and B(q) T(D) flat, and η, g, Φ_t, γ
-             np.ascontiguousarray(np.stack((fl_c, fl_d, tG), axis=1).astype(np.int64)), pairs,
-             _i64(tEta), np.zeros((3, nB)), np.zeros((4, nc if ggl else 0)),
-             # the batch table (femb/step.py, B_ROLE ...): role, first array in G, 1 if the forces
-             # depend on q̇, the addresses of the batch's kernels
-             self.batch_table(model),
-             np.array([1 if getattr(model, "lie", False) else 0], dtype=np.int64))
-        for k, (a, kind) in enumerate(zip(C, CONSTANT_KINDS)):
-            assert a.ndim == int(kind[1]) and (a.dtype.kind == "f") == (kind[0] == "f"), (k, a.dtype, a.shape)
-        #: the constants as one pack (F, I, L) for the compiled code, and as numpy views (Cv[k])
-        self.C, self.Cv = pack(C)
+        C = dict(mp=_i64(Mc.indptr), perm=perm, iperm=iperm, w=_f64(model.force_weight),
+                 wext=_f64(model.force_weight_ext), qfix=_f64(model.q_fixed), fconst=_f64(model.f_const),
+                 mi=_i64(Mc.indices), tfkind=_i64(tf["kind"]), tfoff=_i64(tf["off"]), tfcoef=_f64(tf["coef"]),
+                 mx=_f64(Mc.data), tm=_i64(target(Mcoo.row, Mcoo.col)),
+                 tfv=np.zeros((max(1, len(tf["kind"])), 3)),
+                 scale0=np.array([float(np.abs(model.f_const * model.force_weight).max(initial=0.0))]),
+                 active=active, ti=_i64(tI), env=self.env,
+                 # rotation nodes: T(Δθ) per free rotation (identity between steps), x index of each
+                 # additive v entry (−1 on rotations), (x start, v start) of each free rotation, the
+                 # quaternions at the start of the step, the step's increment Δ on rotation entries
+                 tn=np.tile(np.eye(3), (len(rot), 1, 1)), xmap=_i64(getattr(model, "xmap", np.arange(nv))),
+                 rot=_i64(rot).reshape(-1, 2), pn=np.zeros((len(rot), 4)), d=np.zeros(nv),
+                 # index-2 layout (empty otherwise): per flat entry of B (constraint, coordinate, target
+                 # in the velocity rows), the products of B(q) B(q_n)ᵀ (entry, entry, target), the η
+                 # diagonal of active constraints, work: B(q_n), B(q) and B(q) T(D) flat, and η, g, Φ_t, γ
+                 fl=np.ascontiguousarray(np.stack((fl_c, fl_d, tG), axis=1).astype(np.int64)), pairs=pairs,
+                 teta=_i64(tEta), bw=np.zeros((3, nB)), gglw=np.zeros((4, nc if ggl else 0)),
+                 # the batch table (femb/engine/layout.py, B_ROLE ...): role, first array in G, 1 if the
+                 # forces depend on q̇, the addresses of the batch's kernels
+                 batches=self.batch_table(model),
+                 lie=np.array([1 if getattr(model, "lie", False) else 0], dtype=np.int64))
+        #: the constants as one pack (F, I, L) for the compiled code, and as numpy views (Cv[k]),
+        #: in the order of C_FIELDS (femb/engine/layout.py), by name
+        self.C, self.Cv = pack(_S.named_arrays(_S.C_FIELDS, C, "C"))
         self.tfv = self.Cv[_S.C_TFV]
         self.python_tf = tf["python"]
-        from femb import step
-        step.ensure_engine()
-        #: the engine (femb/step.py): entry points ``run``, ``evaluate``, ``rates``, ...
-        self.mod = step
+        from femb import engine
+        if engine.ensure_engine():
+            # compiled now: the built-in element types' kernels follow in the background
+            from femb.cache import start_background_build
+            start_background_build()
+        #: the engine (femb/engine/): entry points ``run``, ``evaluate``, ``rates``, ...
+        self.mod = engine
         self.setup_time = time.perf_counter() - t0
 
     @staticmethod
     def batch_table(model):
         """(nbatch, NB) int64: per batch its role, first array in G, q̇ flag and kernel addresses
-        (columns ``B_*`` of :mod:`femb.step`)."""
+        (columns ``B_*`` of :mod:`femb.engine.layout`)."""
         from femb.kernels import compiled_kernel
         nF = len(model.force_groups)
         table = np.zeros((nF + len(model.constraint_groups), _S.NB), dtype=np.int64)
@@ -310,7 +311,7 @@ class Compiled:
 
 
 def _envelope(pr, pc, N, kl, ku):
-    """Per-column bounds of the band LU work, (3, N) int64 (see ``band_lu`` in femb/step.py).
+    """Per-column bounds of the band LU work, (3, N) int64 (see ``band_lu`` in femb/engine/linalg.py).
 
     env[0, j]: lowest row that can be nonzero below the diagonal of column j
     (cumulative over columns ≤ j, so partial pivoting stays inside); env[1, j]:

@@ -136,7 +136,7 @@ def acceleration_roughness(result, *, rtol=1e-3, atol=1e-3, first=None):
         (the weighted RMS of C_q h² Δq̈ᵖᵖ over the step pair, the quantity of the
         accuracy check), ``h``.
     """
-    from femb.solver import error_constants
+    from femb.options import error_constants
     from femb.alpha import GeneralizedAlpha
 
     t = np.asarray(result.t)

@@ -9,7 +9,7 @@ coordinates. From then on the type's **compiled kernels** (``kernels``, a dict
 of ``femb.jit.kernel`` functions by role: ``"mass"``, ``"force"``,
 ``"constraint"``, ``"rates"``) evaluate all elements of the batch at once.
 Their signatures and output shapes are the contract of ``docs/kernels.md``;
-the compiled time loop (``femb/step.py``) calls them, and so does every Python
+the compiled time loop (``femb/engine/``) calls them, and so does every Python
 path (:mod:`femb.kernels`), so each element's equations exist once.
 
 Class-level metadata tells the compiled model what a scene needs:

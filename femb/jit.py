@@ -2,7 +2,7 @@
 
 Element kernels are decorated with :func:`kernel`; each is compiled once per element
 type for its role's signature (:data:`ROLE_SIGNATURES`, :func:`femb.kernels.compiled_kernel`)
-and the one engine (:mod:`femb.step`) calls it through its address (:func:`call_force`,
+and the one engine (:mod:`femb.engine`) calls it through its address (:func:`call_force`,
 :func:`call_constraint`, :func:`call_rates`). Compiled code is kept in femb's cache
 (:func:`use_cache`, :func:`engine`), keyed on the source files it depends on.
 ``NUMBA_DISABLE_JIT=1`` runs everything as plain Python for debugging.
@@ -33,7 +33,7 @@ from numba.np.arrayobj import make_array, populate_array
 
 #: numba options of the element kernels
 KERNEL_OPTIONS = dict(nogil=True, error_model="numpy", boundscheck=False, no_cfunc_wrapper=True)
-#: options of the engine (femb/step.py): no reference counting of
+#: options of the engine (femb/engine/): no reference counting of
 #: arrays (the loop allocates nothing; this removes atomic increments from every call)
 OPTIONS = dict(KERNEL_OPTIONS, _nrt=False)
 
@@ -392,10 +392,10 @@ class _FembLocator(_caching._CacheLocator):
 
     _pending = {}
 
-    def __init__(self, py_func, py_file, key, root):
+    def __init__(self, py_func, py_file, key, root, prefix=""):
         self._lineno = py_func.__code__.co_firstlineno
         self._py_file = py_file
-        mod = Path(py_file).stem
+        mod = prefix + Path(py_file).stem
         self._path = str(root / f"{mod}-{key}")
         self._key = key
 
@@ -413,8 +413,8 @@ class _FembLocator(_caching._CacheLocator):
 
     @classmethod
     def from_function(cls, py_func, py_file):
-        key, root = cls._pending[id(py_func)]
-        return cls(py_func, py_file, key, root)
+        key, root, prefix = cls._pending[id(py_func)]
+        return cls(py_func, py_file, key, root, prefix)
 
 
 class _FembCacheImpl(_caching.CompileResultCacheImpl):
@@ -461,7 +461,7 @@ class _FembCache(_caching.FunctionCache):
             return False
 
 
-def use_cache(disp, extra=""):
+def use_cache(disp, extra="", prefix=""):
     """Give a numba dispatcher femb's disk cache (keyed by :func:`source_key`); returns it.
 
     Without a writable cache directory the dispatcher compiles in memory (one warning).
@@ -472,7 +472,7 @@ def use_cache(disp, extra=""):
     if root is None:
         return disp
     key = source_key(disp.py_func, extra)
-    _FembLocator._pending[id(disp.py_func)] = (key, root)
+    _FembLocator._pending[id(disp.py_func)] = (key, root, prefix)
     try:
         disp._cache = _FembCache(disp.py_func)
     finally:
@@ -531,8 +531,24 @@ def _file_lock(path):
             fcntl.flock(fh, fcntl.LOCK_UN)
 
 
+def package_files_hash(py_func):
+    """Hash of every ``.py`` file in the folder of ``py_func``'s source (its package).
+
+    The engine's stages (``femb/engine/*.py``) read named constants of ``femb/engine/layout.py``
+    as compile-time globals; :func:`dependency_files` follows compiled functions, not integers,
+    so the engine's key hashes the whole package: an edit of any of its files recompiles it.
+    """
+    folder = Path(inspect.getsourcefile(py_func)).parent
+    h = _hashlib.sha256()
+    for f in sorted(folder.glob("*.py")):
+        h.update(f.name.encode())
+        h.update(_file_hash(str(f)).encode())
+    return h.hexdigest()[:20]
+
+
 def engine(**opts):
-    """Decorator of the engine's entry points (femb/step.py): ``numba.njit`` with femb's disk cache."""
+    """Decorator of the engine's entry points (femb/engine/): ``numba.njit`` with femb's disk cache,
+    keyed on every file of the engine's package; entries in ``<cache>/numba/engine.<stage>-<key>``."""
     def deco(fn):
-        return use_cache(numba.njit(**opts)(fn))
+        return use_cache(numba.njit(**opts)(fn), extra=package_files_hash(fn), prefix="engine.")
     return deco

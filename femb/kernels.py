@@ -1,6 +1,6 @@
 """Calling an element type's compiled kernels from Python, one batch at a time.
 
-The compiled time loop (:mod:`femb.step`) calls the kernels directly; this module
+The compiled time loop (:mod:`femb.engine`) calls the kernels directly; this module
 serves everything else that needs element values from Python: the user-level
 assembly functions (:mod:`femb.assembly`), static and modal analysis, output, and
 the finite-difference tests of the kernels. The arrays follow the contract of

@@ -5,7 +5,7 @@ Every entry point that runs the generalized-α solver (:func:`femb.simulate`,
 builds its options here, through :meth:`SolverOptions.create`: one dataclass, validated in
 small functions, one per group (step size and tolerances, scheme parameters, Newton,
 linear algebra and predictor, the fixed-step check). The solver then writes them into the
-engine's named fields (``femb/step.py``: ``IP_FIELDS``, ``FP_FIELDS``).
+engine's named fields (``femb/engine/layout.py``: ``IP_FIELDS``, ``FP_FIELDS``).
 
 The rule for the number of fixed steps (:func:`fixed_steps`) and the defaults of the
 tolerances (:func:`_tolerances`) are stated in their docstrings.
@@ -253,6 +253,21 @@ def _check(check_every, warn_factor, start):
         raise ParameterError(f"check_every must be 0 (off) or at least 2, got {check_every}")
     return {"check_every": check_every, "warn_factor": check_positive("warn_factor", warn_factor),
             "start": _choice("start", start, ("consistent", "seed"))}
+
+
+# ---- the scheme's error constants ------------------------------------------------------------
+def error_constants(alpha):
+    """Local error constants (C_q, C_v) of the generalized-α scheme (stepsize.md §1).
+
+    q(t_n + h) − q_{n+1} = C_q h³ q⃛ and q̇(t_n + h) − q̇_{n+1} = C_v h³ q⁗ with
+    C_q = 1/6 − β − Δ/2, C_v = 1/6 − ½[(1 − γ)Δ² + γ(1 + Δ)²] − Δ(1 − α_m − α_f)/2,
+    Δ = α_m − α_f.
+    """
+    am, af, beta, gamma = alpha.alpha_m, alpha.alpha_f, alpha.beta, alpha.gamma
+    d = am - af
+    Cq = 1.0 / 6.0 - beta - 0.5 * d
+    Cv = 1.0 / 6.0 - 0.5 * ((1.0 - gamma) * d * d + gamma * (1.0 + d) ** 2) - 0.5 * d * (1.0 - am - af)
+    return Cq, Cv
 
 
 # ---- the number of fixed steps ----------------------------------------------------------------

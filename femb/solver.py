@@ -2,7 +2,7 @@
 of the time loop.
 
 The time step itself (predictor, Newton iteration, band LU, chunks of steps) is
-compiled code in ``femb/step.py``; this module validates options, computes
+compiled code in ``femb/engine/``; this module validates options, computes
 consistent initial values, drives the compiled loop chunk by chunk (observers,
 stored steps, Python time functions) and turns its status codes into femb's
 errors.
@@ -32,9 +32,9 @@ import numpy as np
 
 from femb.errors import SINGULAR_HINT_DIVERGED, ConvergenceError, ModelError, ParameterError, SingularMatrixError
 from femb.initial import consistent_initial_state, singular_hint  # noqa: F401  (re-exported)
-from femb import step as S
+from femb import engine as S
 from femb.jit import pack
-from femb.options import MAX_STEPS, SolverOptions, check_positive, fixed_steps
+from femb.options import MAX_STEPS, SolverOptions, check_positive, error_constants, fixed_steps  # noqa: F401
 from femb.model import State
 from femb.result import Result
 from femb.storage import Storage
@@ -75,20 +75,6 @@ def _integer_steps(n_steps):
     return n
 
 
-def error_constants(alpha):
-    """Local error constants (C_q, C_v) of the generalized-α scheme (stepsize.md §1).
-
-    q(t_n + h) − q_{n+1} = C_q h³ q⃛ and q̇(t_n + h) − q̇_{n+1} = C_v h³ q⁗ with
-    C_q = 1/6 − β − Δ/2, C_v = 1/6 − ½[(1 − γ)Δ² + γ(1 + Δ)²] − Δ(1 − α_m − α_f)/2,
-    Δ = α_m − α_f.
-    """
-    am, af, beta, gamma = alpha.alpha_m, alpha.alpha_f, alpha.beta, alpha.gamma
-    d = am - af
-    Cq = 1.0 / 6.0 - beta - 0.5 * d
-    Cv = 1.0 / 6.0 - 0.5 * ((1.0 - gamma) * d * d + gamma * (1.0 + d) ** 2) - 0.5 * d * (1.0 - am - af)
-    return Cq, Cv
-
-
 #: largest h·ω (ω² ≈ ‖j₀‖/‖q̇₀‖, the fastest motion the start sets going) for which the consistent
 #: start's expansion in h is used
 START_RESOLUTION = 1.0
@@ -124,7 +110,7 @@ class GeneralizedAlphaSolver:
     """Generalized-α integrator: index 3 (Algorithm 1 of Arnold & Brüls 2007, fixed or adaptive
     steps) or stabilized index 2 (GGL-type; planar and spatial models, fixed or adaptive steps).
 
-    Contract: :meth:`advance` runs the compiled loop (``femb/step.py``) for a
+    Contract: :meth:`advance` runs the compiled loop (``femb/engine/``) for a
     chunk of accepted steps, or raises (:class:`ConvergenceError`,
     :class:`SingularMatrixError`); it never accepts an unconverged step. The
     state (t, q, q̇, q̈, λ) satisfies the equations of motion and Φ = 0 at every
@@ -275,7 +261,7 @@ class GeneralizedAlphaSolver:
         self.h_min = 1e-10 * max(abs(self.t_end) if math.isfinite(self.t_end) else 0.0, span)
 
     def _int_parameters(self):
-        """The integer parameters ``ip``, by field name (``femb/step.py``, ``IP_FIELDS``)."""
+        """The integer parameters ``ip``, by field name (``femb/engine/layout.py``, ``IP_FIELDS``)."""
         cp, m = self.cp, self.model
         correction = self.newton_test == "correction"
         ggl = self.formulation == "index2"
@@ -287,7 +273,7 @@ class GeneralizedAlphaSolver:
                     dense=int(bool(cp.dense)), ggl=int(ggl), carry=cp.mod.carry_rule(cp.N, cp.dense, correction, ggl))
 
     def _float_parameters(self):
-        """The float parameters ``fp``, by field name (``femb/step.py``, ``FP_FIELDS``)."""
+        """The float parameters ``fp``, by field name (``femb/engine/layout.py``, ``FP_FIELDS``)."""
         al, unit = self.alpha, self.error_per == "unit_step"
         return dict(h=self.h or 0.0, t0=self.t0, am=al.alpha_m, af=al.alpha_f, beta=al.beta, gamma=al.gamma,
                     rtol=self.newton_rtol, atol=self.newton_atol, phitol=self.phi_tol, l=self.model.length_scale,
@@ -440,7 +426,7 @@ class GeneralizedAlphaSolver:
 
     def _compile(self):
         """Load the engine before any timing starts (it is compiled once per installation,
-        :func:`femb.step.ensure_engine`; a call of 0 steps)."""
+        :func:`femb.engine.ensure_engine`; a call of 0 steps)."""
         self.advance(0)
 
     def advance(self, n_chunk):

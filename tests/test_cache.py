@@ -110,22 +110,22 @@ def test_the_key_follows_the_kernels_own_files_and_not_unrelated_ones(tmp_path):
 
 
 def test_the_key_does_not_depend_on_the_user_or_the_cache_location(tmp_path, monkeypatch):
-    from femb import step
-    key = jit.source_key(step.run.py_func)
+    from femb import engine
+    key = jit.source_key(engine.run.py_func)
     monkeypatch.setenv("HOME", str(tmp_path))
     monkeypatch.setenv("USER", "somebody-else")
     monkeypatch.setenv("FEMB_CACHE_DIR", str(tmp_path / "elsewhere"))
-    assert jit.source_key(step.run.py_func) == key
+    assert jit.source_key(engine.run.py_func) == key
 
 
 def _engine_only_cache(dst):
     """A cache directory holding this process's compiled engine only (no kernels)."""
-    from femb import step
-    step.ensure_engine(verbose=False)
+    from femb import engine
+    engine.ensure_engine(verbose=False)
     src = jit.cache_dir() / "numba"
     (dst / "numba").mkdir(parents=True)
     for d in src.iterdir():
-        if d.is_dir() and d.name.startswith("step-"):
+        if d.is_dir() and d.name.startswith("engine."):
             shutil.copytree(d, dst / "numba" / d.name)
     return dst
 

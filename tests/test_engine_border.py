@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 import femb
-from femb import step as S
+from femb import engine as S
 from femb.elements import PointMass, SpringDamper
 from femb.errors import ParameterError
 from femb.options import MAX_STEPS, SolverOptions, fixed_steps
@@ -33,11 +33,21 @@ def osc():
 # ---- named fields ---------------------------------------------------------------------------
 @pytest.mark.parametrize("prefix, fields", [("IP", S.IP_FIELDS), ("FP", S.FP_FIELDS), ("SI", S.SI_FIELDS),
                                             ("SF", S.SF_FIELDS), ("NS", S.NS_FIELDS),
-                                            ("W", tuple(n for n, _ in S.W_FIELDS))])
+                                            ("W", tuple(n for n, _ in S.W_FIELDS)),
+                                            ("C", tuple(n for n, _ in S.C_FIELDS))])
 def test_field_constants_come_from_one_list(prefix, fields):
     assert len(set(fields)) == len(fields)
     assert [getattr(S, f"{prefix}_{n.upper()}") for n in fields] == list(range(len(fields)))
     assert getattr(S, "N" + prefix) == len(fields)
+
+
+def test_named_arrays_refuse_a_wrong_kind():
+    vals = {"a": np.zeros(3), "b": np.zeros((2, 2), dtype=np.int64)}
+    assert len(S.named_arrays((("a", "f1"), ("b", "i2")), vals, "X")) == 2
+    with pytest.raises(TypeError, match="field b"):
+        S.named_arrays((("a", "f1"), ("b", "f2")), vals, "X")
+    with pytest.raises(KeyError, match="'c'"):
+        S.named_arrays((("a", "f1"), ("b", "i2"), ("c", "f1")), vals, "X")
 
 
 def test_named_array_refuses_missing_unknown_fields():
@@ -67,9 +77,14 @@ def test_every_engine_field_is_written_once_by_name(osc, h):
     assert s.ip[S.IP_NV] == osc.nq and s.ip[S.IP_MAXIT] == 25 and s.ip[S.IP_MODE] == int(h is None)
     assert s.fp[S.FP_H] == (h or 0.0) and s.fp[S.FP_TEND] == 0.01 and s.fp[S.FP_AM] == s.alpha.alpha_m
     assert np.all(np.isfinite(s.fp[[S.FP_FIELDS.index(n) for n in S.FP_FIELDS if n != "hmax"]]))
-    # the work pack holds one array per W field, of the size the field names
+    # the work pack holds one array per W field, of the size the field names; the model
+    # constants one per C field, of the field's kind
     assert s.W[2].shape[0] == len(S.W_FIELDS)
     np.testing.assert_array_equal(s.Wv[S.W_ATOLV], s.atol)
+    assert s.cp.C[2].shape[0] == len(S.C_FIELDS)
+    for (name, kind), a in zip(S.C_FIELDS, s.cp.Cv):
+        assert a.ndim == int(kind[1]) and (a.dtype.kind == "f") == (kind[0] == "f"), name
+    np.testing.assert_array_equal(s.cp.Cv[S.C_QFIX], osc.q_fixed)
 
 
 # ---- SolverOptions --------------------------------------------------------------------------

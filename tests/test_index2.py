@@ -3,7 +3,7 @@
 Spatial models (the same step on the Lie group): tests/test_spatial_index2.py.
 
 q_{n+1} = q_n + Δ + B(q_n)ᵀη with Φ(q_{n+1}) = 0 and B(q_{n+1}) q̇_{n+1} + Φ_t = 0
-(femb/step.py, ``newton_step_ggl``). Errors are measured against the independent
+(femb/engine/newton.py, ``newton_step``). Errors are measured against the independent
 references of the scenes (``femb.benchmarks``), as maxima over the run.
 Run with ``-n 0`` or with the other files: every test is independent.
 """

@@ -1,10 +1,11 @@
-"""The iteration matrix carried over steps (femb/step.py, ``carry_rule``): when it applies, that it
+"""The iteration matrix carried over steps (femb/engine/layout.py, ``carry_rule``): when it applies, that it
 converges to the same tolerance as one fresh matrix per step, and that it is refreshed."""
 import numpy as np
 import pytest
 
 import femb
-import femb.step as S
+import femb.engine as S
+from femb.engine import layout
 from femb.benchmarks import andrews, rigid_chain_3d
 from femb.benchmarks.spatial_beam_scaling import build as rod
 
@@ -13,7 +14,7 @@ from femb.benchmarks.spatial_beam_scaling import build as rod
 def per_step(monkeypatch):
     """Make every model factorize once per step (the rule's size threshold out of reach)."""
     def use():
-        monkeypatch.setattr(S, "NEWTON_CARRY_MIN_N", 10 ** 12)
+        monkeypatch.setattr(layout, "NEWTON_CARRY_MIN_N", 10 ** 12)     # read by carry_rule
     return use
 
 

@@ -1,7 +1,7 @@
 """The stabilized index-2 (GGL-type) step on the Lie group, ``formulation="index2"`` for spatial models.
 
 q_{n+1} = q_n ∘ exp(Δ + B(q_n)ᵀη) with Φ(q_{n+1}) = 0 and B(q_{n+1}) v_{n+1} + Φ_t = 0
-(docs/spatial.md §2, femb/step.py ``newton_step_ggl``). Every error is measured
+(docs/spatial.md §2, femb/engine/newton.py ``newton_step``). Every error is measured
 against the independent references of ``femb.benchmarks.references`` (quaternion
 ODE, relative coordinates), never against femb itself.
 

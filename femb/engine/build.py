@@ -1,0 +1,81 @@
+"""Stage: build: the engine's entry points, their one signature each, and their compilation.
+
+The engine is compiled once per installation and CPU and cached on disk (:func:`femb.jit.engine`);
+its cache key hashes every file of this package (:func:`femb.jit.engine`), so that an edit of
+any stage or of the layout recompiles it.
+"""
+
+from femb.engine.linalg import band_lu, band_solve, dense_lu_solve
+from femb.engine.evaluate import (constraint_B, copy_B, eval_time_functions, evaluate, jacobian_times,
+                                    rates)
+from femb.engine.newton import ggl_matrix, lie_reset
+from femb.engine.control import kkt_accelerations, project_normal_velocity
+from femb.engine.loop import run
+
+
+# ---- the engine's entry points and their one signature each -----------------------------------
+def engine_signatures():
+    """``{entry point: argument types}``: every entry point of the engine has one signature,
+    whatever the model (its data come as packs and arrays of fixed rank and dtype)."""
+    from numba import types as T
+    f1, i1, i2, f2 = T.float64[::1], T.int64[::1], T.int64[:, ::1], T.float64[:, ::1]
+    P = T.Tuple((f1, i1, i2))
+    f, i, b = T.float64, T.int64, T.boolean
+    loop = (P, P, i1, f1, i1, f1, i1)
+    return {
+        run: loop + (f1,) * 7 + (f2, f1, i1, f1, f1, f1, f1, f1, P, i, f1, f2, f2, f2, f2, f1,
+                                  T.int32[::1], f1),
+        evaluate: (P, P, f, f1, f1, f1, f1, b, f, f, f, f1, f1, f1),
+        kkt_accelerations: loop + (f, f1, f1, f1, f1, f, f, f1, i1, f1, P, f1, i1, f1, i),
+        project_normal_velocity: (P, P, i1, f, f1, f1, f1, f1, i1, f1, f1),
+        rates: (P, P, f, f1, f1, f1, f1),
+        jacobian_times: (P, P, f, f1, f1, f1),
+        constraint_B: (P, P, f, f1, f1, f1),
+        copy_B: (P, P, f1),
+        ggl_matrix: (P, f1, f),
+        lie_reset: (P,),
+        eval_time_functions: (f, i1, i1, f1, f2),
+        band_lu: (f1, i, i, i, i2, i1, f),
+        band_solve: (f1, i, i, i, i2, i1, f1),
+        dense_lu_solve: (f1, i, i1, f, f1),
+    }
+
+
+#: whether the engine is loaded in this process
+_ENGINE = {"ready": False}
+
+
+def ensure_engine(verbose=True):
+    """Compile the engine, or load it from femb's disk cache: once per installation and CPU.
+
+    Several processes that need it at once compile it once (a file lock), the others load it.
+    Says so on stderr, with the time it took, when it has to compile.
+
+    Returns
+    -------
+    bool
+        True when it was compiled now: the caller may then compile the built-in kernels in the
+        background (:func:`femb.cache.start_background_build`; the engine does not import the
+        cache module, which imports it).
+    """
+    import sys
+    import time
+    from femb.jit import compile_lock, is_cached, jit_disabled
+    if _ENGINE["ready"] or jit_disabled():
+        return False
+    sigs = engine_signatures()
+    with compile_lock("engine"):
+        missing = [d for d, sg in sigs.items() if not is_cached(d, sg)]
+        t0 = time.perf_counter()
+        if missing and verbose:
+            print(f"femb: compiling the engine (once per installation; {len(missing)} entry points)",
+                  file=sys.stderr, flush=True)
+        for d, sg in sigs.items():
+            d.compile(sg)
+            # any other argument types are a bug of the caller, not a reason to compile again
+            d.disable_compile()
+    if missing and verbose:
+        print(f"femb: engine compiled in {time.perf_counter() - t0:.1f} s, cached for later runs",
+              file=sys.stderr, flush=True)
+    _ENGINE["ready"] = True
+    return bool(missing)
