@@ -194,3 +194,10 @@ def test_storage_that_does_not_fit_is_refused_up_front(osc, monkeypatch):
         femb.simulate(osc, 1e3, 1e-3)            # 10⁶ stored states of 64 bytes: 61 MiB
     assert "stride" in str(e.value)
     femb.simulate(osc, 0.1, 1e-3)                # small runs go on
+
+
+def test_cli_run_refuses_an_absurd_step_count_before_building(capsys):
+    from femb import cli
+    assert cli.main(["run", "pendulum", "--t-end", "1", "--h", "1e-300"]) == 2
+    err = capsys.readouterr().err
+    assert "h = 1e-300" in err and "steps" in err
