@@ -74,7 +74,8 @@ PARAMETERS = {
     "stiffness": ("factor on the coupler's E and G (1: aluminium; large: the rigid limit)", "-"),
     "rigid": ("rigid coupler (SpatialRigidBody) instead of the beam", "-"),
     "damping": ("stiffness-proportional material damping beta of the coupler", "s"),
-    "ramp": ("crank rate ramp: 'smooth' (smooth_ramp, default) or 'cosine' (spin_up's profile)", "-"),
+    "ramp": ("crank rate ramp: 'smooth' (smooth_ramp, default), 'cosine' (spin_up's profile) or 'constant' "
+             "(full speed from t = 0)", "-"),
 }
 
 OUTPUTS = {
@@ -141,14 +142,23 @@ def smooth_ramp(omega_s=DATA["omega_s"], T_s=DATA["T_s"], k=4):
     return TimeFunction(f, df, ddf, name=f"smooth ramp (k = {k})")
 
 
+def constant_speed(omega_s=DATA["omega_s"]):
+    """θ(t) = ω_s t: the crank at full speed from t = 0 (a TimeFunction), as a rigid loop is
+    often started; the mechanism, at rest before t0, is then set moving impulsively."""
+    return TimeFunction(lambda t: omega_s * t, lambda t: omega_s, lambda t: 0.0, name="constant speed")
+
+
 def crank_profile(ramp="smooth", P=DATA):
-    """The driver's θ(t): ``"smooth"`` (:func:`smooth_ramp`) or ``"cosine"`` (:func:`spin_profile`)."""
+    """The driver's θ(t): ``"smooth"`` (:func:`smooth_ramp`), ``"cosine"`` (:func:`spin_profile`)
+    or ``"constant"`` (:func:`constant_speed`)."""
     if ramp == "smooth":
         return smooth_ramp(P["omega_s"], P["T_s"])
     if ramp == "cosine":
         return spin_profile(P["omega_s"], P["T_s"])
+    if ramp == "constant":
+        return constant_speed(P["omega_s"])
     from femb.errors import ParameterError
-    raise ParameterError(f"ramp must be 'smooth' or 'cosine', got {ramp!r}")
+    raise ParameterError(f"ramp must be 'smooth', 'cosine' or 'constant', got {ramp!r}")
 
 
 def geometry(P=DATA):

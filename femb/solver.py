@@ -31,6 +31,7 @@ import numpy as np
 
 from femb.alpha import GeneralizedAlpha
 from femb.errors import SINGULAR_HINT_DIVERGED, ConvergenceError, ModelError, ParameterError, SingularMatrixError
+from femb import initial
 from femb.initial import consistent_initial_state, singular_hint  # noqa: F401  (re-exported)
 from femb import step as S
 from femb.jit import pack
@@ -303,9 +304,12 @@ class GeneralizedAlphaSolver:
         self.h0 = None if h0 is None else _check_positive("h0", h0)
 
         t_init = time.perf_counter()
+        self.start_weights = None
         if initialize:
-            st = consistent_initial_state(model, state, t0=float(t0 if state is None else state.t),
-                                          phi_tol=self.phi_tol)
+            t_start = float(t0 if state is None else state.t)
+            self.start_weights = initial.start_weights(model, state, t_start, self.h or self.h0, t_end, self.alpha)
+            st = consistent_initial_state(model, state, t0=t_start, phi_tol=self.phi_tol,
+                                          weights=self.start_weights)
         else:
             st = (state or model.initial_state(t0)).copy()
         self.init_time = time.perf_counter() - t_init
@@ -433,12 +437,16 @@ class GeneralizedAlphaSolver:
             else:
                 dl = min(1e-4, 1e-2 * self.h)
             q0, v0, a0 = self.q, self.qd, self.qdd
-            KBt = np.zeros_like(self.AB)
-            kp = np.zeros_like(self.ipiv)
-            cmp = self.model.compose
-            ap = self._qpp(t0 + dl, cmp(q0, dl * v0 + 0.5 * dl * dl * a0), v0 + dl * a0, KBt, kp)
-            am_ = self._qpp(t0 - dl, cmp(q0, -dl * v0 + 0.5 * dl * dl * a0), v0 - dl * a0, KBt, kp)
-            j0 = (ap - am_) / (2.0 * dl)
+            if self.start_weights is not None:
+                # a flexible model: the jerk of the start's own accelerations (femb/initial.py)
+                j0 = initial.start_jerk(self.model, self.start_weights, t0, q0, v0, a0, dl)
+            else:
+                KBt = np.zeros_like(self.AB)
+                kp = np.zeros_like(self.ipiv)
+                cmp = self.model.compose
+                ap = self._qpp(t0 + dl, cmp(q0, dl * v0 + 0.5 * dl * dl * a0), v0 + dl * a0, KBt, kp)
+                am_ = self._qpp(t0 - dl, cmp(q0, -dl * v0 + 0.5 * dl * dl * a0), v0 - dl * a0, KBt, kp)
+                j0 = (ap - am_) / (2.0 * dl)
             # the factorization at the initial state, for re-synchronisations
             qpp0 = self._qpp(t0, self.q, self.qd, self.Wv[S.W_KBACC], self.Wv[S.W_KPIVACC])
             self.Wv[S.W_QPP][:] = qpp0
@@ -483,8 +491,13 @@ class GeneralizedAlphaSolver:
                         cp.mod.jacobian_times(cp.G, cp.C, float(t0), self.q,
                                               self.model.bracket(self.qd, self.qdd), Bb)
                         target = target + (h0 * h0 / 12.0) * Bb
-                    cp.mod.project_normal_velocity(cp.G, cp.C, self.ip, float(t0), self.q, self.qd, target,
-                                                   self.Wv[S.W_KBACC], self.Wv[S.W_KPIVACC], self.Wv[S.W_KX], self.Wv[S.W_BV])
+                    if self.start_weights is not None:
+                        self.qd[:] = initial.project_velocity(self.model, self.start_weights, float(t0), self.q,
+                                                              self.qd, target)
+                    else:
+                        cp.mod.project_normal_velocity(cp.G, cp.C, self.ip, float(t0), self.q, self.qd, target,
+                                                       self.Wv[S.W_KBACC], self.Wv[S.W_KPIVACC], self.Wv[S.W_KX],
+                                                       self.Wv[S.W_BV])
         elif not self.adaptive and self.check_every:
             pass
         if not self.adaptive:
