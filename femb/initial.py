@@ -32,7 +32,7 @@ import scipy.linalg as sla
 import scipy.sparse as sp
 
 from femb import assembly, kernels
-from femb.errors import (SINGULAR_HINT, SINGULAR_HINT_DIVERGED, SINGULAR_HINT_INDEPENDENT, SINGULAR_HINT_STEP,
+from femb.errors import (NEWTON_HINT, NEWTON_HINT_START, SINGULAR_HINT, SINGULAR_HINT_DIVERGED, SINGULAR_HINT_INDEPENDENT, SINGULAR_HINT_STEP,
                          InitializationError,
                          InitialMoveWarning, InitialVelocityWarning, ModelError,  # noqa: F401 (re-exported)
                          RedundantConstraintWarning)
@@ -48,6 +48,9 @@ MAX_INITIAL_MOVE = 0.01
 
 #: step of the difference in StartWeights.curvature: the fastest body turns by this angle (rad)
 CURVATURE_STEP = 1e-3
+
+#: Newton failures up to this step get the start's hint (newton_hint)
+START_STEPS = 5
 
 #: proximal sweeps of the start of flexible models (project_velocity, settle)
 SWEEPS = 3
@@ -564,6 +567,60 @@ class StartWeights:
             return self.stiffness(model, t, model.compose(q, k * ds * qd), qd) @ qd
 
         return self.c_K * (8.0 * (g(1) - g(-1)) - (g(2) - g(-2))) / (12.0 * ds)
+
+
+def residual_floor(model, state):
+    """The round-off floor of the force residual of a model with deformable elements (N).
+
+    An element's internal forces are its stiffness times strains computed from
+    positions of size L (the model's length scale): their round-off is about
+    ε K L, far above ε times the forces themselves when a stiff element carries
+    small loads (a beam's axial force ε EA L/l_e). The floor is
+    ε max_i w_i Σ_j |K_el,ij| s_j, with K_el the deformable batches' stiffness at
+    zero velocity, w the residual's weights (moments divided by L) and s_j = L
+    for translations, 1 rad for rotations; 0 without deformable elements. The
+    residual Newton test accepts a residual at this floor (a tighter tolerance,
+    ``newton_rtol=1e-13`` relative to the loads, cannot be met: 1.6e-8 N against
+    1.5e-12 N on the four-bar with a 32-element coupler).
+
+    Returns
+    -------
+    float
+    """
+    groups = deformable_groups(model, state.t, state.q, state.qd)
+    if not groups:
+        return 0.0
+    K = StartWeights(groups, 1.0).stiffness(model, state.t, state.q, state.qd)
+    w = np.asarray(model.force_weight, dtype=float)
+    s = model.length_scale * w
+    rows = np.asarray(abs(K).multiply(s[None, :]).sum(axis=1)).ravel() * w
+    return float(np.finfo(float).eps * rows.max(initial=0.0))
+
+
+def newton_hint(step, flexible, started):
+    """The hint of a Newton failure at ``step`` of a run.
+
+    Parameters
+    ----------
+    step : int
+    flexible : bool
+        The model has deformable elements (:func:`deformable_groups`).
+    started : bool
+        The run used the start of flexible models (consistent initial values with
+        :class:`StartWeights`, and ``start="consistent"``).
+
+    Returns
+    -------
+    str
+        :data:`~femb.errors.NEWTON_HINT_START` in the first :data:`START_STEPS`
+        steps of a flexible model that was not started so, else "try a smaller h"
+        (with adaptive steps named in the first steps).
+    """
+    if step <= START_STEPS and flexible and not started:
+        return NEWTON_HINT_START
+    if step <= START_STEPS:
+        return NEWTON_HINT + " (or adaptive steps, simulate(..., rtol=...), which resolve the start and then grow)"
+    return NEWTON_HINT
 
 
 def start_weights(model, state, t0, h, t_end, alpha):

@@ -423,6 +423,12 @@ class GeneralizedAlphaSolver:
         self._tf_at(t0)
         self.sf[0] = cp.mod.evaluate(cp.G, cp.C, t0, self.q, self.qd, self.qdd, self.lam, False,
                                      0.0, 0.0, 0.0, self.AB, self.r, self.Phi)
+        if self.newton_test == "residual":
+            # deformable elements: their internal forces carry round-off ε K L far above ε times the loads;
+            # 10⁻⁴ of it in the absolute tolerance lets the engine's round-off acceptance (corrections at
+            # the coordinates' round-off, residual within 10⁴ tolerances) take a residual at that floor
+            self.residual_floor = initial.residual_floor(self.model, self.initial_state)
+            self.fp[S.FP_ATOL] = self.newton_atol + 1e-4 * self.residual_floor
         # the consistent start needs consistent initial values; initialize=False keeps the seed's start
         need_j = self.adaptive or (self.start == "consistent" and self._initialized)
         h0 = self.h
@@ -567,6 +573,11 @@ class GeneralizedAlphaSolver:
                     return ModelError(f"{e} (during the run, near t = {tt:.6g} s, step {n})")
         return ModelError(f"a kernel indexed an array out of bounds near t = {t:.6g} s (step {n}): {exc}")
 
+    def _newton_hint(self, n):
+        st = self.initial_state
+        flexible = bool(initial.deformable_groups(self.model, st.t, st.q, st.qd))
+        return initial.newton_hint(n, flexible, self.start_weights is not None and self.start_used == "consistent")
+
     def raise_status(self, status):
         """Raise the femb error of a negative status of the compiled loop."""
         info = self.info
@@ -592,7 +603,7 @@ class GeneralizedAlphaSolver:
         if status == -1:
             raise ConvergenceError(
                 f"non-finite residual at t = {t1:.6g} s (step {n}, iteration {k}): the step diverged; "
-                "try a smaller h", t=t1, step=n, residuals=res)
+                f"{self._newton_hint(n)}", t=t1, step=n, residuals=res)
         if status == -2:
             where = f"; largest constraint residual in '{self.owner[iphi]}'" if iphi >= 0 else ""
             if self.newton_test == "residual":
@@ -603,7 +614,7 @@ class GeneralizedAlphaSolver:
                           f"‖Φ‖∞ = {err_phi:.3e} m (tolerance {info[6]:.3e})")
             raise ConvergenceError(
                 f"Newton did not converge at t = {t1:.6g} s (step {n}) within {self.max_iter} iterations: "
-                f"{detail}{where}; try a smaller h", t=t1, step=n, residuals=res)
+                f"{detail}{where}; {self._newton_hint(n)}", t=t1, step=n, residuals=res)
         if status == -3:
             raise ConvergenceError(
                 f"Newton diverged at t = {t1:.6g} s (step {n}): the iteration matrix became singular at "
