@@ -1,10 +1,19 @@
-"""Consistent initial values and the analysis of redundant constraints.
+"""Consistent initial values, the start of flexible models, and the analysis of redundant constraints.
 
 :func:`consistent_initial_state` projects a user's initial state onto the
 constraints at position, velocity and acceleration level (method.md §5) and
 says what it did: every body it moved by more than a tolerance is reported in
 a warning, and a move above ``max_initial_move`` is an error naming the joints
 that were furthest from closed.
+
+Flexible models (elements with mass and stiffness, :func:`deformable_groups`)
+are started with the weights of the first step's iteration matrix
+(:class:`StartWeights`; docs/stepsize.md §2, "Flexible models"): velocities with
+the least strain rate the joints allow (:func:`project_velocity`), positions that
+carry the deformation of the quasi-static motion (:func:`settle`), and the jerk of
+the start (:func:`start_jerk`). :func:`residual_floor` is the round-off floor of
+their internal forces for the residual Newton test, and :func:`newton_hint` the
+hint of a Newton failure in the first steps.
 
 :func:`redundancy` finds dependent constraint equations with a rank-revealing
 QR factorization (column pivoting) of the scaled Φ_qᵀ and names them;
@@ -551,9 +560,12 @@ class StartWeights:
 
         The second derivative of the deformable elements' forces along the motion
         q ∘ s q̇ (on a Lie group the right-trivialized tangent of that path is q̇, so
-        that f̈_el = f_el,q q̈ + this term exactly), by a central difference of
-        ∂f_el/∂q q̇ over a step that turns or moves the fastest body by 10⁻⁶ of the
-        length scale (relative truncation error about 10⁻¹²). With it, the
+        that f̈_el = f_el,q q̈ + this term exactly), by a five-point central difference
+        of ∂f_el/∂q q̇ over steps s that turn or move the fastest body by
+        :data:`CURVATURE_STEP` of the length scale: the c_K-weighted terms are large
+        (c_K K_el q̈ ≈ 5·10⁵ N on the four-bar with E × 10⁶) and cancel to the reactions'
+        size, so the difference must be accurate to about 10⁻⁸ (the truncation error of
+        the five-point rule, (10⁻³)⁴, and its round-off, ε/10⁻³, both are). With it, the
         accelerations of a rigid motion leave the strains unchanged to second order:
         the centripetal accelerations of a turning beam are not taken for strain.
         """
@@ -644,11 +656,14 @@ def start_accelerations(model, weights, t, q, qd, what="initial accelerations"):
 
     With A = M (``weights`` None) these are the constrained accelerations
     (Gauss's principle). With the weights of a flexible model (:class:`StartWeights`)
-    the deformable elements' stiffness and damping resist accelerations that
-    strain them, as in the first implicit step: a beam much stiffer than the
-    step resolves (ω h ≫ 1) is accelerated as the rigid body it approximates,
-    and λ is the quasi-static reaction (that of a rigid coupler in the stiff
-    limit), while a mode that h resolves is changed by O((ωh)²).
+    the deformable elements' stiffness resists accelerations that strain them, as
+    in the first implicit step, and f gains c_K f̈_el (:meth:`StartWeights.curvature`):
+    a beam much stiffer than the step resolves (ω h ≫ 1) is accelerated as the
+    rigid body it approximates, and λ is the quasi-static reaction (that of a rigid
+    coupler in the stiff limit), while a mode that h resolves is changed by
+    O((ωh)²). :func:`settle` uses them to find the deformation that the start
+    needs; :func:`consistent_initial_state` reports those of M at the settled
+    positions.
 
     Parameters
     ----------
