@@ -581,6 +581,103 @@ class StartWeights:
         return self.c_K * (8.0 * (g(1) - g(-1)) - (g(2) - g(-2))) / (12.0 * ds)
 
 
+@dataclass
+class StartEngine:
+    """The compiled pieces the start uses, as functions the solver supplies.
+
+    Attributes
+    ----------
+    qpp : callable (t, q, q̇) → ndarray (nq,)
+        Constrained accelerations q̈ᵖᵖ (the KKT solve of the engine).
+    jacobian_times : callable (t, q, v) → ndarray (nc,)
+        Φ_q v.
+    rates : callable (t, q, q̇) → ndarray (nc,)
+        Φ_t, with the time functions at t.
+    project : callable (t, q, q̇, target) → None
+        Corrects q̇ in place so that Φ_q q̇ = target (M-orthogonal, the factorization
+        of [[M, Φ_qᵀ], [Φ_q, 0]] at the initial state).
+    """
+
+    qpp: object
+    jacobian_times: object
+    rates: object
+    project: object
+
+
+def jerk(model, weights, engine, st, dl):
+    """The jerk j₀ at the start (stepsize.md §2): a central difference of the constrained
+    accelerations along the motion, at t ± δ from (q ∘ (±δ q̇ + ½δ² q̈), q̇ ± δ q̈); for a
+    flexible model those of :func:`start_accelerations` (:func:`start_jerk`).
+
+    Parameters
+    ----------
+    model : Model
+    weights : StartWeights or None
+    engine : StartEngine
+    st : State
+        The consistent initial state.
+    dl : float
+        δ (s).
+
+    Returns
+    -------
+    ndarray, shape (nq,)
+    """
+    t0, q0, v0, a0 = st.t, st.q, st.qd, st.qdd
+    if weights is not None:
+        return start_jerk(model, weights, t0, q0, v0, a0, dl)
+    cmp = model.compose
+    ap = engine.qpp(t0 + dl, cmp(q0, dl * v0 + 0.5 * dl * dl * a0), v0 + dl * a0)
+    am = engine.qpp(t0 - dl, cmp(q0, -dl * v0 + 0.5 * dl * dl * a0), v0 - dl * a0)
+    return (ap - am) / (2.0 * dl)
+
+
+def consistent_start(model, weights, engine, st, j0, h0, alpha, Cq, index3):
+    """The consistent start of the generalized-α scheme (stepsize.md §2): a₀ and the normal velocity.
+
+    a₀ = q̈₀ + (α_m − α_f) h₀ j₀; with the index-3 form and constraints, q̇₀ is corrected
+    in place so that Φ_q q̇₀ = −Φ_t + h₀² C_q Φ_q j₀ (+ h₀²/12 Φ_q [q̇₀, q̈₀] on Lie groups,
+    Arnold, Cardona & Brüls 2016): M-orthogonally by ``engine.project``, or for a flexible
+    model with the sweeps of :func:`project_velocity`. The index-2 form keeps
+    Φ_q q̇ + Φ_t = 0 exactly: only a₀ is set.
+
+    Parameters
+    ----------
+    model : Model
+    weights : StartWeights or None
+    engine : StartEngine
+    st : State
+        The consistent initial state; ``st.qd`` is corrected in place.
+    j0 : ndarray, shape (nq,)
+    h0 : float
+        The first step.
+    alpha : GeneralizedAlpha
+    Cq : float
+        Local error constant C_q (:func:`femb.solver.error_constants`).
+    index3 : bool
+
+    Returns
+    -------
+    ndarray, shape (nq,)
+        a₀.
+    """
+    d = alpha.alpha_m - alpha.alpha_f
+    a0 = st.qdd + d * h0 * j0
+    if model.nc and index3:
+        t0 = float(st.t)
+        Bj = engine.jacobian_times(t0, st.q, j0)
+        Pt = engine.rates(t0, st.q, st.qd)
+        target = -Pt + h0 * h0 * Cq * Bj
+        if model.lie:
+            Bb = engine.jacobian_times(t0, st.q, model.bracket(st.qd, st.qdd))
+            target = target + (h0 * h0 / 12.0) * Bb
+        if weights is not None:
+            st.qd[:] = project_velocity(model, weights, t0, st.q, st.qd, target)
+        else:
+            engine.project(t0, st.q, st.qd, target)
+    return a0
+
+
 def residual_floor(model, state):
     """The round-off floor of the force residual of a model with deformable elements (N).
 

@@ -416,6 +416,29 @@ class GeneralizedAlphaSolver:
                                       t=float(t), step=0)
         return out
 
+    def _start_engine(self):
+        """The compiled pieces of the start (:class:`femb.initial.StartEngine`)."""
+        cp, nc = self.cp, self.model.nc
+        KBt = np.zeros_like(self.AB)
+        kp = np.zeros_like(self.ipiv)
+
+        def jacobian_times(t, q, v):
+            out = np.zeros(nc)
+            cp.mod.jacobian_times(cp.G, cp.C, float(t), q, v, out)
+            return out
+
+        def rates(t, q, qd):
+            Pt, gm = np.zeros(nc), np.zeros(nc)
+            self._tf_at(t)
+            cp.mod.rates(cp.G, cp.C, float(t), q, qd, Pt, gm)
+            return Pt
+
+        def project(t, q, qd, target):
+            cp.mod.project_normal_velocity(cp.G, cp.C, self.ip, float(t), q, qd, target, self.Wv[S.W_KBACC],
+                                           self.Wv[S.W_KPIVACC], self.Wv[S.W_KX], self.Wv[S.W_BV])
+
+        return initial.StartEngine(lambda t, q, qd: self._qpp(t, q, qd, KBt, kp), jacobian_times, rates, project)
+
     def _start(self):
         """Force scale, jerk j_0, consistent a_0 and q̇_0, first step (stepsize.md §2, §4)."""
         cp = self.cp
@@ -442,17 +465,9 @@ class GeneralizedAlphaSolver:
                     dl = min(dl, 1e-2 * self.h0)
             else:
                 dl = min(1e-4, 1e-2 * self.h)
-            q0, v0, a0 = self.q, self.qd, self.qdd
-            if self.start_weights is not None:
-                # a flexible model: the jerk of the start's own accelerations (femb/initial.py)
-                j0 = initial.start_jerk(self.model, self.start_weights, t0, q0, v0, a0, dl)
-            else:
-                KBt = np.zeros_like(self.AB)
-                kp = np.zeros_like(self.ipiv)
-                cmp = self.model.compose
-                ap = self._qpp(t0 + dl, cmp(q0, dl * v0 + 0.5 * dl * dl * a0), v0 + dl * a0, KBt, kp)
-                am_ = self._qpp(t0 - dl, cmp(q0, -dl * v0 + 0.5 * dl * dl * a0), v0 - dl * a0, KBt, kp)
-                j0 = (ap - am_) / (2.0 * dl)
+            st = State(t0, self.q, self.qd, self.qdd, self.lam)      # views: the start corrects q̇ in place
+            engine = self._start_engine()
+            j0 = initial.jerk(self.model, self.start_weights, engine, st, dl)
             # the factorization at the initial state, for re-synchronisations
             qpp0 = self._qpp(t0, self.q, self.qd, self.Wv[S.W_KBACC], self.Wv[S.W_KPIVACC])
             self.Wv[S.W_QPP][:] = qpp0
@@ -471,39 +486,15 @@ class GeneralizedAlphaSolver:
                 self.sf[3] = h0
                 self.sf[4] = h0
             self.start_used = self.start
-            if self.start == "consistent" and not self.adaptive and not start_is_resolved(h0, v0, j0):
+            if self.start == "consistent" and not self.adaptive and not start_is_resolved(h0, self.qd, j0):
                 # the jerk is that of a motion the step does not resolve (a stiff element set moving
                 # impulsively, e.g. a beam node turned by a driver at t0): the expansion behind the
                 # consistent start does not hold, and its correction d·h·j₀ would be far larger than
                 # the motion; the seed's start (a₀ = q̈₀, exact q̇₀) is used, with its O(h) transient in λ
                 self.start_used = "seed (start not resolved by h)"
             if self.start_used == "consistent":
-                d = self.alpha.alpha_m - self.alpha.alpha_f
-                self.a[:] = self.qdd + d * h0 * j0
-                # the index-2 scheme keeps B q̇ + Φ_t = 0 exactly: no normal-velocity offset to match,
-                # only a (which lags q̈ by Δh) is started consistently
-                if self.model.nc and self.formulation == "index3":
-                    Bj = np.zeros(self.model.nc)
-                    cp.mod.jacobian_times(cp.G, cp.C, float(t0), self.q, j0, Bj)
-                    Pt = np.zeros(self.model.nc)
-                    gm = np.zeros(self.model.nc)
-                    self._tf_at(t0)
-                    cp.mod.rates(cp.G, cp.C, float(t0), self.q, self.qd, Pt, gm)
-                    target = -Pt + h0 * h0 * self.Cq * Bj
-                    if self.model.lie:
-                        # the bracket term of the first increment's defect on a Lie group,
-                        # h³/12 [v0, v̇0] (Arnold, Cardona & Brüls 2016; docs/spatial.md)
-                        Bb = np.zeros(self.model.nc)
-                        cp.mod.jacobian_times(cp.G, cp.C, float(t0), self.q,
-                                              self.model.bracket(self.qd, self.qdd), Bb)
-                        target = target + (h0 * h0 / 12.0) * Bb
-                    if self.start_weights is not None:
-                        self.qd[:] = initial.project_velocity(self.model, self.start_weights, float(t0), self.q,
-                                                              self.qd, target)
-                    else:
-                        cp.mod.project_normal_velocity(cp.G, cp.C, self.ip, float(t0), self.q, self.qd, target,
-                                                       self.Wv[S.W_KBACC], self.Wv[S.W_KPIVACC], self.Wv[S.W_KX],
-                                                       self.Wv[S.W_BV])
+                self.a[:] = initial.consistent_start(self.model, self.start_weights, engine, st, j0, h0, self.alpha,
+                                                     self.Cq, self.formulation == "index3")
         elif not self.adaptive and self.check_every:
             pass
         if not self.adaptive:
