@@ -307,7 +307,7 @@ class GeneralizedAlphaSolver:
         self.start_weights = None
         if initialize:
             t_start = float(t0 if state is None else state.t)
-            self.start_weights = initial.start_weights(model, state, t_start, self.h or self.h0, t_end, self.alpha)
+            self.start_weights = initial.start_weights(model, state, t_start, self.h or self.h0, t_end)
             st = consistent_initial_state(model, state, t0=t_start, phi_tol=self.phi_tol,
                                           weights=self.start_weights)
         else:
