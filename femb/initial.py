@@ -7,7 +7,7 @@ a warning, and a move above ``max_initial_move`` is an error naming the joints
 that were furthest from closed.
 
 Flexible models (elements with mass and stiffness, :func:`deformable_groups`)
-are started with the weights of the first step's iteration matrix
+are started with the weight M + (h²/10) K of their elements' stiffness
 (:class:`StartWeights`; docs/stepsize.md §2, "Flexible models"): velocities with
 the least strain rate the joints allow (:func:`project_velocity`), positions that
 carry the deformation of the quasi-static motion (:func:`settle`), and the jerk of
