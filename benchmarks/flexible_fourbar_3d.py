@@ -74,7 +74,8 @@ PARAMETERS = {
     "stiffness": ("factor on the coupler's E and G (1: aluminium; large: the rigid limit)", "-"),
     "rigid": ("rigid coupler (SpatialRigidBody) instead of the beam", "-"),
     "damping": ("stiffness-proportional material damping beta of the coupler", "s"),
-    "ramp": ("crank rate ramp: 'smooth' (smooth_ramp, default) or 'cosine' (spin_up's profile)", "-"),
+    "ramp": ("crank rate ramp: 'smooth' (smooth_ramp, default), 'cosine' (spin_up's profile) or 'constant' "
+             "(full speed from t = 0)", "-"),
 }
 
 OUTPUTS = {
@@ -141,14 +142,23 @@ def smooth_ramp(omega_s=DATA["omega_s"], T_s=DATA["T_s"], k=4):
     return TimeFunction(f, df, ddf, name=f"smooth ramp (k = {k})")
 
 
+def constant_speed(omega_s=DATA["omega_s"]):
+    """θ(t) = ω_s t: the crank at full speed from t = 0 (a TimeFunction), as a rigid loop is
+    often started; the mechanism, at rest before t0, is then set moving impulsively."""
+    return TimeFunction(lambda t: omega_s * t, lambda t: omega_s, lambda t: 0.0, name="constant speed")
+
+
 def crank_profile(ramp="smooth", P=DATA):
-    """The driver's θ(t): ``"smooth"`` (:func:`smooth_ramp`) or ``"cosine"`` (:func:`spin_profile`)."""
+    """The driver's θ(t): ``"smooth"`` (:func:`smooth_ramp`), ``"cosine"`` (:func:`spin_profile`)
+    or ``"constant"`` (:func:`constant_speed`)."""
     if ramp == "smooth":
         return smooth_ramp(P["omega_s"], P["T_s"])
     if ramp == "cosine":
         return spin_profile(P["omega_s"], P["T_s"])
+    if ramp == "constant":
+        return constant_speed(P["omega_s"])
     from femb.errors import ParameterError
-    raise ParameterError(f"ramp must be 'smooth' or 'cosine', got {ramp!r}")
+    raise ParameterError(f"ramp must be 'smooth', 'cosine' or 'constant', got {ramp!r}")
 
 
 def geometry(P=DATA):
@@ -461,13 +471,65 @@ def rigid_limit(stiffness=1e6, n_elements=4, t_end=1.0, h=1e-3, rho_inf=0.8):
     return {"positions": pos, "forces": frc}
 
 
+def start_figures(h=1e-3, rho_inf=0.8):
+    """How the mechanism starts when its driver is at full speed from t = 0 (``ramp="constant"``).
+
+    Returns
+    -------
+    dict
+        ``runs``: {(h, damping): "ok" or the error's class name} from :func:`initial_state`
+        over 0.1 s; ``t0``: {stiffness: (T_drive at t = 0, the rigid coupler's)} in N m;
+        ``first20``: {stiffness: largest |T_drive − rigid| over the first 20 steps} in N m;
+        ``released``: (at t = 0, over steps 10 … 100) the largest reaction difference of
+        the stiff (× 10⁶) coupler released undeformed with the default ramp, relative as in
+        :func:`rigid_limit`.
+    """
+    import femb
+
+    def drive(t_end, hh, **kw):
+        model = build(8, ramp="constant", **kw).compile()
+        r = femb.simulate(model, t_end, hh, rho_inf=rho_inf, state=initial_state(model))
+        return outputs(r)["T_drive"]
+
+    runs = {}
+    for hh, damping in ((1e-3, 0.0), (1e-3, 1e-5), (1e-3, 1e-4), (5e-4, 0.0), (2e-3, 0.0), (1e-4, 1e-5)):
+        try:
+            drive(0.1, hh, damping=damping)
+            runs[(hh, damping)] = "ok"
+        except femb.FembError as e:
+            runs[(hh, damping)] = type(e).__name__
+    rigid = drive(20 * h, h, rigid=True)
+    t0, first = {}, {}
+    for s in (1e4, 1e6):
+        flex = drive(20 * h, h, stiffness=s)
+        t0[s] = (float(flex[0]), float(rigid[0]))
+        first[s] = float(np.abs(flex - rigid).max())
+    of = outputs(femb.simulate(build(4, stiffness=1e6).compile(), 0.1, h, rho_inf=rho_inf))
+    orr = outputs(femb.simulate(build(rigid=True).compile(), 0.1, h, rho_inf=rho_inf))
+    d = np.max([np.abs(of[k] - orr[k]) / max(1.0, np.abs(orr[k]).max())
+                for k in ("R_O_x", "R_O_z", "R_B_y", "R_B_z", "R_D_z", "T_drive")], axis=0)
+    return {"runs": runs, "t0": t0, "first20": first, "released": (float(d[0]), float(d[10:].max()))}
+
+
 def main(argv=None):
     import femb
 
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--n", type=int, default=8)
     ap.add_argument("--study", action="store_true", help="time-step orders and the rigid limit")
+    ap.add_argument("--start", action="store_true", help="the start with the driver at full speed from t = 0")
     a = ap.parse_args(argv)
+    if a.start:
+        sf = start_figures()
+        print("driver at full speed from t = 0, from the static equilibrium (rho_inf = 0.8):")
+        for (hh, damping), res in sf["runs"].items():
+            print(f"  h = {hh:g} s, damping {damping:g} s: {res}")
+        for s, (tf, tr) in sf["t0"].items():
+            print(f"  stiffness x{s:.0e}: T_drive(0) = {tf:.5f} N m (rigid coupler {tr:.5f}); first 20 steps within "
+                  f"{sf['first20'][s]:.2e} N m")
+        print(f"  released undeformed (x1e6, default ramp): reaction difference {sf['released'][0]:.1e} at t = 0, "
+              f"{sf['released'][1]:.1e} over steps 10 ... 100")
+        return
     r = simulate(build(a.n).compile(), DEFAULTS["t_end"], DEFAULTS["h"])
     o = outputs(r)
     print(f"flexible four-bar, n = {a.n}, {r.steps} steps, {r.wall_time:.2f} s")

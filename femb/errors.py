@@ -102,6 +102,19 @@ SINGULAR_HINT_STEP = (
     "swamps the mass at this h. Reduce h (or use adaptive steps, simulate(..., rtol=...))"
 )
 
+NEWTON_HINT = "try a smaller h"
+
+NEWTON_HINT_START = (
+    "hint: this is the start, not the step size alone: the initial state sets going motions that h does "
+    "not resolve (a driver at full speed from rest, initial velocities the joints change, a deformable "
+    "element released out of equilibrium). What helps: the consistent start (initialize=True, "
+    "start=\"consistent\", the defaults), which sets deformable elements moving with the least strain "
+    "rate the joints allow; a driver whose rate ramps up from zero; adaptive steps (simulate(..., rtol=...)), "
+    "which resolve the start and then grow. A smaller h helps only once it resolves the stiff modes "
+    "(h ω < 1)"
+)
+
+
 class PathJumpWarning(UserWarning):
     """Load stepping left the equilibrium path: a converged state far from the path's continuation
     (a limit point passed, snap-through); :func:`femb.static.solve_static` with

@@ -1,10 +1,19 @@
-"""Consistent initial values and the analysis of redundant constraints.
+"""Consistent initial values, the start of flexible models, and the analysis of redundant constraints.
 
 :func:`consistent_initial_state` projects a user's initial state onto the
 constraints at position, velocity and acceleration level (method.md §5) and
 says what it did: every body it moved by more than a tolerance is reported in
 a warning, and a move above ``max_initial_move`` is an error naming the joints
 that were furthest from closed.
+
+Flexible models (elements with mass and stiffness, :func:`deformable_groups`)
+are started with the weight M + (h²/10) K of their elements' stiffness
+(:class:`StartWeights`; docs/stepsize.md §2, "Flexible models"): velocities with
+the least strain rate the joints allow (:func:`project_velocity`), positions that
+carry the deformation of the quasi-static motion (:func:`settle`), and the jerk of
+the start (:func:`start_jerk`). :func:`residual_floor` is the round-off floor of
+their internal forces for the residual Newton test, and :func:`newton_hint` the
+hint of a Newton failure in the first steps.
 
 :func:`redundancy` finds dependent constraint equations with a rank-revealing
 QR factorization (column pivoting) of the scaled Φ_qᵀ and names them;
@@ -31,8 +40,8 @@ import numpy as np
 import scipy.linalg as sla
 import scipy.sparse as sp
 
-from femb import assembly
-from femb.errors import (SINGULAR_HINT, SINGULAR_HINT_DIVERGED, SINGULAR_HINT_INDEPENDENT, SINGULAR_HINT_STEP,
+from femb import assembly, kernels
+from femb.errors import (NEWTON_HINT, NEWTON_HINT_START, SINGULAR_HINT, SINGULAR_HINT_DIVERGED, SINGULAR_HINT_INDEPENDENT, SINGULAR_HINT_STEP,
                          InitializationError,
                          InitialMoveWarning, InitialVelocityWarning, ModelError,  # noqa: F401 (re-exported)
                          RedundantConstraintWarning)
@@ -45,6 +54,18 @@ RANK_TOL = 1e-10
 
 #: default limit of an initial move, as a fraction of the model's length scale (see consistent_initial_state)
 MAX_INITIAL_MOVE = 0.01
+
+#: c_K / h² of StartWeights (a mode of frequency ω weighs 1 + START_STIFFNESS (hω)²)
+START_STIFFNESS = 0.1
+
+#: step of the difference in StartWeights.curvature: the fastest body turns by this angle (rad)
+CURVATURE_STEP = 1e-3
+
+#: Newton failures up to this step get the start's hint (newton_hint)
+START_STEPS = 5
+
+#: proximal sweeps of the start of flexible models (project_velocity, settle)
+SWEEPS = 3
 
 #: bodies moved by more than this fraction of the length scale (or this many rad) are reported
 REPORT_MOVE = 1e-6
@@ -234,28 +255,40 @@ def singular_hint(model, q, t=0.0, diverged=False):
 # --------------------------------------------------------------------------
 # linear solves
 # --------------------------------------------------------------------------
-def _solve_augmented(A, B, rhs_top, rhs_bottom, what):
-    """Solve [[A, Bᵀ], [B, 0]] [x; y] = [rhs_top; rhs_bottom]; None if singular."""
+def _factor_augmented(A, B):
+    """A solver of [[A, Bᵀ], [B, 0]] [x; y] = [top; bottom]: a function (top, bottom) → (x, y), or
+    None if the matrix is singular (one factorization serves every right-hand side)."""
     K = sp.bmat([[A, B.T], [B, None]], format="csc") if B.shape[0] else sp.csc_matrix(A)
-    rhs = np.concatenate((rhs_top, rhs_bottom))
     n = A.shape[0]
     if K.shape[0] <= DENSE_LIMIT:
         lu, piv, info = sla.lapack.dgetrf(K.toarray())
         d = np.abs(np.diag(lu))
         if info > 0 or not np.all(np.isfinite(d)) or d.min() <= 1e-13 * d.max():
             return None
-        x = sla.lu_solve((lu, piv), rhs)
-    else:
-        import scipy.sparse.linalg as spla
-        try:
-            lu = spla.splu(K)
-        except RuntimeError:
-            return None
-        d = np.abs(lu.U.diagonal())
-        if not np.all(np.isfinite(d)) or d.min() <= 1e-13 * d.max():
-            return None
-        x = lu.solve(rhs)
-    return x[:n], x[n:]
+
+        def solve(top, bottom):
+            x = sla.lu_solve((lu, piv), np.concatenate((top, bottom)))
+            return x[:n], x[n:]
+        return solve
+    import scipy.sparse.linalg as spla
+    try:
+        lu = spla.splu(K)
+    except RuntimeError:
+        return None
+    d = np.abs(lu.U.diagonal())
+    if not np.all(np.isfinite(d)) or d.min() <= 1e-13 * d.max():
+        return None
+
+    def solve(top, bottom):
+        x = lu.solve(np.concatenate((top, bottom)))
+        return x[:n], x[n:]
+    return solve
+
+
+def _solve_augmented(A, B, rhs_top, rhs_bottom, what):
+    """Solve [[A, Bᵀ], [B, 0]] [x; y] = [rhs_top; rhs_bottom]; None if singular."""
+    solve = _factor_augmented(A, B)
+    return None if solve is None else solve(rhs_top, rhs_bottom)
 
 
 def _zero_rows(B, labels):
@@ -318,7 +351,7 @@ def body_moves(model, q_from, q_to):
 
 
 def consistent_initial_state(model, state=None, *, t0=0.0, phi_tol=1e-12, max_iter=50,
-                             max_initial_move=None, report_move=REPORT_MOVE):
+                             max_initial_move=None, report_move=REPORT_MOVE, weights=None):
     """Project an initial state onto the constraints at all levels, and say so.
 
     1. positions: least change q = argmin ‖q − q_0‖ subject to Φ(q, t_0) = 0
@@ -326,6 +359,15 @@ def consistent_initial_state(model, state=None, *, t0=0.0, phi_tol=1e-12, max_it
     2. velocities: q̇ = argmin ‖q̇ − q̇_0‖ subject to Φ_q q̇ = −Φ_t;
     3. accelerations and multipliers from
        [[M, Φ_qᵀ], [Φ_q, 0]] [q̈; λ] = [f; −γ].
+
+    With ``weights`` (a flexible model's :class:`StartWeights`, the solver's
+    default), steps 2 and 3 use A = M + c_K K_el in place of the
+    identity and of M: the velocity change is the A-weighted least change
+    (A δ + Φ_qᵀ μ = 0), so that the deformable elements start with the least
+    strain rate the joints allow (interior beam nodes move with the ends),
+    and the accelerations and multipliers are those of :func:`start_accelerations`
+    (a stiff beam starts as the rigid body it approximates, with that body's
+    reactions).
 
     Equations removed by ``Mechanism.compile(redundant="eliminate")``
     (``model.active_constraints``) are left out and get λ_i = 0.
@@ -347,6 +389,8 @@ def consistent_initial_state(model, state=None, *, t0=0.0, phi_tol=1e-12, max_it
         length scale: rounding of the input (µm) passes, a joint placed at a
         wrong point (a visible fraction of the mechanism) does not.
         ``float("inf")`` disables the check.
+    weights : StartWeights, optional
+        The start of flexible models (:meth:`StartWeights.for_step`); None: identity and M.
     report_move : float
         Bodies moved by more than ``report_move`` × length scale (or turned by
         more than ``report_move`` rad) are listed in an
@@ -389,8 +433,6 @@ def consistent_initial_state(model, state=None, *, t0=0.0, phi_tol=1e-12, max_it
     max_initial_move = float(max_initial_move)
     if not max_initial_move > 0.0:
         raise ModelError(f"max_initial_move must be a positive length (m), got {max_initial_move!r}")
-    B = sp.csr_matrix((0, nq))
-    gam = np.zeros(0)
     if nc:
         q0 = st.q.copy()
         q = st.q.copy()
@@ -425,26 +467,458 @@ def consistent_initial_state(model, state=None, *, t0=0.0, phi_tol=1e-12, max_it
         st.q = q
         B = assembly.constraint_jacobian(model, t, st.q).tocsr()[rows]
         Phi_t, _ = assembly.constraint_rates(model, t, st.q, st.qd)
-        sol = _solve_augmented(I, B, st.qd, -Phi_t[rows], "velocity projection")
-        if sol is None:
-            e = _redundancy_error(model, st.q, t, "cannot make the initial velocities consistent")
-            raise e or InitializationError(f"velocity projection: singular constraint Jacobian; {SINGULAR_HINT}")
-        _check_velocity_changes(model, st.qd, sol[0], report_move)
-        st.qd = sol[0]
-        _, gam = assembly.constraint_rates(model, t, st.q, st.qd)
-        gam = gam[rows]
-    M = assembly.mass_matrix(model, st.q)
-    f = assembly.force_vector(model, t, st.q, st.qd)
-    sol = _solve_augmented(M, B, f, -gam, "initial accelerations")
-    if sol is None:
-        raise InitializationError(f"initial accelerations: the matrix [[M, Φ_qᵀ], [Φ_q, 0]] is singular; "
-                                  f"{SINGULAR_HINT}")
-    st.qdd = sol[0]
-    st.lam = np.zeros(nc)
-    st.lam[rows] = sol[1]
+        if weights is None:
+            sol = _solve_augmented(I, B, st.qd, -Phi_t[rows], "velocity projection")
+            if sol is None:
+                e = _redundancy_error(model, st.q, t, "cannot make the initial velocities consistent")
+                raise e or InitializationError(f"velocity projection: singular constraint Jacobian; {SINGULAR_HINT}")
+            qd = sol[0]
+        else:
+            qd = project_velocity(model, weights, t, st.q, st.qd, -Phi_t)
+        _check_velocity_changes(model, st.qd, qd, report_move)
+        st.qd = qd
+    if weights is not None:
+        st.q, st.qdd, st.lam = settle(model, weights, t, st.q, st.qd)
+    else:
+        st.qdd, st.lam = start_accelerations(model, None, t, st.q, st.qd)
     if not (np.all(np.isfinite(st.qdd)) and np.all(np.isfinite(st.lam))):
         raise InitializationError("initial accelerations are not finite")
     return st
+
+
+# --------------------------------------------------------------------------
+# the start of flexible models (stepsize.md §2, "Flexible models")
+# --------------------------------------------------------------------------
+def deformable_groups(model, t, q, qd):
+    """Element batches that carry mass and an internal stiffness (beams, not rigid bodies).
+
+    A batch counts when its element type has both mass and forces (``has_mass``,
+    ``has_force``) and its force Jacobian ∂f/∂q is not zero at (t, q, q̇): the
+    forces of rigid bodies (gyroscopic moments) depend on q̇ only.
+
+    Returns
+    -------
+    list of Group
+    """
+    qx, qdx = assembly._ext(model, q, qd)
+    out = []
+    for g in model.force_groups:
+        if not (g.traits.get("has_mass") and g.traits.get("has_force")):
+            continue
+        _, fq, _ = kernels.force(g, t, qx[g.xdofs], qdx[g.dofs], True)
+        if np.any(fq != 0.0):
+            out.append(g)
+    return out
+
+
+@dataclass
+class StartWeights:
+    """The weight A = M + c_K K_el of a flexible model's start.
+
+    K_el = −∂f/∂q of the deformable batches at zero velocity
+    (:func:`deformable_groups`), c_K = :data:`START_STIFFNESS` h² for the step h.
+    A mode of frequency ω weighs (1 + (hω)²/10) times its kinetic energy: modes
+    with h ω ≳ 3 (fewer than about two steps per period, which the scheme damps
+    towards ρ∞ rather than follows) are started quasi-statically, modes the step
+    resolves keep the start of Gauss's principle up to O((hω)²). (The Newton
+    matrix of the first step divided by β′ has c_K = 1/β′ ≈ 0.26 h² at ρ∞ = 0.8;
+    that weight changed the start of modes at h ω ≈ 1.6 enough to lower the
+    step-halving order of the damped flexible slider-crank from above 1.2 to 1.14;
+    0.025 h² left the undamped flexible four-bar failing Newton at h = 1 ms.)
+    The damping matrix is left out: its weight would be first order in h, and the
+    damping forces of a rigid motion's centripetal accelerations in space axes
+    would need their own correction (:meth:`curvature` makes that of K_el).
+
+    Attributes
+    ----------
+    groups : list of Group
+    c_K : float
+        In s².
+    """
+
+    groups: list
+    c_K: float
+
+    @classmethod
+    def for_step(cls, model, state, h):
+        """The weights for the step h (None if the model has no deformable element)."""
+        groups = deformable_groups(model, state.t, state.q, state.qd)
+        if not groups:
+            return None
+        return cls(groups, START_STIFFNESS * float(h) ** 2)
+
+    def stiffness(self, model, t, q, qd):
+        """∂f_el/∂q = −K_el of the deformable batches at (t, q) and zero velocity, csr (nq, nq).
+
+        At zero velocity: the q-derivatives of damping forces (which are proportional to
+        the velocity, and do not vanish on rigid motions in space axes) are not stiffness.
+        """
+        qx, qdx = assembly._ext(model, q, np.zeros_like(qd))
+        fq = [kernels.force(g, t, qx[g.xdofs], qdx[g.dofs], True)[1] for g in self.groups]
+        return assembly._coo(self.groups, "nn", fq, (model.nq, model.nq))
+
+    def matrix(self, model, t, q, qd):
+        """A = M + c_K K_el at (t, q, q̇), csr (nq, nq)."""
+        return (assembly.mass_matrix(model, q) - self.c_K * self.stiffness(model, t, q, qd)).tocsr()
+
+    def curvature(self, model, t, q, qd):
+        """c_K f̈_el at q̈ = 0: c_K d/ds [∂f_el/∂q (q ∘ s q̇) q̇] at s = 0, shape (nq,).
+
+        The second derivative of the deformable elements' forces along the motion
+        q ∘ s q̇ (on a Lie group the right-trivialized tangent of that path is q̇, so
+        that f̈_el = f_el,q q̈ + this term exactly), by a five-point central difference
+        of ∂f_el/∂q q̇ over steps s that turn or move the fastest body by
+        :data:`CURVATURE_STEP` of the length scale: the c_K-weighted terms are large
+        (c_K K_el q̈ ≈ 5·10⁵ N on the four-bar with E × 10⁶) and cancel to the reactions'
+        size, so the difference must be accurate to about 10⁻⁸ (the truncation error of
+        the five-point rule, (10⁻³)⁴, and its round-off, ε/10⁻³, both are). With it, the
+        accelerations of a rigid motion leave the strains unchanged to second order:
+        the centripetal accelerations of a turning beam are not taken for strain.
+        """
+        L = model.length_scale
+        speed = float(np.abs(qd).max(initial=0.0)) * max(L, 1.0)
+        if speed == 0.0:
+            return np.zeros(model.nq)
+        ds = CURVATURE_STEP * L / speed
+
+        def g(k):
+            return self.stiffness(model, t, model.compose(q, k * ds * qd), qd) @ qd
+
+        return self.c_K * (8.0 * (g(1) - g(-1)) - (g(2) - g(-2))) / (12.0 * ds)
+
+
+@dataclass
+class StartEngine:
+    """The compiled pieces the start uses, as functions the solver supplies.
+
+    Attributes
+    ----------
+    qpp : callable (t, q, q̇) → ndarray (nq,)
+        Constrained accelerations q̈ᵖᵖ (the KKT solve of the engine).
+    jacobian_times : callable (t, q, v) → ndarray (nc,)
+        Φ_q v.
+    rates : callable (t, q, q̇) → ndarray (nc,)
+        Φ_t, with the time functions at t.
+    project : callable (t, q, q̇, target) → None
+        Corrects q̇ in place so that Φ_q q̇ = target (M-orthogonal, the factorization
+        of [[M, Φ_qᵀ], [Φ_q, 0]] at the initial state).
+    """
+
+    qpp: object
+    jacobian_times: object
+    rates: object
+    project: object
+
+
+def jerk(model, weights, engine, st, dl):
+    """The jerk j₀ at the start (stepsize.md §2): a central difference of the constrained
+    accelerations along the motion, at t ± δ from (q ∘ (±δ q̇ + ½δ² q̈), q̇ ± δ q̈); for a
+    flexible model those of :func:`start_accelerations` (:func:`start_jerk`).
+
+    Parameters
+    ----------
+    model : Model
+    weights : StartWeights or None
+    engine : StartEngine
+    st : State
+        The consistent initial state.
+    dl : float
+        δ (s).
+
+    Returns
+    -------
+    ndarray, shape (nq,)
+    """
+    t0, q0, v0, a0 = st.t, st.q, st.qd, st.qdd
+    if weights is not None:
+        return start_jerk(model, weights, t0, q0, v0, a0, dl)
+    cmp = model.compose
+    ap = engine.qpp(t0 + dl, cmp(q0, dl * v0 + 0.5 * dl * dl * a0), v0 + dl * a0)
+    am = engine.qpp(t0 - dl, cmp(q0, -dl * v0 + 0.5 * dl * dl * a0), v0 - dl * a0)
+    return (ap - am) / (2.0 * dl)
+
+
+def consistent_start(model, weights, engine, st, j0, h0, alpha, Cq, index3):
+    """The consistent start of the generalized-α scheme (stepsize.md §2): a₀ and the normal velocity.
+
+    a₀ = q̈₀ + (α_m − α_f) h₀ j₀; with the index-3 form and constraints, q̇₀ is corrected
+    in place so that Φ_q q̇₀ = −Φ_t + h₀² C_q Φ_q j₀ (+ h₀²/12 Φ_q [q̇₀, q̈₀] on Lie groups,
+    Arnold, Cardona & Brüls 2016): M-orthogonally by ``engine.project``, or for a flexible
+    model with the sweeps of :func:`project_velocity`. The index-2 form keeps
+    Φ_q q̇ + Φ_t = 0 exactly: only a₀ is set.
+
+    Parameters
+    ----------
+    model : Model
+    weights : StartWeights or None
+    engine : StartEngine
+    st : State
+        The consistent initial state; ``st.qd`` is corrected in place.
+    j0 : ndarray, shape (nq,)
+    h0 : float
+        The first step.
+    alpha : GeneralizedAlpha
+    Cq : float
+        Local error constant C_q (:func:`femb.solver.error_constants`).
+    index3 : bool
+
+    Returns
+    -------
+    ndarray, shape (nq,)
+        a₀.
+    """
+    d = alpha.alpha_m - alpha.alpha_f
+    a0 = st.qdd + d * h0 * j0
+    if model.nc and index3:
+        t0 = float(st.t)
+        Bj = engine.jacobian_times(t0, st.q, j0)
+        Pt = engine.rates(t0, st.q, st.qd)
+        target = -Pt + h0 * h0 * Cq * Bj
+        if model.lie:
+            Bb = engine.jacobian_times(t0, st.q, model.bracket(st.qd, st.qdd))
+            target = target + (h0 * h0 / 12.0) * Bb
+        if weights is not None:
+            st.qd[:] = project_velocity(model, weights, t0, st.q, st.qd, target)
+        else:
+            engine.project(t0, st.q, st.qd, target)
+    return a0
+
+
+def residual_floor(model, state):
+    """The round-off floor of the force residual of a model with deformable elements (N).
+
+    An element's internal forces are its stiffness times strains computed from
+    positions of size L (the model's length scale): their round-off is about
+    ε K L, far above ε times the forces themselves when a stiff element carries
+    small loads (a beam's axial force ε EA L/l_e). The floor is
+    ε max_i w_i Σ_j |K_el,ij| s_j, with K_el the deformable batches' stiffness at
+    zero velocity, w the residual's weights (moments divided by L) and s_j = L
+    for translations, 1 rad for rotations; 0 without deformable elements. The
+    residual Newton test accepts a residual at this floor (a tighter tolerance,
+    ``newton_rtol=1e-13`` relative to the loads, cannot be met: 1.6e-8 N against
+    1.5e-12 N on the four-bar with a 32-element coupler).
+
+    Returns
+    -------
+    float
+    """
+    groups = deformable_groups(model, state.t, state.q, state.qd)
+    if not groups:
+        return 0.0
+    K = StartWeights(groups, 1.0).stiffness(model, state.t, state.q, state.qd)
+    w = np.asarray(model.force_weight, dtype=float)
+    s = model.length_scale * w
+    rows = np.asarray(abs(K).multiply(s[None, :]).sum(axis=1)).ravel() * w
+    return float(np.finfo(float).eps * rows.max(initial=0.0))
+
+
+def newton_hint(step, flexible, started):
+    """The hint of a Newton failure at ``step`` of a run.
+
+    Parameters
+    ----------
+    step : int
+    flexible : bool
+        The model has deformable elements (:func:`deformable_groups`).
+    started : bool
+        The run used the start of flexible models (consistent initial values with
+        :class:`StartWeights`, and ``start="consistent"``).
+
+    Returns
+    -------
+    str
+        :data:`~femb.errors.NEWTON_HINT_START` in the first :data:`START_STEPS`
+        steps of a flexible model that was not started so, else "try a smaller h"
+        (with adaptive steps named in the first steps).
+    """
+    if step <= START_STEPS and flexible and not started:
+        return NEWTON_HINT_START
+    if step <= START_STEPS:
+        return NEWTON_HINT + " (or adaptive steps, simulate(..., rtol=...), which resolve the start and then grow)"
+    return NEWTON_HINT
+
+
+def start_weights(model, state, t0, h, t_end):
+    """The :class:`StartWeights` the solver starts a model with (None for models without
+    deformable elements, which keep the identity and M).
+
+    The step of the weights is the fixed step ``h``, else (adaptive steps) the given first step,
+    else 10⁻³ (t_end − t₀).
+    """
+    st = state if state is not None else model.initial_state(t0)
+    if h is None:
+        if t_end is None or not math.isfinite(t_end) or not t_end > st.t:
+            return None
+        h = 1e-3 * (t_end - st.t)
+    w = StartWeights.for_step(model, st, h)
+    if w is None:
+        return w
+    # a step so large that the stiffness swamps the mass numerically: the usual start, and the
+    # solver's own diagnosis of the step (its iteration matrix is then singular too)
+    rows = np.nonzero(active_mask(model))[0]
+    B = assembly.constraint_jacobian(model, st.t, st.q).tocsr()[rows]
+    return w if _factor_augmented(w.matrix(model, st.t, st.q, st.qd), B) is not None else None
+
+
+def start_accelerations(model, weights, t, q, qd, what="initial accelerations"):
+    """Accelerations and multipliers of a start that does not ring: (q̈, λ) from
+    [[A, Φ_qᵀ], [Φ_q, 0]] [q̈; λ] = [f; −γ].
+
+    With A = M (``weights`` None) these are the constrained accelerations
+    (Gauss's principle). With the weights of a flexible model (:class:`StartWeights`)
+    the deformable elements' stiffness resists accelerations that strain them, as
+    in the first implicit step, and f gains c_K f̈_el (:meth:`StartWeights.curvature`):
+    a beam much stiffer than the step resolves (ω h ≫ 1) is accelerated as the
+    rigid body it approximates, and λ is the quasi-static reaction (that of a rigid
+    coupler in the stiff limit), while a mode that h resolves is changed by
+    O((ωh)²). :func:`settle` uses them to find the deformation that the start
+    needs; :func:`consistent_initial_state` reports those of M at the settled
+    positions.
+
+    Parameters
+    ----------
+    model : Model
+    weights : StartWeights or None
+    t : float
+    q : ndarray, shape (nx,)
+    qd : ndarray, shape (nq,)
+
+    Returns
+    -------
+    qdd : ndarray, shape (nq,)
+    lam : ndarray, shape (nc,)
+        0 on equations removed as redundant.
+
+    Raises
+    ------
+    InitializationError
+        If the matrix is singular.
+    """
+    rows = np.nonzero(active_mask(model))[0]
+    B = assembly.constraint_jacobian(model, t, q).tocsr()[rows]
+    _, gam = assembly.constraint_rates(model, t, q, qd)
+    f = assembly.force_vector(model, t, q, qd)
+    if weights is None:
+        A = assembly.mass_matrix(model, q)
+    else:
+        A = weights.matrix(model, t, q, qd)
+        f = f + weights.curvature(model, t, q, qd)
+    sol = _solve_augmented(A, B, f, -gam[rows], what)
+    if sol is None:
+        raise InitializationError(f"{what}: the matrix [[M, Φ_qᵀ], [Φ_q, 0]] is singular at t = {t:.6g} s; "
+                                  f"{SINGULAR_HINT}")
+    lam = np.zeros(model.nc)
+    lam[rows] = sol[1]
+    return sol[0], lam
+
+
+def settle(model, weights, t, q, qd, sweeps=None):
+    """Positions that carry the deformation the start's motion needs: q ∘ Δ.
+
+    The accelerations of :func:`start_accelerations` with ``weights`` follow the
+    motion quasi-statically in the modes the step does not resolve; the
+    deformable elements then carry the force −E, E = f − M q̈ − Φ_qᵀλ (the force that
+    accelerates a stiff beam as a rigid body, or holds it against gravity). The
+    positions, as given, do not carry it (an undeformed beam released under
+    gravity, one set turning by a driver): the first steps would ring with E in
+    the stiff modes, decaying only by ρ∞ per step. Δ supplies it, f_el(q ∘ Δ) − f_el(q)
+    ≈ −K_el Δ = −E in those modes, by proximal sweeps as in :func:`project_velocity`:
+
+        A Δ_1 + Φ_qᵀ ν_1 = c_K E,            Φ_q Δ_1 = 0,
+        A Δ_k + Φ_qᵀ ν_k = c_K E + M Δ_(k−1), Φ_q Δ_k = 0,
+
+    whose stiff-mode residual E − K_el Δ falls by 1/(1 + c_K ω²) per sweep. Δ is
+    the strain of the stiff elements, O(E/EA) (1e-8 m on the aluminium four-bar),
+    and O(h⁴) in the modes h resolves. The accelerations and multipliers returned
+    are those of :func:`start_accelerations` (the quasi-static motion; λ a rigid
+    coupler's in the stiff limit): with the settled positions they satisfy
+    M q̈ + Φ_qᵀλ = f to the round-off of the internal forces. (Gauss's principle
+    at the settled positions would have to recover E from strains of O(E/EA),
+    which a stiff beam's positions carry to few digits: its rocker acceleration
+    was 0.25 % off with E × 10⁶ and 4 % with E × 10⁸.)
+
+    Returns
+    -------
+    q : ndarray, shape (nx,)
+    qdd : ndarray, shape (nq,)
+    lam : ndarray, shape (nc,)
+    """
+    sweeps = SWEEPS if sweeps is None else int(sweeps)
+    qdd, lam = start_accelerations(model, weights, t, q, qd)
+    rows = np.nonzero(active_mask(model))[0]
+    B = assembly.constraint_jacobian(model, t, q).tocsr()[rows]
+    M = assembly.mass_matrix(model, q)
+    E = weights.c_K * (assembly.force_vector(model, t, q, qd) - M @ qdd - B.T @ lam[rows])
+    solve = _factor_augmented(weights.matrix(model, t, q, qd), B)
+    if solve is None:
+        raise InitializationError(f"the start of the deformable elements: singular matrix [[A, Φ_qᵀ], [Φ_q, 0]]; "
+                                  f"{SINGULAR_HINT}")
+    z = np.zeros(rows.size)
+    d = solve(E, z)[0]
+    for _ in range(sweeps - 1):
+        d = solve(E + M @ d, z)[0]
+    return model.compose(q, d), qdd, lam
+
+
+def start_jerk(model, weights, t, q, qd, qdd, dl):
+    """The jerk j₀ at the start: a central difference of :func:`start_accelerations` along the
+    motion, at t ± δ from (q ∘ (±δ q̇ + ½δ² q̈), q̇ ± δ q̈) (stepsize.md §2).
+
+    Returns
+    -------
+    ndarray, shape (nq,)
+    """
+    cmp = model.compose
+    ap, _ = start_accelerations(model, weights, t + dl, cmp(q, dl * qd + 0.5 * dl * dl * qdd), qd + dl * qdd,
+                                "the jerk of the start")
+    am, _ = start_accelerations(model, weights, t - dl, cmp(q, -dl * qd + 0.5 * dl * dl * qdd), qd - dl * qdd,
+                                "the jerk of the start")
+    return (ap - am) / (2.0 * dl)
+
+
+def project_velocity(model, weights, t, q, qd, target, sweeps=None):
+    """q̇ + δ with Φ_q (q̇ + δ) = target and the least strain rate in δ that the step allows.
+
+    δ is the limit of ``sweeps`` proximal steps (:class:`StartWeights`, A = M + c_K K_el):
+
+        A δ_1 + Φ_qᵀ μ_1 = 0,        Φ_q δ_1 = target − Φ_q q̇,
+        A δ_k + Φ_qᵀ μ_k = M δ_(k−1), Φ_q δ_k = target − Φ_q q̇.
+
+    Each sweep is a backward-Euler step of length √c_K of the structure with the
+    joints' velocities held: it multiplies the part of δ in a mode of frequency ω
+    by about 1/(1 + c_K ω²). The first sweep is the A-weighted least change; the
+    next ones remove what it leaves in the modes the step does not resolve (the
+    axial modes of a stiff beam: c_K ω² ≫ 1), while a mode that the step resolves
+    (c_K ω² ≪ 1) keeps the kinetic-energy-weighted change to O((ωh)²). A stiff
+    beam is set moving as a rigid body; a given strain rate is kept (δ = 0 when
+    the given q̇ satisfies the constraints).
+
+    Parameters
+    ----------
+    weights : StartWeights
+    target : ndarray, shape (nc,)
+        Required Φ_q q̇ (0 on removed equations).
+    sweeps : int, optional
+        Default :data:`SWEEPS`.
+
+    Returns
+    -------
+    ndarray, shape (nq,)
+    """
+    rows = np.nonzero(active_mask(model))[0]
+    B = assembly.constraint_jacobian(model, t, q).tocsr()[rows]
+    A = weights.matrix(model, t, q, qd)
+    solve = _factor_augmented(A, B)
+    if solve is None:
+        e = _redundancy_error(model, q, t, "cannot make the initial velocities consistent")
+        raise e or InitializationError(f"velocity projection: singular matrix [[A, Φ_qᵀ], [Φ_q, 0]]; {SINGULAR_HINT}")
+    M = assembly.mass_matrix(model, q)
+    sweeps = SWEEPS if sweeps is None else int(sweeps)
+    r = target[rows] - B @ qd
+    d = solve(np.zeros(model.nq), r)[0]
+    for _ in range(sweeps - 1):
+        d = solve(M @ d, r)[0]
+    return qd + d
 
 
 def _check_moves(model, q0, q, Phi0, labels, act, limit, report_move):

@@ -71,11 +71,12 @@ class Mechanism:
             fifth bar). "error" (default): initialization raises an
             :class:`~femb.errors.InitializationError` naming the joints and
             equations. "eliminate": the dependent equations are found now
-            (rank-revealing QR, :func:`femb.initial.redundancy`) and dropped,
-            with a :class:`~femb.initial.RedundantConstraintWarning`; they keep
-            their place in λ with λ_i = 0, so the reactions of the joints
+            (rank-revealing QR, :func:`femb.initial.redundancy`) and dropped
+            without a warning (``model.removed_constraints`` lists them); they
+            keep their place in λ with λ_i = 0, so the reactions of the joints
             involved are one admissible distribution, not *the* reactions
-            (they are not unique).
+            (they are not unique): :meth:`femb.result.Result.reaction` of such
+            a joint warns with a :class:`~femb.initial.RedundantConstraintWarning`.
         max_initial_move : float, optional
             Largest move (m) of a body when the initial positions are
             projected onto the constraints (see
@@ -89,11 +90,9 @@ class Mechanism:
             ``removed_constraints`` (list of (element, equation)) and
             ``max_initial_move`` (float or None).
         """
-        import warnings
-
         import numpy as np
 
-        from femb.initial import RedundantConstraintWarning, eliminate_redundant
+        from femb.initial import eliminate_redundant
         from femb.model import compile_model
 
         if redundant not in ("error", "eliminate"):
@@ -111,13 +110,10 @@ class Mechanism:
                  "max_initial_move": max_initial_move}
         model.__dict__.update(extra)
         if redundant == "eliminate" and model.nc:
-            active, removed, an = eliminate_redundant(model)
+            # asked for: no warning here (model.removed_constraints lists the equations; reading the
+            # reaction of a joint involved warns, Result.reaction)
+            active, removed, _ = eliminate_redundant(model)
             if removed:
                 active.flags.writeable = False
                 model.__dict__.update(active_constraints=active, removed_constraints=removed)
-                warnings.warn(
-                    f"mechanism '{self.name}': removed {len(removed)} dependent constraint equation(s): "
-                    f"{an.message(model)}. The reactions of these joints are not unique (the removed "
-                    "equations carry λ = 0; the others carry the whole load)",
-                    RedundantConstraintWarning, stacklevel=2)
         return model

@@ -247,8 +247,7 @@ class Result:
 
             from femb.initial import RedundantConstraintWarning
             eqs = ", ".join(eq for el, eq in removed if el == name)
-            warnings.warn(f"joint '{name}': equation(s) {eqs} were removed as redundant (λ = 0 there); its "
-                          "reaction is one admissible distribution among the dependent joints, not unique",
+            warnings.warn(f"joint '{name}': equation(s) {eqs} removed as redundant; its reaction is not unique",
                           RedundantConstraintWarning, stacklevel=2)
         return self.lam[:, idx]
 

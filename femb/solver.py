@@ -31,6 +31,7 @@ import warnings
 import numpy as np
 
 from femb.errors import SINGULAR_HINT_DIVERGED, ConvergenceError, ModelError, ParameterError, SingularMatrixError
+from femb import initial
 from femb.initial import consistent_initial_state, singular_hint  # noqa: F401  (re-exported)
 from femb import engine as S
 from femb.jit import pack
@@ -217,7 +218,7 @@ class GeneralizedAlphaSolver:
         self.atol = options.atol_vector(model.nq)
         self.start_used = self.start          # the start that ran (_start may fall back to the seed's)
         self.owner = _constraint_owner(model)
-        self._initial_values(state, t0, initialize)
+        self._initial_values(state, t0, initialize, t_end)
         self._run_extent(t_end, n_steps)
         self.cp = _stepmod().compiled(model, ordering="natural" if self.linear_solver == "dense" else "rcm",
                                       layout=self.formulation)
@@ -230,12 +231,15 @@ class GeneralizedAlphaSolver:
         self._start()
 
     # ------------------------------------------------------------------ set-up, by named fields
-    def _initial_values(self, state, t0, initialize):
+    def _initial_values(self, state, t0, initialize, t_end):
         """Consistent initial values (or the given state), timed."""
         t_init = time.perf_counter()
+        self.start_weights = None
         if initialize:
-            st = consistent_initial_state(self.model, state, t0=float(t0 if state is None else state.t),
-                                          phi_tol=self.phi_tol)
+            t_start = float(t0 if state is None else state.t)
+            self.start_weights = initial.start_weights(self.model, state, t_start, self.h or self.h0, t_end)
+            st = consistent_initial_state(self.model, state, t0=t_start, phi_tol=self.phi_tol,
+                                          weights=self.start_weights)
         else:
             st = (state or self.model.initial_state(t0)).copy()
         self.init_time = time.perf_counter() - t_init
@@ -337,6 +341,29 @@ class GeneralizedAlphaSolver:
                                       t=float(t), step=0)
         return out
 
+    def _start_engine(self):
+        """The compiled pieces of the start (:class:`femb.initial.StartEngine`)."""
+        cp, nc = self.cp, self.model.nc
+        KBt = np.zeros_like(self.AB)
+        kp = np.zeros_like(self.ipiv)
+
+        def jacobian_times(t, q, v):
+            out = np.zeros(nc)
+            cp.mod.jacobian_times(cp.G, cp.C, float(t), q, v, out)
+            return out
+
+        def rates(t, q, qd):
+            Pt, gm = np.zeros(nc), np.zeros(nc)
+            self._tf_at(t)
+            cp.mod.rates(cp.G, cp.C, float(t), q, qd, Pt, gm)
+            return Pt
+
+        def project(t, q, qd, target):
+            cp.mod.project_normal_velocity(cp.G, cp.C, self.ip, float(t), q, qd, target, self.Wv[S.W_KBACC],
+                                           self.Wv[S.W_KPIVACC], self.Wv[S.W_KX], self.Wv[S.W_BV])
+
+        return initial.StartEngine(lambda t, q, qd: self._qpp(t, q, qd, KBt, kp), jacobian_times, rates, project)
+
     def _start(self):
         """Force scale, jerk j_0, consistent a_0 and q̇_0, first step (stepsize.md §2, §4)."""
         cp = self.cp
@@ -344,6 +371,12 @@ class GeneralizedAlphaSolver:
         self._tf_at(t0)
         self.sf[0] = cp.mod.evaluate(cp.G, cp.C, t0, self.q, self.qd, self.qdd, self.lam, False,
                                      0.0, 0.0, 0.0, self.AB, self.r, self.Phi)
+        if self.newton_test == "residual":
+            # deformable elements: their internal forces carry round-off ε K L far above ε times the loads;
+            # 10⁻⁴ of it in the absolute tolerance lets the engine's round-off acceptance (corrections at
+            # the coordinates' round-off, residual within 10⁴ tolerances) take a residual at that floor
+            self.residual_floor = initial.residual_floor(self.model, self.initial_state)
+            self.fp[S.FP_ATOL] = self.newton_atol + 1e-4 * self.residual_floor
         # the consistent start needs consistent initial values; initialize=False keeps the seed's start
         need_j = self.adaptive or (self.start == "consistent" and self._initialized)
         h0 = self.h
@@ -357,13 +390,9 @@ class GeneralizedAlphaSolver:
                     dl = min(dl, 1e-2 * self.h0)
             else:
                 dl = min(1e-4, 1e-2 * self.h)
-            q0, v0, a0 = self.q, self.qd, self.qdd
-            KBt = np.zeros_like(self.AB)
-            kp = np.zeros_like(self.ipiv)
-            cmp = self.model.compose
-            ap = self._qpp(t0 + dl, cmp(q0, dl * v0 + 0.5 * dl * dl * a0), v0 + dl * a0, KBt, kp)
-            am_ = self._qpp(t0 - dl, cmp(q0, -dl * v0 + 0.5 * dl * dl * a0), v0 - dl * a0, KBt, kp)
-            j0 = (ap - am_) / (2.0 * dl)
+            st = State(t0, self.q, self.qd, self.qdd, self.lam)      # views: the start corrects q̇ in place
+            engine = self._start_engine()
+            j0 = initial.jerk(self.model, self.start_weights, engine, st, dl)
             # the factorization at the initial state, for re-synchronisations
             qpp0 = self._qpp(t0, self.q, self.qd, self.Wv[S.W_KBACC], self.Wv[S.W_KPIVACC])
             self.Wv[S.W_QPP][:] = qpp0
@@ -382,34 +411,15 @@ class GeneralizedAlphaSolver:
                 self.sf[3] = h0
                 self.sf[4] = h0
             self.start_used = self.start
-            if self.start == "consistent" and not self.adaptive and not start_is_resolved(h0, v0, j0):
+            if self.start == "consistent" and not self.adaptive and not start_is_resolved(h0, self.qd, j0):
                 # the jerk is that of a motion the step does not resolve (a stiff element set moving
                 # impulsively, e.g. a beam node turned by a driver at t0): the expansion behind the
                 # consistent start does not hold, and its correction d·h·j₀ would be far larger than
                 # the motion; the seed's start (a₀ = q̈₀, exact q̇₀) is used, with its O(h) transient in λ
                 self.start_used = "seed (start not resolved by h)"
             if self.start_used == "consistent":
-                d = self.alpha.alpha_m - self.alpha.alpha_f
-                self.a[:] = self.qdd + d * h0 * j0
-                # the index-2 scheme keeps B q̇ + Φ_t = 0 exactly: no normal-velocity offset to match,
-                # only a (which lags q̈ by Δh) is started consistently
-                if self.model.nc and self.formulation == "index3":
-                    Bj = np.zeros(self.model.nc)
-                    cp.mod.jacobian_times(cp.G, cp.C, float(t0), self.q, j0, Bj)
-                    Pt = np.zeros(self.model.nc)
-                    gm = np.zeros(self.model.nc)
-                    self._tf_at(t0)
-                    cp.mod.rates(cp.G, cp.C, float(t0), self.q, self.qd, Pt, gm)
-                    target = -Pt + h0 * h0 * self.Cq * Bj
-                    if self.model.lie:
-                        # the bracket term of the first increment's defect on a Lie group,
-                        # h³/12 [v0, v̇0] (Arnold, Cardona & Brüls 2016; docs/spatial.md)
-                        Bb = np.zeros(self.model.nc)
-                        cp.mod.jacobian_times(cp.G, cp.C, float(t0), self.q,
-                                              self.model.bracket(self.qd, self.qdd), Bb)
-                        target = target + (h0 * h0 / 12.0) * Bb
-                    cp.mod.project_normal_velocity(cp.G, cp.C, self.ip, float(t0), self.q, self.qd, target,
-                                                   self.Wv[S.W_KBACC], self.Wv[S.W_KPIVACC], self.Wv[S.W_KX], self.Wv[S.W_BV])
+                self.a[:] = initial.consistent_start(self.model, self.start_weights, engine, st, j0, h0, self.alpha,
+                                                     self.Cq, self.formulation == "index3")
         elif not self.adaptive and self.check_every:
             pass
         if not self.adaptive:
@@ -479,6 +489,11 @@ class GeneralizedAlphaSolver:
                     return ModelError(f"{e} (during the run, near t = {tt:.6g} s, step {n})")
         return ModelError(f"a kernel indexed an array out of bounds near t = {t:.6g} s (step {n}): {exc}")
 
+    def _newton_hint(self, n):
+        st = self.initial_state
+        flexible = bool(initial.deformable_groups(self.model, st.t, st.q, st.qd))
+        return initial.newton_hint(n, flexible, self.start_weights is not None and self.start_used == "consistent")
+
     def raise_status(self, status):
         """Raise the femb error of a negative status of the compiled loop."""
         info = self.info
@@ -504,7 +519,7 @@ class GeneralizedAlphaSolver:
         if status == -1:
             raise ConvergenceError(
                 f"non-finite residual at t = {t1:.6g} s (step {n}, iteration {k}): the step diverged; "
-                "try a smaller h", t=t1, step=n, residuals=res)
+                f"{self._newton_hint(n)}", t=t1, step=n, residuals=res)
         if status == -2:
             where = f"; largest constraint residual in '{self.owner[iphi]}'" if iphi >= 0 else ""
             if self.newton_test == "residual":
@@ -515,7 +530,7 @@ class GeneralizedAlphaSolver:
                           f"‖Φ‖∞ = {err_phi:.3e} m (tolerance {info[6]:.3e})")
             raise ConvergenceError(
                 f"Newton did not converge at t = {t1:.6g} s (step {n}) within {self.max_iter} iterations: "
-                f"{detail}{where}; try a smaller h", t=t1, step=n, residuals=res)
+                f"{detail}{where}; {self._newton_hint(n)}", t=t1, step=n, residuals=res)
         if status == -3:
             raise ConvergenceError(
                 f"Newton diverged at t = {t1:.6g} s (step {n}): the iteration matrix became singular at "

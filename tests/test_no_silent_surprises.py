@@ -149,12 +149,17 @@ def test_singular_iteration_matrix_at_a_huge_step_on_a_clamped_beam_names_the_st
     sec = E.Section.rectangle(E=2.1e11, G=8.1e10, width=0.01, height=0.01, density=7800.0)
     E.add_beam(mech, "beam", sec, start=(0.0, 0.0), end=(1.0, 0.0), n_elements=10, start_joint="clamp")
     mech.add(E.Gravity((0.0, -9.81)))
+    # the beam starts in its quasi-static deflection (femb/initial.py, settle): Newton then stalls
+    # (ConvergenceError) where, started undeformed, it met a singular matrix; either names h first
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", AccuracyWarning)
-        with pytest.raises(SingularMatrixError) as err:
+        with pytest.raises((SingularMatrixError, femb.ConvergenceError)) as err:
             femb.simulate(mech.compile(), 100.0, 10.0)
-    hint = str(err.value).split("hint:", 1)[1]
-    assert hint.strip().startswith("the step size"), hint
+    if isinstance(err.value, SingularMatrixError):
+        hint = str(err.value).split("hint:", 1)[1]
+        assert hint.strip().startswith("the step size"), hint
+    else:
+        assert str(err.value).split("; ")[-1].startswith("try a smaller h"), str(err.value)
     # a rotation without inertia and without a constraint keeps the hint about masses
     from femb.initial import singular_hint
     m2 = femb.Mechanism("massless")
