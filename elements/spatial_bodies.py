@@ -390,6 +390,7 @@ class SpatialRigidBody(SpatialBody, Element):
     constant_mass = True
     has_force = True
     force_depends_on_qd = True
+    work = "none"                     # the gyroscopic moment does no work (Ω·(Ω × JΩ) = 0)
     kernels = {"mass": rigid_body_mass, "force": rigid_body_force}
 
     def __init__(self, name, mass, inertia, position=(0.0, 0.0, 0.0), rotation=None,

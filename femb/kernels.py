@@ -55,7 +55,7 @@ def _check_kernel(owner, role, fn):
         raise ModelError(f"element type {owner}: kernel {py.__name__}({have}) for the role '{role}' must take "
                          f"{len(ROLE_ARGUMENTS[role])} arguments ({args}); it takes {len(positional)} "
                          f"(docs/kernels.md)")
-    outputs = {"mass": 1, "force": 3, "constraint": 3, "rates": 2}[role]
+    outputs = {"mass": 1, "force": 3, "constraint": 3, "rates": 2, "energy": 1}[role]
     out_names = [p.name for p in positional][-outputs:]
     used = _loaded_names(py.__code__)
     if not any(n in used for n in out_names):
@@ -224,6 +224,14 @@ def rates(group, t, xe, ve):
     return Phi_t, gam
 
 
+def energy(group, t, xe):
+    """Potential energy of each element ``Ve (nel,)`` (the type's ``"energy"`` kernel)."""
+    xe = _f(xe)
+    Ve = np.zeros(xe.shape[0])
+    _kernel(group, "energy")(group.P, float(t), time_values(group, t), xe, Ve)
+    return Ve
+
+
 def is_builtin(cls):
     """Whether ``cls`` is one of femb's own element types (their kernels are tested by femb)."""
     return (cls.__module__ or "").startswith(("femb.", "elements."))
@@ -278,6 +286,8 @@ def contract_check(group, xe, ve, t=0.0):
             np.zeros((nel, nc, ndv)), np.zeros((nel, ndv, ndv)))
         if "rates" in ks:
             run("rates", P, float(t), tf, xe, ve, np.zeros((nel, nc)), np.zeros((nel, nc)))
+    if "energy" in ks:
+        run("energy", P, float(t), tf, xe, np.zeros(nel))
 
 
 class ContractWarning(UserWarning):

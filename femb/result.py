@@ -451,7 +451,7 @@ class Result:
         if cache is None or cache[0] != key:
             cache = (key, energies(self))
             self.__dict__["_energy_cache"] = cache
-        return {k: np.array(v, copy=True) for k, v in cache[1].items()}
+        return {k: (v if isinstance(v, tuple) else np.array(v, copy=True)) for k, v in cache[1].items()}
 
     def energy_balance(self):
         """Largest |energy balance| relative to the run's energy scale (see :func:`femb.energy.energy_balance`)."""
