@@ -535,6 +535,9 @@ class Gravity(Element):
     name : str
     """
 
+    #: a uniform field on every mass, assembled by the model as M ĝ (no kernels; femb.model reads this trait)
+    gravity_field = True
+
     def __init__(self, g=(0.0, -9.81), name="gravity"):
         super().__init__(name)
         self.g = _point(f"Gravity '{name}'", "g", g)

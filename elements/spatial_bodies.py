@@ -386,6 +386,8 @@ class SpatialRigidBody(SpatialBody, Element):
     :func:`rigid_body_force` (gyroscopic moment, depends on v). ``P = (m, J (9))``.
     """
 
+    glyph = {"": "body", "Frame": "body_frame"}   # the drawing and the body frames (femb.io.frames)
+
     has_mass = True
     constant_mass = True
     has_force = True
@@ -489,6 +491,8 @@ class SpatialPointMass(SpatialBody, Element):
     points : dict, optional
         Named offsets (they do not rotate).
     """
+
+    glyph = "point_mass"
 
     has_mass = True
     constant_mass = True

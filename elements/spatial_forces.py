@@ -237,6 +237,8 @@ class PointSpringDamper(SpatialPairElement):
     point_a, point_b : str or (3,)
     """
 
+    glyph = "spring"
+
     has_force = True
     force_depends_on_qd = True
     work = "potential"
@@ -307,6 +309,8 @@ class Bushing(SpatialPairElement):
     rotational_damping : (3,)    (N m s/rad)
     """
 
+    glyph = "bushing"
+
     has_force = True
     force_depends_on_qd = True
     work = "potential"
@@ -366,6 +370,8 @@ class RotationalSpringDamper(SpatialPairElement):
     angle0 : float
         Unstretched angle θ0 (rad), default 0 (relaxed at t0).
     """
+
+    glyph = "torsion"
 
     has_force = True
     force_depends_on_qd = True
@@ -507,6 +513,7 @@ class _Load(Element):
     spatial = True
     has_force = True
     work = "load"                     # an applied load: its work ∫ fe·ve dt (femb.energy)
+    glyph = "load"
     kernels = {"force": load_force}
     _torque = False
 

@@ -296,3 +296,114 @@ def energy_balance(result):
     float
     """
     return balance_ratio(energies(result))
+
+
+# ---------------------------------------------------------------------------
+# momenta
+# ---------------------------------------------------------------------------
+def _mass_ext(model, names=None):
+    """The constant mass matrix over the extended velocity coordinates (csr, n_ext × n_ext),
+    of every element or of the elements named in ``names`` (a set)."""
+    n_ext = model.nq + model.nfix_v
+    qx0 = model.ext(model.q0)
+    rows, cols, vals = [], [], []
+    for g in model.mass_groups:
+        sel = np.arange(g.nel) if names is None else np.array(
+            [i for i, n in enumerate(g.names) if n in names], dtype=np.int64)
+        if sel.size == 0:
+            continue
+        Me = _kernels.mass(g, qx0[g.xdofs])[sel]
+        d = g.dofs[sel]
+        rows.append(np.repeat(d, d.shape[1], axis=1).ravel())
+        cols.append(np.tile(d, (1, d.shape[1])).ravel())
+        vals.append(Me.ravel())
+    if not vals:
+        return sp.csr_matrix((n_ext, n_ext))
+    return sp.csr_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
+                         shape=(n_ext, n_ext))
+
+
+def _quat_matrices(p):
+    """R (nt, 3, 3) of unit quaternions p (nt, 4) = (p0, p1, p2, p3), body to space."""
+    p = p / np.linalg.norm(p, axis=1)[:, None]
+    w, x, y, z = p.T
+    return np.stack((np.stack((1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)), -1),
+                     np.stack((2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)), -1),
+                     np.stack((2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)), -1)), 1)
+
+
+def _select(model, of):
+    """The set of element names that ``of`` selects (None: all)."""
+    if of is None:
+        return None
+    of = [of] if isinstance(of, str) else list(of)
+    known = [n for g in model.mass_groups for n in g.names]
+    out = set()
+    for name in of:
+        hit = [n for n in known if n == name or n.startswith(f"{name}.")]
+        if not hit:
+            raise ModelError(f"momentum: '{name}' names no element with mass of model '{model.name}' "
+                             f"(give a body, a beam element, or the name of a meshed beam)")
+        out.update(hit)
+    return out
+
+
+def momentum(result, about=None, of=None):
+    """Linear and angular momentum at every stored step (module docstring).
+
+    Parameters
+    ----------
+    result : Result
+    about : array_like, optional
+        The point o of the angular momentum, (3,) (spatial) or (2,) (planar) (m);
+        default the origin.
+    of : str or sequence of str, optional
+        The bodies / beam elements to sum over, by name; the name of a meshed beam
+        (``spatial_beam(mech, "arm", ...)``, ``add_beam``) selects its elements
+        (``"arm.<k>"``). Default: the whole model.
+
+    Returns
+    -------
+    p : ndarray, shape (nt, 3) (spatial) or (nt, 2) (planar)
+        Linear momentum (kg m/s), space axes.
+    H : ndarray, shape (nt, 3) (spatial) or (nt,) (planar, about z)
+        Angular momentum about ``about`` (kg m²/s), space axes.
+        A model with spatial nodes gives 3-vectors; its planar nodes move in the
+        x-y plane and contribute to p_z, H_x, H_y nothing.
+    """
+    m = result.model
+    if result.qd is None or result.t.size == 0:
+        raise ModelError("momentum needs a result with stored steps and velocities")
+    nodes = _nodes(m)
+    spatial = any(getattr(nd, "rotation_blocks", ()) for nd in nodes)
+    dim = 3 if spatial else 2
+    o = np.zeros(3)
+    if about is not None:
+        a = np.asarray(about, dtype=float).reshape(-1)
+        if a.size not in (dim, 3) or not np.all(np.isfinite(a)):
+            raise ModelError(f"momentum: about must be a finite point of {dim} coordinates, got {about!r}")
+        o[:a.size] = a
+    M = _mass_ext(m, _select(m, of))
+    qx, _ = _ext_steps(result)
+    Mv = (M[:, :m.nq] @ result.qd.T).T                      # (nt, n_ext)
+    nt = result.t.size
+    p, H = np.zeros((nt, 3)), np.zeros((nt, 3))
+    for nd in nodes:
+        xi, vi = m.node_index[nd.name], m.node_vindex[nd.name]
+        tr = list(nd.translational)
+        r = np.zeros((nt, 3))
+        f = np.zeros((nt, 3))
+        r[:, :len(tr)] = qx[:, xi[tr]] - o[:len(tr)]
+        f[:, :len(tr)] = Mv[:, vi[tr]]
+        p += f
+        H += np.cross(r, f)
+        blocks = getattr(nd, "rotation_blocks", ())
+        if blocks:
+            for bx, bv in blocks:
+                R = _quat_matrices(qx[:, xi[bx:bx + 4]])
+                H += np.einsum("tij,tj->ti", R, Mv[:, vi[bv:bv + 3]])
+        elif "theta" in getattr(nd, "coord_names", ()):
+            H[:, 2] += Mv[:, vi[list(nd.coord_names).index("theta")]]
+    if spatial:
+        return p, H
+    return p[:, :2], H[:, 2]

@@ -455,9 +455,31 @@ class Result:
 
     def energy_balance(self):
         """Largest |energy balance| relative to the run's energy scale (see :func:`femb.energy.energy_balance`)."""
-        from femb.energy import energy_balance
+        from femb.energy import balance_ratio
 
-        return energy_balance(self)
+        return balance_ratio(self.energy())
+
+    def momentum(self, about=None, of=None):
+        """Linear and angular momentum at every stored step; see :func:`femb.energy.momentum`.
+
+        Parameters
+        ----------
+        about : array_like, optional
+            Point of the angular momentum, (3,) spatial / (2,) planar (m); default the origin.
+        of : str or sequence of str, optional
+            Bodies or beam elements by name (a meshed beam's name selects its elements);
+            default the whole model.
+
+        Returns
+        -------
+        p : ndarray, shape (nt, 3) spatial / (nt, 2) planar
+            Linear momentum (kg m/s).
+        H : ndarray, shape (nt, 3) spatial / (nt,) planar (about z)
+            Angular momentum about ``about`` (kg m²/s).
+        """
+        from femb.energy import momentum
+
+        return momentum(self, about=about, of=of)
 
     # ------------------------------------------------------------------ named outputs
     def _nodes(self):
