@@ -145,24 +145,58 @@ def _nodes(model):
     return out
 
 
+class _Layout:
+    """Where the nodes' translations and rotations sit in x_ext and v_ext (index arrays).
+
+    ``rx, rv (n, 3)``: position / velocity indices of each node's translations (−1 where a
+    planar node has no z); ``qx (ns, 4), wv (ns, 3)``: quaternion and Ω indices of the
+    rotations of spatial nodes; ``tv (np,)``: θ̇ indices of planar nodes.
+    """
+
+    def __init__(self, model):
+        rx, rv, qx, wv, tv = [], [], [], [], []
+        self.spatial = False
+        for nd in _nodes(model):
+            xi, vi = model.node_index[nd.name], model.node_vindex[nd.name]
+            tr = list(nd.translational)
+            rx.append([int(xi[c]) for c in tr] + [-1] * (3 - len(tr)))
+            rv.append([int(vi[c]) for c in tr] + [-1] * (3 - len(tr)))
+            blocks = getattr(nd, "rotation_blocks", ())
+            for bx, bv in blocks:
+                qx.append(xi[bx:bx + 4])
+                wv.append(vi[bv:bv + 3])
+            self.spatial |= bool(blocks)
+            if not blocks and "theta" in getattr(nd, "coord_names", ()):
+                tv.append(int(vi[list(nd.coord_names).index("theta")]))
+        self.rx = np.array(rx, dtype=np.int64).reshape(-1, 3)
+        self.rv = np.array(rv, dtype=np.int64).reshape(-1, 3)
+        self.qx = np.array(qx, dtype=np.int64).reshape(-1, 4)
+        self.wv = np.array(wv, dtype=np.int64).reshape(-1, 3)
+        self.tv = np.array(tv, dtype=np.int64)
+
+
+def _take(a, idx):
+    """a[..., idx] with zeros where idx < 0."""
+    out = a[..., np.where(idx >= 0, idx, 0)]
+    out[..., idx < 0] = 0.0
+    return out
+
+
 def gravitational_energy(result):
-    """V_g = −Σᵢ (M ĝ)ᵢ xᵢ over the free translational coordinates, shape (nt,) (J).
+    """V_g = −Σᵢ (M ĝ)ᵢ xᵢ over the translational coordinates, shape (nt,) (J).
 
     The potential of the gravity force M ĝ (module table); a planar gravity acts on
     the x and y translations of spatial nodes, a spatial one with its x and y
     components on planar nodes (as the assembled force). Zeros without gravity.
     """
     m = result.model
-    V = np.zeros(result.t.size)
     if m.g_hat is None:
-        return V
+        return np.zeros(result.t.size)
     f = _gravity_force(m)
-    for nd in _nodes(m):
-        xi, vi = m.node_index[nd.name], m.node_vindex[nd.name]
-        for c in nd.translational:
-            if xi[c] < m.nx and f[vi[c]] != 0.0:
-                V -= f[vi[c]] * result.q[:, xi[c]]
-    return V
+    lay = _Layout(m)
+    free = (lay.rx >= 0) & (lay.rx < m.nx)
+    xi, vi = lay.rx[free], lay.rv[free]
+    return -(result.q[:, xi] @ f[vi])
 
 
 def _warn_not_counted(names):
@@ -211,10 +245,10 @@ def load_power(result):
     qx, vx = _ext_steps(result)
     P = np.zeros(result.t.size)
     for g in _force_groups(m, "load"):
+        force = _kernels.ForceValues(g)
         for k, t in enumerate(result.t):
             ve = vx[k][g.dofs]
-            fe, _, _ = _kernels.force(g, t, qx[k][g.xdofs], ve, jac=False)
-            P[k] += np.einsum("ei,ei->", fe, ve)
+            P[k] += np.einsum("ei,ei->", force(t, qx[k][g.xdofs], ve), ve)
     return P
 
 
@@ -239,11 +273,10 @@ def dissipation_power(result):
               and energy_role(g) != "load"]
     for g in groups:
         z = np.zeros((g.nel, g.ndv))
+        force = _kernels.ForceValues(g)
         for k, t in enumerate(result.t):
             xe, ve = qx[k][g.xdofs], vx[k][g.dofs]
-            f1, _, _ = _kernels.force(g, t, xe, ve, jac=False)
-            f0, _, _ = _kernels.force(g, t, xe, z, jac=False)
-            D[k] -= np.einsum("ei,ei->", f1 - f0, ve)
+            D[k] -= np.einsum("ei,ei->", force(t, xe, ve) - force(t, xe, z), ve)
     return D
 
 
@@ -323,13 +356,12 @@ def _mass_ext(model, names=None):
                          shape=(n_ext, n_ext))
 
 
-def _quat_matrices(p):
-    """R (nt, 3, 3) of unit quaternions p (nt, 4) = (p0, p1, p2, p3), body to space."""
-    p = p / np.linalg.norm(p, axis=1)[:, None]
-    w, x, y, z = p.T
-    return np.stack((np.stack((1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)), -1),
-                     np.stack((2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)), -1),
-                     np.stack((2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)), -1)), 1)
+def _rotate(p, w):
+    """R(p) w for unit quaternions p (..., 4) = (p0, p1, p2, p3) and vectors w (..., 3):
+    w + 2 p_v × (p_v × w + p0 w)."""
+    p = p / np.linalg.norm(p, axis=-1, keepdims=True)
+    pv = p[..., 1:]
+    return w + 2.0 * np.cross(pv, np.cross(pv, w) + p[..., :1] * w)
 
 
 def _select(model, of):
@@ -369,41 +401,36 @@ def momentum(result, about=None, of=None):
     H : ndarray, shape (nt, 3) (spatial) or (nt,) (planar, about z)
         Angular momentum about ``about`` (kg m²/s), space axes.
         A model with spatial nodes gives 3-vectors; its planar nodes move in the
-        x-y plane and contribute to p_z, H_x, H_y nothing.
+        plane z = 0 with no velocity along z.
     """
     m = result.model
     if result.qd is None or result.t.size == 0:
         raise ModelError("momentum needs a result with stored steps and velocities")
-    nodes = _nodes(m)
-    spatial = any(getattr(nd, "rotation_blocks", ()) for nd in nodes)
-    dim = 3 if spatial else 2
+    lay = _Layout(m)
+    dim = 3 if lay.spatial else 2
     o = np.zeros(3)
     if about is not None:
         a = np.asarray(about, dtype=float).reshape(-1)
         if a.size not in (dim, 3) or not np.all(np.isfinite(a)):
             raise ModelError(f"momentum: about must be a finite point of {dim} coordinates, got {about!r}")
         o[:a.size] = a
-    M = _mass_ext(m, _select(m, of))
-    qx, _ = _ext_steps(result)
-    Mv = (M[:, :m.nq] @ result.qd.T).T                      # (nt, n_ext)
+    M = _mass_ext(m, _select(m, of))[:, :m.nq].tocsr()
     nt = result.t.size
     p, H = np.zeros((nt, 3)), np.zeros((nt, 3))
-    for nd in nodes:
-        xi, vi = m.node_index[nd.name], m.node_vindex[nd.name]
-        tr = list(nd.translational)
-        r = np.zeros((nt, 3))
-        f = np.zeros((nt, 3))
-        r[:, :len(tr)] = qx[:, xi[tr]] - o[:len(tr)]
-        f[:, :len(tr)] = Mv[:, vi[tr]]
-        p += f
-        H += np.cross(r, f)
-        blocks = getattr(nd, "rotation_blocks", ())
-        if blocks:
-            for bx, bv in blocks:
-                R = _quat_matrices(qx[:, xi[bx:bx + 4]])
-                H += np.einsum("tij,tj->ti", R, Mv[:, vi[bv:bv + 3]])
-        elif "theta" in getattr(nd, "coord_names", ()):
-            H[:, 2] += Mv[:, vi[list(nd.coord_names).index("theta")]]
-    if spatial:
+    chunk = max(1, 2_000_000 // max(1, M.shape[0] + lay.rx.size))
+    for k0 in range(0, nt, chunk):                          # steps in chunks: bounded memory
+        sl = slice(k0, min(nt, k0 + chunk))
+        q = result.q[sl]
+        qx = np.concatenate((q, np.broadcast_to(m.q_fixed, (q.shape[0], m.q_fixed.size))), axis=1)
+        Mv = (M @ result.qd[sl].T).T                         # (n, n_ext)
+        f = _take(Mv, lay.rv)                                # (n, nodes, 3)
+        r = _take(qx, lay.rx) - o                            # planar nodes: z = 0
+        p[sl] = f.sum(axis=1)
+        H[sl] = np.cross(r, f).sum(axis=1)
+        if lay.qx.size:
+            H[sl] += _rotate(qx[:, lay.qx], Mv[:, lay.wv]).sum(axis=1)
+        if lay.tv.size:
+            H[sl, 2] += Mv[:, lay.tv].sum(axis=1)
+    if lay.spatial:
         return p, H
     return p[:, :2], H[:, 2]

@@ -202,6 +202,24 @@ def force(group, t, xe, ve, jac=True, raw=False):
     return fe, fq, (fv if damped else None)
 
 
+class ForceValues:
+    """Element forces ``fe (nel, ndv)`` of one batch without the tangent, called many times
+    (energies over the stored steps): the kernel's unused Jacobian outputs are allocated once."""
+
+    def __init__(self, group):
+        self.group = group
+        self.fn = _kernel(group, "force")
+        nel, ndv = group.nel, group.ndv
+        self.fq = np.zeros((nel, ndv, ndv))
+        self.fv = np.zeros((nel, ndv, ndv))
+
+    def __call__(self, t, xe, ve):
+        g = self.group
+        fe = np.zeros((xe.shape[0], g.ndv))
+        self.fn(g.P, float(t), time_values(g, t), _f(xe), _f(ve), False, fe, self.fq, self.fv)
+        return fe
+
+
 def constraint(group, t, xe, le=None, jac=True):
     """``Phi (nel, nc)``, ``B (nel, nc, ndv)`` and, with ``jac``, ``H (nel, ndv, ndv)``."""
     xe = _f(xe)

@@ -602,8 +602,8 @@ class Result:
         if name.startswith("energy."):
             kind = name[len("energy."):]
             e = self.energy()
-            if kind not in e:
-                raise ModelError(f"unknown energy '{kind}' (known: {sorted(e)})")
+            if kind not in e or isinstance(e[kind], tuple):
+                raise ModelError(f"unknown energy '{kind}' (known: {sorted(k for k in e if k != 'not_counted')})")
             return e[kind], "J"
         # longest known name that prefixes the output name
         known = sorted(set(m.node_index) | set(m.lam_index) | set(m.bodies), key=len, reverse=True)

@@ -381,3 +381,14 @@ def test_the_core_never_names_an_element_class():
                                                   and path.parent.name == "femb"):
                         bad.append(f"{path.relative_to(ROOT)}:{node.lineno} {a.name}")
     assert not bad, bad
+
+
+def test_the_bead_attractor_example_declares_its_potential():
+    """benchmarks/bead_attractor.py's PointAttractor (a type outside femb.elements): U = −μ/|x − P|."""
+    from femb.benchmarks import bead_attractor
+    model = bead_attractor.build().compile()
+    r = femb.simulate(model, 1.0, 1e-3, rho_inf=0.95)
+    e = r.energy()
+    d = np.hypot(r.series("bar1.x")[0] - 1.05, r.series("bar1.y")[0])
+    np.testing.assert_allclose(e["elastic"], -1.0 / d, rtol=1e-12)
+    assert e["not_counted"] == () and r.energy_balance() < 1e-3
