@@ -78,11 +78,14 @@ def energy_role(group):
     """
     cls = group.cls
     ks = getattr(cls, "kernels", None) or {}
+    work = getattr(cls, "work", None)
+    if work is not None and work not in WORK_KINDS:
+        raise ModelError(f"element type {cls.__name__}: work = {work!r}; give one of {', '.join(WORK_KINDS)} "
+                         f"or None (docs/kernels.md)")
     if "energy" in ks:
         return "potential"
     if not group.traits.get("has_force", False):
         return "none"
-    work = getattr(cls, "work", None)
     if work in ("load", "none"):
         return work
     return None

@@ -354,6 +354,15 @@ def test_a_users_type_without_an_energy_is_reported_not_counted():
     assert np.all(e["elastic"] == 0.0)
 
 
+def test_an_unknown_work_declaration_is_a_named_error():
+    class Misdeclared(SilentAnchor):
+        work = "loads"
+
+    r = _anchored(Misdeclared)
+    with pytest.raises(femb.ModelError, match="Misdeclared: work = 'loads'"):
+        r.energy()
+
+
 # ---------------------------------------------------------------- no class switches in the core
 def _element_classes():
     import femb.elements as E
