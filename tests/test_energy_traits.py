@@ -15,7 +15,6 @@
 import ast
 import inspect
 import pathlib
-from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -24,7 +23,7 @@ import femb
 from femb import energy as fe
 from femb import kernels
 from femb.element import Element
-from femb.elements import (Bushing, PointSpringDamper, RevoluteJoint, RigidBody, RotationalSpringDamper, Section,
+from femb.elements import (Bushing, PointSpringDamper, RigidBody, RotationalSpringDamper, Section,
                            SpatialForce, SpatialRigidBody, SpatialRotationalSpringDamper, SpringDamper, add_beam,
                            beam_strain_energy)
 from femb.elements.spatial_beam import SpatialBeam, SpatialSection, spatial_beam
