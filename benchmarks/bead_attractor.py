@@ -12,7 +12,8 @@ where a fixed step of 0.04 s fails in Newton and adaptive runs pass.
 femb's element library has no central-force element, so this scene defines
 one, :class:`PointAttractor`, through the public element contract
 (:mod:`femb.element`, ``docs/kernels.md``): its force kernel is a compiled
-``@femb.jit.kernel`` function, checked by ``femb.check_jacobians``.
+``@femb.jit.kernel`` function, checked by ``femb.check_jacobians``; its ``"energy"``
+kernel declares the potential U, so ``Result.energy()`` counts it.
 
 Outputs (:func:`outputs`)
 -------------------------
@@ -67,6 +68,15 @@ def point_attractor_force(P, t, tf, xe, ve, jac, fe, fq, fv):
             fq[e, 1, 1] = -a * (1.0 - b * Dy * Dy)
 
 
+@kernel
+def point_attractor_energy(P, t, tf, xe, Ve):
+    """U = −μ/|x − P|, the potential of :func:`point_attractor_force` (in ``energy()["elastic"]``)."""
+    for e in range(xe.shape[0]):
+        Dx = xe[e, 0] - P[e, 0]
+        Dy = xe[e, 1] - P[e, 1]
+        Ve[e] = -P[e, 2] / math.sqrt(Dx * Dx + Dy * Dy)
+
+
 class PointAttractor(Element):
     """Attraction of a body's centre of mass by a fixed point, potential U = −μ/|x − P|.
 
@@ -84,6 +94,8 @@ class PointAttractor(Element):
     """
 
     has_force = True
+    work = "potential"
+    kernels = {"force": point_attractor_force, "energy": point_attractor_energy}
 
     def __init__(self, name, body, point, strength):
         super().__init__(name)
@@ -109,8 +121,6 @@ class PointAttractor(Element):
     def validate(self):
         if float(np.hypot(*(self.body.node.q0[:2] - self.P))) == 0.0:
             raise ModelError(f"PointAttractor '{self.name}': the body starts on the attracting point")
-
-    kernels = {"force": point_attractor_force}
 
     @classmethod
     def pack(cls, elements):

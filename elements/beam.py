@@ -215,6 +215,17 @@ def _midpoint(P, xe, e):
 
 
 @kernel
+def beam_energy(P, t, tf, xe, Ve):
+    """Strain energy V = ½ L (EA Γ₁² + GA Γ₂² + EI κ²) of each element (one-point rule, the
+    potential of the elastic part of :func:`beam_force`); P and xe as there."""
+    for e in range(xe.shape[0]):
+        c, s, g1, g2, kap = _midpoint(P, xe, e)
+        G1 = g1 - P[e, _G01]
+        G2 = g2 - P[e, _G02]
+        Ve[e] = 0.5 * P[e, _L] * (P[e, _EA] * G1 * G1 + P[e, _GA] * G2 * G2 + P[e, _EI] * kap * kap)
+
+
+@kernel
 def _midpoint_rates(P, ve, e, c, s):
     """u = R(θ_m)ᵀ ẋ′ (u₁, u₂), θ̇_m and κ̇ of element e; Γ̇ = u − θ̇_m J g = (u₁ + θ̇_m g₂, u₂ − θ̇_m g₁)."""
     inv = P[e, _INVL]
@@ -404,7 +415,8 @@ class ReissnerBeam(PairElement):
     constant_mass = True
     has_force = True
     force_depends_on_qd = True
-    kernels = {"mass": beam_mass, "force": beam_force}
+    work = "potential"
+    kernels = {"mass": beam_mass, "force": beam_force, "energy": beam_energy}
 
     def __init__(self, name, a, b, section, mass="consistent"):
         super().__init__(name, a, b)

@@ -62,6 +62,9 @@ class Body:
         ``{"type": "polygon", "points": [...]}`` or ``{"type": "mesh", "file": path}``.
     """
 
+    #: a body: joints attach to it, it owns a node (femb.model reads this trait)
+    is_body = True
+
     def __init__(self, name, node, points=None, shape=None):
         self.node = node
         self.points = {}

@@ -176,6 +176,19 @@ def spring_damper_force(P, t, tf, xe, ve, jac, fe, fq, fv):
                           -Nl * gab - gbe * wa, -Nl * (gbx * gbx + gby * gby) - gbe * wb + N * edb)
 
 
+@kernel
+def spring_damper_energy(P, t, tf, xe, Ve):
+    """Potential of linear springs, V = ½ k (l − l_0)² (the conservative part of
+    :func:`spring_damper_force`: f(q, 0) = −∂V/∂q); P and xe as there."""
+    for e in range(xe.shape[0]):
+        ca, sa = math.cos(xe[e, 2]), math.sin(xe[e, 2])
+        cb, sb = math.cos(xe[e, 5]), math.sin(xe[e, 5])
+        Dx = xe[e, 3] - xe[e, 0] + cb * P[e, 2] - sb * P[e, 3] - (ca * P[e, 0] - sa * P[e, 1])
+        Dy = xe[e, 4] - xe[e, 1] + sb * P[e, 2] + cb * P[e, 3] - (sa * P[e, 0] + ca * P[e, 1])
+        dl = math.hypot(Dx, Dy) - P[e, 6]
+        Ve[e] = 0.5 * P[e, 4] * dl * dl
+
+
 class SpringDamper(_DampedBatches, PairElement):
     """Linear spring–damper between point P_a of body a and P_b of body b.
 
@@ -199,7 +212,8 @@ class SpringDamper(_DampedBatches, PairElement):
     """
 
     has_force = True
-    kernels = {"force": spring_damper_force}
+    work = "potential"
+    kernels = {"force": spring_damper_force, "energy": spring_damper_energy}
 
     def __init__(self, name, a, b, stiffness, damping=0.0, length=None, point_a=None, point_b=None):
         super().__init__(name, a, b)
@@ -286,6 +300,14 @@ def rotational_spring_force(P, t, tf, xe, ve, jac, fe, fq, fv):
                 fv[e, 5, 2] = c
 
 
+@kernel
+def rotational_spring_energy(P, t, tf, xe, Ve):
+    """Potential of torsional springs, V = ½ k (θ_b − θ_a − θ_0)²; P = (k, c, θ_0)."""
+    for e in range(xe.shape[0]):
+        d = xe[e, 5] - xe[e, 2] - P[e, 2]
+        Ve[e] = 0.5 * P[e, 0] * d * d
+
+
 class RotationalSpringDamper(_DampedBatches, PairElement):
     """Torsional spring–damper between the rotations of bodies a and b.
 
@@ -306,7 +328,8 @@ class RotationalSpringDamper(_DampedBatches, PairElement):
     """
 
     has_force = True
-    kernels = {"force": rotational_spring_force}
+    work = "potential"
+    kernels = {"force": rotational_spring_force, "energy": rotational_spring_energy}
 
     def __init__(self, name, a, b, stiffness, damping=0.0, angle=None):
         super().__init__(name, a, b)
@@ -334,6 +357,7 @@ class _BodyLoad(Element):
     """A load on one body."""
 
     has_force = True
+    work = "load"                    # an applied load: its work ∫ fe·ve dt (femb.energy)
 
     def __init__(self, name, body):
         super().__init__(name)
@@ -510,6 +534,9 @@ class Gravity(Element):
         Acceleration of gravity (m/s²), e.g. (0, -9.81).
     name : str
     """
+
+    #: a uniform field on every mass, assembled by the model as M ĝ (no kernels; femb.model reads this trait)
+    gravity_field = True
 
     def __init__(self, g=(0.0, -9.81), name="gravity"):
         super().__init__(name)

@@ -875,6 +875,21 @@ def spatial_beam_force(P, t, tf, xe, ve, jac, fe, fq, fv):
             _gyro_jac(Pe, JNB, wB, gB, V, 9)
 
 
+@kernel
+def spatial_beam_energy(P, t, tf, xe, Ve):
+    """Strain energy V = ½ L εᵀ C ε of each element, ε = (d − d0)/L (the strains of
+    :func:`spatial_beam_force`, whose elastic part is −∂V/∂(δx, δθ)); P and xe as there."""
+    for e in range(xe.shape[0]):
+        Pe = P[e]
+        RA, RB, RsA, RsB, xA, xB, U, W, s, ds = _frames(Pe, xe[e], False)
+        iL = 1.0 / Pe[LEN]
+        eps = ((U[0] - Pe[0]) * iL, (U[1] - Pe[1]) * iL, (U[2] - Pe[2]) * iL,
+               (W[0] - Pe[3]) * iL, (W[1] - Pe[4]) * iL, (W[2] - Pe[5]) * iL)
+        sig = _c6(Pe, eps)
+        Ve[e] = 0.5 * Pe[LEN] * (eps[0] * sig[0] + eps[1] * sig[1] + eps[2] * sig[2]
+                                 + eps[3] * sig[3] + eps[4] * sig[4] + eps[5] * sig[5])
+
+
 def section_stiffness(P):
     """The section stiffnesses C (nel, 6, 6) of packed elements ``P`` (either layout)."""
     if P.shape[1] >= NPAR:
@@ -1073,7 +1088,8 @@ class SpatialBeam(Element):
     constant_mass = True
     has_force = True
     force_depends_on_qd = True
-    kernels = {"mass": spatial_beam_mass, "force": spatial_beam_force}
+    work = "potential"                # strain energy (kernels["energy"]); damping in "dissipated"
+    kernels = {"mass": spatial_beam_mass, "force": spatial_beam_force, "energy": spatial_beam_energy}
 
     def __init__(self, name, a, b, section, mass="consistent", frame_a=None, frame_b=None):
         super().__init__(name)

@@ -386,10 +386,13 @@ class SpatialRigidBody(SpatialBody, Element):
     :func:`rigid_body_force` (gyroscopic moment, depends on v). ``P = (m, J (9))``.
     """
 
+    glyph = {"": "body", "Frame": "body_frame"}   # the drawing and the body frames (femb.io.frames)
+
     has_mass = True
     constant_mass = True
     has_force = True
     force_depends_on_qd = True
+    work = "none"                     # the gyroscopic moment does no work (Ω·(Ω × JΩ) = 0)
     kernels = {"mass": rigid_body_mass, "force": rigid_body_force}
 
     def __init__(self, name, mass, inertia, position=(0.0, 0.0, 0.0), rotation=None,
@@ -488,6 +491,8 @@ class SpatialPointMass(SpatialBody, Element):
     points : dict, optional
         Named offsets (they do not rotate).
     """
+
+    glyph = "point_mass"
 
     has_mass = True
     constant_mass = True

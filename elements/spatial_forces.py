@@ -172,6 +172,55 @@ def rotational_spring_force(P, t, tf, xe, ve, jac, fe, fq, fv):
         _add_measure(Fk, g, hv, K, C, jac, fe[e], fq[e], fv[e])
 
 
+# ---------------------------------------------------------------------------
+# potentials: V = ½ Σ K_k (m_k − m0_k)², the conservative part of the forces above
+# ---------------------------------------------------------------------------
+@kernel
+def point_spring_energy(P, t, tf, xe, Ve):
+    """V = ½ k (ℓ − ℓ0)² of point springs (P as :func:`point_spring_force`)."""
+    for e in range(xe.shape[0]):
+        Pe = P[e]
+        d = sp.frames(Pe, xe[e])[8]
+        dl = math.sqrt(sp.dot3(d, d)) - Pe[26]
+        Ve[e] = 0.5 * Pe[24] * dl * dl
+
+
+@kernel
+def bushing_energy(P, t, tf, xe, Ve):
+    """V = ½ Σ K_k (m_k − m0_k)² of bushings, m = (u_k·d, u3·w2, u1·w3, u2·w1) (u = R_a ā_k,
+    w = R_b b̄_k; P as :func:`bushing_force`)."""
+    for e in range(xe.shape[0]):
+        Pe = P[e]
+        F = sp.frames(Pe, xe[e])
+        Ra, Rb, d = F[0], F[1], F[8]
+        u1 = sp.mv(Ra, sp.vec3(Pe, A1))
+        u2 = sp.mv(Ra, sp.vec3(Pe, A2))
+        u3 = sp.mv(Ra, sp.vec3(Pe, A3))
+        m = (sp.dot3(u1, d), sp.dot3(u2, d), sp.dot3(u3, d),
+             sp.dot3(u3, sp.mv(Rb, sp.vec3(Pe, B2))), sp.dot3(u1, sp.mv(Rb, sp.vec3(Pe, B3))),
+             sp.dot3(u2, sp.mv(Rb, sp.vec3(Pe, B1))))
+        V = 0.0
+        for k in range(6):
+            dm = m[k] - Pe[36 + k]
+            V += 0.5 * Pe[24 + k] * dm * dm
+        Ve[e] = V
+
+
+@kernel
+def rotational_spring_energy(P, t, tf, xe, Ve):
+    """V = ½ k θ², θ = atan2((R_a ā2)·w1, (R_a ā1)·w1) (P as :func:`rotational_spring_force`)."""
+    for e in range(xe.shape[0]):
+        Pe = P[e]
+        Ra, Rb = sp.frames(Pe, xe[e])[0:2]
+        ct, st = math.cos(Pe[26]), math.sin(Pe[26])
+        u1 = sp.mv(Ra, sp.vec3(Pe, A1))
+        u2 = sp.mv(Ra, sp.vec3(Pe, A2))
+        w1 = sp.mv(Rb, sp.vec3(Pe, B1))
+        c1, c2 = sp.dot3(u1, w1), sp.dot3(u2, w1)
+        th = math.atan2(-st * c1 + ct * c2, ct * c1 + st * c2)
+        Ve[e] = 0.5 * Pe[24] * th * th
+
+
 class PointSpringDamper(SpatialPairElement):
     """Linear spring–damper between point p_a of a and p_b of b.
 
@@ -188,9 +237,12 @@ class PointSpringDamper(SpatialPairElement):
     point_a, point_b : str or (3,)
     """
 
+    glyph = "spring"
+
     has_force = True
     force_depends_on_qd = True
-    kernels = {"force": point_spring_force}
+    work = "potential"
+    kernels = {"force": point_spring_force, "energy": point_spring_energy}
 
     def __init__(self, name, a, b, stiffness, damping=0.0, length=None, point_a=None, point_b=None):
         super().__init__(name, a, b, None, point_a, point_b)
@@ -257,9 +309,12 @@ class Bushing(SpatialPairElement):
     rotational_damping : (3,)    (N m s/rad)
     """
 
+    glyph = "bushing"
+
     has_force = True
     force_depends_on_qd = True
-    kernels = {"force": bushing_force}
+    work = "potential"
+    kernels = {"force": bushing_force, "energy": bushing_energy}
 
     def __init__(self, name, a, b, stiffness, rotational_stiffness, damping=(0.0, 0.0, 0.0),
                  rotational_damping=(0.0, 0.0, 0.0), at=None, point_a=None, point_b=None, axis=None,
@@ -316,9 +371,12 @@ class RotationalSpringDamper(SpatialPairElement):
         Unstretched angle θ0 (rad), default 0 (relaxed at t0).
     """
 
+    glyph = "torsion"
+
     has_force = True
     force_depends_on_qd = True
-    kernels = {"force": rotational_spring_force}
+    work = "potential"
+    kernels = {"force": rotational_spring_force, "energy": rotational_spring_energy}
 
     def __init__(self, name, a, b, stiffness, damping=0.0, angle0=0.0, at=None, point_a=None,
                  point_b=None, axis=None, axis1=None, frame=None):
@@ -454,6 +512,8 @@ class _Load(Element):
     #: acts on spatial frame nodes (femb.model refuses planar elements on them)
     spatial = True
     has_force = True
+    work = "load"                     # an applied load: its work ∫ fe·ve dt (femb.energy)
+    glyph = "load"
     kernels = {"force": load_force}
     _torque = False
 
@@ -554,4 +614,5 @@ class SpatialGravity(Gravity):
 
 
 __all__ = ["PointSpringDamper", "Bushing", "RotationalSpringDamper", "SpatialForce", "SpatialTorque",
-           "SpatialGravity", "point_spring_force", "bushing_force", "rotational_spring_force", "load_force"]
+           "SpatialGravity", "point_spring_force", "bushing_force", "rotational_spring_force", "load_force",
+           "point_spring_energy", "bushing_energy", "rotational_spring_energy"]

@@ -133,6 +133,9 @@ class SpatialPairElement(Element):
 
     #: acts on spatial frame nodes (femb.model refuses planar elements on them)
     spatial = True
+    #: an element between the frames of two spatial bodies a and b, xe = (x_a, p_a, x_b, p_b):
+    #: pictures mark its axes and the bodies it links (femb.io.frames reads this trait)
+    frame_pair = True
 
     def __init__(self, name, a, b, at=None, point_a=None, point_b=None, axis=None, axis1=None,
                  frame=None):
@@ -439,6 +442,8 @@ class SphericalJoint(SpatialPairElement):
     (space point at t0) or ``point_a``/``point_b``; axes are not used.
     """
 
+    glyph = "spherical"
+
     n_constraints = 3
     constraint_names = ("x", "y", "z")
     constraint_units = ("N", "N", "N")
@@ -490,6 +495,8 @@ class RevoluteJoint(SpatialPairElement):
     Exact whenever the locks hold (w3 = u3), at any angle.
     """
 
+    glyph = "revolute"
+
     n_constraints = 5
     constraint_names = ("x", "y", "z", "lock_1", "lock_2")
     constraint_units = ("N", "N", "N", "N·m", "N·m")
@@ -517,6 +524,8 @@ class UniversalJoint(SpatialPairElement):
         The two free axes in space at t0 (perpendicular), or names of axes of
         body a and body b.
     """
+
+    glyph = "universal"
 
     n_constraints = 4
     constraint_names = ("x", "y", "z", "cross")
@@ -559,6 +568,8 @@ class CylindricalJoint(_LineJoint):
     (N m, u_k = R_a ē_ak; minus the bearing moments about ē1, ē2 of a).
     """
 
+    glyph = "cylindrical"
+
     n_constraints = 4
     constraint_names = ("line_1", "line_2", "lock_1", "lock_2")
     constraint_units = ("N", "N", "N·m", "N·m")
@@ -579,6 +590,8 @@ class PrismaticJoint(_LineJoint):
     λ[4] u3 (N m; exact when the locks hold).
     """
 
+    glyph = "prismatic"
+
     n_constraints = 5
     constraint_names = ("line_1", "line_2", "lock_1", "lock_2", "lock_3")
     constraint_units = ("N", "N", "N·m", "N·m", "N·m")
@@ -597,6 +610,8 @@ class FixedJoint(SpatialPairElement):
     reference, where their gradients −u1, −u2, −u3 are independent; the joint
     acts on b with the moment −λ[3] u1 − λ[4] u2 − λ[5] u3 (N m).
     """
+
+    glyph = "fixed"
 
     n_constraints = 6
     constraint_names = ("x", "y", "z", "lock_1", "lock_2", "lock_3")
@@ -619,6 +634,8 @@ class DistanceJoint(SpatialPairElement):
         The two end points on the bodies.
     length : float > 0, optional
     """
+
+    glyph = "distance"
 
     n_constraints = 1
     constraint_names = ("length",)
@@ -670,6 +687,8 @@ class DrivenRevoluteAngle(SpatialPairElement):
         θ0 (rad), default 0: the angle at t0 is 0 by construction.
     """
 
+    glyph = "motor"
+
     n_constraints = 1
     rheonomic = True
     constraint_names = ("angle",)
@@ -702,6 +721,8 @@ class DrivenPrismaticDisplacement(_LineJoint):
     displacement : float or TimeFunction
         s(t) (m).
     """
+
+    glyph = "actuator"
 
     n_constraints = 1
     rheonomic = True

@@ -60,7 +60,7 @@ def build(progress=True, stream=None):
     ensure_engine(verbose=progress)
     t1 = time.perf_counter()
     todo = [(cls, role, fn) for cls in builtin_element_types()
-            for role, fn in cls.kernels.items() if role in ("mass", "force", "constraint", "rates")]
+            for role, fn in cls.kernels.items() if role in ("mass", "force", "constraint", "rates", "energy")]
     n = 0
     pb = bar(len(todo), desc="femb cache build: kernels", enabled=progress)
     for cls, role, fn in todo:

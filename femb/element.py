@@ -7,7 +7,7 @@ parameters. At compile time the instances of one type (and one
 (``pack(elements)["P"]``, shape (nel, npar)) and index arrays into the global
 coordinates. From then on the type's **compiled kernels** (``kernels``, a dict
 of ``femb.jit.kernel`` functions by role: ``"mass"``, ``"force"``,
-``"constraint"``, ``"rates"``) evaluate all elements of the batch at once.
+``"constraint"``, ``"rates"``, ``"energy"``) evaluate all elements of the batch at once.
 Their signatures and output shapes are the contract of ``docs/kernels.md``;
 the compiled time loop (``femb/engine/``) calls them, and so does every Python
 path (:mod:`femb.kernels`), so each element's equations exist once.
@@ -22,7 +22,21 @@ Class-level metadata tells the compiled model what a scene needs:
 ``constant_force``          f does not depend on t, q, q̇ (evaluated once at compile)
 ``n_constraints``           constraints per element (0: none)
 ``rheonomic``               Φ depends explicitly on t
+``work``                    how the type's force enters the energies
+                            (:mod:`femb.energy`): ``"potential"`` (it derives
+                            from the potential of ``kernels["energy"]``; its
+                            velocity-dependent part is dissipation), ``"load"``
+                            (an applied load: its work ∫ f_e·v_e dt; static
+                            analysis scales it), ``"none"`` (stores no energy:
+                            gyroscopic or purely dissipative); None (default):
+                            not declared, the energies report the type as not
+                            counted
+``spatial``                 acts on spatial frame nodes
+``glyph``                   how pictures draw the type (:mod:`femb.io.frames`)
 =========================  ===================================================
+
+Kinetic and gravitational energy and the momenta need no trait: they follow
+from the ``"mass"`` kernel (T = ½ vᵀMv; the gravity force is M ĝ).
 
 Sign conventions follow Arnold & Brüls (2007): M q̈ = f − Φ_qᵀ λ, Φ = 0.
 """
@@ -41,9 +55,11 @@ class Element:
     constant_force = False
     n_constraints = 0
     rheonomic = False
+    #: how the force enters the energies: "potential", "load", "none" or None (see above)
+    work = None
     #: names of this type's constraint equations, for named reactions
     constraint_names: tuple = ()
-    #: compiled kernels by role ("mass", "force", "constraint", "rates"), see docs/kernels.md
+    #: compiled kernels by role ("mass", "force", "constraint", "rates", "energy"), see docs/kernels.md
     kernels: dict = {}
 
     def __init__(self, name):

@@ -1,134 +1,108 @@
-"""Energies of a simulation and their balance.
+"""Energies and momenta of a simulation, from the element contract.
 
 For every stored step of a :class:`~femb.result.Result`:
 
 =================  ============================================================
-``kinetic``        T = ½ q̇ᵀ M(q) q̇ (:func:`femb.assembly.mass_matrix`)
-``gravitational``  V_g = −Σ m gᵀ r_G over rigid bodies and point masses
-                   (planar and spatial)
-                   (r_G the node = centre of mass) and −Σ ρA L₀ gᵀ (r_a + r_b)/2
-                   over beam elements (the potential of the gravity loads
-                   M ĝ of their consistent or lumped mass)
-``elastic``        ½ k (l − l₀)² of springs, ½ k (θ_b − θ_a − θ₀)² of
-                   rotational springs, the strain energy of beams
-                   (:func:`femb.elements.beam_strain_energy`); spatial:
-                   ½ k (ℓ − ℓ₀)² of point springs, ½ Σ K Δ² + ½ Σ K_r ψ² of
-                   bushings, ½ k θ² of rotational springs
-                   (:func:`spatial_pair_energy`)
-``work_loads``     ∫ P dt of applied forces and torques, P = F·v_P + T ω
-                   (spatial: F·v_P + M·ω, space axes)
+``kinetic``        T = ½ q̇ᵀ M q̇ (the constant mass matrix of the ``"mass"``
+                   kernels: rigid bodies, point masses, beams — translational
+                   and rotary inertia)
+``gravitational``  V_g = −Σᵢ (M ĝ)ᵢ xᵢ over the translational coordinates,
+                   the potential of the gravity force M ĝ that the model
+                   assembles (ĝ: g at the translations of every node). For a
+                   body with its node at the centre of mass it is −m gᵀr_G;
+                   for a beam element, −ρA L gᵀ(r_a + r_b)/2 with any of its
+                   translational mass matrices (their rows sum to ρA L/2)
+``elastic``        Σ V_e, the potential of every element type whose force
+                   derives from one: the ``"energy"`` kernel of its type
+                   (``docs/kernels.md``): springs, rotational springs,
+                   bushings, planar and spatial beams (½ L εᵀ C ε)
+``work_loads``     ∫ Σ f_e·v_e dt over element types that declare
+                   ``work = "load"`` (applied forces and torques)
 ``work_drives``    ∫ λᵀ Φ_t dt, the work of driven (rheonomic) constraints
                    (the power of the constraint forces −Φ_qᵀλ is
                    −λᵀ Φ_q q̇ = λᵀ Φ_t)
-``dissipated``     ∫ −(f(q, q̇) − f(q, 0))·q̇ dt, the energy taken out by
-                   dampers and damped beam sections
+``dissipated``     ∫ −(f_e(q, q̇) − f_e(q, 0))·v_e dt over the velocity-dependent
+                   forces of the other types: dampers, damped beam sections
+                   (the gyroscopic moments contribute nothing)
 ``balance``        T + V_g + V_el − (T + V_g + V_el)(t₀) − W_loads − W_drives
                    + D: zero for the exact motion; for a simulation, the
                    numerical dissipation of the scheme (ρ∞ < 1) plus the
                    error of the trapezoidal rule used for the integrals
+``not_counted``    the element types with a force that none of the above
+                   covers (they declare neither an ``"energy"`` kernel nor
+                   ``work``): a tuple of type names, each warned about once
 =================  ============================================================
 
 The integrals use the trapezoidal rule over the *stored* steps: store every
 step (``stride=1``) for a sharp balance.
 
-The element-specific formulas read the attributes of the element instances
-(stiffness, rest length, attachment points, masses, sections, load functions).
+Momenta (:func:`momentum`) are the Noether momenta of the discrete kinetic
+energy: p·u = vᵀ M δv_u and H·ω = vᵀ M δv_ω for a rigid translation u and a
+rigid rotation ω of the whole model (δṙ = ω × (r − o), δΩ = Rᵀω at frame nodes,
+δθ̇ = ω at planar nodes), i.e. p = Σ (M v)_r and
+H = Σ (r − o) × (M v)_r + R (M v)_Ω, summed over nodes. They are conserved by
+the exact motion of a free model for any mass matrix (consistent or lumped),
+since internal forces of objective elements have no resultant.
+
+No element type is named here: what a type contributes comes from its kernels
+and class attributes (:mod:`femb.element`).
 """
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
+import scipy.sparse as sp
 
 from femb import assembly
+from femb import kernels as _kernels
 from femb.errors import ModelError
-from femb.functions import evaluate
 
 KINDS = ("kinetic", "gravitational", "elastic", "work_loads", "work_drives", "dissipated", "total", "balance")
+#: the values of an element type's ``work`` attribute (:class:`femb.element.Element`)
+WORK_KINDS = ("potential", "load", "none")
 
 
-def _elements(model):
-    """Every element instance of the model (each once), in batch order."""
-    seen, out = set(), []
-    for g in model.groups:
-        for e in g.elements:
-            if id(e) not in seen:
-                seen.add(id(e))
-                out.append(e)
-    return out
+# ---------------------------------------------------------------------------
+# what each batch contributes
+# ---------------------------------------------------------------------------
+def energy_role(group):
+    """What a batch's force contributes to the energies.
 
-
-def _rot(th, s):
-    """R(θ) s for θ of shape (nt,) and s of shape (2,) -> (nt, 2)."""
-    c, sn = np.cos(th), np.sin(th)
-    return np.stack((c * s[0] - sn * s[1], sn * s[0] + c * s[1]), axis=-1)
-
-
-class _Kin:
-    """Node coordinates and velocities over the stored steps (fixed ones included)."""
-
-    def __init__(self, result):
-        self.model = result.model
-        self.q, self.qd = result.q, result.qd
-
-    def node(self, node):
-        """x (nt, nx_node) and v (nt, nv_node) of a node: (x, y, θ) planar, (r, p) and (ṙ, Ω) spatial."""
-        m = self.model
-        return m.node_coordinates(node.name, self.q), m.node_velocities(node.name, self.qd)
-
-    def point(self, body, s):
-        """Position and velocity of a body-frame point s over time, each (nt, 2)."""
-        x, v = self.node(body.node)
-        d = _rot(x[:, 2], s)
-        return x[:, :2] + d, v[:, :2] + v[:, 2:3] * np.stack((-d[:, 1], d[:, 0]), axis=-1)
-
-    def frame(self, node):
-        """r (nt, 3), R (nt, 3, 3), ṙ (nt, 3) and Ω (nt, 3, body axes) of a spatial frame node."""
-        from femb.elements._spatial_geometry import rotation_matrices
-        x, v = self.node(node)
-        return x[:, 0:3], rotation_matrices(x[:, 3:7]), v[:, 0:3], v[:, 3:6]
-
-
-def _spatial(node):
-    return bool(getattr(node, "rotation_blocks", ()))
-
-
-def _pair(kin, e):
-    """R_a, R_b (nt, 3, 3) and the joint points p_a, p_b (nt, 3) of a spatial pair element."""
-    ra, Ra, _, _ = kin.frame(e.a.node)
-    rb, Rb, _, _ = kin.frame(e.b.node)
-    return Ra, Rb, ra + Ra @ e.Xa, rb + Rb @ e.Xb
-
-
-def spatial_pair_energy(kin, e):
-    """Potential energy of a spatial spring element over time, shape (nt,) (J).
-
-    :class:`~femb.elements.spatial_forces.PointSpringDamper`: ½ k (ℓ − ℓ0)²;
-    :class:`~femb.elements.spatial_forces.Bushing`: ½ Σ K_k Δ_k² + ½ Σ K_r,k ψ_k²
-    with Δ_k = u_k·(p_b − p_a) − Δ0_k and ψ = (u3·w2, u1·w3, u2·w1);
-    :class:`~femb.elements.spatial_forces.RotationalSpringDamper`: ½ k θ², θ =
-    atan2(ā2·w1, ā1·w1) measured from the unstretched angle θ0 — the
-    potentials whose gradients are the elements' kernels' forces.
+    Returns
+    -------
+    str or None
+        ``"potential"`` (its type has an ``"energy"`` kernel), ``"load"``, ``"none"``
+        (no force, or a force that stores no energy: workless or purely dissipative),
+        or None: a force that the energies do not cover (not counted).
     """
-    from femb.elements.spatial_forces import Bushing, PointSpringDamper, RotationalSpringDamper
-
-    Ra, Rb, pa, pb = _pair(kin, e)
-    if isinstance(e, PointSpringDamper):
-        return 0.5 * e.k * (np.linalg.norm(pb - pa, axis=1) - e.L0) ** 2
-    u = [Ra @ e.Ea[k] for k in range(3)]          # (nt, 3) each, space axes
-    w = [Rb @ e.Eb[k] for k in range(3)]
-    if isinstance(e, Bushing):
-        d = pb - pa
-        V = np.zeros(pa.shape[0])
-        for k in range(3):
-            V += 0.5 * e.K[k] * (np.einsum("ti,ti->t", u[k], d) - e.m0[k]) ** 2
-        for k, (a, b) in enumerate(((2, 1), (0, 2), (1, 0))):
-            V += 0.5 * e.K[3 + k] * np.einsum("ti,ti->t", u[a], w[b]) ** 2
-        return V
-    if isinstance(e, RotationalSpringDamper):
-        c0, s0 = np.cos(e.angle0), np.sin(e.angle0)
-        a1, a2 = c0 * u[0] + s0 * u[1], -s0 * u[0] + c0 * u[1]
-        th = np.arctan2(np.einsum("ti,ti->t", a2, w[0]), np.einsum("ti,ti->t", a1, w[0]))
-        return 0.5 * e.k * th ** 2
+    cls = group.cls
+    ks = getattr(cls, "kernels", None) or {}
+    work = getattr(cls, "work", None)
+    if work is not None and work not in WORK_KINDS:
+        raise ModelError(f"element type {cls.__name__}: work = {work!r}; give one of {', '.join(WORK_KINDS)} "
+                         f"or None (docs/kernels.md)")
+    if "energy" in ks:
+        return "potential"
+    if not group.traits.get("has_force", False):
+        return "none"
+    if work in ("load", "none"):
+        return work
     return None
+
+
+def not_counted(model):
+    """Names of the element types whose forces the energies do not cover (sorted tuple)."""
+    return tuple(sorted({g.cls.__name__ for g in model.groups if energy_role(g) is None}))
+
+
+def _ext_steps(result):
+    """x_ext (nt, nx + nfix) and v_ext (nt, nq + nfix_v) of the stored steps."""
+    m = result.model
+    nt = result.t.size
+    qx = np.concatenate((result.q, np.broadcast_to(m.q_fixed, (nt, m.q_fixed.size))), axis=1)
+    vx = np.concatenate((result.qd, np.zeros((nt, m.nfix_v))), axis=1)
+    return qx, vx
 
 
 def _trapz(t, p):
@@ -138,6 +112,9 @@ def _trapz(t, p):
     return out
 
 
+# ---------------------------------------------------------------------------
+# energies
+# ---------------------------------------------------------------------------
 def kinetic_energy(result):
     """T = ½ q̇ᵀ M q̇ at every stored step, shape (nt,) (J)."""
     m = result.model
@@ -147,119 +124,134 @@ def kinetic_energy(result):
     return np.array([0.5 * qd @ (assembly.mass_matrix(m, q) @ qd) for q, qd in zip(result.q, result.qd)])
 
 
-def gravitational_energy(result):
-    """V_g = −Σ m gᵀ r_G (bodies, point masses, beam elements; planar and spatial), shape (nt,) (J).
+def _gravity_force(model):
+    """M ĝ over the extended velocity coordinates (n_ext,): the gravity force the model assembles."""
+    n_ext = model.nq + model.nfix_v
+    f = np.zeros(n_ext)
+    qx0 = model.ext(model.q0)
+    for g in model.mass_groups:
+        Me = _kernels.mass(g, qx0[g.xdofs])
+        fe = np.einsum("eij,ej->ei", Me, model.g_hat[g.dofs])
+        f += np.bincount(g.dofs.ravel(), fe.ravel(), minlength=n_ext)
+    return f
 
-    A planar :class:`~femb.elements.Gravity` acts on the x and y translations
-    of spatial nodes, a :class:`~femb.elements.spatial_forces.SpatialGravity`
-    with its x and y components on planar nodes (as the assembled force M ĝ).
-    Zeros without gravity.
+
+def _nodes(model):
+    """Every node of the model's elements, each once (list of Node)."""
+    seen, out = set(), []
+    for g in model.groups:
+        for e in g.elements:
+            for nd in e.nodes():
+                if id(nd) not in seen and nd.name in model.node_index:
+                    seen.add(id(nd))
+                    out.append(nd)
+    return out
+
+
+class _Layout:
+    """Where the nodes' translations and rotations sit in x_ext and v_ext (index arrays).
+
+    ``rx, rv (n, 3)``: position / velocity indices of each node's translations (−1 where a
+    planar node has no z); ``qx (ns, 4), wv (ns, 3)``: quaternion and Ω indices of the
+    rotations of spatial nodes; ``tv (np,)``: θ̇ indices of planar nodes.
     """
-    from femb.elements import PointMass, RigidBody
-    from femb.elements.beam import ReissnerBeam
-    from femb.elements.spatial_bodies import SpatialPointMass, SpatialRigidBody
 
+    def __init__(self, model):
+        rx, rv, qx, wv, tv = [], [], [], [], []
+        self.spatial = False
+        for nd in _nodes(model):
+            xi, vi = model.node_index[nd.name], model.node_vindex[nd.name]
+            tr = list(nd.translational)
+            rx.append([int(xi[c]) for c in tr] + [-1] * (3 - len(tr)))
+            rv.append([int(vi[c]) for c in tr] + [-1] * (3 - len(tr)))
+            blocks = getattr(nd, "rotation_blocks", ())
+            for bx, bv in blocks:
+                qx.append(xi[bx:bx + 4])
+                wv.append(vi[bv:bv + 3])
+            self.spatial |= bool(blocks)
+            if not blocks and "theta" in getattr(nd, "coord_names", ()):
+                tv.append(int(vi[list(nd.coord_names).index("theta")]))
+        self.rx = np.array(rx, dtype=np.int64).reshape(-1, 3)
+        self.rv = np.array(rv, dtype=np.int64).reshape(-1, 3)
+        self.qx = np.array(qx, dtype=np.int64).reshape(-1, 4)
+        self.wv = np.array(wv, dtype=np.int64).reshape(-1, 3)
+        self.tv = np.array(tv, dtype=np.int64)
+
+
+def _take(a, idx):
+    """a[..., idx] with zeros where idx < 0."""
+    out = a[..., np.where(idx >= 0, idx, 0)]
+    out[..., idx < 0] = 0.0
+    return out
+
+
+def gravitational_energy(result):
+    """V_g = −Σᵢ (M ĝ)ᵢ xᵢ over the translational coordinates, shape (nt,) (J).
+
+    The potential of the gravity force M ĝ (module table); a planar gravity acts on
+    the x and y translations of spatial nodes, a spatial one with its x and y
+    components on planar nodes (as the assembled force). Zeros without gravity.
+    """
     m = result.model
-    nt = result.t.size
-    V = np.zeros(nt)
-    if m.gravity is None:
-        return V
-    g = np.asarray(m.gravity, dtype=float)
-    g2, g3 = g[:2], np.pad(g, (0, 3 - g.size))[:3]
-    kin = _Kin(result)
-    for e in _elements(m):
-        if isinstance(e, (RigidBody, PointMass)):
-            x, _ = kin.node(e.node)
-            V -= e.m * (x[:, :2] @ g2)
-        elif isinstance(e, (SpatialRigidBody, SpatialPointMass)):
-            x, _ = kin.node(e.node)
-            V -= e.m * (x[:, 0:3] @ g3)
-        elif isinstance(e, ReissnerBeam):
-            xa, _ = kin.node(e.a.node)
-            xb, _ = kin.node(e.b.node)
-            V -= e.section.rhoA * e.L0 * (0.5 * (xa[:, :2] + xb[:, :2]) @ g2)
-    return V
+    if m.g_hat is None:
+        return np.zeros(result.t.size)
+    f = _gravity_force(m)
+    lay = _Layout(m)
+    free = (lay.rx >= 0) & (lay.rx < m.nx)
+    xi, vi = lay.rx[free], lay.rv[free]
+    return -(result.q[:, xi] @ f[vi])
+
+
+def _warn_not_counted(names):
+    if names:
+        warnings.warn(f"energies: the forces of the element type{'s' if len(names) > 1 else ''} "
+                      f"{', '.join(names)} are not counted (the type declares neither an 'energy' kernel "
+                      f"for its potential nor its work = 'load' or 'none'; docs/kernels.md); the energy "
+                      f"balance leaves them out", _kernels.ContractWarning, stacklevel=3)
 
 
 def elastic_energy(result, by_element=False):
-    """Energy stored in springs, rotational springs, bushings and beams, shape (nt,) (J).
+    """Potential energy of the elements (springs, bushings, beams, ...), shape (nt,) (J).
+
+    The sum of the ``"energy"`` kernels of every batch whose type has one.
 
     Parameters
     ----------
     result : Result
     by_element : bool
-        Return a dict ``{element name: (nt,) array}`` for springs and a
-        ``"beams"`` entry for all beams together instead of the sum.
+        Return a dict ``{element name: (nt,) array}`` instead of the sum.
     """
-    from femb.elements import RotationalSpringDamper, SpringDamper
-    from femb.elements.beam import ReissnerBeam, beam_strain_energy
-    from femb.elements.spatial_forces import Bushing, PointSpringDamper
-    from femb.elements.spatial_forces import RotationalSpringDamper as SpatialRotationalSpringDamper
-
     m = result.model
-    kin = _Kin(result)
-    parts = {}
-    has_beam = False
-    for e in _elements(m):
-        if isinstance(e, SpringDamper):
-            pa, _ = kin.point(e.a, e.sa)
-            pb, _ = kin.point(e.b, e.sb)
-            l = np.linalg.norm(pb - pa, axis=1)
-            parts[e.name] = 0.5 * e.k * (l - e.l0) ** 2
-        elif isinstance(e, RotationalSpringDamper):
-            xa, _ = kin.node(e.a.node)
-            xb, _ = kin.node(e.b.node)
-            parts[e.name] = 0.5 * e.k * (xb[:, 2] - xa[:, 2] - e.phi0) ** 2
-        elif isinstance(e, (PointSpringDamper, Bushing, SpatialRotationalSpringDamper)):
-            parts[e.name] = spatial_pair_energy(kin, e)
-        elif isinstance(e, ReissnerBeam):
-            has_beam = True
-    if has_beam:
-        parts["beams"] = np.array([beam_strain_energy(m, q) for q in result.q])
-    if by_element:
-        return parts
-    total = np.zeros(result.t.size)
-    for v in parts.values():
-        total += v
-    return total
+    nt = result.t.size
+    groups = [g for g in m.groups if energy_role(g) == "potential"]
+    qx, _ = _ext_steps(result)
+    total = np.zeros(nt)
+    parts = {g.name: np.zeros((nt, g.nel)) for g in groups} if by_element else None
+    for k in range(nt):
+        for g in groups:
+            Ve = _kernels.energy(g, result.t[k], qx[k][g.xdofs])
+            total[k] += Ve.sum()
+            if by_element:
+                parts[g.name][k] = Ve
+    if not by_element:
+        return total
+    return {name: parts[g.name][:, i].copy() for g in groups for i, name in enumerate(g.names)}
+
+
+def _force_groups(model, role):
+    return [g for g in model.groups if g.traits.get("has_force", False) and energy_role(g) == role]
 
 
 def load_power(result):
-    """Power of applied forces and torques, shape (nt,) (W).
-
-    Planar: P = F·v_P + T θ̇. Spatial (:class:`~femb.elements.spatial_forces.SpatialForce`,
-    :class:`~femb.elements.spatial_forces.SpatialTorque`): P = F·(ṙ + R(Ω × X)) and
-    P = M·(RΩ), F and M in space axes (R F_b for follower loads).
-    """
-    from femb.elements import Force, Torque
-    from femb.elements.spatial_forces import SpatialForce, SpatialTorque
-
+    """Power of the applied loads, Σ f_e·v_e over types with ``work = "load"``, shape (nt,) (W)."""
     m = result.model
-    kin = _Kin(result)
-    t = result.t
-    P = np.zeros(t.size)
-    for e in _elements(m):
-        if isinstance(e, Force):
-            F = np.stack([np.array([evaluate([fn], tk, 0)[0] for tk in t]) for fn in e.fns], axis=1)
-            x, _ = kin.node(e.body.node)
-            if e.frame == "body":
-                c, s = np.cos(x[:, 2]), np.sin(x[:, 2])
-                F = np.stack((c * F[:, 0] - s * F[:, 1], s * F[:, 0] + c * F[:, 1]), axis=1)
-            _, v = kin.point(e.body, e.s)
-            P += np.einsum("ti,ti->t", F, v)
-        elif isinstance(e, Torque):
-            T = np.array([evaluate([e.fn], tk, 0)[0] for tk in t])
-            _, v = kin.node(e.body.node)
-            P += T * v[:, 2]
-        elif isinstance(e, (SpatialForce, SpatialTorque)):
-            s = np.array([e.fn.f(tk) for tk in t])
-            _, R, rd, W = kin.frame(e.body.node)
-            V = s[:, None] * (R @ e.value if e.follower else e.value)       # space axes
-            if isinstance(e, SpatialTorque):
-                P += np.einsum("ti,ti->t", V, np.einsum("tij,tj->ti", R, W))
-            else:
-                vP = rd + np.einsum("tij,tj->ti", R, np.cross(W, e.X))
-                P += np.einsum("ti,ti->t", V, vP)
+    qx, vx = _ext_steps(result)
+    P = np.zeros(result.t.size)
+    for g in _force_groups(m, "load"):
+        force = _kernels.ForceValues(g)
+        for k, t in enumerate(result.t):
+            ve = vx[k][g.dofs]
+            P[k] += np.einsum("ei,ei->", force(t, qx[k][g.xdofs], ve), ve)
     return P
 
 
@@ -273,13 +265,22 @@ def drive_power(result):
 
 
 def dissipation_power(result):
-    """Power taken out by velocity-dependent forces, −(f(q, q̇) − f(q, 0))·q̇ ≥ 0, shape (nt,) (W)."""
+    """Power taken out by velocity-dependent forces, −Σ (f_e(q, q̇) − f_e(q, 0))·v_e ≥ 0, shape (nt,) (W).
+
+    Over the batches whose forces depend on q̇ and are not loads.
+    """
     m = result.model
-    if not m.needs_C:
-        return np.zeros(result.t.size)
-    z = np.zeros(m.nq)
-    return np.array([-(assembly.force_vector(m, t, q, qd) - assembly.force_vector(m, t, q, z)) @ qd
-                     for t, q, qd in zip(result.t, result.q, result.qd)])
+    qx, vx = _ext_steps(result)
+    D = np.zeros(result.t.size)
+    groups = [g for g in m.groups if g.traits.get("has_force", False) and g.traits.get("force_depends_on_qd", False)
+              and energy_role(g) != "load"]
+    for g in groups:
+        z = np.zeros((g.nel, g.ndv))
+        force = _kernels.ForceValues(g)
+        for k, t in enumerate(result.t):
+            xe, ve = qx[k][g.xdofs], vx[k][g.dofs]
+            D[k] -= np.einsum("ei,ei->", force(t, xe, ve) - force(t, xe, z), ve)
+    return D
 
 
 def energies(result):
@@ -287,14 +288,17 @@ def energies(result):
 
     Returns
     -------
-    dict of str to ndarray, shape (nt,)
-        Keys: ``kinetic``, ``gravitational``, ``elastic``, ``work_loads``,
-        ``work_drives``, ``dissipated``, ``total`` (T + V_g + V_el) and
-        ``balance``, in J.
+    dict
+        ``kinetic``, ``gravitational``, ``elastic``, ``work_loads``, ``work_drives``,
+        ``dissipated``, ``total`` (T + V_g + V_el) and ``balance``: arrays of shape (nt,),
+        in J; ``not_counted``: a tuple of the element type names whose forces none of
+        them covers (one :class:`femb.kernels.ContractWarning` names them).
     """
     if result.qd is None or result.t.size == 0:
         raise ModelError("energies need a result with stored steps and velocities")
     t = result.t
+    skipped = not_counted(result.model)
+    _warn_not_counted(skipped)
     out = {"kinetic": kinetic_energy(result), "gravitational": gravitational_energy(result),
            "elastic": elastic_energy(result)}
     out["work_loads"] = _trapz(t, load_power(result))
@@ -303,22 +307,133 @@ def energies(result):
     out["total"] = out["kinetic"] + out["gravitational"] + out["elastic"]
     out["balance"] = (out["total"] - out["total"][0] - out["work_loads"] - out["work_drives"]
                       + out["dissipated"])
+    out["not_counted"] = skipped
     return out
 
 
-def energy_balance(result):
-    """Largest |balance| relative to the energy scale of the run.
+def balance_ratio(e):
+    """Largest |balance| of the energies ``e`` (:func:`energies`) relative to the run's energy scale.
 
     The scale is the largest of the ranges (max − min) of T, V_g, V_el and of
     the work and dissipation integrals; a relative balance error of order h²
     (ρ∞ = 1) or the numerical dissipation (ρ∞ < 1) is expected.
+    """
+    scale = max(float(np.ptp(e[k])) for k in ("kinetic", "gravitational", "elastic", "work_loads",
+                                              "work_drives", "dissipated"))
+    err = float(np.abs(e["balance"]).max())
+    return err / scale if scale > 0.0 else err
+
+
+def energy_balance(result):
+    """Largest |balance| relative to the energy scale of the run (:func:`balance_ratio`).
 
     Returns
     -------
     float
     """
-    e = energies(result)
-    scale = max(float(np.ptp(e[k])) for k in ("kinetic", "gravitational", "elastic", "work_loads",
-                                              "work_drives", "dissipated"))
-    err = float(np.abs(e["balance"]).max())
-    return err / scale if scale > 0.0 else err
+    return balance_ratio(energies(result))
+
+
+# ---------------------------------------------------------------------------
+# momenta
+# ---------------------------------------------------------------------------
+def _mass_ext(model, names=None):
+    """The constant mass matrix over the extended velocity coordinates (csr, n_ext × n_ext),
+    of every element or of the elements named in ``names`` (a set)."""
+    n_ext = model.nq + model.nfix_v
+    qx0 = model.ext(model.q0)
+    rows, cols, vals = [], [], []
+    for g in model.mass_groups:
+        sel = np.arange(g.nel) if names is None else np.array(
+            [i for i, n in enumerate(g.names) if n in names], dtype=np.int64)
+        if sel.size == 0:
+            continue
+        Me = _kernels.mass(g, qx0[g.xdofs])[sel]
+        d = g.dofs[sel]
+        rows.append(np.repeat(d, d.shape[1], axis=1).ravel())
+        cols.append(np.tile(d, (1, d.shape[1])).ravel())
+        vals.append(Me.ravel())
+    if not vals:
+        return sp.csr_matrix((n_ext, n_ext))
+    return sp.csr_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
+                         shape=(n_ext, n_ext))
+
+
+def _rotate(p, w):
+    """R(p) w for unit quaternions p (..., 4) = (p0, p1, p2, p3) and vectors w (..., 3):
+    w + 2 p_v × (p_v × w + p0 w)."""
+    p = p / np.linalg.norm(p, axis=-1, keepdims=True)
+    pv = p[..., 1:]
+    return w + 2.0 * np.cross(pv, np.cross(pv, w) + p[..., :1] * w)
+
+
+def _select(model, of):
+    """The set of element names that ``of`` selects (None: all)."""
+    if of is None:
+        return None
+    of = [of] if isinstance(of, str) else list(of)
+    known = [n for g in model.mass_groups for n in g.names]
+    out = set()
+    for name in of:
+        hit = [n for n in known if n == name or n.startswith(f"{name}.")]
+        if not hit:
+            raise ModelError(f"momentum: '{name}' names no element with mass of model '{model.name}' "
+                             f"(give a body, a beam element, or the name of a meshed beam)")
+        out.update(hit)
+    return out
+
+
+def momentum(result, about=None, of=None):
+    """Linear and angular momentum at every stored step (module docstring).
+
+    Parameters
+    ----------
+    result : Result
+    about : array_like, optional
+        The point o of the angular momentum, (3,) (spatial) or (2,) (planar) (m);
+        default the origin.
+    of : str or sequence of str, optional
+        The bodies / beam elements to sum over, by name; the name of a meshed beam
+        (``spatial_beam(mech, "arm", ...)``, ``add_beam``) selects its elements
+        (``"arm.<k>"``). Default: the whole model.
+
+    Returns
+    -------
+    p : ndarray, shape (nt, 3) (spatial) or (nt, 2) (planar)
+        Linear momentum (kg m/s), space axes.
+    H : ndarray, shape (nt, 3) (spatial) or (nt,) (planar, about z)
+        Angular momentum about ``about`` (kg m²/s), space axes.
+        A model with spatial nodes gives 3-vectors; its planar nodes move in the
+        plane z = 0 with no velocity along z.
+    """
+    m = result.model
+    if result.qd is None or result.t.size == 0:
+        raise ModelError("momentum needs a result with stored steps and velocities")
+    lay = _Layout(m)
+    dim = 3 if lay.spatial else 2
+    o = np.zeros(3)
+    if about is not None:
+        a = np.asarray(about, dtype=float).reshape(-1)
+        if a.size not in (dim, 3) or not np.all(np.isfinite(a)):
+            raise ModelError(f"momentum: about must be a finite point of {dim} coordinates, got {about!r}")
+        o[:a.size] = a
+    M = _mass_ext(m, _select(m, of))[:, :m.nq].tocsr()
+    nt = result.t.size
+    p, H = np.zeros((nt, 3)), np.zeros((nt, 3))
+    chunk = max(1, 2_000_000 // max(1, M.shape[0] + lay.rx.size))
+    for k0 in range(0, nt, chunk):                          # steps in chunks: bounded memory
+        sl = slice(k0, min(nt, k0 + chunk))
+        q = result.q[sl]
+        qx = np.concatenate((q, np.broadcast_to(m.q_fixed, (q.shape[0], m.q_fixed.size))), axis=1)
+        Mv = (M @ result.qd[sl].T).T                         # (n, n_ext)
+        f = _take(Mv, lay.rv)                                # (n, nodes, 3)
+        r = _take(qx, lay.rx) - o                            # planar nodes: z = 0
+        p[sl] = f.sum(axis=1)
+        H[sl] = np.cross(r, f).sum(axis=1)
+        if lay.qx.size:
+            H[sl] += _rotate(qx[:, lay.qx], Mv[:, lay.wv]).sum(axis=1)
+        if lay.tv.size:
+            H[sl, 2] += Mv[:, lay.tv].sum(axis=1)
+    if lay.spatial:
+        return p, H
+    return p[:, :2], H[:, 2]

@@ -191,6 +191,7 @@ iview1, iview2, iview3 = (_view_intrinsic(1, nd) for nd in (1, 2, 3))
 # --------------------------------------------------------------------------
 # kernels compiled once per element type, called by address from the engine
 # --------------------------------------------------------------------------
+_F1 = types.Array(types.float64, 1, "C")
 _F2 = types.Array(types.float64, 2, "C")
 _F3 = types.Array(types.float64, 3, "C")
 #: the signature of each kernel role (docs/kernels.md): every kernel of a role is compiled
@@ -200,6 +201,7 @@ ROLE_SIGNATURES = {
     "force": types.void(_F2, types.float64, _F3, _F2, _F2, types.boolean, _F2, _F3, _F3),
     "constraint": types.void(_F2, types.float64, _F3, _F2, _F2, types.boolean, _F2, _F3, _F3),
     "rates": types.void(_F2, types.float64, _F3, _F2, _F2, _F2, _F2),
+    "energy": types.void(_F2, types.float64, _F3, _F2, _F1),
 }
 #: the arguments of each role, by name (for error messages)
 ROLE_ARGUMENTS = {
@@ -207,6 +209,7 @@ ROLE_ARGUMENTS = {
     "force": ("P", "t", "tf", "xe", "ve", "jac", "fe", "fq", "fv"),
     "constraint": ("P", "t", "tf", "xe", "le", "jac", "Phi", "B", "H"),
     "rates": ("P", "t", "tf", "xe", "ve", "Phi_t", "gam"),
+    "energy": ("P", "t", "tf", "xe", "Ve"),
 }
 #: with the JIT disabled, kernel "addresses" index this list of Python functions
 _PY_KERNELS = []

@@ -55,7 +55,7 @@ def _check_kernel(owner, role, fn):
         raise ModelError(f"element type {owner}: kernel {py.__name__}({have}) for the role '{role}' must take "
                          f"{len(ROLE_ARGUMENTS[role])} arguments ({args}); it takes {len(positional)} "
                          f"(docs/kernels.md)")
-    outputs = {"mass": 1, "force": 3, "constraint": 3, "rates": 2}[role]
+    outputs = {"mass": 1, "force": 3, "constraint": 3, "rates": 2, "energy": 1}[role]
     out_names = [p.name for p in positional][-outputs:]
     used = _loaded_names(py.__code__)
     if not any(n in used for n in out_names):
@@ -202,6 +202,24 @@ def force(group, t, xe, ve, jac=True, raw=False):
     return fe, fq, (fv if damped else None)
 
 
+class ForceValues:
+    """Element forces ``fe (nel, ndv)`` of one batch without the tangent, called many times
+    (energies over the stored steps): the kernel's unused Jacobian outputs are allocated once."""
+
+    def __init__(self, group):
+        self.group = group
+        self.fn = _kernel(group, "force")
+        nel, ndv = group.nel, group.ndv
+        self.fq = np.zeros((nel, ndv, ndv))
+        self.fv = np.zeros((nel, ndv, ndv))
+
+    def __call__(self, t, xe, ve):
+        g = self.group
+        fe = np.zeros((xe.shape[0], g.ndv))
+        self.fn(g.P, float(t), time_values(g, t), _f(xe), _f(ve), False, fe, self.fq, self.fv)
+        return fe
+
+
 def constraint(group, t, xe, le=None, jac=True):
     """``Phi (nel, nc)``, ``B (nel, nc, ndv)`` and, with ``jac``, ``H (nel, ndv, ndv)``."""
     xe = _f(xe)
@@ -222,6 +240,14 @@ def rates(group, t, xe, ve):
     gam = np.zeros((nel, nc))
     _kernel(group, "rates")(group.P, float(t), time_values(group, t), xe, ve, Phi_t, gam)
     return Phi_t, gam
+
+
+def energy(group, t, xe):
+    """Potential energy of each element ``Ve (nel,)`` (the type's ``"energy"`` kernel)."""
+    xe = _f(xe)
+    Ve = np.zeros(xe.shape[0])
+    _kernel(group, "energy")(group.P, float(t), time_values(group, t), xe, Ve)
+    return Ve
 
 
 def is_builtin(cls):
@@ -278,6 +304,8 @@ def contract_check(group, xe, ve, t=0.0):
             np.zeros((nel, nc, ndv)), np.zeros((nel, ndv, ndv)))
         if "rates" in ks:
             run("rates", P, float(t), tf, xe, ve, np.zeros((nel, nc)), np.zeros((nel, nc)))
+    if "energy" in ks:
+        run("energy", P, float(t), tf, xe, np.zeros(nel))
 
 
 class ContractWarning(UserWarning):

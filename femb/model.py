@@ -269,11 +269,14 @@ def _spatial_element(e):
     return bool(getattr(type(e), "spatial", False))
 
 
+def _is_body(obj):
+    """True for bodies (what joints attach to: types with a true class attribute ``is_body``, as
+    every body of ``femb.elements``; a body owns a node)."""
+    return bool(getattr(type(obj), "is_body", False))
+
+
 def compile_model(mech, *, length_scale=None):
     """Compile a :class:`~femb.mechanism.Mechanism` (see :meth:`Mechanism.compile`)."""
-    from femb.elements.bodies import Body
-    from femb.elements.forces import Gravity
-
     elements = mech.elements
     members = set(id(e) for e in elements) | {id(mech.ground)}
 
@@ -284,7 +287,7 @@ def compile_model(mech, *, length_scale=None):
                     raise ModelError(f"{type(owner).__name__} '{owner.name}': {role} refers to '{ref}', "
                                      f"which is not in mechanism '{mech.name}'")
                 ref = mech[ref]
-            if not isinstance(ref, Body):
+            if not _is_body(ref):
                 raise ModelError(f"{type(owner).__name__} '{owner.name}': {role} must be a body, got {ref!r}")
             if id(ref) not in members:
                 raise ModelError(f"{type(owner).__name__} '{owner.name}': {role} refers to body "
@@ -299,10 +302,10 @@ def compile_model(mech, *, length_scale=None):
             return ref
         return lookup
 
-    gravity = [e for e in elements if isinstance(e, Gravity)]
+    gravity = [e for e in elements if getattr(type(e), "gravity_field", False)]
     if len(gravity) > 1:
         raise ModelError(f"mechanism '{mech.name}' has {len(gravity)} Gravity elements; give one")
-    others = [e for e in elements if not isinstance(e, Gravity)]
+    others = [e for e in elements if not getattr(type(e), "gravity_field", False)]
     for e in others:
         e.resolve(lookup_for(e))
         e.validate()
@@ -530,7 +533,7 @@ def compile_model(mech, *, length_scale=None):
         lam_index=lam_index, length_scale=length_scale,
         time_function_table=_time_function_table(tf_all),
         force_weight=w_ext[:nq].copy(), force_weight_ext=w_ext,
-        bodies={e.name: e for e in [mech.ground] + others if isinstance(e, Body)},
+        bodies={e.name: e for e in [mech.ground] + others if _is_body(e)},
         element_types={e.name: type(e).__name__ for e in elements},
     )
     for arr in (q0, qd0, q_fixed):

@@ -450,13 +450,35 @@ class Result:
         if cache is None or cache[0] != key:
             cache = (key, energies(self))
             self.__dict__["_energy_cache"] = cache
-        return {k: np.array(v, copy=True) for k, v in cache[1].items()}
+        return {k: (v if isinstance(v, tuple) else np.array(v, copy=True)) for k, v in cache[1].items()}
 
     def energy_balance(self):
         """Largest |energy balance| relative to the run's energy scale (see :func:`femb.energy.energy_balance`)."""
-        from femb.energy import energy_balance
+        from femb.energy import balance_ratio
 
-        return energy_balance(self)
+        return balance_ratio(self.energy())
+
+    def momentum(self, about=None, of=None):
+        """Linear and angular momentum at every stored step; see :func:`femb.energy.momentum`.
+
+        Parameters
+        ----------
+        about : array_like, optional
+            Point of the angular momentum, (3,) spatial / (2,) planar (m); default the origin.
+        of : str or sequence of str, optional
+            Bodies or beam elements by name (a meshed beam's name selects its elements);
+            default the whole model.
+
+        Returns
+        -------
+        p : ndarray, shape (nt, 3) spatial / (nt, 2) planar
+            Linear momentum (kg m/s).
+        H : ndarray, shape (nt, 3) spatial / (nt,) planar (about z)
+            Angular momentum about ``about`` (kg m²/s).
+        """
+        from femb.energy import momentum
+
+        return momentum(self, about=about, of=of)
 
     # ------------------------------------------------------------------ named outputs
     def _nodes(self):
@@ -579,8 +601,8 @@ class Result:
         if name.startswith("energy."):
             kind = name[len("energy."):]
             e = self.energy()
-            if kind not in e:
-                raise ModelError(f"unknown energy '{kind}' (known: {sorted(e)})")
+            if kind not in e or isinstance(e[kind], tuple):
+                raise ModelError(f"unknown energy '{kind}' (known: {sorted(k for k in e if k != 'not_counted')})")
             return e[kind], "J"
         # longest known name that prefixes the output name
         known = sorted(set(m.node_index) | set(m.lam_index) | set(m.bodies), key=len, reverse=True)

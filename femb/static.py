@@ -214,10 +214,10 @@ class StaticResult(Result):
 
 
 def _load_groups(model, load_types):
+    """The batches of applied loads: by default those whose element type declares
+    ``work = "load"`` (docs/kernels.md), else those of the given types."""
     if load_types is None:
-        from femb.elements import Force, Torque
-        from femb.elements.spatial_forces import SpatialForce, SpatialTorque
-        load_types = (Force, Torque, SpatialForce, SpatialTorque)
+        return [g for g in model.force_groups if getattr(g.cls, "work", None) == "load"]
     load_types = tuple(load_types)
     return [g for g in model.force_groups if issubclass(g.cls, load_types)]
 
@@ -734,7 +734,8 @@ def solve_static(model, *, load_steps=None, load_factors=None, t=0.0, state=None
         Starting configuration (default: the model's initial coordinates).
         Its multipliers are replaced by the least-squares reactions to the loads.
     load_types : tuple of element classes, optional
-        Force element types scaled by μ (default ``(Force, Torque)``); the
+        Force element types scaled by μ (default: the types that declare
+        ``work = "load"``, e.g. Force, Torque, SpatialForce, SpatialTorque); the
         model's constant forces (constant torques, gravity) are always scaled.
     rtol, atol : float
         Force test ‖W r‖∞ ≤ rtol · F + atol, W dividing moment rows by the

@@ -71,6 +71,7 @@ def test_scene_has_every_type_and_packed_parameters_follow_the_contract():
         roles = set(g.cls.kernels)
         want = ({"mass"} if g.traits["has_mass"] else set()) | ({"force"} if g.traits["has_force"] else set())
         want |= {"constraint", "rates"} if g.nc else set()
+        want |= {"energy"} if g.cls.work == "potential" else set()     # the potential of the force
         assert roles == want, label
     # one implementation only: the numpy kernel classmethods are gone
     for cls in types:

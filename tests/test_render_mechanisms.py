@@ -248,9 +248,11 @@ def test_a_beam_kind_is_drawn_as_a_tube(tmp_path):
     """Frames with a body and a beam (field data only, as an element with ``glyph = "beam"`` writes)."""
     from femb.geometry import GeometryBlock
     from femb.io import TimeSeriesWriter
-    from femb.io.frames import GLYPHS, _kind
+    from femb.io.frames import GLYPHS, glyphs
 
-    assert _kind(type("Rope", (), {"glyph": "beam"}), "Rope") == "beam"
+    assert glyphs(type("Rope", (), {"glyph": "beam"})) == {"Rope": "beam"}
+    assert glyphs(type("Crane", (), {"glyph": {"": "body", "Frame": "body_frame"}})) == {
+        "Crane": "body", "CraneFrame": "body_frame"}
     cube = np.array([[x, y, z] for x in (-0.1, 0.1) for y in (-0.1, 0.1) for z in (-0.1, 0.1)])
     tris = np.array([[0, 1, 3], [0, 3, 2], [4, 6, 7], [4, 7, 5], [0, 4, 5], [0, 5, 1],
                      [2, 3, 7], [2, 7, 6], [0, 2, 6], [0, 6, 4], [1, 5, 7], [1, 7, 3]])

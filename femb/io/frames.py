@@ -13,21 +13,16 @@ import numpy as np
 from femb.geometry import GeometryBlock
 
 #: What the renderer draws for an element type (field data ``glyph.<type name>``):
-#: a number per kind. Element classes may set a ``glyph`` attribute (one of the
-#: names) to be drawn as one of these kinds.
+#: a number per kind. Element classes set a ``glyph`` attribute to be drawn as one
+#: of these kinds: one name (for the blocks named after the type) or, for types
+#: with several blocks, a dict {suffix: kind} (the block named type name + suffix).
 GLYPHS = {"body": 1, "body_frame": 2, "point_mass": 3, "revolute": 10, "spherical": 11,
           "prismatic": 12, "cylindrical": 13, "universal": 14, "fixed": 15, "distance": 16,
           "motor": 17, "actuator": 18,
           "spring": 20, "bushing": 21, "torsion": 22, "load": 30, "ground": 40, "beam": 50}
 
-#: Kinds of femb's own spatial element types, by class name.
-_KINDS = {"SpatialRigidBody": "body", "SpatialRigidBodyFrame": "body_frame", "SpatialPointMass": "point_mass",
-          "RevoluteJoint": "revolute", "DrivenRevoluteAngle": "motor", "SphericalJoint": "spherical",
-          "PrismaticJoint": "prismatic", "DrivenPrismaticDisplacement": "actuator",
-          "CylindricalJoint": "cylindrical", "UniversalJoint": "universal", "FixedJoint": "fixed",
-          "DistanceJoint": "distance", "PointSpringDamper": "spring", "Bushing": "bushing",
-          "RotationalSpringDamper": "torsion", "SpatialForce": "load", "SpatialTorque": "load",
-          "SpatialGround": "ground"}
+#: Kinds of the blocks this module makes itself (the ground's named points).
+_OWN_KINDS = {"SpatialGround": "ground"}
 
 #: How a body is drawn (cell data ``body_look``): its given shape, the hull of its
 #: named points, or (neither given) the box with its mass and inertia.
@@ -36,19 +31,19 @@ LOOK_SHAPE, LOOK_HULL, LOOK_INERTIA = 0, 1, 2
 _SCENES: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()
 
 
-def _kind(cls, name):
-    kind = getattr(cls, "glyph", None) or _KINDS.get(name)
-    return kind if kind in GLYPHS else None
+def glyphs(cls):
+    """{block name: kind} that an element type declares with its ``glyph`` attribute (see :data:`GLYPHS`)."""
+    gl = getattr(cls, "glyph", None)
+    if isinstance(gl, dict):
+        return {cls.__name__ + str(k): v for k, v in gl.items() if v in GLYPHS}
+    return {cls.__name__: gl} if gl in GLYPHS else {}
 
 
 class _Scene:
     """What the renderer needs to know about a model beyond its geometry (computed once)."""
 
     def __init__(self, model):
-        from femb.elements.spatial_bodies import SpatialBody
-        from femb.elements.spatial_joints import SpatialPairElement
-
-        self.kinds = {}               # block name -> kind, for classes with a glyph attribute
+        self.kinds = dict(_OWN_KINDS)  # block name -> kind, from the glyph attributes of the types
         self.body_index = {}          # body name -> 1, 2, ... (0: the ground)
         for name in model.bodies:
             if name != "ground":
@@ -57,10 +52,12 @@ class _Scene:
         self.points = {}              # (body, point) -> body-axes coordinates
         self.pairs = set()            # ids of groups of spatial pair elements
         for g in model.groups:
-            if issubclass(g.cls, SpatialPairElement):
+            self.kinds.update(glyphs(g.cls))
+            if getattr(g.cls, "frame_pair", False):
                 self.pairs.add(id(g))
             for e in g.elements:
-                if isinstance(e, SpatialBody) and e.name in self.body_index:
+                if (getattr(type(e), "spatial", False) and model.bodies.get(e.name) is e
+                        and e.name in self.body_index):
                     pts = getattr(e, "points", {}) or {}
                     shape = getattr(e, "shape", None)
                     typ = (shape or {}).get("type", "hull")
@@ -81,7 +78,7 @@ class _Scene:
     def field_data(self, blocks):
         fd = {}
         for b in blocks:
-            kind = self.kinds.get(b.name) or _kind(None, b.name)
+            kind = self.kinds.get(b.name)
             if kind is not None:
                 fd[f"glyph.{b.name}"] = np.array([GLYPHS[kind]], dtype=np.int32)
         for name, k in self.body_index.items():
@@ -107,9 +104,7 @@ def _scene(model):
 def _annotate(scene, g, blocks, qx):
     """Add body numbers, joint axes and the bodies a joint links to the blocks of group g."""
     names = list(g.names)
-    kind = _kind(g.cls, g.cls.__name__)
-    if kind is not None:
-        scene.kinds.setdefault(g.cls.__name__, kind)
+    kind = glyphs(g.cls).get(g.cls.__name__)
     if kind in ("body", "point_mass"):
         index = np.array([scene.body(n) for n in names], dtype=np.int32)
         look = np.array([scene.body_look.get(n, LOOK_SHAPE) for n in names], dtype=np.int32)
