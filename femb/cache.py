@@ -1,7 +1,8 @@
 """femb's compile cache: build it ahead of time, show it, clear it.
 
 femb compiles two things, once each, and keeps the machine code on disk
-(:func:`femb.jit.cache_dir`, ``$FEMB_CACHE_DIR``; default ``~/.cache/femb``):
+(:func:`femb.jit.cache_dir`, ``$FEMB_CACHE_DIR``; default the user's cache directory from
+``platformdirs``, ``~/.cache/femb`` on Linux):
 
 * the **engine** (:mod:`femb.step`: Newton iteration, LU, error estimate,
   consistent start, time loop, gather/scatter of the element batches), shared by
@@ -145,6 +146,8 @@ def info():
 def clear():
     """Delete everything in the cache directory; returns the number of bytes freed."""
     root = cache_dir()
+    if not Path(root).is_dir():
+        return 0
     size = info()["bytes"]
     for p in list(Path(root).iterdir()):
         if p.is_dir():

@@ -1890,7 +1890,7 @@ def ensure_engine(verbose=True, background=True):
     """
     import sys
     import time
-    from femb.jit import compile_lock, is_cached, jit_disabled
+    from femb.jit import cache_writable, compile_lock, is_cached, jit_disabled
     if _ENGINE["ready"] or jit_disabled():
         return
     sigs = engine_signatures()
@@ -1905,9 +1905,10 @@ def ensure_engine(verbose=True, background=True):
             # any other argument types are a bug of the caller, not a reason to compile again
             d.disable_compile()
     if missing and verbose:
-        print(f"femb: engine compiled in {time.perf_counter() - t0:.1f} s, cached for later runs",
-              file=sys.stderr, flush=True)
+        kept = ("cached for later runs" if cache_writable() else
+                "in memory for this run only (the compile cache is not writable)")
+        print(f"femb: engine compiled in {time.perf_counter() - t0:.1f} s, {kept}", file=sys.stderr, flush=True)
     _ENGINE["ready"] = True
-    if missing and background:
+    if missing and background and cache_writable():
         from femb.cache import start_background_build
         start_background_build(verbose=verbose)
