@@ -71,7 +71,9 @@ def build(progress=True, stream=None):
     kernels._fresh.clear()
     t2 = time.perf_counter()
     if progress:
-        print(f"femb cache build: engine {t1 - t0:.1f} s, {n} kernels {t2 - t1:.1f} s, in {cache_dir()}",
+        from femb.jit import cache_writable
+        where = f"in {cache_dir()}" if cache_writable() else f"in memory only ({cache_dir()} is not writable)"
+        print(f"femb cache build: engine {t1 - t0:.1f} s, {n} kernels {t2 - t1:.1f} s, {where}",
               file=out, flush=True)
     return {"engine_s": t1 - t0, "kernels": n, "kernels_s": t2 - t1, "total_s": t2 - t0}
 
