@@ -95,7 +95,7 @@ from femb.jit import jit_disabled, kernel
 
 from . import _spatial as sp
 from ._meshing import check_model_size, element_count
-from .bodies import _check_scalar
+from .bodies import Body, _check_scalar
 from .spatial_bodies import FrameNode, SpatialBody, rotation_input, vector3
 
 #: options of the kernels that form the tangent only: fused multiply–adds (``contract``; no other
@@ -1442,9 +1442,9 @@ def _check_end(mech, owner, which, spec):
         if spec != "ground" and spec not in mech:
             raise ModelError(f"{owner}: {which}: no body named '{spec}' (and not 'clamp')")
         return
-    if not isinstance(spec, SpatialBody):
-        raise ModelError(f"{owner}: {which} must be None, 'clamp', a spatial body or its name, or (body, "
-                         f"'shared'), got {spec!r}")
+    if not isinstance(spec, Body):            # a spatial body or the ground (FixedJoint checks the rest)
+        raise ModelError(f"{owner}: {which} must be None, 'clamp', a spatial body or its name, the ground, "
+                         f"or (body, 'shared'), got {spec!r}")
 
 
 def _mesher_inputs(mech, name, section, mass, normal, frames, path):
