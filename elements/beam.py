@@ -93,6 +93,7 @@ from femb.geometry import GeometryBlock
 from femb.jit import kernel
 from femb.nodes import PlanarNode
 
+from ._meshing import check_model_size, element_count
 from ._planar import rot
 from .bodies import Body, _check_scalar, _point
 from .forces import write_pair_blocks
@@ -105,6 +106,14 @@ __all__ = ["Section", "BeamNode", "ReissnerBeam", "Clamp", "BeamMesh", "add_beam
 # ---------------------------------------------------------------------------
 # section data
 # ---------------------------------------------------------------------------
+def _section_numbers(owner, E, G, density, shear_factor, damping):
+    """E, G, shear factor > 0, density and damping ≥ 0, each a finite number (ModelError naming it)."""
+    return (_check_scalar(owner, "E", E, positive=True), _check_scalar(owner, "G", G, positive=True),
+            _check_scalar(owner, "density", density, nonneg=True),
+            _check_scalar(owner, "shear_factor", shear_factor, positive=True),
+            _check_scalar(owner, "damping", damping, nonneg=True))
+
+
 @dataclass(frozen=True)
 class Section:
     """Cross-section data of a planar beam.
@@ -142,6 +151,10 @@ class Section:
     @classmethod
     def rectangle(cls, E, G, width, height, density, shear_factor=5.0 / 6.0, damping=0.0):
         """Solid rectangle ``width`` × ``height`` (height in the plane of bending)."""
+        E, G, density, shear_factor, damping = _section_numbers("Section.rectangle", E, G, density, shear_factor,
+                                                                damping)
+        width = _check_scalar("Section.rectangle", "width", width, positive=True)
+        height = _check_scalar("Section.rectangle", "height", height, positive=True)
         A = width * height
         I = width * height ** 3 / 12.0
         return cls(E * A, shear_factor * G * A, E * I, density * A, density * I, damping)
@@ -149,6 +162,8 @@ class Section:
     @classmethod
     def circle(cls, E, G, diameter, density, shear_factor=0.9, damping=0.0):
         """Solid circle of ``diameter`` (shear factor 0.9 ≈ 6(1+ν)/(7+6ν) for ν = 0.3)."""
+        E, G, density, shear_factor, damping = _section_numbers("Section.circle", E, G, density, shear_factor, damping)
+        diameter = _check_scalar("Section.circle", "diameter", diameter, positive=True)
         A = math.pi * diameter ** 2 / 4.0
         I = math.pi * diameter ** 4 / 64.0
         return cls(E * A, shear_factor * G * A, E * I, density * A, density * I, damping)
@@ -709,6 +724,30 @@ def _end_spec(mech, spec, what):
     return None, _point("add_beam", what, spec)
 
 
+def _node_velocities(owner, velocities, xy, th):
+    """(n + 1, 3) initial (vx, vy, ω) of the nodes from ``add_beam``'s ``velocities``."""
+    n1 = len(xy)
+    if velocities is None:
+        return np.zeros((n1, 3))
+    if callable(velocities):
+        try:
+            v = velocities(xy.copy(), th.copy())
+        except Exception as e:
+            raise ModelError(f"{owner}: velocities(xy, theta) raised {type(e).__name__}: {e}") from e
+    else:
+        v = velocities
+    try:
+        V = np.asarray(v, dtype=float)
+    except (TypeError, ValueError):
+        raise ModelError(f"{owner}: velocities must be ({n1}, 3) numbers (vx, vy, ω) per node, got {v!r}") from None
+    if V.size == 3 * n1:
+        V = V.reshape(n1, 3)
+    if V.shape != (n1, 3) or not np.all(np.isfinite(V)):
+        raise ModelError(f"{owner}: velocities must be ({n1}, 3) finite numbers (vx, vy, ω) per node, got "
+                         f"shape {V.shape}" + ("" if V.shape != (n1, 3) else " with entries that are not finite"))
+    return V
+
+
 def add_beam(mech, name, section, start, end, n_elements, *, sweep=0.0, start_joint=None,
              end_joint=None, mass="consistent", velocities=None):
     """Mesh a straight or circular beam into ``n_elements`` elements and add it to ``mech``.
@@ -752,18 +791,25 @@ def add_beam(mech, name, section, start, end, n_elements, *, sweep=0.0, start_jo
     be made by fixing the node's coordinates (``BeamNode(fixed=...)``), at the
     price of losing the reaction as a multiplier.
     """
-    n = int(n_elements)
-    if n < 1:
-        raise ModelError(f"add_beam '{name}': n_elements must be at least 1, got {n_elements!r}")
+    from femb.mechanism import Mechanism
+    if not isinstance(name, str) or not name:
+        raise ModelError(f"add_beam: name must be a non-empty string, got {name!r}")
+    owner = f"add_beam '{name}'"
+    if not isinstance(mech, Mechanism):
+        raise ModelError(f"{owner}: mech must be a Mechanism, got {mech!r}")
+    n = element_count(owner, "n_elements", n_elements)
     if not isinstance(section, Section):
-        raise ModelError(f"add_beam '{name}': section must be a Section, got {section!r}")
+        raise ModelError(f"{owner}: section must be a Section, got {type(section).__name__}")
+    if mass not in ("consistent", "lumped"):
+        raise ModelError(f"{owner}: mass must be 'consistent' or 'lumped', got {mass!r}")
+    check_model_size(owner, n, "planar")
     b0, P0 = _end_spec(mech, start, "start")
     b1, P1 = _end_spec(mech, end, "end")
     chord = P1 - P0
     dist = float(np.hypot(*chord))
     if not dist > 0.0:
         raise ModelError(f"add_beam '{name}': start and end coincide")
-    sweep = float(sweep)
+    sweep = _check_scalar(owner, "sweep", sweep)
     if not (abs(sweep) < 2.0 * math.pi):
         raise ModelError(f"add_beam '{name}': |sweep| must be below 2π, got {sweep!r}")
     phi = math.atan2(chord[1], chord[0])
@@ -779,12 +825,7 @@ def add_beam(mech, name, section, start, end, n_elements, *, sweep=0.0, start_jo
         xy = P0[None, :] + R * np.column_stack((np.sin(th) - math.sin(th0), math.cos(th0) - np.cos(th)))
         xy[-1] = P1
         arc = R * sweep * k
-    if velocities is None:
-        V = np.zeros((n + 1, 3))
-    elif callable(velocities):
-        V = np.asarray(velocities(xy.copy(), th.copy()), dtype=float).reshape(n + 1, 3)
-    else:
-        V = np.asarray(velocities, dtype=float).reshape(n + 1, 3)
+    V = _node_velocities(owner, velocities, xy, th)
 
     joints_kind = {}
     for which, b, kind in (("start", b0, start_joint), ("end", b1, end_joint)):

@@ -94,8 +94,9 @@ from femb.geometry import GeometryBlock
 from femb.jit import jit_disabled, kernel
 
 from . import _spatial as sp
-from .bodies import _check_scalar
-from .spatial_bodies import FrameNode, SpatialBody, rotation_input
+from ._meshing import check_model_size, element_count
+from .bodies import Body, _check_scalar
+from .spatial_bodies import FrameNode, SpatialBody, rotation_input, vector3
 
 #: options of the kernels that form the tangent only: fused multiply–adds (``contract``; no other
 #: fast-math licence). The forces, hence the residual and the converged states, are computed by
@@ -906,6 +907,20 @@ def _cowper_nu(E, G):
     return E / (2.0 * G) - 1.0
 
 
+def _material(owner, E, G, density, shear_factor, damping):
+    """Checked material numbers: E, G > 0, density ≥ 0, shear factor > 0 or None, damping ≥ 0."""
+    E = _check_scalar(owner, "E", E, positive=True)
+    G = _check_scalar(owner, "G", G, positive=True)
+    density = _check_scalar(owner, "density", density, nonneg=True)
+    if shear_factor is not None:
+        shear_factor = _check_scalar(owner, "shear_factor", shear_factor, positive=True)
+    damping = _check_scalar(owner, "damping", damping, nonneg=True)
+    return E, G, density, shear_factor, damping
+
+
+_STIFFNESS_NAMES = ("EA", "GA2", "GA3", "GJ", "EI2", "EI3")
+
+
 @dataclass
 class SpatialSection:
     """Cross-section of a spatial beam: stiffness C (6 × 6) and inertia per unit length.
@@ -934,26 +949,39 @@ class SpatialSection:
     damping: float = 0.0
 
     def __post_init__(self):
-        C = np.asarray(self.C, dtype=float)
+        try:
+            C = np.asarray(self.C, dtype=float)
+        except (TypeError, ValueError):
+            raise ModelError(f"SpatialSection: C must be 6 numbers or a 6×6 matrix, got {self.C!r}") from None
         if C.shape == (6,):
             C = np.diag(C)
         if C.shape != (6, 6) or not np.all(np.isfinite(C)):
-            raise ModelError(f"SpatialSection: C must be 6 numbers or a finite 6×6 matrix, got shape {C.shape}")
+            raise ModelError(f"SpatialSection: C must be 6 numbers or a finite 6×6 matrix, got shape {C.shape}"
+                             + ("" if C.shape != (6, 6) else f" with entries that are not finite: diagonal "
+                                f"{dict(zip(_STIFFNESS_NAMES, np.diag(C).tolist()))}"))
         if not np.allclose(C, C.T, rtol=1e-12, atol=1e-14 * np.abs(C).max()):
             raise ModelError("SpatialSection: C must be symmetric (the strain energy is ½εᵀCε)")
-        if np.linalg.eigvalsh(C)[0] <= 0.0:
-            raise ModelError("SpatialSection: C must be positive definite")
+        bad = [f"{k} = {v:.6g}" for k, v in zip(_STIFFNESS_NAMES, np.diag(C)) if not v > 0.0]
+        if bad:
+            raise ModelError(f"SpatialSection: the stiffnesses must be positive: {', '.join(bad)}")
+        lam = np.linalg.eigvalsh(C)
+        if lam[0] <= 0.0:
+            raise ModelError(f"SpatialSection: C must be positive definite; its smallest eigenvalue is {lam[0]:.6g} "
+                             f"(the couplings outweigh the diagonal {dict(zip(_STIFFNESS_NAMES, np.diag(C).tolist()))})")
         self.C = 0.5 * (C + C.T)
         self.rhoA = _check_scalar("SpatialSection", "rhoA", self.rhoA)
         if self.rhoA < 0.0:
             raise ModelError(f"SpatialSection: rhoA must be ≥ 0, got {self.rhoA}")
-        J = np.asarray(self.rhoJ, dtype=float)
+        try:
+            J = np.asarray(self.rhoJ, dtype=float)
+        except (TypeError, ValueError):
+            raise ModelError(f"SpatialSection: rhoJ must be 3 numbers or a symmetric 3×3 matrix, got {self.rhoJ!r}") from None
         if J.shape == (3,):
             J = np.diag(J)
         if J.shape != (3, 3) or not np.all(np.isfinite(J)) or not np.allclose(J, J.T):
             raise ModelError("SpatialSection: rhoJ must be 3 numbers or a symmetric 3×3 matrix")
         if np.linalg.eigvalsh(J)[0] < 0.0:
-            raise ModelError("SpatialSection: rhoJ must be positive semi-definite")
+            raise ModelError(f"SpatialSection: rhoJ must be positive semi-definite, got {J.tolist()}")
         self.rhoJ = J
         self.damping = _check_scalar("SpatialSection", "damping", self.damping)
         if self.damping < 0.0:
@@ -962,7 +990,9 @@ class SpatialSection:
     @classmethod
     def from_properties(cls, EA, GA2, GA3, GJ, EI2, EI3, rhoA=0.0, rhoJ=(0.0, 0.0, 0.0), damping=0.0):
         """Diagonal C = diag(EA, GA2, GA3, GJ, EI2, EI3) (shear stiffnesses include the shear factors)."""
-        return cls(np.diag([EA, GA2, GA3, GJ, EI2, EI3]), rhoA, rhoJ, damping)
+        d = [_check_scalar("SpatialSection.from_properties", k, v, positive=True)
+             for k, v in zip(_STIFFNESS_NAMES, (EA, GA2, GA3, GJ, EI2, EI3))]
+        return cls(np.diag(d), rhoA, rhoJ, damping)
 
     @classmethod
     def rectangle(cls, E, G, width, height, density=0.0, shear_factor=5.0 / 6.0, damping=0.0):
@@ -973,25 +1003,27 @@ class SpatialSection:
         J = a b³ (1/3 − 0.21 (b/a)(1 − b⁴/(12 a⁴))), a ≥ b the sides (Roark, Table 10.7,
         within 4 % for all ratios, exact as a/b → ∞).
         """
-        w, h = (_check_scalar("SpatialSection.rectangle", "width", width, positive=True),
-                _check_scalar("SpatialSection.rectangle", "height", height, positive=True))
+        own = "SpatialSection.rectangle"
+        E, G, density, shear_factor, damping = _material(own, E, G, density, shear_factor, damping)
+        w, h = (_check_scalar(own, "width", width, positive=True), _check_scalar(own, "height", height, positive=True))
         A = w * h
         I2 = w * h ** 3 / 12.0
         I3 = h * w ** 3 / 12.0
         a, b = max(w, h), min(w, h)
         J = a * b ** 3 * (1.0 / 3.0 - 0.21 * (b / a) * (1.0 - b ** 4 / (12.0 * a ** 4)))
-        k = float(shear_factor)
+        k = shear_factor
         return cls.from_properties(E * A, k * G * A, k * G * A, G * J, E * I2, E * I3,
                                    density * A, density * np.array([I2 + I3, I2, I3]), damping)
 
     @classmethod
     def circle(cls, E, G, diameter, density=0.0, shear_factor=None, damping=0.0):
         """Solid circle: I = π d⁴/64, J = π d⁴/32; shear factor default Cowper's 6(1+ν)/(7+6ν), ν = E/2G − 1."""
+        E, G, density, shear_factor, damping = _material("SpatialSection.circle", E, G, density, shear_factor, damping)
         d = _check_scalar("SpatialSection.circle", "diameter", diameter, positive=True)
         A = math.pi * d * d / 4.0
         I = math.pi * d ** 4 / 64.0
         nu = _cowper_nu(E, G)
-        k = 6.0 * (1.0 + nu) / (7.0 + 6.0 * nu) if shear_factor is None else float(shear_factor)
+        k = 6.0 * (1.0 + nu) / (7.0 + 6.0 * nu) if shear_factor is None else shear_factor
         return cls.from_properties(E * A, k * G * A, k * G * A, G * 2.0 * I, E * I, E * I,
                                    density * A, density * np.array([2.0 * I, I, I]), damping)
 
@@ -999,7 +1031,10 @@ class SpatialSection:
     def tube(cls, E, G, outer_diameter, inner_diameter, density=0.0, shear_factor=None, damping=0.0):
         """Circular tube: I = π(D⁴ − d⁴)/64, J = 2I; shear factor default Cowper's
         6(1+ν)(1+m²)²/((7+6ν)(1+m²)² + (20+12ν)m²), m = d/D."""
-        Do, Di = _check_scalar("SpatialSection.tube", "outer_diameter", outer_diameter, positive=True), float(inner_diameter)
+        own = "SpatialSection.tube"
+        E, G, density, shear_factor, damping = _material(own, E, G, density, shear_factor, damping)
+        Do = _check_scalar(own, "outer_diameter", outer_diameter, positive=True)
+        Di = _check_scalar(own, "inner_diameter", inner_diameter, nonneg=True)
         if not 0.0 <= Di < Do:
             raise ModelError(f"SpatialSection.tube: need 0 ≤ inner < outer diameter, got {Di}, {Do}")
         A = math.pi * (Do * Do - Di * Di) / 4.0
@@ -1007,7 +1042,7 @@ class SpatialSection:
         nu = _cowper_nu(E, G)
         m2 = (Di / Do) ** 2
         k = (6.0 * (1.0 + nu) * (1.0 + m2) ** 2 / ((7.0 + 6.0 * nu) * (1.0 + m2) ** 2 + (20.0 + 12.0 * nu) * m2)
-             if shear_factor is None else float(shear_factor))
+             if shear_factor is None else shear_factor)
         return cls.from_properties(E * A, k * G * A, k * G * A, G * 2.0 * I, E * I, E * I,
                                    density * A, density * np.array([2.0 * I, I, I]), damping)
 
@@ -1317,13 +1352,163 @@ def _frame_from(t, normal, where="spatial_beam"):
     n = np.asarray(normal, dtype=float)
     e2 = n - (n @ e1) * e1
     if np.linalg.norm(e2) < 1e-9 * np.linalg.norm(n):
-        raise ModelError(f"spatial_beam: section axis 2 hint {normal!r} is parallel to the beam axis")
+        raise ModelError(f"{where}: normal {np.asarray(normal).tolist()} (the direction of section axis 2) "
+                         f"is parallel to the beam axis {e1.tolist()}")
     e2 /= np.linalg.norm(e2)
     return np.column_stack((e1, e2, np.cross(e1, e2)))
 
 
+#: largest angle (rad) between e1 of ``frames(s)`` and the centre line's tangent (central differences
+#: of ``path``, step 1e-6: error about 1e-10 for curves of unit scale)
+FRAME_TANGENT_TOL = 1e-6
+
+
+def _call_path(owner, path, s):
+    """``path(s)`` as three finite numbers, or a ModelError naming s."""
+    try:
+        x = path(s)
+    except Exception as e:
+        raise ModelError(f"{owner}: path({s:.6g}) raised {type(e).__name__}: {e}") from e
+    try:
+        v = np.asarray(x, dtype=float).reshape(-1)
+    except (TypeError, ValueError):
+        v = None
+    if v is None or v.size != 3:
+        raise ModelError(f"{owner}: path(s) must return three coordinates (x, y, z); path({s:.6g}) "
+                         f"returned {x!r}")
+    if not np.all(np.isfinite(v)):
+        raise ModelError(f"{owner}: path({s:.6g}) is not finite: {v.tolist()}")
+    return v
+
+
+def _user_frame(owner, frames, s, k, tangent):
+    """``frames(s)`` checked: a rotation matrix whose first column is the unit tangent."""
+    try:
+        F = frames(s)
+    except Exception as e:
+        raise ModelError(f"{owner}: frames({s:.6g}) raised {type(e).__name__}: {e}") from e
+    p = rotation_input(f"{owner}: frames({s:.6g}) at node {k}", "the section axes", F)
+    R = rt.quat_to_matrix(p)
+    t = tangent / np.linalg.norm(tangent)
+    ang = math.atan2(np.linalg.norm(np.cross(R[:, 0], t)), float(R[:, 0] @ t))
+    if ang > FRAME_TANGENT_TOL:
+        raise ModelError(f"{owner}: frames({s:.6g}) at node {k} has its first axis e1 = "
+                         f"{np.round(R[:, 0], 6).tolist()} at {math.degrees(ang):.4g}° ({ang:.3g} rad) from the "
+                         f"centre line's tangent {np.round(t, 6).tolist()}; e1 must be the unit tangent of path "
+                         f"(tolerance {FRAME_TANGENT_TOL:g} rad), e2 and e3 the cross-section axes")
+    return R
+
+
+def _curve_mesh(owner, path, n, frames, normal):
+    """Nodes and section frames of a curve ``path(s)``, s ∈ [0, 1], at s = k/n."""
+    s = np.linspace(0.0, 1.0, n + 1)
+    X = np.array([_call_path(owner, path, si) for si in s])
+    h = 1e-6
+    T = [(_call_path(owner, path, si + h) - _call_path(owner, path, si - h)) / (2 * h) for si in s]
+    F = []
+    for k, (si, tk) in enumerate(zip(s, T)):
+        where = f"{owner} at node {k} (s = {si:g})"
+        if frames is None:
+            F.append(_frame_from(tk, normal, where))
+        else:
+            _frame_from(tk, None, where)                      # a tangent there at all
+            F.append(_user_frame(owner, frames, si, k, tk))
+    return X, F[:-1], F[1:], F
+
+
+def _polyline_mesh(owner, P, counts, normal):
+    """Nodes and section frames of a polyline with ``counts[k]`` elements on segment k."""
+    pts, fa, fb, node_frames = [P[0]], [], [], []
+    for k in range(len(P) - 1):
+        Fk = _frame_from(P[k + 1] - P[k], normal, f"{owner}, segment {k} from {P[k]} to {P[k + 1]}")
+        if k == 0:
+            node_frames.append(Fk)
+        for j in range(1, counts[k] + 1):
+            pts.append(P[k] + (P[k + 1] - P[k]) * j / counts[k])
+            node_frames.append(Fk)
+            fa.append(Fk)
+            fb.append(Fk)
+    return np.array(pts), fa, fb, node_frames
+
+
+def _polyline_counts(owner, P, n_elements):
+    nseg = len(P) - 1
+    if np.ndim(n_elements) == 0:
+        return [element_count(owner, "n_elements", n_elements)] * nseg
+    counts = list(n_elements)
+    if len(counts) != nseg:
+        raise ModelError(f"{owner}: n_elements has {len(counts)} counts for {nseg} segments")
+    return [element_count(owner, f"n_elements[{k}]", c) for k, c in enumerate(counts)]
+
+
+def _check_end(mech, owner, which, spec):
+    """An end specification: None, "clamp", a spatial body or its name, or (body, "shared")."""
+    if spec is None or (isinstance(spec, str) and spec == "clamp"):
+        return
+    if isinstance(spec, tuple) and len(spec) == 2 and spec[1] == "shared":
+        body = spec[0]
+        if isinstance(body, str):
+            if body not in mech:
+                raise ModelError(f"{owner}: {which}: no body named '{body}'")
+            body = mech[body]
+        if not isinstance(body, SpatialBody):
+            raise ModelError(f"{owner}: {which}: {spec[0]!r} is not a spatial body")
+        return
+    if isinstance(spec, str):
+        if spec != "ground" and spec not in mech:
+            raise ModelError(f"{owner}: {which}: no body named '{spec}' (and not 'clamp')")
+        return
+    if not isinstance(spec, Body):            # a spatial body or the ground (FixedJoint checks the rest)
+        raise ModelError(f"{owner}: {which} must be None, 'clamp', a spatial body or its name, the ground, "
+                         f"or (body, 'shared'), got {spec!r}")
+
+
+def _mesher_inputs(mech, name, section, mass, normal, frames, path):
+    """The checks of :func:`spatial_beam` that need no mesh; returns the owner string and ``normal``."""
+    from femb.mechanism import Mechanism
+    if not isinstance(name, str) or not name:
+        raise ModelError(f"spatial_beam: name must be a non-empty string, got {name!r}")
+    owner = f"spatial_beam '{name}'"
+    if not isinstance(mech, Mechanism):
+        raise ModelError(f"{owner}: mech must be a Mechanism, got {mech!r}")
+    if not isinstance(section, SpatialSection):
+        raise ModelError(f"{owner}: section must be a SpatialSection, got {type(section).__name__}")
+    if mass not in ("consistent", "lumped", "averaged"):
+        raise ModelError(f"{owner}: mass must be 'consistent', 'lumped' or 'averaged', got {mass!r}")
+    if normal is not None:
+        normal = vector3(owner, "normal", normal)
+        if not np.linalg.norm(normal) > 0.0:
+            raise ModelError(f"{owner}: normal (the direction of section axis 2) must not be zero, "
+                             f"got {normal.tolist()}")
+    if frames is not None and not callable(frames):
+        raise ModelError(f"{owner}: frames must be a callable frames(s) -> (3, 3), got {frames!r}")
+    if frames is not None and not callable(path):
+        raise ModelError(f"{owner}: frames applies to a curve path(s); a polyline's section axes "
+                         f"come from its segments and normal")
+    return owner, normal
+
+
+def _node_velocities(owner, pts, node_frames, velocity, omega, about):
+    """Initial (ṙ, Ω) of the n + 1 nodes: a rigid field v₀ + ω × (r − p), or per-node values
+    (space axes; Ω in node axes = section axes at t0)."""
+    n1 = len(pts)
+    V = np.zeros((n1, 3)) if velocity is None else np.asarray(velocity, dtype=float)
+    W = np.zeros((n1, 3)) if omega is None else np.asarray(omega, dtype=float)
+    for what, A in (("velocity", V), ("omega", W)):
+        if A.shape not in ((3,), (n1, 3)) or not np.all(np.isfinite(A)):
+            raise ModelError(f"{owner}: {what} must be three finite numbers or one row of three per node "
+                             f"({n1}, 3), got shape {A.shape}")
+    p = np.zeros(3) if about is None else vector3(owner, "about", about)
+    if about is not None and (V.ndim == 2 or W.ndim == 2):
+        raise ModelError(f"{owner}: about applies to a rigid field (velocity and omega of 3 numbers)")
+    W = np.broadcast_to(W, (n1, 3))
+    V = np.broadcast_to(V, (n1, 3)) + (np.cross(W, pts - p) if V.ndim == 1 else 0.0)
+    Om = np.array([node_frames[k].T @ W[k] for k in range(n1)])
+    return V, Om
+
+
 def spatial_beam(mech, name, section, path, n_elements, *, normal=None, frames=None, start=None, end=None,
-                 mass="consistent"):
+                 mass="consistent", velocity=None, omega=None, about=None):
     """Mesh a spatial beam along a line, a polyline or a curve and add it to ``mech``.
 
     Parameters
@@ -1339,86 +1524,80 @@ def spatial_beam(mech, name, section, path, n_elements, *, normal=None, frames=N
         ``path(s)`` → (3,), s ∈ [0, 1] (nodes at s = k/n).
     n_elements : int or sequence of int
         Elements in total (a curve), per segment (int: each segment of a polyline), or
-        a list with one count per segment.
+        a list with one count per segment; whole numbers ≥ 1 (4.0 is 4; 2.7 is an error).
+        A mesh whose model would not fit in the machine's memory is refused before
+        anything is made.
     normal : (3,), optional
         Direction of section axis 2 (made normal to the axis); default: axis 3 towards +z
         (+y for beams along z).
     frames : callable, optional
         For a curve: ``frames(s)`` → (3, 3) section axes at s (columns e1 = unit tangent,
         e2, e3); default: the tangent by central differences of ``path`` (step 1e-6,
-        error O(1e-12)) and ``normal``.
+        error O(1e-12)) and ``normal``. A frame whose e1 is more than
+        :data:`FRAME_TANGENT_TOL` from the tangent is refused (naming the node and the angle).
     start, end : None, "clamp", SpatialBody or name, or (body, "shared")
         Free end; clamped to the ground (the node's coordinates are fixed); welded to a
         body by a :class:`~femb.elements.spatial_joints.FixedJoint` at the node; or the
         body's own frame node is the end node (``"shared"``; its axes need not be the
         section axes).
     mass : {"consistent", "lumped", "averaged"}
+    velocity, omega : (3,) or (n + 1, 3), optional
+        Initial velocities of the nodes, space axes. Both (3,): the rigid motion
+        ṙ = v₀ + ω × (r − p) of velocity v₀ at the point p = ``about`` and angular velocity ω
+        (each node's Ω = R₀ᵀ ω in its node axes; :func:`femb.motion.set_rigid_velocity` sets any
+        body to such a field). Rows per node: ṙ and ω of each node. Default: at rest. A
+        ``"shared"`` end keeps its body's velocities; clamped nodes must be given zero.
+    about : (3,), optional
+        The point p of a rigid field; default the origin.
 
     Returns
     -------
     SpatialBeamMesh
     """
     from .spatial_joints import FixedJoint
+    owner, normal = _mesher_inputs(mech, name, section, mass, normal, frames, path)
     if callable(path):
-        n = int(n_elements)
-        if n < 1:
-            raise ModelError(f"spatial_beam '{name}': n_elements must be ≥ 1")
-        s = np.linspace(0.0, 1.0, n + 1)
-        X = np.array([np.asarray(path(si), dtype=float) for si in s])
-        if frames is not None:
-            F = [np.asarray(frames(si), dtype=float) for si in s]
-        else:
-            h = 1e-6
-            F = [_frame_from((np.asarray(path(si + h), float) - np.asarray(path(si - h), float)) / (2 * h), normal,
-                             f"spatial_beam '{name}' at s = {si:g}")
-                 for si in s]
-        pts, fa, fb = X, F[:-1], F[1:]
-        node_frames = F
+        n = element_count(owner, "n_elements", n_elements)
+        check_model_size(owner, n, "spatial")
+        pts, fa, fb, node_frames = _curve_mesh(owner, path, n, frames, normal)
     else:
-        P = np.asarray(path, dtype=float)
-        if P.ndim != 2 or P.shape[1] != 3 or len(P) < 2:
-            raise ModelError(f"spatial_beam '{name}': path must be (m ≥ 2, 3) points or a callable")
-        nseg = len(P) - 1
-        counts = [int(n_elements)] * nseg if np.ndim(n_elements) == 0 else [int(c) for c in n_elements]
-        if len(counts) != nseg or min(counts) < 1:
-            raise ModelError(f"spatial_beam '{name}': need one element count ≥ 1 per segment ({nseg})")
-        pts, fa, fb, node_frames = [P[0]], [], [], []
-        for k in range(nseg):
-            Fk = _frame_from(P[k + 1] - P[k], normal, f"spatial_beam '{name}', segment {k} from {P[k]} to {P[k + 1]}")
-            if k == 0:
-                node_frames.append(Fk)
-            for j in range(1, counts[k] + 1):
-                pts.append(P[k] + (P[k + 1] - P[k]) * j / counts[k])
-                node_frames.append(Fk)
-                fa.append(Fk)
-                fb.append(Fk)
-        pts = np.array(pts)
+        try:
+            P = np.asarray(path, dtype=float)
+        except (TypeError, ValueError):
+            P = None
+        if P is None or P.ndim != 2 or P.shape[1] != 3 or len(P) < 2 or not np.all(np.isfinite(P)):
+            got = repr(path)[:80] if P is None else f"shape {P.shape}" + ("" if np.all(np.isfinite(P)) else ", not finite")
+            raise ModelError(f"{owner}: path must be (m ≥ 2, 3) finite points or a callable path(s) -> (3,), "
+                             f"got {got}")
+        counts = _polyline_counts(owner, P, n_elements)
+        check_model_size(owner, sum(counts), "spatial")
+        pts, fa, fb, node_frames = _polyline_mesh(owner, P, counts, normal)
+    for which, spec in (("start", start), ("end", end)):
+        _check_end(mech, owner, which, spec)
+    V, Om = _node_velocities(owner, pts, node_frames, velocity, omega, about)
     n = len(pts) - 1
     nodes = []
     joints = {"start": None, "end": None}
     for k in range(n + 1):
         spec = start if k == 0 else (end if k == n else None)
-        shared = isinstance(spec, tuple) and len(spec) == 2 and spec[1] == "shared"
-        if shared:
+        if isinstance(spec, tuple):                        # (body, "shared"), checked above
             body = mech[spec[0]] if isinstance(spec[0], str) else spec[0]
-            if not isinstance(body, SpatialBody):
-                raise ModelError(f"spatial_beam '{name}': {spec[0]!r} is not a spatial body")
             if np.linalg.norm(body.node.q0[:3] - pts[k]) > 1e-9 * max(1.0, np.abs(pts).max()):
-                raise ModelError(f"spatial_beam '{name}': the shared body '{body.name}' has its node at "
+                raise ModelError(f"{owner}: the shared body '{body.name}' has its node at "
                                  f"{body.node.q0[:3]}, not at the beam end {pts[k]}")
             nodes.append(body)
             continue
         clamp = isinstance(spec, str) and spec == "clamp"
-        nd = SpatialBeamNode(f"{name}.n{k}", pts[k], node_frames[k],
+        if clamp and (np.any(V[k] != 0.0) or np.any(Om[k] != 0.0)):
+            raise ModelError(f"{owner}: the clamped {'start' if k == 0 else 'end'} node {k} cannot move: "
+                             f"its initial velocity would be ṙ = {V[k].tolist()}, Ω = {Om[k].tolist()}")
+        nd = SpatialBeamNode(f"{name}.n{k}", pts[k], node_frames[k], velocity=V[k], omega=Om[k],
                              fixed_translation=(clamp, clamp, clamp), fixed_rotation=clamp)
         mech.add(nd)
         nodes.append(nd)
         if spec is not None and not clamp:
-            body = spec
-            if isinstance(body, str) and body != "ground" and body not in mech:
-                raise ModelError(f"spatial_beam '{name}': no body named '{body}'")
             which = "start" if k == 0 else "end"
-            joints[which] = mech.add(FixedJoint(f"{name}.{which}", body, nd, at=pts[k]))
+            joints[which] = mech.add(FixedJoint(f"{name}.{which}", spec, nd, at=pts[k]))
     elements = []
     for k in range(n):
         elements.append(mech.add(SpatialBeam(f"{name}.e{k}", nodes[k], nodes[k + 1], section, mass=mass,

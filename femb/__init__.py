@@ -14,6 +14,7 @@ from femb.result import Result
 from femb.initial import consistent_initial_state
 from femb.solver import GeneralizedAlphaSolver, simulate
 from femb.checks import JacobianReport, check_jacobians
+from femb.motion import set_rigid_velocity
 
 __version__ = "0.1.0"
 
@@ -22,7 +23,7 @@ __all__ = [
     "simulate", "consistent_initial_state", "FembError", "ModelError", "ParameterError",
     "InitializationError", "SolverError", "ConvergenceError", "SingularMatrixError", "OutputError",
     "ParameterWarning", "AccuracyWarning", "InitialMoveWarning", "InitialVelocityWarning",
-    "RedundantConstraintWarning", "sweep", "check_jacobians", "JacobianReport",
+    "RedundantConstraintWarning", "sweep", "check_jacobians", "JacobianReport", "set_rigid_velocity",
 ]
 
 

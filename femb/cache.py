@@ -1,7 +1,8 @@
 """femb's compile cache: build it ahead of time, show it, clear it.
 
 femb compiles two things, once each, and keeps the machine code on disk
-(:func:`femb.jit.cache_dir`, ``$FEMB_CACHE_DIR``; default ``~/.cache/femb``):
+(:func:`femb.jit.cache_dir`, ``$FEMB_CACHE_DIR``; default the user's cache directory from
+``platformdirs``, ``~/.cache/femb`` on Linux):
 
 * the **engine** (:mod:`femb.engine`: Newton iteration, LU, error estimate,
   consistent start, time loop, gather/scatter of the element batches), shared by
@@ -71,7 +72,9 @@ def build(progress=True, stream=None):
     kernels._fresh.clear()
     t2 = time.perf_counter()
     if progress:
-        print(f"femb cache build: engine {t1 - t0:.1f} s, {n} kernels {t2 - t1:.1f} s, in {cache_dir()}",
+        from femb.jit import cache_writable
+        where = f"in {cache_dir()}" if cache_writable() else f"in memory only ({cache_dir()} is not writable)"
+        print(f"femb cache build: engine {t1 - t0:.1f} s, {n} kernels {t2 - t1:.1f} s, {where}",
               file=out, flush=True)
     return {"engine_s": t1 - t0, "kernels": n, "kernels_s": t2 - t1, "total_s": t2 - t0}
 
@@ -146,6 +149,8 @@ def info():
 def clear():
     """Delete everything in the cache directory; returns the number of bytes freed."""
     root = cache_dir()
+    if not Path(root).is_dir():
+        return 0
     size = info()["bytes"]
     for p in list(Path(root).iterdir()):
         if p.is_dir():

@@ -95,6 +95,25 @@ def _write_json(data, dest):
         raise UsageError(f"cannot write {dest}: {exc}") from None
 
 
+def _check_json_dest(dest):
+    """Fail at once, before any run, if ``--json FILE`` cannot be written there."""
+    if not dest or dest == "-":
+        return
+    import os
+
+    p = Path(dest)
+    if p.is_dir():
+        raise UsageError(f"--json {dest}: is a folder; give a file name")
+    probe = p.parent / f".femb-write-test.{os.getpid()}"
+    try:
+        p.parent.mkdir(parents=True, exist_ok=True)
+        with open(probe, "wb"):
+            pass
+        probe.unlink()
+    except OSError as exc:
+        raise UsageError(f"--json {dest}: cannot write there ({exc.strerror or exc}); nothing was run") from None
+
+
 def _vtk_stream(model, directory, every, observer=None, dt=None):
     """VTK output of ``femb run --vtk DIR --every N``.
 
@@ -262,6 +281,7 @@ def cmd_run(args):
         raise UsageError("give --every or --dt, not both")
     if args.atol is not None and args.rtol is None:
         raise UsageError("--atol needs --rtol (adaptive steps)")
+    _check_json_dest(args.json)
     scene = _load_scene(args.scene)
     params = parse_sets(args.set)
     if callable(getattr(scene.module, "solve", None)):
@@ -312,7 +332,7 @@ def cmd_run(args):
             else:
                 result = simulate(model, t_end, h, rho_inf=rho_inf, scaling=not args.no_scaling,
                                   store=False, observer=observer, progress=show, formulation=args.formulation)
-        except (FembError, KeyboardInterrupt):
+        except KeyboardInterrupt:
             raise
         except Exception as exc:
             if observer is not None and (type(exc).__name__ == "OutputError" or isinstance(exc, OSError)):
@@ -401,6 +421,7 @@ def cmd_bench_convergence(args):
     except ValueError as exc:
         raise UsageError(str(exc)) from None
     quiet = args.json == "-"
+    _check_json_dest(args.json)
 
     def report(row):
         if quiet:

@@ -280,7 +280,8 @@ class Compiled:
         self.tfv = self.Cv[_S.C_TFV]
         self.python_tf = tf["python"]
         from femb import engine
-        if engine.ensure_engine():
+        from femb.jit import cache_writable
+        if engine.ensure_engine() and cache_writable():
             # compiled now: the built-in element types' kernels follow in the background
             from femb.cache import start_background_build
             start_background_build()

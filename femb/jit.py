@@ -8,7 +8,8 @@ and the one engine (:mod:`femb.engine`) calls it through its address (:func:`cal
 ``NUMBA_DISABLE_JIT=1`` runs everything as plain Python for debugging.
 
 The cache directory is ``$FEMB_CACHE_DIR`` if set, else the user's cache
-directory (``$XDG_CACHE_HOME/femb`` or ``~/.cache/femb``).
+directory from ``platformdirs`` (on Linux ``$XDG_CACHE_HOME/femb`` or ``~/.cache/femb``;
+``~/Library/Caches/femb`` on macOS, ``%LOCALAPPDATA%\\femb\\Cache`` on Windows).
 
 Packs: the model data handed to the compiled time loop (per-batch arrays, model
 constants, work arrays) travel as a *pack* of three arrays, ``(F, I, L)``: every
@@ -68,14 +69,22 @@ def kernel(fn=None, *, allocates=False, **kw):
 
 
 def cache_dir() -> Path:
-    """Directory of femb's compiled-code cache (created on demand)."""
+    """Directory of femb's compiled-code cache (created on demand when it can be).
+
+    ``$FEMB_CACHE_DIR`` if set, else ``platformdirs.user_cache_dir("femb")`` (which honours
+    ``$XDG_CACHE_HOME`` on Linux; default ``~/.cache/femb``). A directory that cannot be
+    created is returned as it is; :func:`numba_cache_dir` then says so once.
+    """
     env = os.environ.get("FEMB_CACHE_DIR")
     if env:
         base = Path(env)
     else:
-        xdg = os.environ.get("XDG_CACHE_HOME")
-        base = (Path(xdg) if xdg else Path.home() / ".cache") / "femb"
-    base.mkdir(parents=True, exist_ok=True)
+        import platformdirs
+        base = Path(platformdirs.user_cache_dir("femb", appauthor=False))
+    try:
+        base.mkdir(parents=True, exist_ok=True)
+    except OSError:
+        pass
     return base
 
 
@@ -280,7 +289,7 @@ import warnings as _warnings
 from numba.core import caching as _caching
 
 _file_hashes = {}
-_cache_state = {"warned": False}
+_cache_state = {"warned": False, "damaged": 0, "in_memory": 0}
 
 
 def _file_hash(path):
@@ -365,29 +374,43 @@ def source_key(py_func, extra=""):
 
 
 class CacheWarning(UserWarning):
-    """femb's compile cache cannot be written: compiled code is kept in memory only."""
+    """femb's compile cache cannot be written (code that is not in it compiles in memory), or an
+    entry in it was damaged (discarded and compiled again)."""
+
+
+#: seconds a process waits for another one's compile lock before it compiles by itself
+LOCK_TIMEOUT = 900.0
 
 
 def _warn_unwritable(where, err):
     if not _cache_state["warned"]:
         _cache_state["warned"] = True
-        _warnings.warn(f"femb: the compile cache {where} is not writable ({err}); compiling in memory "
-                       f"for this process only. Set FEMB_CACHE_DIR to a writable directory to keep "
-                       f"compiled code between runs.", CacheWarning, stacklevel=3)
+        _warnings.warn(f"femb: the compile cache {where} is not writable ({err}): what is in it loads, what "
+                       f"is not compiles in memory for this process only. Set FEMB_CACHE_DIR to a writable "
+                       f"directory to keep compiled code between runs.", CacheWarning, stacklevel=3)
 
 
 def numba_cache_dir():
-    """Directory of femb's numba cache entries, or None if it cannot be created/written."""
+    """Directory of femb's numba cache entries, or None if it does not exist and cannot be created.
+
+    A directory that exists but cannot be written (a prebuilt cache in a Docker layer or on a
+    cluster share) is returned: its entries load, and only code that is not in it compiles, in
+    memory (one :class:`CacheWarning` when that happens, :func:`cache_writable`).
+    """
+    d = cache_dir() / "numba"
     try:
-        d = cache_dir() / "numba"
         d.mkdir(parents=True, exist_ok=True)
     except OSError as e:
-        _warn_unwritable(os.environ.get("FEMB_CACHE_DIR") or "directory", e)
-        return None
-    if not os.access(d, os.W_OK):
-        # read-only (a shared, prebuilt cache): its entries load, new code compiles in memory
-        _warn_unwritable(str(d), "permission denied")
+        if not d.is_dir():
+            _warn_unwritable(d, e)
+            return None
     return d
+
+
+def cache_writable():
+    """Whether code compiled now is kept in femb's disk cache for later runs."""
+    d = None if jit_disabled() else numba_cache_dir()
+    return d is not None and os.access(d, os.W_OK)
 
 
 class _FembLocator(_caching._CacheLocator):
@@ -427,10 +450,17 @@ class _FembCacheImpl(_caching.CompileResultCacheImpl):
 class _FembCache(_caching.FunctionCache):
     _impl_class = _FembCacheImpl
 
+    def _writable(self):
+        return os.access(self.cache_path if os.path.isdir(self.cache_path) else os.path.dirname(self.cache_path),
+                         os.W_OK)
+
     def load_overload(self, sig, target_context):
         try:
             cres = super().load_overload(sig, target_context)
         except OSError:
+            return None
+        except Exception as e:            # a truncated or damaged entry (pickle, EOF, rebuild errors)
+            self._discard(e)
             return None
         # an entry is only used for the signature it was compiled for (never a crash from
         # an index that points at another signature's code)
@@ -444,16 +474,49 @@ class _FembCache(_caching.FunctionCache):
                 return None
         return cres
 
+    def _discard(self, err):
+        """Remove this function's index and data files after ``err`` reading them (one warning)."""
+        cf = self._cache_file
+        base = self._impl.filename_base
+        files = [cf._index_path] + sorted(str(p) for p in Path(self.cache_path).glob(f"{_glob_escape(base)}.*.nbc"))
+        removed = False
+        if self._writable():
+            try:
+                with _file_lock(os.path.join(self.cache_path, base + ".lock")):
+                    for f in files:
+                        with _contextlib.suppress(FileNotFoundError):
+                            os.unlink(f)
+                removed = True
+            except OSError:
+                pass
+        if not _cache_state["damaged"]:
+            what = ("discarded it and compiling again" if removed else
+                    "it cannot be removed (the cache is not writable): compiling in memory")
+            _warnings.warn(f"femb: the compile cache entry {cf._index_path} is damaged "
+                           f"({type(err).__name__}: {str(err)[:120]}); {what}", CacheWarning, stacklevel=4)
+        _cache_state["damaged"] += 1
+
     def save_overload(self, sig, data):
         # numba's index/data files are not safe against two processes saving signatures of one
         # function at once: both can pick the same data file name, and the index then points
         # at the other signature's code (a crash when it is called). One writer at a time.
+        if not self._writable():
+            _warn_unwritable(self.cache_path, "permission denied")
+            _cache_state["in_memory"] += 1
+            return
         try:
             os.makedirs(self.cache_path, exist_ok=True)
             with _file_lock(os.path.join(self.cache_path, self._impl.filename_base + ".lock")):
-                super().save_overload(sig, data)
+                try:
+                    super().save_overload(sig, data)
+                except OSError:
+                    raise
+                except Exception as e:      # a damaged index in the way: discard it, save afresh
+                    self._discard(e)
+                    super().save_overload(sig, data)
         except OSError as e:
             _warn_unwritable(self.cache_path, e)
+            _cache_state["in_memory"] += 1
 
     def has(self, sig, target_context):
         """Whether an entry for ``sig`` on this CPU is on disk (without loading it)."""
@@ -464,10 +527,16 @@ class _FembCache(_caching.FunctionCache):
             return False
 
 
+def _glob_escape(s):
+    import glob
+    return glob.escape(s)
+
+
 def use_cache(disp, extra="", prefix=""):
     """Give a numba dispatcher femb's disk cache (keyed by :func:`source_key`); returns it.
 
-    Without a writable cache directory the dispatcher compiles in memory (one warning).
+    Without a cache directory the dispatcher compiles in memory (one warning); a read-only
+    one serves the entries it holds.
     """
     if jit_disabled():
         return disp
@@ -498,12 +567,11 @@ def compile_lock(name):
     """An exclusive lock (``<cache>/numba/<name>.lock``) held while compiling, so that several
     processes that need the same code (test workers, Dask workers) compile it once while the
     others wait, then load it from the cache. No lock without a writable cache."""
-    root = None if jit_disabled() else numba_cache_dir()
-    if root is None:
+    if not cache_writable():
         yield
         return
     try:
-        lock = _file_lock(root / f"{name}.lock")
+        lock = _file_lock(numba_cache_dir() / f"{name}.lock")
         lock.__enter__()
     except OSError:
         yield
@@ -515,23 +583,27 @@ def compile_lock(name):
 
 
 @_contextlib.contextmanager
-def _file_lock(path):
-    """An exclusive advisory lock on ``path`` (created), held inside the ``with`` block.
+def _file_lock(path, timeout=None):
+    """An exclusive lock on ``path`` (created), held inside the ``with`` block (``filelock``:
+    ``flock`` on POSIX, ``msvcrt`` locking on Windows; released when the process dies).
 
-    POSIX ``flock``; where there is none (Windows), no lock: processes may then compile the
-    same code twice, and numba's own atomic writes keep the cache usable.
+    After ``timeout`` seconds (default :data:`LOCK_TIMEOUT`) of waiting for another process
+    the block runs without the lock (one :class:`CacheWarning`): the worst case is the same
+    code compiled twice, and numba's atomic writes keep the cache usable.
     """
+    import filelock
+    lock = filelock.FileLock(str(path), timeout=LOCK_TIMEOUT if timeout is None else timeout)
     try:
-        import fcntl
-    except ImportError:
+        lock.acquire()
+    except filelock.Timeout:
+        _warnings.warn(f"femb: waited {lock.timeout:.0f} s for the compile lock {path} held by another "
+                       f"process; compiling without it", CacheWarning, stacklevel=3)
         yield
         return
-    with open(path, "a+") as fh:
-        fcntl.flock(fh, fcntl.LOCK_EX)
-        try:
-            yield
-        finally:
-            fcntl.flock(fh, fcntl.LOCK_UN)
+    try:
+        yield
+    finally:
+        lock.release()
 
 
 def package_files_hash(py_func):

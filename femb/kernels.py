@@ -18,8 +18,8 @@ import numpy as np
 from numba.core import types
 
 from femb.errors import ModelError
-from femb.jit import (KERNEL_OPTIONS, ROLE_ARGUMENTS, ROLE_SIGNATURES, _PY_KERNELS, compile_lock, is_cached,
-                      jit_disabled, use_cache)
+from femb.jit import (KERNEL_OPTIONS, ROLE_ARGUMENTS, ROLE_SIGNATURES, _PY_KERNELS, cache_writable, compile_lock,
+                      is_cached, jit_disabled, use_cache)
 
 
 def _f(a):
@@ -151,7 +151,8 @@ def announce_compiled():
         owners = sorted({o for o, _, _ in _fresh})
         dt = sum(d for _, _, d in _fresh)
         print(f"femb: compiled {len(_fresh)} kernel{'s' if len(_fresh) > 1 else ''} of "
-              f"{', '.join(owners)} in {dt:.1f} s (first use of these element types; cached)",
+              f"{', '.join(owners)} in {dt:.1f} s (first use of these element types; "
+              f"{'cached' if cache_writable() else 'in memory only: the compile cache is not writable'})",
               file=sys.stderr, flush=True)
         _fresh.clear()
 

@@ -66,6 +66,7 @@ outputs on the worker), ``sim_time`` (s, the time loop), ``status``
 """
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import inspect
 import itertools
@@ -83,7 +84,7 @@ from pathlib import Path
 
 import numpy as np
 
-from femb.errors import FembError, ParameterError
+from femb.errors import FembError, OutputError, ParameterError
 
 __all__ = ["sweep", "read_results", "make_design", "full_factorial", "sample_design",
            "parse_grid_spec", "parse_range_spec", "run_batch", "plot_results", "output_columns",
@@ -731,15 +732,24 @@ class _Writer:
             self.flush()
 
     def flush(self):
-        if self.path is None or not self.buffer:
+        if self.path is None or not self.buffer or getattr(self, "failed", False):
             return
         import pandas as pd
 
         df = _frame(self.buffer, pd)
         dest = self.path / f"part-{self.stamp}-{self.n_files:05d}.parquet"
         tmp = self.path / f".{dest.name}.tmp"
-        df.to_parquet(tmp, engine="pyarrow", index=False)
-        os.replace(tmp, dest)
+        try:
+            df.to_parquet(tmp, engine="pyarrow", index=False)
+            os.replace(tmp, dest)
+        except OSError as exc:
+            with contextlib.suppress(OSError):
+                tmp.unlink()
+            self.failed = True              # one error: the final flush does not raise a second
+            written = len(self.rows) - len(self.buffer)
+            raise OutputError(f"out: writing {dest} failed ({exc.strerror or exc}); {written} rows in "
+                              f"{self.n_files} files written before are in {self.path} (readable; "
+                              f"--resume runs the rest)") from exc
         self.n_files += 1
         self.buffer = []
         self.last = time.monotonic()
@@ -1010,13 +1020,19 @@ def sweep(scene, *, grid=None, cases=None, samples=None, ranges=None, sampling="
                 r["case"] = position[r["case_id"]]
             done = {r["case_id"] for r in done_rows}
             todo = [c for c in todo if c["case_id"] not in done]
-        out.mkdir(parents=True, exist_ok=True)
+        try:
+            out.mkdir(parents=True, exist_ok=True)
+        except OSError as exc:
+            raise OutputError(f"out: cannot create {out} ({exc.strerror or exc}); nothing was run") from None
         manifest = {"scene": ref.name, "scene_key": ref.key, "parameters": varied, "fixed": params,
                     "run": run_for_id, "outputs": outputs, "t_eval": [t for t, _ in teval] if teval else None,
                     "grid": {k: list(v) for k, v in (grid or {}).items()}, "samples": samples,
                     "ranges": ranges, "sampling": sampling if samples else None, "seed": seed,
                     "cases": len(design)}
-        (out / MANIFEST).write_text(json.dumps(manifest, indent=2, default=repr) + "\n")
+        try:               # the first write: a read-only or full place fails here, before any case runs
+            (out / MANIFEST).write_text(json.dumps(manifest, indent=2, default=repr) + "\n")
+        except OSError as exc:
+            raise OutputError(f"out: cannot write into {out} ({exc.strerror or exc}); nothing was run") from None
 
     writer = _Writer(out, flush_rows, flush_interval)
     total = len(design)

@@ -259,3 +259,149 @@ def test_processes_saving_different_signatures_at_once_never_corrupt_the_cache(t
                              env=_env(cache), capture_output=True, text=True, timeout=600)
         assert out.returncode == 0, out.stderr
         assert out.stdout == expect
+
+
+def _damage(path, how):
+    data = Path(path).read_bytes()
+    if how == "truncated":
+        Path(path).write_bytes(data[:len(data) // 3])
+    elif how == "garbage":
+        Path(path).write_bytes(bytes((7 * i + 13) % 256 for i in range(len(data))))
+    else:
+        Path(path).write_bytes(b"")
+
+
+@pytest.mark.skipif(jit.jit_disabled(), reason="no compilation without the JIT")
+@pytest.mark.parametrize("which, how", [("nbi", "truncated"), ("nbi", "garbage"), ("nbc", "truncated"),
+                                        ("nbc", "garbage"), ("nbc", "empty")])
+def test_a_damaged_kernel_entry_is_discarded_and_compiled_again_with_one_warning(tmp_path, which, how):
+    cache = _engine_only_cache(tmp_path / "cache")
+    folder = _write_user_package(tmp_path / "pkg", "f")
+    script = "import warnings\nwarnings.simplefilter('always')\n" + RUN.format(folder=str(folder), module="user_f")
+    first = subprocess.run([sys.executable, "-c", script], env=_env(cache), capture_output=True, text=True,
+                           timeout=600)
+    assert first.returncode == 0, first.stderr
+    files = sorted((cache / "numba").glob(f"user_f-*/*pull_force*.{which}"))
+    assert files, sorted(p.name for p in (cache / "numba").rglob("*"))
+    for f in files:
+        _damage(f, how)
+    out = subprocess.run([sys.executable, "-c", script], env=_env(cache), capture_output=True, text=True,
+                         timeout=600)
+    assert out.returncode == 0, out.stderr
+    assert out.stdout == first.stdout
+    assert out.stderr.count("CacheWarning") == 1, out.stderr
+    assert "damaged" in out.stderr and "compiling again" in out.stderr
+    assert "Traceback" not in out.stderr
+    # the entry was rewritten: the next run loads it, silently
+    again = subprocess.run([sys.executable, "-c", script], env=_env(cache), capture_output=True, text=True,
+                           timeout=600)
+    assert again.returncode == 0 and again.stdout == first.stdout
+    assert "CacheWarning" not in again.stderr and "compiled" not in again.stderr, again.stderr
+
+
+@pytest.mark.skipif(jit.jit_disabled(), reason="no compilation without the JIT")
+def test_a_damaged_engine_entry_is_discarded_and_compiled_again(tmp_path):
+    cache = _engine_only_cache(tmp_path / "cache")
+    small = sorted((cache / "numba").glob("step-*/step.lie_reset-*.nbc"))
+    assert small
+    for f in small:
+        _damage(f, "garbage")
+    script = ("import warnings\nwarnings.simplefilter('always')\nfrom femb import step\n"
+              "step.ensure_engine(background=False)\nprint('ready')")
+    out = subprocess.run([sys.executable, "-c", script], env=_env(cache), capture_output=True, text=True,
+                         timeout=900)
+    assert out.returncode == 0 and "ready" in out.stdout, out.stderr
+    assert out.stderr.count("CacheWarning") == 1 and "damaged" in out.stderr, out.stderr
+    assert "Traceback" not in out.stderr
+
+
+def _read_only_runner(cache):
+    """A command prefix under which ``cache`` cannot be written (its files stay readable), or None.
+
+    A non-root user: the cache's modes without write permission. Root ignores modes, so root
+    runs the process in a new user namespace (``unshare -U``: same files, no capabilities).
+    """
+    for p in [cache, *cache.rglob("*")]:
+        p.chmod(p.stat().st_mode & ~0o222)
+    if os.geteuid() != 0:
+        return []
+    if shutil.which("unshare"):
+        probe = subprocess.run(["unshare", "-U", sys.executable, "-c",
+                                f"import os; print(os.access({str(cache)!r}, os.W_OK))"],
+                               capture_output=True, text=True, timeout=60)
+        if probe.returncode == 0 and probe.stdout.strip() == "False":
+            return ["unshare", "-U"]
+    return None
+
+
+@pytest.mark.skipif(jit.jit_disabled(), reason="no compilation without the JIT")
+def test_a_complete_read_only_cache_loads_without_compiling_and_never_claims_to_cache(tmp_path):
+    cache = _engine_only_cache(tmp_path / "cache")
+    folder = _write_user_package(tmp_path / "pkg", "g")
+    script = "import warnings\nwarnings.simplefilter('always')\n" + RUN.format(folder=str(folder), module="user_g")
+    fill = subprocess.run([sys.executable, "-c", script], env=_env(cache), capture_output=True, text=True,
+                          timeout=600)
+    assert fill.returncode == 0, fill.stderr
+    for lock in (cache / "numba").rglob("*.lock"):
+        lock.unlink()           # as a copied image would be: no lock files
+    prefix = _read_only_runner(cache)
+    try:
+        if prefix is None:
+            pytest.skip("no way to make a directory read-only for this process")
+        out = subprocess.run([*prefix, sys.executable, "-c", script], env=_env(cache), capture_output=True,
+                             text=True, timeout=600)
+        assert out.returncode == 0, out.stderr
+        assert out.stdout == fill.stdout
+        assert "compil" not in out.stderr and "CacheWarning" not in out.stderr, out.stderr
+        # a kernel that is not there compiles in memory: one warning, never "cached"
+        other = _write_user_package(tmp_path / "pkg2", "h", factor=2.0)
+        script2 = "import warnings\nwarnings.simplefilter('always')\n" + RUN.format(folder=str(other), module="user_h")
+        out = subprocess.run([*prefix, sys.executable, "-c", script2], env=_env(cache), capture_output=True,
+                             text=True, timeout=600)
+        assert out.returncode == 0, out.stderr
+        assert "compiling the engine" not in out.stderr
+        assert out.stderr.count("CacheWarning") == 1 and "not writable" in out.stderr, out.stderr
+        assert "cached" not in out.stderr.replace("not writable", ""), out.stderr
+        assert "in memory" in out.stderr
+    finally:
+        for p in [cache, *cache.rglob("*")]:
+            p.chmod(p.stat().st_mode | 0o200)
+
+
+def test_the_lock_is_filelock_with_a_timeout(tmp_path):
+    import threading
+    import warnings
+    path = tmp_path / "x.lock"
+    held, release = threading.Event(), threading.Event()
+
+    def holder():
+        with jit._file_lock(path):
+            held.set()
+            release.wait(30)
+
+    t = threading.Thread(target=holder)
+    t.start()
+    held.wait(30)
+    try:
+        with warnings.catch_warnings(record=True) as w:
+            warnings.simplefilter("always")
+            with jit._file_lock(path, timeout=0.2):
+                pass
+        assert any(issubclass(x.category, jit.CacheWarning) and "compile lock" in str(x.message) for x in w)
+    finally:
+        release.set()
+        t.join()
+
+
+def test_the_default_cache_location_follows_platformdirs_and_the_environment(tmp_path, monkeypatch):
+    import platformdirs
+    monkeypatch.delenv("FEMB_CACHE_DIR", raising=False)
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "xdg"))
+    assert jit.cache_dir() == Path(platformdirs.user_cache_dir("femb", appauthor=False))
+    if sys.platform.startswith("linux"):
+        assert jit.cache_dir() == tmp_path / "xdg" / "femb"
+        monkeypatch.delenv("XDG_CACHE_HOME")
+        monkeypatch.setenv("HOME", str(tmp_path / "home"))
+        assert jit.cache_dir() == tmp_path / "home" / ".cache" / "femb"
+    monkeypatch.setenv("FEMB_CACHE_DIR", str(tmp_path / "mine"))
+    assert jit.cache_dir() == tmp_path / "mine" and (tmp_path / "mine").is_dir()

@@ -60,7 +60,7 @@ def ensure_engine(verbose=True):
     """
     import sys
     import time
-    from femb.jit import compile_lock, is_cached, jit_disabled
+    from femb.jit import cache_writable, compile_lock, is_cached, jit_disabled
     if _ENGINE["ready"] or jit_disabled():
         return False
     sigs = engine_signatures()
@@ -75,7 +75,8 @@ def ensure_engine(verbose=True):
             # any other argument types are a bug of the caller, not a reason to compile again
             d.disable_compile()
     if missing and verbose:
-        print(f"femb: engine compiled in {time.perf_counter() - t0:.1f} s, cached for later runs",
-              file=sys.stderr, flush=True)
+        kept = ("cached for later runs" if cache_writable() else
+                "in memory for this run only (the compile cache is not writable)")
+        print(f"femb: engine compiled in {time.perf_counter() - t0:.1f} s, {kept}", file=sys.stderr, flush=True)
     _ENGINE["ready"] = True
     return bool(missing)

@@ -283,7 +283,7 @@ class VTKStream:
         return self
 
     def __exit__(self, exc_type, exc, tb):
-        self.close()
+        self.writer.__exit__(exc_type, exc, tb)      # no second error while one is in flight
         return False
 
 

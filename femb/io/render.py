@@ -43,7 +43,7 @@ from pathlib import Path
 import numpy as np
 
 from .progress import progress as _progress
-from .vtk import OutputError, read_pvd
+from .vtk import OutputError, check_writable_dir, read_pvd
 
 __all__ = ["can_render", "render_png", "render_strip", "render_animation", "camera_3d", "picture_scene"]
 
@@ -309,8 +309,12 @@ def _check_suffix(path, allowed, param):
             f"{param}={str(path)!r}: unknown output suffix {suf or '(none)'!r}; "
             f"expected {' or '.join(allowed)}"
         )
-    if not path.parent.is_dir():
-        raise OutputError(f"{param}={str(path)!r}: directory {path.parent} does not exist")
+    try:
+        check_writable_dir(path.parent, "folder of the output file")
+    except OutputError as exc:
+        raise OutputError(f"{param}={str(path)!r}: {exc}") from None
+    if path.is_dir():
+        raise OutputError(f"{param}={str(path)!r}: is a folder; give a file name")
     return path, suf
 
 
@@ -1103,10 +1107,19 @@ def render_animation(
                         bar.update(1)
             finally:
                 pl.close()
+    except OSError as exc:              # a full disk while frames stream to the file
+        sink.abort()
+        raise OutputError(f"{out}: writing the animation failed after {sink.count} frames "
+                          f"({exc.strerror or exc}); {'the earlier file is unchanged' if out.exists() else 'nothing was written'}") from exc
     except BaseException:
         sink.abort()
         raise
-    sink.close()
+    try:
+        sink.close()
+    except OSError as exc:
+        sink.abort()
+        raise OutputError(f"{out}: finishing the animation failed ({exc.strerror or exc}); "
+                          f"{'the earlier file is unchanged' if out.exists() else 'nothing was written'}") from exc
     return out
 
 
@@ -1122,6 +1135,9 @@ def _save_png(img, out):
     try:
         Image.fromarray(img).save(tmp, format="PNG")
         os.replace(tmp, out)
+    except OSError as exc:
+        raise OutputError(f"{out}: cannot write the picture ({exc.strerror or exc}); "
+                          f"{'the earlier file is unchanged' if out.exists() else 'nothing was written'}") from exc
     finally:
         if tmp.exists():
             tmp.unlink()

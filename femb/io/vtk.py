@@ -453,6 +453,29 @@ def _pvd_text(entries):
     return "\n".join(lines) + "\n"
 
 
+def check_writable_dir(directory, what="output directory"):
+    """Raise :class:`OutputError` unless a file can be created in ``directory`` (an existing folder).
+
+    Creates and removes one empty probe file: permission bits (:func:`os.access`) do not tell
+    for root, a read-only mount or a network share, a real file does.
+    """
+    directory = Path(directory)
+    if not directory.is_dir():
+        why = "is a file, not a folder" if directory.exists() else "does not exist"
+        parent = next((p for p in directory.parents if p.exists()), None)
+        if parent is not None and not parent.is_dir():
+            why = f"lies under {parent}, which is a file, not a folder"
+        raise OutputError(f"{directory}: the {what} {why}; nothing was written")
+    probe = directory / f".femb-write-test.{os.getpid()}"
+    try:
+        with open(probe, "wb"):
+            pass
+        probe.unlink()
+    except OSError as exc:
+        raise OutputError(f"{directory}: cannot write into the {what} ({exc.strerror or exc}); "
+                          f"nothing was written") from None
+
+
 def _atomic_write_text(path, text):
     path = Path(path)
     tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
@@ -518,6 +541,8 @@ class TimeSeriesWriter:
             self.directory.mkdir(parents=True, exist_ok=True)
         except OSError as exc:
             raise OutputError(f"cannot create output directory {self.directory}: {exc}") from exc
+        check_writable_dir(self.directory)
+        self._listed = 0          # frames listed in the .pvd file on disk
         self.basename = basename
         self.every = int(every)
         self.compression = compression
@@ -577,16 +602,37 @@ class TimeSeriesWriter:
         else:
             mesh = merge_blocks(blocks_or_mesh, field_data=fd)
         fname = f"{self.basename}_{len(self.entries):06d}.vtu"
-        write_vtu(self.directory / fname, mesh, compression=self.compression)
+        try:
+            write_vtu(self.directory / fname, mesh, compression=self.compression)
+        except (OutputError, OSError) as exc:
+            self._fail(f"writing frame {len(self.entries)} ({fname}, t = {t:.6g} s) failed", exc)
         self.entries.append((t, fname))
         now = _time.monotonic()
         if now - self._last_flush >= PVD_FLUSH_INTERVAL:
             self.flush()
         return fname
 
+    def _fail(self, what, exc):
+        """Raise one OutputError: what failed, and what is on disk (listed in the .pvd, readable)."""
+        if self._listed < len(self.entries):
+            try:                  # list what was written, if the disk still takes the small .pvd
+                self.flush()
+            except OutputError:
+                pass
+        self._closed = True
+        cause = exc.strerror if isinstance(exc, OSError) and exc.strerror else str(exc).splitlines()[0]
+        listed = (f"{self._listed} frame{'s' if self._listed != 1 else ''} written before, listed in {self.path}"
+                  if self._listed else f"no frame listed in {self.path}")
+        raise OutputError(f"{self.directory}: {what}: {cause}; {listed} (readable)") from exc
+
     def flush(self):
         """Rewrite the ``.pvd`` collection now (atomically)."""
-        _atomic_write_text(self.path, _pvd_text(self.entries))
+        try:
+            _atomic_write_text(self.path, _pvd_text(self.entries))
+        except OSError as exc:
+            raise OutputError(f"{self.path}: cannot write the collection file ({exc.strerror or exc}); "
+                              f"{self._listed} frames listed in it before (readable)") from exc
+        self._listed = len(self.entries)
         self._last_flush = _time.monotonic()
 
     def close(self):
@@ -594,13 +640,22 @@ class TimeSeriesWriter:
         if self._closed:
             return
         self._closed = True
-        self.flush()
+        try:
+            self.flush()
+        except OutputError as exc:
+            self._fail("writing the collection file at the end failed", exc.__cause__ or exc)
 
     def __enter__(self):
         return self
 
     def __exit__(self, exc_type, exc, tb):
-        self.close()
+        if exc_type is None:
+            self.close()
+        else:             # the error in flight names the failure: do not raise a second one
+            try:
+                self.close()
+            except OutputError:
+                pass
         return False
 
     def __repr__(self):
