@@ -22,7 +22,7 @@ class Mechanism:
     (3, 2)
     """
 
-    def __init__(self, name="mechanism"):
+    def __init__(self, name: str = "mechanism") -> None:
         from femb.elements.bodies import Ground  # the ground is a body of the element library
 
         self.name = str(name)
@@ -51,6 +51,30 @@ class Mechanism:
 
     def __contains__(self, name):
         return name in self._by_name
+
+    # ------------------------------------------------------------ display
+    def _summary(self):
+        """(title, rows) for :meth:`__repr__` and :meth:`_repr_html_`."""
+        from collections import Counter
+
+        from femb.summary import short_list
+
+        kinds = Counter(type(e).__name__ for e in self._elements)
+        spatial = any(getattr(type(e), "spatial", False) for e in self._elements)
+        rows = [("elements", f"{len(self._elements)}: " + short_list(f"{n} {k}" for k, n in kinds.items())),
+                ("names", short_list(e.name for e in self._elements) or "none"),
+                ("kind", "spatial" if spatial else "planar")]
+        return f"femb Mechanism '{self.name}'", rows
+
+    def __repr__(self):
+        from femb.summary import text
+
+        return text(*self._summary())
+
+    def _repr_html_(self):
+        from femb.summary import html
+
+        return html(*self._summary())
 
     @property
     def elements(self):

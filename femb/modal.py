@@ -41,7 +41,7 @@ from femb.model import State
 DENSE_LIMIT = 400
 
 
-@dataclass
+@dataclass(repr=False)
 class ModalResult:
     """Eigenfrequencies and mode shapes of a linearized model.
 
@@ -75,6 +75,27 @@ class ModalResult:
     def frequency(self):
         """Eigenfrequencies in Hz, shape (k,)."""
         return self.omega / (2.0 * np.pi)
+
+    def _summary(self):
+        """(title, rows) for :meth:`__repr__` and :meth:`_repr_html_`."""
+        from femb.summary import short_list
+
+        rows = [("modes", f"{len(self.omega)} of nq = {self.model.nq}, {self.method} method"),
+                ("frequency", short_list((f"{f:.5g}" for f in self.frequency), 6) + " Hz"),
+                ("reference", f"t = {float(self.state.t):.6g} s; modes {tuple(self.modes.shape)}, "
+                              "mass normalized"),
+                ("asymmetry", f"{self.asymmetry:.2e} (of K_t, before symmetrization)")]
+        return f"femb ModalResult of '{self.model.name}'", rows
+
+    def __repr__(self):
+        from femb.summary import text
+
+        return text(*self._summary())
+
+    def _repr_html_(self):
+        from femb.summary import html
+
+        return html(*self._summary())
 
     def node_mode(self, name, k):
         """Components of mode ``k`` at node ``name`` (fixed coordinates are 0), shape (ncoord,).
@@ -187,7 +208,7 @@ def modal_analysis(model, state=None, n_modes=6, *, t=None, method="auto", sigma
                        info=info)
 
 
-@dataclass
+@dataclass(repr=False)
 class BucklingResult:
     """Linearized buckling load factors and modes.
 
@@ -208,6 +229,25 @@ class BucklingResult:
     factors: np.ndarray
     modes: np.ndarray
     delta: float
+
+    def _summary(self):
+        """(title, rows) for :meth:`__repr__` and :meth:`_repr_html_`."""
+        from femb.summary import short_list
+
+        rows = [("load factors", short_list((f"{f:.6g}" for f in self.factors), 6)),
+                ("modes", f"{tuple(self.modes.shape)}, max-abs normalized"),
+                ("K_G", f"central difference at load factors ±{self.delta:.3g}")]
+        return f"femb BucklingResult of '{self.model.name}'", rows
+
+    def __repr__(self):
+        from femb.summary import text
+
+        return text(*self._summary())
+
+    def _repr_html_(self):
+        from femb.summary import html
+
+        return html(*self._summary())
 
 
 def buckling_analysis(model, n_modes=4, *, t=0.0, load_types=None, delta=1e-3):

@@ -718,6 +718,38 @@ class Result:
                 raise OutputError(f"Result.plot: cannot write '{file}': {err}") from err
         return fig
 
+    # ------------------------------------------------------------ display (console and notebooks)
+    def _summary(self):
+        """(title, rows) for :meth:`__repr__` and :meth:`_repr_html_`."""
+        from femb.summary import short_list, span
+
+        st = self.settings or {}
+        if st.get("adaptive"):
+            how = (f"adaptive, rtol = {st.get('rtol'):.3g}, {getattr(self, 'n_rejected', 0)} rejected"
+                   if st.get("rtol") is not None else "adaptive")
+        elif st.get("h") is not None:
+            how = f"fixed h = {st['h']:.6g} s"
+        else:
+            how = "given"
+        outs = self.outputs()
+        owners, n_out = list(dict.fromkeys(n.partition(".")[0] for n in outs)), len(outs)
+        status = self.status + (f": {self.message}" if self.message and not self.success else "")
+        rows = [("status", status), ("time", span(self.t)),
+                ("steps", f"{self.steps} ({how}), {self.wall_time:.3g} s wall"),
+                ("arrays", f"q {tuple(self.q.shape)}, qd {tuple(self.qd.shape)}, lam {tuple(self.lam.shape)}"),
+                ("outputs", f"{n_out} of " + short_list(owners, 6) + " (series(name), to_pandas(), plot())")]
+        return f"femb Result of '{self.model.name}'", rows
+
+    def __repr__(self):
+        from femb.summary import text
+
+        return text(*self._summary())
+
+    def _repr_html_(self):
+        from femb.summary import html
+
+        return html(*self._summary())
+
 
 def _multiplier_unit(model, i):
     """Unit of multiplier i: the joint type's ``constraint_units`` entry, or ``"λ"`` when it declares none."""

@@ -105,7 +105,7 @@ from femb.result import Result
 DENSE_LIMIT = 400
 
 
-@dataclass
+@dataclass(repr=False)
 class StaticResult(Result):
     """Converged load levels of :func:`solve_static` (a :class:`~femb.result.Result`).
 
@@ -199,6 +199,24 @@ class StaticResult(Result):
             out.append((2 * x**3 - 3 * x**2 + 1) * a0 + (x**3 - 2 * x**2 + x) * b0
                        + (-2 * x**3 + 3 * x**2) * a1 + (x**3 - x**2) * b1)
         return np.array(out)
+
+    def _summary(self):
+        """(title, rows) for ``repr`` and ``_repr_html_`` (see :class:`~femb.result.Result`)."""
+        from femb.summary import short_list
+
+        mu = np.asarray(self.t, dtype=float)
+        solves = len(self.path)
+        failed = sum(1 for p in self.path if not p.get("converged"))
+        outs = self.outputs()
+        owners, n_out = list(dict.fromkeys(n.partition(".")[0] for n in outs)), len(outs)
+        rows = [("status", self.status + (f": {self.message}" if self.message and not self.success else "")),
+                ("strategy", f"{self.strategy}, {solves} Newton solve(s), {failed} failed (describe_path())"),
+                ("load factors", (f"{mu[0]:.6g} … {mu[-1]:.6g} ({mu.size} equilibria stored)" if mu.size
+                                  else "none stored")),
+                ("time", f"loads evaluated at t = {self.time:.6g} s"),
+                ("arrays", f"q {tuple(self.q.shape)}, lam {tuple(self.lam.shape)}"),
+                ("outputs", f"{n_out} of " + short_list(owners, 6) + " (series(name))")]
+        return f"femb StaticResult of '{self.model.name}'", rows
 
     def describe_path(self):
         """The route to the equilibrium as text, one line per Newton solve."""
