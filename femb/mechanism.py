@@ -3,6 +3,7 @@ from __future__ import annotations
 
 from femb.element import Element
 from femb.errors import ModelError
+from femb.model import Model
 
 
 class Mechanism:
@@ -30,7 +31,7 @@ class Mechanism:
         self._elements = []
         self._by_name = {"ground": self.ground}
 
-    def add(self, *elements):
+    def add(self, *elements: Element) -> Element | tuple[Element, ...]:
         """Add elements; returns the element (or a tuple of them)."""
         if not elements:
             raise ModelError("Mechanism.add: nothing to add")
@@ -43,7 +44,7 @@ class Mechanism:
             self._elements.append(e)
         return elements[0] if len(elements) == 1 else elements
 
-    def __getitem__(self, name):
+    def __getitem__(self, name: str) -> Element:
         try:
             return self._by_name[name]
         except KeyError:
@@ -81,7 +82,8 @@ class Mechanism:
         """The elements, in the order they were added (list)."""
         return list(self._elements)
 
-    def compile(self, *, length_scale=None, redundant="error", max_initial_move=None):
+    def compile(self, *, length_scale: float | None = None, redundant: str = "error",
+                max_initial_move: float | None = None) -> Model:
         """Freeze the mechanism into a :class:`~femb.model.Model`.
 
         Parameters

@@ -35,7 +35,7 @@ import scipy.sparse.linalg as spla
 
 from femb import assembly
 from femb.errors import ModelError, ParameterError, SingularMatrixError
-from femb.model import State
+from femb.model import Model, State
 
 #: models with at most this many free coordinates use the dense null-space method
 DENSE_LIMIT = 400
@@ -123,7 +123,8 @@ def _reference_state(model, state, t):
     return st
 
 
-def modal_analysis(model, state=None, n_modes=6, *, t=None, method="auto", sigma=None):
+def modal_analysis(model: Model, state: State | None = None, n_modes: int = 6, *, t: float | None = None,
+                   method: str = "auto", sigma: float | None = None) -> ModalResult:
     """Lowest eigenfrequencies and modes of the linearized constrained model.
 
     Parameters
@@ -250,7 +251,8 @@ class BucklingResult:
         return html(*self._summary())
 
 
-def buckling_analysis(model, n_modes=4, *, t=0.0, load_types=None, delta=1e-3):
+def buckling_analysis(model: Model, n_modes: int = 4, *, t: float = 0.0, load_types: tuple[type, ...] | None = None,
+                      delta: float = 1e-3) -> BucklingResult:
     """Linearized (eigenvalue) buckling about the unloaded initial configuration.
 
     The tangent stiffness along the equilibrium path q(μ) of the load factor μ

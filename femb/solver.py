@@ -26,15 +26,18 @@ from __future__ import annotations
 import math
 import time
 import warnings
+from typing import Any, Callable
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from femb.alpha import GeneralizedAlpha
 from femb.errors import SINGULAR_HINT_DIVERGED, ConvergenceError, ModelError, ParameterError, SingularMatrixError
 from femb.initial import consistent_initial_state, singular_hint  # noqa: F401  (re-exported)
 from femb import step as S
 from femb.jit import pack
-from femb.model import State
+from femb.mechanism import Mechanism
+from femb.model import Model, State
 from femb.result import Result
 
 #: systems with at most this many unknowns use dense LU in the (Python) initialization
@@ -658,10 +661,13 @@ class GeneralizedAlphaSolver:
 
 
 # --------------------------------------------------------------------------
-def simulate(model, t_end, h=None, *, rtol=None, atol=None, h0=None, h_max=None, t_eval=None,
-             start="consistent", formulation="index3", rho_inf=None, alpha=None, scaling=True, t0=0.0,
-             state=None, stride=1, store=True, observer=None, initialize=True, progress=False,
-             check_convergence=False, **options):
+def simulate(model: Model | Mechanism, t_end: float, h: float | None = None, *, rtol: float | None = None,
+             atol: float | ArrayLike | None = None, h0: float | None = None, h_max: float | None = None,
+             t_eval: ArrayLike | None = None, start: str = "consistent", formulation: str = "index3",
+             rho_inf: float | None = None, alpha: GeneralizedAlpha | None = None, scaling: bool = True,
+             t0: float = 0.0, state: State | None = None, stride: int = 1, store: bool = True,
+             observer: Callable[..., Any] | None = None, initialize: bool = True, progress: bool = False,
+             check_convergence: bool = False, **options: Any) -> Result:
     """Integrate a model from t0 to t_end, with fixed steps (``h``) or adaptive steps (``rtol``).
 
     Parameters

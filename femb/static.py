@@ -90,6 +90,7 @@ from __future__ import annotations
 import math
 import warnings
 from dataclasses import dataclass, field
+from typing import Any, Callable, Sequence
 
 import numpy as np
 import scipy.linalg as sla
@@ -98,7 +99,7 @@ import scipy.sparse.linalg as spla
 
 from femb import assembly, kernels
 from femb.errors import ConvergenceError, ParameterError, PathJumpWarning, SingularMatrixError
-from femb.model import State
+from femb.model import Model, State
 from femb.result import Result
 
 #: saddle-point systems with at most this many unknowns are solved with dense LU
@@ -723,11 +724,15 @@ def stability(model, q, lam, t=0.0, max_size=1500):
     return float(e.min() / big) if big > 0.0 else 0.0
 
 
-def solve_static(model, *, load_steps=None, load_factors=None, t=0.0, state=None, load_types=None,
-                 rtol=1e-10, atol=0.0, phi_tol=1e-12, xtol=1e-12, max_iter=30, min_step=1e-4,
-                 fallback_steps=10, predictor="secant", observer=None, method="load_control",
-                 arc_length=None, arc_length_min=None, arc_length_max=None, load_weight=None,
-                 target_load_factor=1.0, max_steps=None, max_limit_points=None, desired_iterations=6):
+def solve_static(model: Model, *, load_steps: int | None = None, load_factors: Sequence[float] | None = None,
+                 t: float = 0.0, state: State | None = None, load_types: tuple[type, ...] | None = None,
+                 rtol: float = 1e-10, atol: float = 0.0, phi_tol: float = 1e-12, xtol: float = 1e-12,
+                 max_iter: int = 30, min_step: float = 1e-4, fallback_steps: int = 10, predictor: str = "secant",
+                 observer: Callable[..., Any] | None = None, method: str = "load_control",
+                 arc_length: float | None = None, arc_length_min: float | None = None,
+                 arc_length_max: float | None = None, load_weight: float | None = None,
+                 target_load_factor: float = 1.0, max_steps: int | None = None,
+                 max_limit_points: int | None = None, desired_iterations: int = 6) -> StaticResult:
     """Static equilibrium: full load at once, load stepping, or arc-length continuation.
 
     ``method="load_control"`` (default): full load at once, load stepping when

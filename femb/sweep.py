@@ -80,8 +80,14 @@ import warnings
 from collections import OrderedDict
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any, Callable, Mapping, Sequence
 
 import numpy as np
+
+try:        # the sweep extra; here only for the return annotation (typing.get_type_hints)
+    from pandas import DataFrame
+except ImportError:     # pragma: no cover - without pandas, sweep() says which extra to install
+    DataFrame = Any
 
 from femb.errors import FembError, ParameterError
 
@@ -824,11 +830,18 @@ def _simulate_needs_h():
     return p is not None and p.default is inspect.Parameter.empty
 
 
-def sweep(scene, *, grid=None, cases=None, samples=None, ranges=None, sampling="lhs", seed=None,
-          params=None, t_end=None, h=None, rtol=None, atol=None, rho_inf=None, solver_options=None,
-          outputs=None, outputs_fn=None, t_eval=None, client=None, n_workers=None, batch_size=None,
-          out=None, resume=False, trajectories=None, progress=None, flush_rows=2000,
-          flush_interval=10.0, max_attempts=3, cache_dir=None):
+def sweep(scene: str | os.PathLike | Callable[..., Any], *, grid: Mapping[str, Sequence[Any]] | None = None,
+          cases: Sequence[Mapping[str, Any]] | None = None, samples: int | None = None,
+          ranges: Mapping[str, tuple] | None = None, sampling: str = "lhs", seed: int | None = None,
+          params: Mapping[str, Any] | None = None, t_end: float | None = None, h: float | None = None,
+          rtol: float | None = None, atol: float | None = None, rho_inf: float | None = None,
+          solver_options: Mapping[str, Any] | None = None, outputs: Sequence[str] | None = None,
+          outputs_fn: Callable[..., Any] | None = None, t_eval: Sequence[float] | None = None,
+          client: Any = None, n_workers: int | None = None, batch_size: int | None = None,
+          out: str | os.PathLike | None = None, resume: bool = False,
+          trajectories: str | os.PathLike | None = None, progress: bool | Callable[..., Any] | None = None,
+          flush_rows: int = 2000, flush_interval: float = 10.0, max_attempts: int = 3,
+          cache_dir: str | None = None) -> DataFrame:
     """Run a scene for every case of a design on a Dask cluster; one table row per case.
 
     Parameters
