@@ -83,6 +83,17 @@ def _json_value(v):
     return f if math.isfinite(f) else None
 
 
+def _provenance(scene, params, settings):
+    """What a ``--json`` record needs to be reproduced and read: femb's version, the solver settings,
+    every parameter (defaults too) with value and unit, and the units of the outputs."""
+    from femb import __version__
+    from femb.parsing import parameter_record, plain
+
+    return {"femb_version": __version__, "settings": plain(dict(settings)),
+            "params": parameter_record(scene.parameter_info(), params),
+            "output_units": {k: u for k, (_, u) in scene.output_info().items()}}
+
+
 def _write_json(data, dest):
     text = json.dumps(data, indent=2) + "\n"
     if dest == "-":
@@ -330,12 +341,12 @@ def cmd_run(args):
         "newton_iterations": iters,
         "wall_time_s": result.wall_time,
         "outputs": final,
-        "params": {k: _json_value(v) for k, v in params.items()},
         "newton_per_step": iters / max(result.steps, 1),
         "us_per_step": 1e6 * result.wall_time / max(result.steps, 1),
         "total_time_s": total,
         "source": scene.source,
     }
+    data.update(_provenance(scene, params, result.settings))
     if args.json:
         _write_json(data, args.json)
     if args.json != "-":
@@ -372,8 +383,8 @@ def _run_static(scene, params, args):
     final = {k: _json_value(v[-1]) for k, v in scene.outputs(result).items()}
     kind = getattr(scene.module, "ANALYSIS", "static")
     data = {"scene": scene.name, "analysis": kind, "levels": [float(x) for x in result.t],
-            "outputs": final, "params": {k: _json_value(v) for k, v in params.items()},
-            "total_time_s": total, "source": scene.source}
+            "outputs": final, "total_time_s": total, "source": scene.source}
+    data.update(_provenance(scene, params, {k: v for k, v in params.items() if k not in scene.parameters()}))
     if args.json:
         _write_json(data, args.json)
     if args.json != "-":

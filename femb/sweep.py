@@ -415,6 +415,7 @@ class SceneRef:
     outputs: object = None
     defaults: dict = field(default_factory=dict)
     parameters: dict | None = None      # build() keywords (None: accepts any)
+    units: dict = field(default_factory=dict)   # parameter and output name -> unit (a scene's PARAMETERS, OUTPUTS)
 
 
 def scene_ref(scene, outputs_fn=None):
@@ -429,14 +430,16 @@ def scene_ref(scene, outputs_fn=None):
         scene = loaded
     if isinstance(scene, registry.Scene):
         params = None if scene.accepts_any_parameter() else scene.parameters()
+        units = {k: u for k, (_, _, u) in scene.parameter_info().items()}
+        units.update({k: u for k, (_, u) in scene.output_info().items()})
         if scene.source.endswith(".py") or Path(scene.source).is_file():
             text = Path(scene.source).read_text()
             digest = hashlib.sha256(text.encode()).hexdigest()[:16]
             return SceneRef("file", scene.name, f"file:{scene.name}:{digest}", source=text,
                             path=str(Path(scene.source).resolve()), outputs=outputs_fn,
-                            defaults=scene.defaults, parameters=params)
+                            defaults=scene.defaults, parameters=params, units=units)
         return SceneRef("registry", scene.name, f"scene:{scene.name}", outputs=outputs_fn,
-                        defaults=scene.defaults, parameters=params)
+                        defaults=scene.defaults, parameters=params, units=units)
     if callable(scene):
         try:
             sig = inspect.signature(scene)
@@ -711,7 +714,9 @@ def read_results(path):
         except (OSError, ValueError):
             meta = {}
         df.attrs.update(parameters=list(meta.get("parameters") or []), fixed=list(meta.get("fixed") or []),
-                        outputs=list(meta.get("outputs") or []), seed=meta.get("seed"), out=str(path))
+                        outputs=list(meta.get("outputs") or []), seed=meta.get("seed"), out=str(path),
+                        femb_version=meta.get("femb_version"), settings=meta.get("run") or {},
+                        params=meta.get("params") or {}, units=meta.get("units") or {})
     return df
 
 
@@ -991,6 +996,7 @@ def sweep(scene: str | os.PathLike | Callable[..., Any], *, grid: Mapping[str, S
     if len(set(ids)) != len(ids):
         raise ParameterError("the design lists the same case twice")
 
+    record = _record(ref, varied, params, run_for_id)
     done_rows = []
     if out is not None:
         out = Path(out)
@@ -1008,8 +1014,9 @@ def sweep(scene: str | os.PathLike | Callable[..., Any], *, grid: Mapping[str, S
             done = {r["case_id"] for r in done_rows}
             todo = [c for c in todo if c["case_id"] not in done]
         out.mkdir(parents=True, exist_ok=True)
-        manifest = {"scene": ref.name, "scene_key": ref.key, "parameters": varied, "fixed": params,
-                    "run": run_for_id, "outputs": outputs, "t_eval": [t for t, _ in teval] if teval else None,
+        manifest = {"scene": ref.name, "scene_key": ref.key, "femb_version": record["femb_version"],
+                    "parameters": varied, "fixed": params, "run": run_for_id,
+                    "params": record["params"], "units": record["units"], "outputs": outputs, "t_eval": [t for t, _ in teval] if teval else None,
                     "grid": {k: list(v) for k, v in (grid or {}).items()}, "samples": samples,
                     "ranges": ranges, "sampling": sampling if samples else None, "seed": seed,
                     "cases": len(design)}
@@ -1034,8 +1041,28 @@ def sweep(scene: str | os.PathLike | Callable[..., Any], *, grid: Mapping[str, S
     df = _frame(rows, pd) if rows else pd.DataFrame(columns=["case", "case_id"])
     df = df.drop_duplicates("case_id", keep="first").sort_values("case", kind="stable").reset_index(drop=True)
     df.attrs.update(parameters=varied, fixed=list(params), outputs=outputs, seed=seed, out=str(out) if out else None,
-                    n_new=len(writer.rows))
+                    n_new=len(writer.rows), **record)
     return df
+
+
+def _record(ref, varied, fixed, run):
+    """What a sweep's table carries beside its rows (``df.attrs`` and ``_sweep.json``): femb's version,
+    the run and solver settings, every build parameter with its value (fixed, default, or None when
+    varied: the rows hold it) and unit, and the units of parameters and outputs."""
+    from femb import __version__
+    from femb.parsing import parameter_record, plain
+
+    names = dict(ref.parameters or {})
+    for k in list(fixed) + list(varied):
+        names.setdefault(k, None)
+    info = {k: (d, "", ref.units.get(k, "")) for k, d in names.items()
+            if k not in RUN_KEYS and k not in SOLVER_KEYS}
+    params = parameter_record(info, {k: v for k, v in fixed.items() if k in info})
+    for k in varied:
+        if k in params:
+            params[k].update(value=None, given=True, varied=True)
+    return {"femb_version": __version__, "settings": plain(run), "params": params,
+            "units": dict(ref.units)}
 
 
 def _default_batch(n_cases, n_threads):

@@ -135,7 +135,16 @@ def test_run_json_contract(tmp_path, capsys):
     assert data["scene"] == "slider_crank" and data["steps"] == 10
     assert data["t_end"] == pytest.approx(0.05) and data["h"] == pytest.approx(5e-3)
     assert data["rho_inf"] == 0.7 and data["scaling"] is True
-    assert data["params"] == {"T": 2}
+    # every parameter, defaults included, with value and unit; femb's version and the solver settings
+    assert data["params"]["T"] == {"value": 2, "unit": "N m", "given": True}
+    info = registry.load("slider_crank").parameter_info()
+    assert list(data["params"]) == list(info)
+    for k, (default, _, unit) in info.items():
+        assert data["params"][k]["unit"] == unit and (k == "T" or data["params"][k]["given"] is False)
+    assert data["femb_version"] == femb.__version__
+    assert data["settings"]["h"] == pytest.approx(5e-3) and data["settings"]["rho_inf"] == 0.7
+    assert data["settings"]["formulation"] == "index3" and "newton_rtol" in data["settings"]
+    assert data["output_units"]["theta"] == "rad"
     assert {"theta", "x3", "x4", "R_pivot_x", "R_pivot_y"} <= set(data["outputs"])
     assert all(isinstance(v, float) for v in data["outputs"].values())
     assert "theta" in capsys.readouterr().out
@@ -161,7 +170,7 @@ def test_run_scene_file_with_set(tmp_path, capsys):
     out = tmp_path / "o.json"
     assert cli.main(["run", str(p), "--t-end", "0.1", "--h", "1e-3", "--set", "length=1", "--json", str(out)]) == 0
     data = json.loads(out.read_text())
-    assert data["scene"] == "pend" and data["params"] == {"length": 1}
+    assert data["scene"] == "pend" and data["params"]["length"] == {"value": 1, "unit": "", "given": True}
     assert "bar.theta" in data["outputs"]         # no outputs(): the free coordinates
     # no DEFAULTS in the file: t_end and h are required
     capsys.readouterr()
