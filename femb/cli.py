@@ -170,17 +170,20 @@ def _print_parameters(scene, indent):
 def _print_outputs(scene, indent, *, detail):
     info = scene.output_info()
     if not info:
-        if detail:
-            try:
-                labels = scene.model().coord_labels
-            except Exception as exc:  # a user's scene file: say why, do not crash
-                print(f"{indent}(not described; building the model failed: {type(exc).__name__}: {exc})")
-                return
-            print(f"{indent}(the scene has no OUTPUTS; its outputs are the free coordinates)")
-            for label in labels:
-                print(f"{indent}{label}")
-        else:
-            print(f"{indent}(not described; see 'femb list {scene.name}')")
+        if callable(getattr(scene.module, "outputs", None)):
+            print(f"{indent}(named by the scene's outputs(); it has no OUTPUTS table to describe them)")
+            return
+        if not detail:
+            print(f"{indent}(the free coordinates, named BODY.COORDINATE: the scene has no outputs())")
+            return
+        try:
+            labels = _coordinate_labels(scene)
+        except Exception as exc:  # a user's scene file: say why, do not crash
+            print(f"{indent}(not described; building the mechanism failed: {type(exc).__name__}: {exc})")
+            return
+        print(f"{indent}(the scene has no OUTPUTS; its outputs are the free coordinates)")
+        for label in labels:
+            print(f"{indent}{label}")
         return
     if not detail:
         items = [f"{k} {_unit(u)}".rstrip() for k, (_, u) in info.items()]
@@ -197,6 +200,27 @@ def _print_outputs(scene, indent, *, detail):
     w1 = max(len(_unit(u)) for _, u in info.values())
     for k, (m, u) in info.items():
         print(f"{indent}{k:<{w0}}  {_unit(u):<{w1}}  {m}".rstrip())
+
+
+def _coordinate_labels(scene):
+    """Names ``BODY.COORDINATE`` of the free coordinates of a scene built with its defaults, read from its
+    bodies' nodes without compiling the mechanism (compiling would compile element kernels)."""
+    from femb.elements.bodies import Body
+    from femb.model import Model
+
+    built = scene.module.build()
+    if isinstance(built, Model):
+        return list(built.coord_labels)
+    labels, seen = [], set()
+    for e in getattr(built, "elements", ()):
+        if not isinstance(e, Body):
+            continue
+        for nd in e.nodes():
+            if id(nd) in seen:
+                continue
+            seen.add(id(nd))
+            labels += [f"{nd.name}.{c}" for c, fixed in zip(nd.coord_names, nd.fixed) if not fixed]
+    return labels
 
 
 def _print_settings(scene, indent):

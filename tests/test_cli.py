@@ -77,6 +77,35 @@ def test_list_one_scene_in_detail(capsys):
     assert "unknown scene 'nosuch'" in _err_line(capsys)
 
 
+def test_list_compiles_nothing(tmp_path, monkeypatch, capsys):
+    """`femb list` describes scenes from their tables and builders alone: no numba compilation (nor a
+    cache load, which goes through the same call), no model compiled, no background cache build."""
+    import numba.core.dispatcher
+    from femb import cache, kernels
+
+    calls = []
+
+    def forbid(what):
+        def call(*args, **kw):
+            calls.append(what)
+            raise AssertionError(f"femb list called {what}")
+        return call
+
+    monkeypatch.setattr(numba.core.dispatcher.Dispatcher, "compile", forbid("numba's compiler"))
+    monkeypatch.setattr(kernels, "compiled_kernel", forbid("compiled_kernel"))
+    monkeypatch.setattr(cache, "start_background_build", forbid("the background build"))
+    import femb.mechanism
+    monkeypatch.setattr(femb.mechanism.Mechanism, "compile", forbid("Mechanism.compile"))
+    p = tmp_path / "pend.py"
+    p.write_text(SCENE_FILE)
+    for argv in (["list", "bead_attractor"], ["list", "fourbar_driven"], ["list", str(p)], ["list"]):
+        assert cli.main(argv) == 0, argv
+    assert calls == []
+    out = capsys.readouterr().out
+    assert "see 'femb list" not in out               # no scene points back to itself
+    assert "phi1_d     [rad/s]" in out and "T_drive" in out and "bar.theta" in out
+
+
 def test_list_scene_file_without_descriptions(tmp_path, capsys):
     p = tmp_path / "pend.py"
     p.write_text(SCENE_FILE)
@@ -88,7 +117,9 @@ def test_list_scene_file_without_descriptions(tmp_path, capsys):
     assert "outputs are the free coordinates" in out and "bar.theta" in out
 
 
-ALL_SCENES = ["andrews", "slider_crank", "flexible_slider_crank", "spin_up", "pendulum", "singular_slider_crank"]
+ALL_SCENES = ["andrews", "slider_crank", "flexible_slider_crank", "spin_up", "pendulum", "singular_slider_crank",
+              "bead_attractor", "double_pendulum", "force_pulse", "fourbar_driven", "spring_pendulum",
+              "two_bar_pendulum"]
 
 
 @pytest.mark.parametrize("name", ALL_SCENES)
