@@ -724,7 +724,7 @@ def simulate(model: Model | Mechanism, t_end: float, h: float | None = None, *, 
         ``every``-th step and the last one. The compiled loop returns to Python
         only then; without an observer it runs many steps per call.
     progress : bool
-        Show a progress bar (tqdm on a terminal, plain lines otherwise).
+        Show a progress bar with the time remaining (rich on a terminal, plain lines otherwise).
     check_convergence : bool
         Fixed steps: after the run, repeat its first 64 steps with h, h/2 and h/4
         (:func:`femb.diagnostics.fixed_step_warning`, 7 × 64 extra steps) and warn
