@@ -620,7 +620,9 @@ def build_parser():
     bp = sub.add_parser("bench", help="benchmarks: convergence studies and the paper's figures",
                         description="Benchmarks of the seed paper (Arnold & Bruls 2007). "
                         "'femb bench' alone is reserved for the benchmark suite.")
-    bp.add_argument("--quick", action="store_true", help="the suite's quick variant (under 2 minutes)")
+    bp.add_argument("--quick", action="store_true",
+                    help="a small set at reduced size (about a minute): the pendulum's work-precision study "
+                         "and four stress tests")
     bp.add_argument("--out", metavar="DIR", default="bench-report",
                     help="report folder of the suite (default bench-report/)")
     bsub = bp.add_subparsers(dest="bench_command", metavar="BENCH_COMMAND", parser_class=_Parser)
