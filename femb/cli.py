@@ -613,8 +613,9 @@ def build_parser():
     rp.add_argument("--size", type=_count, nargs=2, metavar=("W", "H"), help="picture size in pixels")
     rp.add_argument("--view", type=_view, default=None, metavar="VIEW",
                     help="camera: 3d, iso, front, side, top or AZIMUTH,ELEVATION in degrees (perspective, "
-                    "gravity pointing down the picture), or xy, xz, yz (parallel along an axis); default xy "
-                    "for planar motion, else 3d")
+                    "gravity pointing down the picture), plane (straight onto a planar mechanism), or xy, xz, "
+                    "yz (parallel along an axis); default plane for planar mechanisms, xy for other planar "
+                    "data, else 3d")
     rp.set_defaults(func=cmd_render)
 
     bp = sub.add_parser("bench", help="benchmarks: convergence studies and the paper's figures",

@@ -850,9 +850,10 @@ def render_png(pvd, out_png, time=None, *, scalars=None, window_size=(1024, 768)
         ``"3d"`` (default for 3-D data and femb mechanisms: perspective from
         azimuth −45°, elevation 26° about the up direction, −g or z; for z up
         the direction (1, −1, 0.7)), ``"iso"`` (elevation 35.3°), ``"front"``,
-        ``"side"``, ``"top"``, ``"azimuth,elevation"`` in degrees, or
-        ``"xy"`` (default for planar data), ``"xz"``, ``"yz"``: parallel views
-        along a coordinate axis.
+        ``"side"``, ``"top"``, ``"azimuth,elevation"`` in degrees,
+        ``"plane"`` (default for planar mechanisms written by femb: straight
+        onto the plane z = 0, −g pointing down), or ``"xy"`` (default for other
+        planar data), ``"xz"``, ``"yz"``: parallel views along a coordinate axis.
     trace : sequence of str, optional
         Paths to draw over the whole motion: ``"body"`` (its centre of mass)
         or ``"body:point"`` (a named point), for 3-D mechanisms written by
