@@ -11,6 +11,7 @@ from numpy.typing import ArrayLike
 
 from femb.errors import ModelError
 from femb.model import State
+from femb.summary import Animation
 
 
 #: reaction components of a planar joint (:meth:`Result.series`): force (N) and moment (N·m) on body b
@@ -755,6 +756,55 @@ class Result:
         from femb.summary import html
 
         return html(*self._summary())
+
+    def animate(self, frames: int = 60, *, size: tuple[int, int] = (480, 360), view: str | None = None,
+                fps: float = 20.0) -> Animation:
+        """The motion as an animated GIF, shown inline in a notebook (the pictures of ``femb render``).
+
+        Writes the stored steps to a temporary VTK series and renders it off-screen
+        (:func:`femb.io.render.render_animation`: bodies in their colours, legend, joints, ground).
+
+        Parameters
+        ----------
+        frames : int
+            At most this many pictures, evenly spaced over the stored steps.
+        size : (int, int)
+            Picture size in pixels.
+        view : str, optional
+            As for :func:`femb.io.render.render_png` (default: onto the plane for a planar
+            mechanism, else the 3-D view).
+        fps : float
+            Pictures per second.
+
+        Returns
+        -------
+        femb.summary.Animation
+            ``_repr_html_`` for Jupyter, ``save(path)``, ``data`` (the GIF bytes).
+
+        Raises
+        ------
+        OutputError
+            No off-screen rendering here (:func:`femb.io.can_render`), or bad arguments.
+        """
+        import io
+        import tempfile
+
+        from PIL import Image
+
+        from femb.errors import OutputError
+        from femb.io.render import render_animation
+
+        if not isinstance(frames, (int, np.integer)) or isinstance(frames, bool) or frames < 1:
+            raise OutputError(f"Result.animate: frames must be a positive integer, got {frames!r}")
+        every = max(1, len(self.t) // (4 * int(frames)))         # write no more frames than needed
+        with tempfile.TemporaryDirectory(prefix="femb-animate-") as tmp:
+            pvd = self.write_vtk(tmp, every=every)
+            gif = render_animation(pvd, Path(tmp) / "motion.gif", fps=fps, max_frames=int(frames),
+                                   window_size=tuple(size), view=view)
+            data = gif.read_bytes()
+        with Image.open(io.BytesIO(data)) as im:
+            n = getattr(im, "n_frames", 1)
+        return Animation(data, n)
 
 
 def _multiplier_unit(model, i):

@@ -56,3 +56,33 @@ def span(t) -> str:
     if n == 0:
         return "empty (0 stored)"
     return f"{float(t[0]):.6g} … {float(t[-1]):.6g} s ({n} stored)"
+
+
+class Animation:
+    """An animated GIF of a result, shown inline by Jupyter (see :meth:`femb.Result.animate`).
+
+    Attributes
+    ----------
+    data : bytes
+        The GIF file.
+    frames : int
+        Number of pictures.
+    """
+
+    def __init__(self, data: bytes, frames: int) -> None:
+        self.data = bytes(data)
+        self.frames = int(frames)
+
+    def save(self, path) -> None:
+        """Write the GIF to ``path``."""
+        from pathlib import Path
+
+        Path(path).write_bytes(self.data)
+
+    def _repr_html_(self) -> str:
+        import base64
+
+        return f'<img src="data:image/gif;base64,{base64.b64encode(self.data).decode("ascii")}"/>'
+
+    def __repr__(self) -> str:
+        return f"femb Animation: {self.frames} frames, {len(self.data) / 1024:.0f} KiB GIF (shown inline in Jupyter)"

@@ -110,3 +110,23 @@ def test_planar_png_strip_and_gif(slider_crank, renderer, tmp_path):
     with Image.open(gif) as im:
         frames = [np.asarray(f.convert("RGB")).astype(int) for f in ImageSequence.Iterator(im)]
     assert len(frames) == 3 and all(f.var() > 100 for f in frames)
+
+
+def test_result_animates_inline(renderer):
+    import base64
+    import io
+
+    from PIL import Image
+
+    from femb.errors import OutputError
+
+    res = femb.simulate(load("pendulum").model(), 0.5, 1e-3)
+    anim = res.animate(frames=4, size=(160, 120))
+    html = anim._repr_html_()
+    assert html.startswith('<img src="data:image/gif;base64,')
+    data = base64.b64decode(html.split(",", 1)[1].rstrip('"/>'))
+    assert data == anim.data and anim.frames == 4 and "4 frames" in repr(anim)
+    with Image.open(io.BytesIO(data)) as im:
+        assert im.size == (160, 120) and im.n_frames == 4
+    with pytest.raises(OutputError, match="frames must be a positive integer"):
+        res.animate(frames=0)
