@@ -42,6 +42,7 @@ _EXPORTS = {
     "VTKStream": "frames",
     "write_vtk": "frames",
     "write_vtk_stream": "frames",
+    "OutputChannels": "channels",
 }
 
 __all__ = sorted([*_EXPORTS, "progress"])
