@@ -266,10 +266,9 @@ class _Scan:
         fd0 = _read(pv, entries[0][1]).field_data if entries else {}
         glyphs = [int(np.asarray(fd0[k]).reshape(-1)[0]) for k in fd0.keys() if k.startswith("glyph.")]
         self.mechanism = bool(glyphs)
-        # a planar mechanism (bodies without frames, z = 0): seen straight onto its plane by default
-        self.plane = self.mechanism and self.planar and 2 not in glyphs and float(
-            np.asarray(fd0["gravity"]).reshape(-1)[2] if "gravity" in fd0.keys() and
-            np.asarray(fd0["gravity"]).size >= 3 else 0.0) == 0.0
+        # a planar mechanism (bodies without frames, z = 0, no gravity along z): seen straight onto its plane
+        g = np.asarray(fd0["gravity"], dtype=float).reshape(-1) if "gravity" in fd0.keys() else np.zeros(3)
+        self.plane = self.mechanism and self.planar and 2 not in glyphs and (g.size < 3 or g[2] == 0.0)
         if scalars is not None and not found:
             raise OutputError(
                 f"scalars={scalars!r}: no point or cell data of that name in the frames "
@@ -540,7 +539,8 @@ class _Mechanism:
 
         if view == "plane":             # straight onto the plane of a planar mechanism, its up along -g
             up = self.motion.up
-            d, pic_up = np.array([0.0, 0.0, 1.0]), np.array([up[0], up[1], 0.0]) / max(np.hypot(up[0], up[1]), 1e-300)
+            d, pic_up = np.array([0.0, 0.0, 1.0]), np.array([up[0], up[1], 0.0])
+            pic_up /= max(float(np.hypot(up[0], up[1])), 1e-300)
         else:
             d, pic_up = _direction(view, self.motion.up)
         s = self.motion.joint_size
