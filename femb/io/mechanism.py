@@ -1,4 +1,8 @@
-"""What a picture of a 3-D mechanism shows: bodies, joints, ground, floor, paths.
+"""What a picture of a mechanism shows: bodies, joints, ground, floor, paths.
+
+Spatial and planar mechanisms are drawn by the same parts; a planar one (bodies
+without frames in the plane z = 0) is seen straight onto its plane, without a
+floor, each body's flat outline on a layer of its own.
 
 A frame written by :func:`femb.io.frames.model_blocks` carries, next to its
 geometry, field data naming what each element type is (``glyph.<type>``),
