@@ -39,12 +39,18 @@ __all__ = [
 
 
 def __getattr__(name):
-    """The public names of :data:`_LAZY`, imported from their modules when first asked for."""
-    module = _LAZY.get(name)
-    if module is None:
-        raise AttributeError(f"module 'femb' has no attribute {name!r}")
+    """The public names of :data:`_LAZY`, imported from their modules when first asked for; a
+    submodule (``femb.assembly``, ``femb.static``, ``femb.io``, ...) is imported when first used."""
     import importlib
 
+    module = _LAZY.get(name)
+    if module is None:
+        if not name.startswith("_"):
+            import importlib.util
+
+            if importlib.util.find_spec(f"femb.{name}") is not None:
+                return importlib.import_module(f"femb.{name}")
+        raise AttributeError(f"module 'femb' has no attribute {name!r}")
     value = getattr(importlib.import_module(module), name)
     globals()[name] = value
     return value

@@ -93,3 +93,19 @@ def test_sweep_has_type_hints():
     pytest.importorskip("dask")
     hints = typing.get_type_hints(femb.sweep)
     assert "return" in hints and "scene" in hints
+
+
+def test_import_femb_is_light_and_everything_loads_on_use():
+    """`import femb` loads neither numba nor scipy; public names and submodules come on first use."""
+    import subprocess
+    import sys
+
+    code = ("import sys, femb\n"
+            "assert not [m for m in sys.modules if m.split('.')[0] in ('numba', 'scipy', 'pyvista', 'meshio')]\n"
+            "assert femb.assembly.mass_matrix and femb.static.solve_static and femb.io.read_pvd\n"
+            "assert femb.Mechanism.__module__ == 'femb.mechanism' and callable(femb.simulate)\n"
+            "assert 'numba' in sys.modules\n"
+            "assert set(femb.__all__) <= set(dir(femb))\n"
+            "try:\n    femb.nothing\nexcept AttributeError as e:\n    assert 'nothing' in str(e)\n"
+            "else:\n    raise SystemExit('femb.nothing did not raise')\n")
+    subprocess.run([sys.executable, "-c", code], check=True)
