@@ -94,6 +94,20 @@ def _provenance(scene, params, settings):
             "output_units": {k: u for k, (_, u) in scene.output_info().items()}}
 
 
+def _solve_settings(scene, params):
+    """Settings of a static or buckling scene's ``solve``: its keyword defaults, then what --set gave it."""
+    import inspect
+
+    try:
+        sig = inspect.signature(scene.module.solve)
+    except (TypeError, ValueError):
+        sig = None
+    out = {} if sig is None else {k: p.default for k, p in sig.parameters.items()
+                                  if p.default is not inspect.Parameter.empty}
+    out.update({k: v for k, v in params.items() if k in out or k not in scene.parameters()})
+    return out
+
+
 def _write_json(data, dest):
     text = json.dumps(data, indent=2) + "\n"
     if dest == "-":
@@ -408,7 +422,7 @@ def _run_static(scene, params, args):
     kind = getattr(scene.module, "ANALYSIS", "static")
     data = {"scene": scene.name, "analysis": kind, "levels": [float(x) for x in result.t],
             "outputs": final, "total_time_s": total, "source": scene.source}
-    data.update(_provenance(scene, params, {k: v for k, v in params.items() if k not in scene.parameters()}))
+    data.update(_provenance(scene, params, _solve_settings(scene, params)))
     if args.json:
         _write_json(data, args.json)
     if args.json != "-":
