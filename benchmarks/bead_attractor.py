@@ -37,12 +37,23 @@ from femb.element import Element
 from femb.jit import kernel
 from femb.errors import ModelError
 
-from .chains import add_chain, chain_outputs, reference_outputs
+from .chains import add_chain, chain_output_info, chain_outputs, reference_outputs
 
 #: Scene data (SI units).
 PARAMS = {"mass": 1.0, "inertia": 1e-4, "radius": 1.0, "px": 1.05, "mu": 1.0, "speed": 2.0}
 
 DEFAULTS = {"t_end": 10.0, "h": 1e-3, "rho_inf": 0.9}
+
+PARAMETERS = {
+    "mass": ("bead mass", "kg"),
+    "inertia": ("centroidal inertia of the bead", "kg m^2"),
+    "radius": ("radius of the circle", "m"),
+    "px": ("the attracting point is (px, 0)", "m"),
+    "mu": ("strength μ of U = −μ/|x − P|", "N m^2"),
+    "speed": ("initial speed at (−radius, 0), counter-clockwise", "m/s"),
+}
+
+OUTPUTS = chain_output_info(1)
 
 CONVERGENCE = {"t_end": 10.0, "h": [2e-3, 1e-3, 5e-4, 2.5e-4], "q": ["phi1"],
                "lambda": ["R_pivot_x", "R_pivot_y"]}

@@ -78,6 +78,17 @@ def chain_outputs(result, n, prefix="bar"):
     return out
 
 
+def chain_output_info(n):
+    """``OUTPUTS`` of a scene whose outputs are :func:`chain_outputs` (n bars): {name: (meaning, unit)}."""
+    info = {}
+    for k in range(1, n + 1):
+        info[f"phi{k}"] = (f"angle of bar{k} from the x axis", "rad")
+        info[f"phi{k}_d"] = (f"angular velocity of bar{k}", "rad/s")
+    info["R_pivot_x"] = ("x force of the ground hinge 'pivot' on bar1", "N")
+    info["R_pivot_y"] = ("y force of the ground hinge 'pivot' on bar1", "N")
+    return info
+
+
 def reference_outputs(sol, n):
     """The names of :func:`chain_outputs` from a :func:`planar_chain.solve` solution."""
     out = {}

@@ -28,13 +28,25 @@ import math
 from femb import Mechanism
 from femb.elements import Gravity
 
-from .chains import add_chain, chain_outputs, reference_outputs
+from .chains import add_chain, chain_output_info, chain_outputs, reference_outputs
 
 #: Scene data (SI units).
 PARAMS = {"length": 1.0, "mass": 1.0, "g": 9.81, "theta1": 0.3, "theta2": 0.0, "omega1": 3.0, "omega2": 0.0}
 
 #: A 2 s run at h = 1e-3 s, ρ∞ = 0.8.
 DEFAULTS = {"t_end": 2.0, "h": 1e-3, "rho_inf": 0.8}
+
+PARAMETERS = {
+    "length": ("length of each uniform bar", "m"),
+    "mass": ("mass of each bar (J = m l²/12)", "kg"),
+    "g": ("gravity along −y", "m/s^2"),
+    "theta1": ("initial angle of bar1 from the downward vertical", "rad"),
+    "theta2": ("initial angle of bar2 from the downward vertical", "rad"),
+    "omega1": ("initial angular velocity of bar1", "rad/s"),
+    "omega2": ("initial angular velocity of bar2", "rad/s"),
+}
+
+OUTPUTS = chain_output_info(2)
 
 #: The start-up study: angles and ground-hinge reaction over [0, 0.3] s.
 CONVERGENCE = {"t_end": 0.3, "h": [8e-3, 4e-3, 2e-3, 1e-3, 5e-4], "q": ["phi1", "phi2"],

@@ -25,13 +25,25 @@ import numpy as np
 from femb import Mechanism
 from femb.elements import Force, Gravity
 
-from .chains import add_chain, chain_outputs, reference_outputs
+from .chains import add_chain, chain_output_info, chain_outputs, reference_outputs
 
 #: Scene data (SI units).
 PARAMS = {"length": 1.0, "mass": 1.0, "g": 9.81, "theta0": 0.5, "t_pulse": 1.0, "width": 0.01,
           "impulse": 2.0}
 
 DEFAULTS = {"t_end": 3.0, "h": 1e-3, "rho_inf": 0.9}
+
+PARAMETERS = {
+    "length": ("length of the uniform bar", "m"),
+    "mass": ("mass of the bar", "kg"),
+    "g": ("gravity along −y", "m/s^2"),
+    "theta0": ("initial angle from the downward vertical, at rest", "rad"),
+    "t_pulse": ("centre of the Gaussian force pulse", "s"),
+    "width": ("standard deviation of the pulse", "s"),
+    "impulse": ("impulse of the pulse", "N s"),
+}
+
+OUTPUTS = chain_output_info(1)
 
 #: Largest step for an adaptive run (the pulse must be sampled), stepsize.md §8.
 H_MAX = 0.02

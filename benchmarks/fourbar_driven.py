@@ -31,6 +31,24 @@ from .references.fourbar_driven import PARAMS, state
 
 DEFAULTS = {"t_end": 2.0, "h": 1e-3, "rho_inf": 0.8}
 
+PARAMETERS = {
+    "l1": ("crank length", "m"), "l2": ("coupler length", "m"), "l3": ("rocker length", "m"),
+    "l4": ("ground length (hinge C at (l4, 0))", "m"),
+    "m1": ("crank mass (uniform bar)", "kg"), "m2": ("coupler mass", "kg"), "m3": ("rocker mass", "kg"),
+    "g": ("gravity along −y", "m/s^2"),
+    "theta1": ("initial crank angle from the x axis", "rad"),
+    "omega": ("constant crank rate", "rad/s"),
+}
+
+OUTPUTS = {
+    "theta1": ("crank angle from the x axis", "rad"),
+    "theta3": ("rocker angle from the x axis (unwrapped)", "rad"),
+    "theta3_d": ("rocker angular velocity", "rad/s"),
+    "T_drive": ("driving torque on the crank", "N m"),
+    "R_O_x": ("x force of the ground hinge O on the crank", "N"),
+    "R_O_y": ("y force of the ground hinge O on the crank", "N"),
+}
+
 #: The start-up study. The angles are exact to round-off at every step (the driven loop has
 #: no degree of freedom and Φ = 0 is solved exactly), so the rocker rate stands for "q".
 CONVERGENCE = {"t_end": 0.3, "h": [8e-3, 4e-3, 2e-3, 1e-3, 5e-4], "q": ["theta3_d"],

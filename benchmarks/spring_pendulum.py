@@ -25,12 +25,21 @@ import numpy as np
 from femb import Mechanism
 from femb.elements import Gravity, RotationalSpringDamper
 
-from .chains import add_chain, chain_outputs, reference_outputs
+from .chains import add_chain, chain_output_info, chain_outputs, reference_outputs
 
 #: Scene data (SI units).
 PARAMS = {"length": 0.8, "mass": 2.0, "k": 30.0, "g": 9.81}
 
 DEFAULTS = {"t_end": 5.0, "h": 1e-3, "rho_inf": 0.8}
+
+PARAMETERS = {
+    "length": ("length of the uniform bar", "m"),
+    "mass": ("mass of the bar", "kg"),
+    "k": ("torsional stiffness, unstressed at the initial (horizontal) angle", "N m/rad"),
+    "g": ("gravity along −y", "m/s^2"),
+}
+
+OUTPUTS = chain_output_info(1)
 
 #: The too-large step and the final time of the silent-wrong-answer run.
 LARGE_STEP = {"t_end": 5.0, "h": 0.5}

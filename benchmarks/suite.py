@@ -7,10 +7,13 @@ One command runs everything and writes a report folder::
 
 The folder (default ``bench-report/``) holds ``report.md`` (tables, verdicts,
 figures embedded), ``results.json`` (every number) and the PNG figures. Every
-figure in it is produced by that one command. ``--quick`` (under 2 minutes on
-2 cores) runs every scene and every stress test with fewer step sizes, one
-timing repeat and shorter long runs, and says so in the report; the full
-suite takes well under 30 minutes.
+figure in it is produced by that one command. ``--quick`` (about a minute on
+2 cores) runs a small set at reduced size (:data:`QUICK_SCENES`, :data:`QUICK_PARTS`:
+the work–precision study of the pendulum, whose reference is exact, and the four
+cheapest stress tests) with fewer step sizes, one timing repeat and shorter long
+runs, and the report says what it ran and what it left out; ``--quick --only
+PART,...`` runs any parts at the reduced size. The full suite takes well under
+30 minutes.
 
 Parts
 -----
@@ -54,6 +57,11 @@ from .work_precision import clean, first_line
 
 #: Parts of the suite, in run order (stress tests follow).
 PARTS = ("work_precision", "headline", "spatial_per_step") + tuple(stress.TESTS)
+
+#: what ``--quick`` runs without ``--only``: one scene's work–precision study (the pendulum: an exact
+#: reference, a few seconds) and the four cheapest stress tests (a few seconds each on 2 cores)
+QUICK_SCENES = ("pendulum",)
+QUICK_PARTS = ("work_precision", "dead_centre", "long_runs", "units", "tolerance_proportionality")
 
 #: spatial per-step part: (bricks, t_end in s) per mode, h = 1e-3 s, ρ∞ = 0.8, 3 timed runs
 SPATIAL_PER_STEP = {"full": (400, 1.0), "quick": (400, 0.05)}
@@ -100,15 +108,44 @@ def _machine():
             "cores": os.cpu_count(), "numpy": numpy.__version__, "scipy": scipy.__version__, "femb": fv}
 
 
+def plan(quick=False, only=None):
+    """The parts and the work–precision scenes a run covers.
+
+    Parameters
+    ----------
+    quick : bool
+        Without ``only``: :data:`QUICK_PARTS` and :data:`QUICK_SCENES`.
+    only : iterable of str, optional
+        Parts to run (every registry scene for ``work_precision``; ``headline`` alone
+        studies Andrews).
+
+    Returns
+    -------
+    parts : list of str
+        In :data:`PARTS` order.
+    scenes : list of str
+    """
+    from .registry import names
+
+    wanted = set(only) if only else set(QUICK_PARTS if quick else PARTS)
+    parts = [p for p in PARTS if p in wanted]
+    if "work_precision" in parts:
+        scenes = list(QUICK_SCENES) if quick and not only else names()
+    else:
+        scenes = ["andrews"] if "headline" in parts else []
+    return parts, scenes
+
+
 def run_suite(quick=False, out="bench-report", progress=True, only=None):
     """Run the benchmark suite and write the report folder.
 
     Parameters
     ----------
     quick : bool
-        Short mode (< 2 min on 2 cores): fewer step sizes and tolerances, one
-        repeat, 2·10⁴ instead of 10⁶ steps in the long runs; the report says
-        what was shortened.
+        Short mode (about a minute on 2 cores): without ``only``, the parts and
+        scenes of :func:`plan`; every part with fewer step sizes and tolerances,
+        one repeat, 2·10⁴ instead of 10⁶ steps in the long runs; the report says
+        what was shortened and what was left out.
     out : str or Path
         Report folder; created if needed (files in it are overwritten).
     progress : bool
@@ -130,10 +167,10 @@ def run_suite(quick=False, out="bench-report", progress=True, only=None):
 
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
-    parts = list(PARTS) if not only else [p for p in PARTS if p in set(only)]
     unknown = sorted(set(only or ()) - set(PARTS))
     if unknown:
         raise ValueError(f"unknown part(s) {', '.join(unknown)}; known: {', '.join(PARTS)}")
+    parts, scenes = plan(quick, only)
     log = _log_fn(progress)
     make_progress = _progress_factory(progress)
     mode = "quick" if quick else "full"
@@ -146,9 +183,8 @@ def run_suite(quick=False, out="bench-report", progress=True, only=None):
                          "started": datetime.datetime.now().isoformat(timespec="seconds"),
                          "machine": _machine(), "peers": peers.status()},
                "work_precision": {}, "headline": None, "spatial_per_step": None, "stress": {}}
-    scenes = names() if ("work_precision" in parts or "headline" in parts) else []
-    if "work_precision" not in parts and "headline" in parts:
-        scenes = ["andrews"]
+    results["suite"]["left_out"] = {"parts": [p for p in PARTS if p not in parts],
+                                    "scenes": [s for s in names() if s not in scenes]}
     tasks = [("wp", s) for s in scenes] + ([("headline", None)] if "headline" in parts else []) + \
             ([("spatial", None)] if "spatial_per_step" in parts else []) + \
             [("stress", p) for p in parts if p in stress.TESTS]
@@ -345,6 +381,14 @@ def render_report(res):
                  "ρ∞ = 0.7 with scaling off, one timing repeat, stiff-spring and mass-ratio runs over 0.25 s instead "
                  "of 1 s, long runs of 20,000 steps instead of 1,000,000, the spatial per-step timing over 50 steps "
                  "instead of 1000. Run `femb bench` for the full suite.")
+        left = s.get("left_out") or {}
+        if left.get("parts") or left.get("scenes"):
+            L.append("")
+            L.append("Left out of this run: " + "; ".join(
+                x for x in (("parts " + ", ".join(f"`{p}`" for p in left.get("parts", []))) if left.get("parts") else "",
+                            ("the work–precision studies of " + ", ".join(left.get("scenes", [])))
+                            if left.get("scenes") else "") if x)
+                     + ". `python -m femb.benchmarks.suite --quick --only PART,...` runs any of them at this size.")
     L.append("")
     L.append("Timing: `time.perf_counter` around the integration call of each code (femb `simulate` including its "
              "consistent initial values; scipy `solve`; Exudyn `SolveDynamic`), model construction excluded, median "
@@ -565,7 +609,7 @@ def build_parser(prog="femb bench"):
     """Arguments of ``femb bench`` / ``python -m femb.benchmarks.suite``."""
     p = argparse.ArgumentParser(prog=prog, description="Run femb's benchmark suite (work-precision diagrams "
                                 "against peers and numerical-stability stress tests) and write a report folder.")
-    p.add_argument("--quick", action="store_true", help="short mode, under 2 minutes on 2 cores")
+    p.add_argument("--quick", action="store_true", help="reduced size; without --only, the small set of plan() (about a minute on 2 cores)")
     p.add_argument("--out", default="bench-report", metavar="DIR", help="report folder (default: bench-report)")
     p.add_argument("--only", metavar="PART[,PART...]", help=f"run only these parts: {', '.join(PARTS)}")
     p.add_argument("--quiet", action="store_true", help="no progress output")

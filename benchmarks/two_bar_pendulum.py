@@ -23,13 +23,21 @@ from __future__ import annotations
 from femb import Mechanism
 from femb.elements import Gravity
 
-from .chains import add_chain, chain_outputs, reference_outputs
+from .chains import add_chain, chain_output_info, chain_outputs, reference_outputs
 
 #: Scene data (SI units).
 PARAMS = {"length": 1.0, "mass": 1.0, "g": 9.81}
 
 #: t ∈ [0, 5] s; h = 0.5 s is the too-large step, the default is a sound one.
 DEFAULTS = {"t_end": 5.0, "h": 1e-3, "rho_inf": 0.8}
+
+PARAMETERS = {
+    "length": ("length of each uniform bar", "m"),
+    "mass": ("mass of each bar (J = m l²/12)", "kg"),
+    "g": ("gravity along −y", "m/s^2"),
+}
+
+OUTPUTS = chain_output_info(2)
 
 #: The too-large step and the final time of the silent-wrong-answer run.
 LARGE_STEP = {"t_end": 5.0, "h": 0.5}

@@ -425,6 +425,7 @@ class ReissnerBeam(PairElement):
     ``eta``, ``damped`` for output. Lagrange multipliers: none. Batches are split
     by damping (zero or not), so undamped beams need no damping matrix.
     """
+    glyph = "beam"  # how pictures draw it (femb.io.frames)
 
     has_mass = True
     constant_mass = True
@@ -616,6 +617,7 @@ class Clamp(PairElement):
     -----
     Kernels: :func:`clamp_constraint`, :func:`clamp_rates`; ``P = (s_a, s_b, θ₀)``.
     """
+    glyph = "fixed"  # how pictures draw it (femb.io.frames)
 
     n_constraints = 3
     constraint_names = ("x", "y", "moment")

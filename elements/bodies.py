@@ -253,6 +253,7 @@ class RigidBody(Body, Element):
     -----
     Kernel: :func:`rigid_body_mass`; ``P = (m, J)``.
     """
+    glyph = "body"  # how pictures draw it (femb.io.frames)
 
     has_mass = True
     constant_mass = True
@@ -304,6 +305,7 @@ class PointMass(Body, Element):
     -----
     Kernel: :func:`point_mass_mass`; ``P = (m,)``.
     """
+    glyph = "point_mass"  # how pictures draw it (femb.io.frames)
 
     has_mass = True
     constant_mass = True

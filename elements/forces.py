@@ -210,6 +210,7 @@ class SpringDamper(_DampedBatches, PairElement):
     -----
     Kernel: :func:`spring_damper_force`; ``P = (s_a, s_b, k, c, l_0)``.
     """
+    glyph = "spring"  # how pictures draw it (femb.io.frames)
 
     has_force = True
     work = "potential"
@@ -326,6 +327,7 @@ class RotationalSpringDamper(_DampedBatches, PairElement):
     -----
     Kernel: :func:`rotational_spring_force`; ``P = (k, c, θ_0)``.
     """
+    glyph = "torsion"  # how pictures draw it (femb.io.frames)
 
     has_force = True
     work = "potential"
@@ -391,6 +393,7 @@ class Torque(_BodyLoad):
     Kernel: :func:`torque_force`; one time function per element (T). Constant
     torques form their own batch, evaluated once (``constant_force``).
     """
+    glyph = "load"  # how pictures draw it (femb.io.frames)
 
     kernels = {"force": torque_force}
 
@@ -468,6 +471,7 @@ class Force(_BodyLoad):
     Kernel: :func:`point_force`; ``P = (s, body_frame)``; two time functions per
     element (F_x, F_y).
     """
+    glyph = "load"  # how pictures draw it (femb.io.frames)
 
     kernels = {"force": point_force}
 

@@ -132,6 +132,7 @@ class Hinge(PairElement):
     -----
     Kernels: :func:`hinge_constraint`, :func:`hinge_rates`; ``P = (s_a, s_b)``.
     """
+    glyph = "revolute"  # how pictures draw it (femb.io.frames)
 
     n_constraints = 2
     constraint_names = ("x", "y")
@@ -351,6 +352,7 @@ class PointOnLine(_LineJoint):
     Kernels: :func:`point_on_line_constraint`, :func:`point_on_line_rates`;
     ``P = (s_a, s_b, J ū)``.
     """
+    glyph = "prismatic"  # how pictures draw it (femb.io.frames)
 
     n_constraints = 1
     constraint_names = ("normal",)
@@ -383,6 +385,7 @@ class Slider(_LineJoint):
     -----
     Kernels: :func:`slider_constraint`, :func:`slider_rates`; ``P = (s_a, s_b, J ū, θ_0)``.
     """
+    glyph = "prismatic"  # how pictures draw it (femb.io.frames)
 
     n_constraints = 2
     constraint_names = ("normal", "moment")
@@ -423,6 +426,7 @@ class DrivenDisplacement(_LineJoint):
     Kernels: :func:`driven_displacement_constraint`, :func:`driven_displacement_rates`;
     ``P = (s_a, s_b, ū, d_0)``; one time function, d(t).
     """
+    glyph = "actuator"  # how pictures draw it (femb.io.frames)
 
     n_constraints = 1
     rheonomic = True
@@ -490,6 +494,7 @@ class DrivenAngle(PairElement):
     Kernels: :func:`driven_angle_constraint`, :func:`driven_angle_rates`; ``P = (θ_0,)``;
     one time function, φ(t).
     """
+    glyph = "motor"  # how pictures draw it (femb.io.frames)
 
     n_constraints = 1
     rheonomic = True

@@ -3,20 +3,32 @@
 Build a :class:`Mechanism` from elements (:mod:`femb.elements`), compile it
 into a frozen :class:`~femb.model.Model`, and integrate it with the index-3
 generalized-α scheme of Arnold & Brüls (2007) via :func:`simulate`.
+
+``import femb`` loads only the exception classes; the names below come from
+their modules on first use (those import numba, scipy and, for :func:`sweep`,
+Dask and pandas), so that ``import femb`` and ``femb --help`` start at once.
 """
-from femb.alpha import GeneralizedAlpha
 from femb.errors import (AccuracyWarning, ConvergenceError, FembError, InitializationError, InitialMoveWarning,
-                         InitialVelocityWarning, ModelError, OutputError, ParameterError, ParameterWarning, RedundantConstraintWarning,
-                         SingularMatrixError, SolverError)
-from femb.mechanism import Mechanism
-from femb.model import Model, State
-from femb.result import Result
-from femb.initial import consistent_initial_state
-from femb.solver import GeneralizedAlphaSolver, simulate
-from femb.checks import JacobianReport, check_jacobians
-from femb.motion import set_rigid_velocity
+                         InitialVelocityWarning, ModelError, OutputError, ParameterError, ParameterWarning,
+                         RedundantConstraintWarning, SingularMatrixError, SolverError)
 
 __version__ = "0.1.0"
+
+#: public name -> the module that defines it (imported on first access)
+_LAZY = {
+    "GeneralizedAlpha": "femb.alpha",
+    "Mechanism": "femb.mechanism",
+    "Model": "femb.model",
+    "State": "femb.model",
+    "Result": "femb.result",
+    "consistent_initial_state": "femb.initial",
+    "GeneralizedAlphaSolver": "femb.solver",
+    "simulate": "femb.solver",
+    "check_jacobians": "femb.checks",
+    "JacobianReport": "femb.checks",
+    "sweep": "femb.sweep",
+    "set_rigid_velocity": "femb.motion",
+}
 
 __all__ = [
     "GeneralizedAlpha", "Mechanism", "Model", "State", "Result", "GeneralizedAlphaSolver",
@@ -28,11 +40,22 @@ __all__ = [
 
 
 def __getattr__(name):
-    """Lazy attributes: ``femb.sweep`` (imports Dask and pandas only when used)."""
-    if name == "sweep":
-        import importlib
+    """The public names of :data:`_LAZY`, imported from their modules when first asked for; a
+    submodule (``femb.assembly``, ``femb.static``, ``femb.io``, ...) is imported when first used."""
+    import importlib
 
-        fn = importlib.import_module("femb.sweep").sweep
-        globals()["sweep"] = fn
-        return fn
-    raise AttributeError(f"module 'femb' has no attribute {name!r}")
+    module = _LAZY.get(name)
+    if module is None:
+        if not name.startswith("_"):
+            import importlib.util
+
+            if importlib.util.find_spec(f"femb.{name}") is not None:
+                return importlib.import_module(f"femb.{name}")
+        raise AttributeError(f"module 'femb' has no attribute {name!r}")
+    value = getattr(importlib.import_module(module), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__():
+    return sorted(set(globals()) | set(_LAZY))

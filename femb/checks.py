@@ -16,6 +16,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from femb import kernels as K
+from femb.model import Model, State
 
 
 @dataclass
@@ -70,7 +71,8 @@ def _rel(A, B, noise=0.0, rtol=1.0):
     return float(np.max(np.abs(A - B))) / den, scale
 
 
-def check_jacobians(model, state=None, t=None, rtol=1e-5, eps=None, seed=0, perturb=True):
+def check_jacobians(model: Model, state: State | None = None, t: float | None = None, rtol: float = 1e-5,
+                    eps: float | None = None, seed: int = 0, perturb: bool = True) -> JacobianReport:
     """Compare every kernel Jacobian of ``model`` with central finite differences.
 
     Parameters

@@ -83,6 +83,31 @@ def _json_value(v):
     return f if math.isfinite(f) else None
 
 
+def _provenance(scene, params, settings):
+    """What a ``--json`` record needs to be reproduced and read: femb's version, the solver settings,
+    every parameter (defaults too) with value and unit, and the units of the outputs."""
+    from femb import __version__
+    from femb.parsing import parameter_record, plain
+
+    return {"femb_version": __version__, "settings": plain(dict(settings)),
+            "params": parameter_record(scene.parameter_info(), params),
+            "output_units": {k: u for k, (_, u) in scene.output_info().items()}}
+
+
+def _solve_settings(scene, params):
+    """Settings of a static or buckling scene's ``solve``: its keyword defaults, then what --set gave it."""
+    import inspect
+
+    try:
+        sig = inspect.signature(scene.module.solve)
+    except (TypeError, ValueError):
+        sig = None
+    out = {} if sig is None else {k: p.default for k, p in sig.parameters.items()
+                                  if p.default is not inspect.Parameter.empty}
+    out.update({k: v for k, v in params.items() if k in out or k not in scene.parameters()})
+    return out
+
+
 def _write_json(data, dest):
     text = json.dumps(data, indent=2) + "\n"
     if dest == "-":
@@ -178,17 +203,20 @@ def _print_parameters(scene, indent):
 def _print_outputs(scene, indent, *, detail):
     info = scene.output_info()
     if not info:
-        if detail:
-            try:
-                labels = scene.model().coord_labels
-            except Exception as exc:  # a user's scene file: say why, do not crash
-                print(f"{indent}(not described; building the model failed: {type(exc).__name__}: {exc})")
-                return
-            print(f"{indent}(the scene has no OUTPUTS; its outputs are the free coordinates)")
-            for label in labels:
-                print(f"{indent}{label}")
-        else:
-            print(f"{indent}(not described; see 'femb list {scene.name}')")
+        if callable(getattr(scene.module, "outputs", None)):
+            print(f"{indent}(named by the scene's outputs(); it has no OUTPUTS table to describe them)")
+            return
+        if not detail:
+            print(f"{indent}(the free coordinates, named BODY.COORDINATE: the scene has no outputs())")
+            return
+        try:
+            labels = _coordinate_labels(scene)
+        except Exception as exc:  # a user's scene file: say why, do not crash
+            print(f"{indent}(not described; building the mechanism failed: {type(exc).__name__}: {exc})")
+            return
+        print(f"{indent}(the scene has no OUTPUTS; its outputs are the free coordinates)")
+        for label in labels:
+            print(f"{indent}{label}")
         return
     if not detail:
         items = [f"{k} {_unit(u)}".rstrip() for k, (_, u) in info.items()]
@@ -205,6 +233,27 @@ def _print_outputs(scene, indent, *, detail):
     w1 = max(len(_unit(u)) for _, u in info.values())
     for k, (m, u) in info.items():
         print(f"{indent}{k:<{w0}}  {_unit(u):<{w1}}  {m}".rstrip())
+
+
+def _coordinate_labels(scene):
+    """Names ``BODY.COORDINATE`` of the free coordinates of a scene built with its defaults, read from its
+    bodies' nodes without compiling the mechanism (compiling would compile element kernels)."""
+    from femb.elements.bodies import Body
+    from femb.model import Model
+
+    built = scene.module.build()
+    if isinstance(built, Model):
+        return list(built.coord_labels)
+    labels, seen = [], set()
+    for e in getattr(built, "elements", ()):
+        if not isinstance(e, Body):
+            continue
+        for nd in e.nodes():
+            if id(nd) in seen:
+                continue
+            seen.add(id(nd))
+            labels += [f"{nd.name}.{c}" for c, fixed in zip(nd.coord_names, nd.fixed) if not fixed]
+    return labels
 
 
 def _print_settings(scene, indent):
@@ -356,12 +405,12 @@ def cmd_run(args):
         "newton_iterations": iters,
         "wall_time_s": result.wall_time,
         "outputs": final,
-        "params": {k: _json_value(v) for k, v in params.items()},
         "newton_per_step": iters / max(result.steps, 1),
         "us_per_step": 1e6 * result.wall_time / max(result.steps, 1),
         "total_time_s": total,
         "source": scene.source,
     }
+    data.update(_provenance(scene, params, result.settings))
     if args.json:
         _write_json(data, args.json)
     if args.json != "-":
@@ -398,8 +447,8 @@ def _run_static(scene, params, args):
     final = {k: _json_value(v[-1]) for k, v in scene.outputs(result).items()}
     kind = getattr(scene.module, "ANALYSIS", "static")
     data = {"scene": scene.name, "analysis": kind, "levels": [float(x) for x in result.t],
-            "outputs": final, "params": {k: _json_value(v) for k, v in params.items()},
-            "total_time_s": total, "source": scene.source}
+            "outputs": final, "total_time_s": total, "source": scene.source}
+    data.update(_provenance(scene, params, _solve_settings(scene, params)))
     if args.json:
         _write_json(data, args.json)
     if args.json != "-":
@@ -605,14 +654,17 @@ def build_parser():
     rp.add_argument("--size", type=_count, nargs=2, metavar=("W", "H"), help="picture size in pixels")
     rp.add_argument("--view", type=_view, default=None, metavar="VIEW",
                     help="camera: 3d, iso, front, side, top or AZIMUTH,ELEVATION in degrees (perspective, "
-                    "gravity pointing down the picture), or xy, xz, yz (parallel along an axis); default xy "
-                    "for planar motion, else 3d")
+                    "gravity pointing down the picture), plane (straight onto a planar mechanism), or xy, xz, "
+                    "yz (parallel along an axis); default plane for planar mechanisms, xy for other planar "
+                    "data, else 3d")
     rp.set_defaults(func=cmd_render)
 
     bp = sub.add_parser("bench", help="benchmarks: convergence studies and the paper's figures",
                         description="Benchmarks of the seed paper (Arnold & Bruls 2007). "
                         "'femb bench' alone is reserved for the benchmark suite.")
-    bp.add_argument("--quick", action="store_true", help="the suite's quick variant (under 2 minutes)")
+    bp.add_argument("--quick", action="store_true",
+                    help="a small set at reduced size (about a minute): the pendulum's work-precision study "
+                         "and four stress tests")
     bp.add_argument("--out", metavar="DIR", default="bench-report",
                     help="report folder of the suite (default bench-report/)")
     bsub = bp.add_subparsers(dest="bench_command", metavar="BENCH_COMMAND", parser_class=_Parser)

@@ -41,6 +41,7 @@ import scipy.linalg as sla
 import scipy.sparse as sp
 
 from femb import assembly, kernels
+from femb.model import Model, State
 from femb.errors import (NEWTON_HINT, NEWTON_HINT_START, SINGULAR_HINT, SINGULAR_HINT_DIVERGED, SINGULAR_HINT_INDEPENDENT, SINGULAR_HINT_STEP,
                          InitializationError,
                          InitialMoveWarning, InitialVelocityWarning, ModelError,  # noqa: F401 (re-exported)
@@ -350,8 +351,9 @@ def body_moves(model, q_from, q_to):
     return out
 
 
-def consistent_initial_state(model, state=None, *, t0=0.0, phi_tol=1e-12, max_iter=50,
-                             max_initial_move=None, report_move=REPORT_MOVE, weights=None):
+def consistent_initial_state(model: Model, state: State | None = None, *, t0: float = 0.0, phi_tol: float = 1e-12,
+                             max_iter: int = 50, max_initial_move: float | None = None,
+                             report_move: float = REPORT_MOVE, weights: "StartWeights | None" = None) -> State:
     """Project an initial state onto the constraints at all levels, and say so.
 
     1. positions: least change q = argmin ‖q − q_0‖ subject to Φ(q, t_0) = 0

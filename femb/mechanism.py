@@ -3,6 +3,7 @@ from __future__ import annotations
 
 from femb.element import Element
 from femb.errors import ModelError
+from femb.model import Model
 
 
 class Mechanism:
@@ -22,7 +23,7 @@ class Mechanism:
     (3, 2)
     """
 
-    def __init__(self, name="mechanism"):
+    def __init__(self, name: str = "mechanism") -> None:
         from femb.elements.bodies import Ground  # the ground is a body of the element library
 
         self.name = str(name)
@@ -30,7 +31,7 @@ class Mechanism:
         self._elements = []
         self._by_name = {"ground": self.ground}
 
-    def add(self, *elements):
+    def add(self, *elements: Element) -> Element | tuple[Element, ...]:
         """Add elements; returns the element (or a tuple of them)."""
         if not elements:
             raise ModelError("Mechanism.add: nothing to add")
@@ -43,7 +44,7 @@ class Mechanism:
             self._elements.append(e)
         return elements[0] if len(elements) == 1 else elements
 
-    def __getitem__(self, name):
+    def __getitem__(self, name: str) -> Element:
         try:
             return self._by_name[name]
         except KeyError:
@@ -52,12 +53,37 @@ class Mechanism:
     def __contains__(self, name):
         return name in self._by_name
 
+    # ------------------------------------------------------------ display
+    def _summary(self):
+        """(title, rows) for :meth:`__repr__` and :meth:`_repr_html_`."""
+        from collections import Counter
+
+        from femb.summary import short_list
+
+        kinds = Counter(type(e).__name__ for e in self._elements)
+        spatial = any(getattr(type(e), "spatial", False) for e in self._elements)
+        rows = [("elements", f"{len(self._elements)}: " + short_list(f"{n} {k}" for k, n in kinds.items())),
+                ("names", short_list(e.name for e in self._elements) or "none"),
+                ("kind", "spatial" if spatial else "planar")]
+        return f"femb Mechanism '{self.name}'", rows
+
+    def __repr__(self):
+        from femb.summary import text
+
+        return text(*self._summary())
+
+    def _repr_html_(self):
+        from femb.summary import html
+
+        return html(*self._summary())
+
     @property
     def elements(self):
         """The elements, in the order they were added (list)."""
         return list(self._elements)
 
-    def compile(self, *, length_scale=None, redundant="error", max_initial_move=None):
+    def compile(self, *, length_scale: float | None = None, redundant: str = "error",
+                max_initial_move: float | None = None) -> Model:
         """Freeze the mechanism into a :class:`~femb.model.Model`.
 
         Parameters

@@ -35,13 +35,13 @@ import scipy.sparse.linalg as spla
 
 from femb import assembly
 from femb.errors import ModelError, ParameterError, SingularMatrixError
-from femb.model import State
+from femb.model import Model, State
 
 #: models with at most this many free coordinates use the dense null-space method
 DENSE_LIMIT = 400
 
 
-@dataclass
+@dataclass(repr=False)
 class ModalResult:
     """Eigenfrequencies and mode shapes of a linearized model.
 
@@ -76,6 +76,27 @@ class ModalResult:
         """Eigenfrequencies in Hz, shape (k,)."""
         return self.omega / (2.0 * np.pi)
 
+    def _summary(self):
+        """(title, rows) for :meth:`__repr__` and :meth:`_repr_html_`."""
+        from femb.summary import short_list
+
+        rows = [("modes", f"{len(self.omega)} of nq = {self.model.nq}, {self.method} method"),
+                ("frequency", short_list((f"{f:.5g}" for f in self.frequency), 6) + " Hz"),
+                ("reference", f"t = {float(self.state.t):.6g} s; modes {tuple(self.modes.shape)}, "
+                              "mass normalized"),
+                ("asymmetry", f"{self.asymmetry:.2e} (of K_t, before symmetrization)")]
+        return f"femb ModalResult of '{self.model.name}'", rows
+
+    def __repr__(self):
+        from femb.summary import text
+
+        return text(*self._summary())
+
+    def _repr_html_(self):
+        from femb.summary import html
+
+        return html(*self._summary())
+
     def node_mode(self, name, k):
         """Components of mode ``k`` at node ``name`` (fixed coordinates are 0), shape (ncoord,).
 
@@ -102,7 +123,8 @@ def _reference_state(model, state, t):
     return st
 
 
-def modal_analysis(model, state=None, n_modes=6, *, t=None, method="auto", sigma=None):
+def modal_analysis(model: Model, state: State | None = None, n_modes: int = 6, *, t: float | None = None,
+                   method: str = "auto", sigma: float | None = None) -> ModalResult:
     """Lowest eigenfrequencies and modes of the linearized constrained model.
 
     Parameters
@@ -187,7 +209,7 @@ def modal_analysis(model, state=None, n_modes=6, *, t=None, method="auto", sigma
                        info=info)
 
 
-@dataclass
+@dataclass(repr=False)
 class BucklingResult:
     """Linearized buckling load factors and modes.
 
@@ -209,8 +231,28 @@ class BucklingResult:
     modes: np.ndarray
     delta: float
 
+    def _summary(self):
+        """(title, rows) for :meth:`__repr__` and :meth:`_repr_html_`."""
+        from femb.summary import short_list
 
-def buckling_analysis(model, n_modes=4, *, t=0.0, load_types=None, delta=1e-3):
+        rows = [("load factors", short_list((f"{f:.6g}" for f in self.factors), 6)),
+                ("modes", f"{tuple(self.modes.shape)}, max-abs normalized"),
+                ("K_G", f"central difference at load factors ±{self.delta:.3g}")]
+        return f"femb BucklingResult of '{self.model.name}'", rows
+
+    def __repr__(self):
+        from femb.summary import text
+
+        return text(*self._summary())
+
+    def _repr_html_(self):
+        from femb.summary import html
+
+        return html(*self._summary())
+
+
+def buckling_analysis(model: Model, n_modes: int = 4, *, t: float = 0.0, load_types: tuple[type, ...] | None = None,
+                      delta: float = 1e-3) -> BucklingResult:
     """Linearized (eigenvalue) buckling about the unloaded initial configuration.
 
     The tangent stiffness along the equilibrium path q(μ) of the load factor μ

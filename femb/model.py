@@ -252,8 +252,32 @@ class Model:
             lines.append(f"  {g.name:24s} x{g.nel:<6d} nd={g.nd} nc={g.nc} {g.key}")
         return "\n".join(lines)
 
+    def _summary(self):
+        """(title, rows) for :meth:`__repr__` and :meth:`_repr_html_`."""
+        from femb.summary import short_list
+
+        batches = {}
+        for g in self.groups:
+            batches[g.name] = batches.get(g.name, 0) + g.nel
+        rows = [("coordinates", f"nq = {self.nq} free velocities, nx = {self.nx} configuration entries, "
+                                f"{self.nfix} fixed"),
+                ("constraints", f"nc = {self.nc}"),
+                ("elements", short_list(f"{n} {k}" for k, n in batches.items())),
+                ("nodes", short_list(self.node_names)),
+                ("kind", ("spatial (Lie group)" if self.lie else "planar") + ", mass "
+                 + ("constant" if self.constant_mass else "configuration-dependent")
+                 + (", rheonomic" if self.rheonomic else ""))]
+        return f"femb Model '{self.name}'", rows
+
     def __repr__(self):
-        return f"<femb Model '{self.name}' nq={self.nq} nc={self.nc}>"
+        from femb.summary import text
+
+        return text(*self._summary())
+
+    def _repr_html_(self):
+        from femb.summary import html
+
+        return html(*self._summary())
 
 
 # --------------------------------------------------------------------------

@@ -1,11 +1,17 @@
 """Simulation results: plain arrays plus named access."""
 from __future__ import annotations
 
+import os
 from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Sequence
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from femb.errors import ModelError
+from femb.model import State
+from femb.summary import Animation
 
 
 #: reaction components of a planar joint (:meth:`Result.series`): force (N) and moment (N·m) on body b
@@ -73,7 +79,7 @@ class Result:
         """Number of steps taken."""
         return int(self.newton_iterations.size)
 
-    def body(self, name, what="q"):
+    def body(self, name: str, what: str = "q") -> np.ndarray:
         """Coordinates of a body or node over time, fixed ones included.
 
         Parameters
@@ -101,7 +107,7 @@ class Result:
         except KeyError:
             raise ModelError(f"no body/node named '{name}' (known: {sorted(self.model.node_index)})") from None
 
-    def position(self, body, point=(0.0, 0.0)):
+    def position(self, body: str, point: str | ArrayLike = (0.0, 0.0)) -> np.ndarray:
         """Inertial position of a body point over time (same as :meth:`point`).
 
         Returns
@@ -125,17 +131,17 @@ class Result:
             raise ModelError(f"{what}: body '{body}' is planar (its rotation is the angle θ, "
                              f"result.body('{body}')[:, 2])")
 
-    def rotation(self, body):
+    def rotation(self, body: str) -> np.ndarray:
         """Unit quaternion p = (p0, p1, p2, p3) (body to space) of a spatial body over time, shape (nt, 4)."""
         self._require_spatial(body, "rotation")
         return self.body(body)[:, 3:7].copy()
 
-    def rotation_matrix(self, body):
+    def rotation_matrix(self, body: str) -> np.ndarray:
         """Rotation matrix R (body to space) of a spatial body over time, shape (nt, 3, 3)."""
         from femb.rotations import quat_to_matrix
         return np.array([quat_to_matrix.py_func(np.ascontiguousarray(p)) for p in self.rotation(body)])
 
-    def angular_velocity(self, body, frame="body"):
+    def angular_velocity(self, body: str, frame: str = "body") -> np.ndarray:
         """Angular velocity of a spatial body over time, shape (nt, 3) (rad/s).
 
         Parameters
@@ -167,7 +173,7 @@ class Result:
             point = (0.0, 0.0, 0.0) if not np.any(point) else point
         return b.local(point)
 
-    def point(self, body, point=(0.0, 0.0)):
+    def point(self, body: str, point: str | ArrayLike = (0.0, 0.0)) -> np.ndarray:
         """Inertial position r_P = r + R s of a body point over time (m).
 
         Parameters
@@ -182,7 +188,7 @@ class Result:
         """
         return self._point_series(body, self._local(body, point))
 
-    def point_velocity(self, body, point=(0.0, 0.0)):
+    def point_velocity(self, body: str, point: str | ArrayLike = (0.0, 0.0)) -> np.ndarray:
         """v_P = ṙ + θ̇ J R(θ) s (planar, (nt, 2)) or ṙ + R (Ω × s) (spatial, (nt, 3)) of a body point (m/s)."""
         s = self._local(body, point)
         if self._spatial(body):
@@ -194,7 +200,7 @@ class Result:
         d = np.stack((c * s[0] - sn * s[1], sn * s[0] + c * s[1]), axis=1)
         return v[:, :2] + v[:, 2:3] * np.stack((-d[:, 1], d[:, 0]), axis=1)
 
-    def point_acceleration(self, body, point=(0.0, 0.0)):
+    def point_acceleration(self, body: str, point: str | ArrayLike = (0.0, 0.0)) -> np.ndarray:
         """a_P = r̈ + θ̈ J R(θ) s − θ̇² R(θ) s (planar, (nt, 2)) or r̈ + R(Ω̇ × s + Ω × (Ω × s)) (spatial, (nt, 3)) (m/s²)."""
         s = self._local(body, point)
         if self._spatial(body):
@@ -224,7 +230,7 @@ class Result:
         from femb.elements.spatial_beam import beam_series
         return beam_series(self, name)
 
-    def reaction(self, name):
+    def reaction(self, name: str) -> np.ndarray:
         """Lagrange multipliers of a joint over time, shape (nt, nc_element).
 
         For a :class:`~femb.elements.Hinge` these are the force components the
@@ -270,7 +276,7 @@ class Result:
                     return e
         raise ModelError(f"no constraint element named '{name}'")
 
-    def reaction_at(self, joint, point=None, on="b"):
+    def reaction_at(self, joint: str, point: str | ArrayLike | None = None, on: str = "b") -> np.ndarray:
         """Force and moment a joint exerts on one of its bodies, about a point, over time.
 
         Computed from the joint's own constraint kernel, evaluated once for all
@@ -378,13 +384,13 @@ class Result:
         cols = [int(np.nonzero(g.dofs[k] == i)[0][0]) for i in vidx]
         return -np.einsum("tkc,tk->tc", B[:, :, cols], le)
 
-    def write_vtk(self, directory, every=1, basename="frame"):
+    def write_vtk(self, directory: str | os.PathLike, every: int = 1, basename: str = "frame") -> Path:
         """Write the stored steps as a ParaView time series (``.pvd`` + ``.vtu``); returns the ``.pvd`` path."""
         from femb.io.frames import write_vtk
 
         return write_vtk(self, directory, every=every, basename=basename)
 
-    def nearest(self, time):
+    def nearest(self, time: float) -> int:
         """Index of the stored step nearest to ``time`` (ties go to the earlier step)."""
         self._check_time(time)
         return int(np.argmin(np.abs(self.t - time)))
@@ -402,7 +408,7 @@ class Result:
             raise ModelError(f"time {time!r} is outside the stored interval [{t0:.6g}, {t1:.6g}]")
         return min(max(time, t0), t1)
 
-    def at(self, time):
+    def at(self, time: float) -> State:
         """The state at ``time``, interpolated between the stored steps.
 
         q uses cubic Hermite interpolation with the stored q̇ (its error is of
@@ -438,7 +444,7 @@ class Result:
         return State(float(time), q, qd, qdd, lam)
 
     # ------------------------------------------------------------------ energies
-    def energy(self):
+    def energy(self) -> dict[str, np.ndarray]:
         """Energies and their balance at every stored step (dict of (nt,) arrays, J); see :mod:`femb.energy`.
 
         Computed once per result (the stored arrays are the run's); each call returns copies.
@@ -452,7 +458,7 @@ class Result:
             self.__dict__["_energy_cache"] = cache
         return {k: (v if isinstance(v, tuple) else np.array(v, copy=True)) for k, v in cache[1].items()}
 
-    def energy_balance(self):
+    def energy_balance(self) -> float:
         """Largest |energy balance| relative to the run's energy scale (see :func:`femb.energy.energy_balance`)."""
         from femb.energy import balance_ratio
 
@@ -506,7 +512,7 @@ class Result:
                 out[e.name] = SPATIAL_REACTIONS if getattr(nb, "rotation_blocks", ()) else PLANAR_REACTIONS
         return out
 
-    def outputs(self):
+    def outputs(self) -> list[str]:
         """Names of the outputs :meth:`series` knows for this model.
 
         Per free node coordinate its value and, for planar nodes and the
@@ -551,7 +557,7 @@ class Result:
                                           "work_drives", "dissipated", "total", "balance")]
         return names
 
-    def series(self, name):
+    def series(self, name: str) -> tuple[np.ndarray, str]:
         """One named output over time: (values of shape (nt,), unit).
 
         Names
@@ -668,7 +674,7 @@ class Result:
                                      f"{', '.join(comps) or 'none'} (see Result.outputs())")
         raise ModelError(f"output '{name}': '{owner}' has no output '{rest}' (see Result.outputs())")
 
-    def to_pandas(self, outputs=None):
+    def to_pandas(self, outputs: Sequence[str] | None = None) -> Any:
         """The outputs as a ``pandas.DataFrame`` indexed by time (column names as in :meth:`series`).
 
         Parameters
@@ -695,7 +701,8 @@ class Result:
         df.attrs["units"] = {n: u for n, (_, u) in series.items()}
         return df
 
-    def plot(self, outputs, file=None, *, title=None):
+    def plot(self, outputs: str | Sequence[str], file: str | os.PathLike | None = None, *,
+             title: str | None = None) -> Any:
         """Plot named outputs against time, one panel per output (matplotlib).
 
         Parameters
@@ -738,6 +745,87 @@ class Result:
                 from femb.errors import OutputError
                 raise OutputError(f"Result.plot: cannot write '{file}': {err}") from err
         return fig
+
+    # ------------------------------------------------------------ display (console and notebooks)
+    def _summary(self):
+        """(title, rows) for :meth:`__repr__` and :meth:`_repr_html_`."""
+        from femb.summary import short_list, span
+
+        st = self.settings or {}
+        if st.get("adaptive"):
+            how = (f"adaptive, rtol = {st.get('rtol'):.3g}, {getattr(self, 'n_rejected', 0)} rejected"
+                   if st.get("rtol") is not None else "adaptive")
+        elif st.get("h") is not None:
+            how = f"fixed h = {st['h']:.6g} s"
+        else:
+            how = "given"
+        outs = self.outputs()
+        owners, n_out = list(dict.fromkeys(n.partition(".")[0] for n in outs)), len(outs)
+        status = self.status + (f": {self.message}" if self.message and not self.success else "")
+        rows = [("status", status), ("time", span(self.t)),
+                ("steps", f"{self.steps} ({how}), {self.wall_time:.3g} s wall"),
+                ("arrays", f"q {tuple(self.q.shape)}, qd {tuple(self.qd.shape)}, lam {tuple(self.lam.shape)}"),
+                ("outputs", f"{n_out} of " + short_list(owners, 6) + " (series(name), to_pandas(), plot())")]
+        return f"femb Result of '{self.model.name}'", rows
+
+    def __repr__(self):
+        from femb.summary import text
+
+        return text(*self._summary())
+
+    def _repr_html_(self):
+        from femb.summary import html
+
+        return html(*self._summary())
+
+    def animate(self, frames: int = 60, *, size: tuple[int, int] = (480, 360), view: str | None = None,
+                fps: float = 20.0) -> Animation:
+        """The motion as an animated GIF, shown inline in a notebook (the pictures of ``femb render``).
+
+        Writes the stored steps to a temporary VTK series and renders it off-screen
+        (:func:`femb.io.render.render_animation`: bodies in their colours, legend, joints, ground).
+
+        Parameters
+        ----------
+        frames : int
+            At most this many pictures, evenly spaced over the stored steps.
+        size : (int, int)
+            Picture size in pixels.
+        view : str, optional
+            As for :func:`femb.io.render.render_png` (default: onto the plane for a planar
+            mechanism, else the 3-D view).
+        fps : float
+            Pictures per second.
+
+        Returns
+        -------
+        femb.summary.Animation
+            ``_repr_html_`` for Jupyter, ``save(path)``, ``data`` (the GIF bytes).
+
+        Raises
+        ------
+        OutputError
+            No off-screen rendering here (:func:`femb.io.can_render`), or bad arguments.
+        """
+        import io
+        import tempfile
+
+        from PIL import Image
+
+        from femb.errors import OutputError
+        from femb.io.render import render_animation
+
+        if not isinstance(frames, (int, np.integer)) or isinstance(frames, bool) or frames < 1:
+            raise OutputError(f"Result.animate: frames must be a positive integer, got {frames!r}")
+        every = max(1, len(self.t) // (4 * int(frames)))         # write no more frames than needed
+        with tempfile.TemporaryDirectory(prefix="femb-animate-") as tmp:
+            pvd = self.write_vtk(tmp, every=every)
+            gif = render_animation(pvd, Path(tmp) / "motion.gif", fps=fps, max_frames=int(frames),
+                                   window_size=tuple(size), view=view)
+            data = gif.read_bytes()
+        with Image.open(io.BytesIO(data)) as im:
+            n = getattr(im, "n_frames", 1)
+        return Animation(data, n)
 
 
 def _multiplier_unit(model, i):

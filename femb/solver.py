@@ -27,8 +27,10 @@ import dataclasses
 import math
 import time
 import warnings
+from typing import Any, Callable
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from femb.errors import SINGULAR_HINT_DIVERGED, ConvergenceError, ModelError, ParameterError, SingularMatrixError
 from femb import initial
@@ -36,7 +38,8 @@ from femb.initial import consistent_initial_state, singular_hint  # noqa: F401  
 from femb import engine as S
 from femb.jit import pack
 from femb.options import MAX_STEPS, SolverOptions, check_positive, error_constants, fixed_steps  # noqa: F401
-from femb.model import State
+from femb.mechanism import Mechanism
+from femb.model import Model, State
 from femb.result import Result
 from femb.storage import Storage
 
@@ -598,10 +601,13 @@ class GeneralizedAlphaSolver:
 
 
 # --------------------------------------------------------------------------
-def simulate(model, t_end, h=None, *, rtol=None, atol=None, h0=None, h_max=None, t_eval=None,
-             start="consistent", formulation="index3", rho_inf=None, alpha=None, scaling=True, t0=0.0,
-             state=None, stride=1, store=True, observer=None, initialize=True, progress=False,
-             check_convergence=False, **options):
+def simulate(model: Model | Mechanism, t_end: float, h: float | None = None, *, rtol: float | None = None,
+             atol: float | ArrayLike | None = None, h0: float | None = None, h_max: float | None = None,
+             t_eval: ArrayLike | None = None, start: str = "consistent", formulation: str = "index3",
+             rho_inf: float | None = None, alpha: GeneralizedAlpha | None = None, scaling: bool = True,
+             t0: float = 0.0, state: State | None = None, stride: int = 1, store: bool = True,
+             observer: Callable[..., Any] | None = None, initialize: bool = True, progress: bool = False,
+             check_convergence: bool = False, **options: Any) -> Result:
     """Integrate a model from t0 to t_end, with fixed steps (``h``) or adaptive steps (``rtol``).
 
     Parameters
@@ -662,7 +668,7 @@ def simulate(model, t_end, h=None, *, rtol=None, atol=None, h0=None, h_max=None,
         ``every``-th step and the last one. The compiled loop returns to Python
         only then; without an observer it runs many steps per call.
     progress : bool
-        Show a progress bar (tqdm on a terminal, plain lines otherwise).
+        Show a progress bar with the time remaining (rich on a terminal, plain lines otherwise).
     check_convergence : bool
         Fixed steps: after the run, repeat its first 64 steps with h, h/2 and h/4
         (:func:`femb.diagnostics.fixed_step_warning`, 7 × 64 extra steps) and warn

@@ -90,6 +90,7 @@ from __future__ import annotations
 import math
 import warnings
 from dataclasses import dataclass, field
+from typing import Any, Callable, Sequence
 
 import numpy as np
 import scipy.linalg as sla
@@ -98,14 +99,14 @@ import scipy.sparse.linalg as spla
 
 from femb import assembly, kernels
 from femb.errors import ConvergenceError, ParameterError, PathJumpWarning, SingularMatrixError
-from femb.model import State
+from femb.model import Model, State
 from femb.result import Result
 
 #: saddle-point systems with at most this many unknowns are solved with dense LU
 DENSE_LIMIT = 400
 
 
-@dataclass
+@dataclass(repr=False)
 class StaticResult(Result):
     """Converged load levels of :func:`solve_static` (a :class:`~femb.result.Result`).
 
@@ -199,6 +200,24 @@ class StaticResult(Result):
             out.append((2 * x**3 - 3 * x**2 + 1) * a0 + (x**3 - 2 * x**2 + x) * b0
                        + (-2 * x**3 + 3 * x**2) * a1 + (x**3 - x**2) * b1)
         return np.array(out)
+
+    def _summary(self):
+        """(title, rows) for ``repr`` and ``_repr_html_`` (see :class:`~femb.result.Result`)."""
+        from femb.summary import short_list
+
+        mu = np.asarray(self.t, dtype=float)
+        solves = len(self.path)
+        failed = sum(1 for p in self.path if not p.get("converged"))
+        outs = self.outputs()
+        owners, n_out = list(dict.fromkeys(n.partition(".")[0] for n in outs)), len(outs)
+        rows = [("status", self.status + (f": {self.message}" if self.message and not self.success else "")),
+                ("strategy", f"{self.strategy}, {solves} Newton solve(s), {failed} failed (describe_path())"),
+                ("load factors", (f"{mu[0]:.6g} … {mu[-1]:.6g} ({mu.size} equilibria stored)" if mu.size
+                                  else "none stored")),
+                ("time", f"loads evaluated at t = {self.time:.6g} s"),
+                ("arrays", f"q {tuple(self.q.shape)}, lam {tuple(self.lam.shape)}"),
+                ("outputs", f"{n_out} of " + short_list(owners, 6) + " (series(name))")]
+        return f"femb StaticResult of '{self.model.name}'", rows
 
     def describe_path(self):
         """The route to the equilibrium as text, one line per Newton solve."""
@@ -705,11 +724,15 @@ def stability(model, q, lam, t=0.0, max_size=1500):
     return float(e.min() / big) if big > 0.0 else 0.0
 
 
-def solve_static(model, *, load_steps=None, load_factors=None, t=0.0, state=None, load_types=None,
-                 rtol=1e-10, atol=0.0, phi_tol=1e-12, xtol=1e-12, max_iter=30, min_step=1e-4,
-                 fallback_steps=10, predictor="secant", observer=None, method="load_control",
-                 arc_length=None, arc_length_min=None, arc_length_max=None, load_weight=None,
-                 target_load_factor=1.0, max_steps=None, max_limit_points=None, desired_iterations=6):
+def solve_static(model: Model, *, load_steps: int | None = None, load_factors: Sequence[float] | None = None,
+                 t: float = 0.0, state: State | None = None, load_types: tuple[type, ...] | None = None,
+                 rtol: float = 1e-10, atol: float = 0.0, phi_tol: float = 1e-12, xtol: float = 1e-12,
+                 max_iter: int = 30, min_step: float = 1e-4, fallback_steps: int = 10, predictor: str = "secant",
+                 observer: Callable[..., Any] | None = None, method: str = "load_control",
+                 arc_length: float | None = None, arc_length_min: float | None = None,
+                 arc_length_max: float | None = None, load_weight: float | None = None,
+                 target_load_factor: float = 1.0, max_steps: int | None = None,
+                 max_limit_points: int | None = None, desired_iterations: int = 6) -> StaticResult:
     """Static equilibrium: full load at once, load stepping, or arc-length continuation.
 
     ``method="load_control"`` (default): full load at once, load stepping when

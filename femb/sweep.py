@@ -81,8 +81,14 @@ import warnings
 from collections import OrderedDict
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any, Callable, Mapping, Sequence
 
 import numpy as np
+
+try:        # the sweep extra; here only for the return annotation (typing.get_type_hints)
+    from pandas import DataFrame
+except ImportError:     # pragma: no cover - without pandas, sweep() says which extra to install
+    DataFrame = Any
 
 from femb.errors import FembError, OutputError, ParameterError
 
@@ -410,6 +416,7 @@ class SceneRef:
     outputs: object = None
     defaults: dict = field(default_factory=dict)
     parameters: dict | None = None      # build() keywords (None: accepts any)
+    units: dict = field(default_factory=dict)   # parameter and output name -> unit (a scene's PARAMETERS, OUTPUTS)
 
 
 def scene_ref(scene, outputs_fn=None):
@@ -424,14 +431,16 @@ def scene_ref(scene, outputs_fn=None):
         scene = loaded
     if isinstance(scene, registry.Scene):
         params = None if scene.accepts_any_parameter() else scene.parameters()
+        units = {k: u for k, (_, _, u) in scene.parameter_info().items()}
+        units.update({k: u for k, (_, u) in scene.output_info().items()})
         if scene.source.endswith(".py") or Path(scene.source).is_file():
             text = Path(scene.source).read_text()
             digest = hashlib.sha256(text.encode()).hexdigest()[:16]
             return SceneRef("file", scene.name, f"file:{scene.name}:{digest}", source=text,
                             path=str(Path(scene.source).resolve()), outputs=outputs_fn,
-                            defaults=scene.defaults, parameters=params)
+                            defaults=scene.defaults, parameters=params, units=units)
         return SceneRef("registry", scene.name, f"scene:{scene.name}", outputs=outputs_fn,
-                        defaults=scene.defaults, parameters=params)
+                        defaults=scene.defaults, parameters=params, units=units)
     if callable(scene):
         try:
             sig = inspect.signature(scene)
@@ -706,7 +715,9 @@ def read_results(path):
         except (OSError, ValueError):
             meta = {}
         df.attrs.update(parameters=list(meta.get("parameters") or []), fixed=list(meta.get("fixed") or []),
-                        outputs=list(meta.get("outputs") or []), seed=meta.get("seed"), out=str(path))
+                        outputs=list(meta.get("outputs") or []), seed=meta.get("seed"), out=str(path),
+                        femb_version=meta.get("femb_version"), settings=meta.get("run") or {},
+                        params=meta.get("params") or {}, units=meta.get("units") or {})
     return df
 
 
@@ -852,11 +863,18 @@ def _simulate_needs_h():
     return p is not None and p.default is inspect.Parameter.empty
 
 
-def sweep(scene, *, grid=None, cases=None, samples=None, ranges=None, sampling="lhs", seed=None,
-          params=None, t_end=None, h=None, rtol=None, atol=None, rho_inf=None, solver_options=None,
-          outputs=None, outputs_fn=None, t_eval=None, client=None, n_workers=None, batch_size=None,
-          out=None, resume=False, trajectories=None, progress=None, flush_rows=2000,
-          flush_interval=10.0, max_attempts=3, cache_dir=None):
+def sweep(scene: str | os.PathLike | Callable[..., Any], *, grid: Mapping[str, Sequence[Any]] | None = None,
+          cases: Sequence[Mapping[str, Any]] | None = None, samples: int | None = None,
+          ranges: Mapping[str, tuple] | None = None, sampling: str = "lhs", seed: int | None = None,
+          params: Mapping[str, Any] | None = None, t_end: float | None = None, h: float | None = None,
+          rtol: float | None = None, atol: float | None = None, rho_inf: float | None = None,
+          solver_options: Mapping[str, Any] | None = None, outputs: Sequence[str] | None = None,
+          outputs_fn: Callable[..., Any] | None = None, t_eval: Sequence[float] | None = None,
+          client: Any = None, n_workers: int | None = None, batch_size: int | None = None,
+          out: str | os.PathLike | None = None, resume: bool = False,
+          trajectories: str | os.PathLike | None = None, progress: bool | Callable[..., Any] | None = None,
+          flush_rows: int = 2000, flush_interval: float = 10.0, max_attempts: int = 3,
+          cache_dir: str | None = None) -> DataFrame:
     """Run a scene for every case of a design on a Dask cluster; one table row per case.
 
     Parameters
@@ -1004,6 +1022,7 @@ def sweep(scene, *, grid=None, cases=None, samples=None, ranges=None, sampling="
     if len(set(ids)) != len(ids):
         raise ParameterError("the design lists the same case twice")
 
+    record = _record(ref, varied, params, run_for_id)
     done_rows = []
     if out is not None:
         out = Path(out)
@@ -1024,8 +1043,10 @@ def sweep(scene, *, grid=None, cases=None, samples=None, ranges=None, sampling="
             out.mkdir(parents=True, exist_ok=True)
         except OSError as exc:
             raise OutputError(f"out: cannot create {out} ({exc.strerror or exc}); nothing was run") from None
-        manifest = {"scene": ref.name, "scene_key": ref.key, "parameters": varied, "fixed": params,
-                    "run": run_for_id, "outputs": outputs, "t_eval": [t for t, _ in teval] if teval else None,
+        manifest = {"scene": ref.name, "scene_key": ref.key, "femb_version": record["femb_version"],
+                    "parameters": varied, "fixed": params, "run": run_for_id,
+                    "params": record["params"], "units": record["units"], "outputs": outputs,
+                    "t_eval": [t for t, _ in teval] if teval else None,
                     "grid": {k: list(v) for k, v in (grid or {}).items()}, "samples": samples,
                     "ranges": ranges, "sampling": sampling if samples else None, "seed": seed,
                     "cases": len(design)}
@@ -1053,8 +1074,28 @@ def sweep(scene, *, grid=None, cases=None, samples=None, ranges=None, sampling="
     df = _frame(rows, pd) if rows else pd.DataFrame(columns=["case", "case_id"])
     df = df.drop_duplicates("case_id", keep="first").sort_values("case", kind="stable").reset_index(drop=True)
     df.attrs.update(parameters=varied, fixed=list(params), outputs=outputs, seed=seed, out=str(out) if out else None,
-                    n_new=len(writer.rows))
+                    n_new=len(writer.rows), **record)
     return df
+
+
+def _record(ref, varied, fixed, run):
+    """What a sweep's table carries beside its rows (``df.attrs`` and ``_sweep.json``): femb's version,
+    the run and solver settings, every build parameter with its value (fixed, default, or None when
+    varied: the rows hold it) and unit, and the units of parameters and outputs."""
+    from femb import __version__
+    from femb.parsing import parameter_record, plain
+
+    names = dict(ref.parameters or {})
+    for k in list(fixed) + list(varied):
+        names.setdefault(k, None)
+    info = {k: (d, "", ref.units.get(k, "")) for k, d in names.items()
+            if k not in RUN_KEYS and k not in SOLVER_KEYS}
+    params = parameter_record(info, {k: v for k, v in fixed.items() if k in info})
+    for k in varied:
+        if k in params:
+            params[k].update(value=None, given=True, varied=True)
+    return {"femb_version": __version__, "settings": plain(run), "params": params,
+            "units": dict(ref.units)}
 
 
 def _default_batch(n_cases, n_threads):

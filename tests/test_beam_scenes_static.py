@@ -86,7 +86,12 @@ def test_femb_run_static_scenes(tmp_path, capsys):
     assert cli.main(["run", "argyris_frame", "--json", str(tmp_path / "a.json")]) == 0
     data = json.loads((tmp_path / "a.json").read_text())
     assert data["analysis"] == "buckling" and abs(data["outputs"]["P_cr"] - 1.088) < 0.01
-    assert cli.main(["run", "beam_rollup", "--set", "n_elements=4", "--set", "load_steps=8"]) == 0
+    assert data["params"]["n_elements"] == {"value": 10, "unit": "-", "given": False}
+    assert data["femb_version"] and data["settings"] == {}          # its solve() takes no settings
+    assert cli.main(["run", "beam_rollup", "--set", "n_elements=4", "--set", "load_steps=8",
+                     "--json", str(tmp_path / "r.json")]) == 0
+    data = json.loads((tmp_path / "r.json").read_text())
+    assert data["settings"] == {"load_steps": 8} and data["params"]["n_elements"]["given"] is True
     out = capsys.readouterr().out
     assert "beam_rollup: static analysis, 9 level(s)" in out
     assert "beam_rollup" not in registry.names() and "beam_rollup" in registry.static_names()

@@ -77,6 +77,35 @@ def test_list_one_scene_in_detail(capsys):
     assert "unknown scene 'nosuch'" in _err_line(capsys)
 
 
+def test_list_compiles_nothing(tmp_path, monkeypatch, capsys):
+    """`femb list` describes scenes from their tables and builders alone: no numba compilation (nor a
+    cache load, which goes through the same call), no model compiled, no background cache build."""
+    import numba.core.dispatcher
+    from femb import cache, kernels
+
+    calls = []
+
+    def forbid(what):
+        def call(*args, **kw):
+            calls.append(what)
+            raise AssertionError(f"femb list called {what}")
+        return call
+
+    monkeypatch.setattr(numba.core.dispatcher.Dispatcher, "compile", forbid("numba's compiler"))
+    monkeypatch.setattr(kernels, "compiled_kernel", forbid("compiled_kernel"))
+    monkeypatch.setattr(cache, "start_background_build", forbid("the background build"))
+    import femb.mechanism
+    monkeypatch.setattr(femb.mechanism.Mechanism, "compile", forbid("Mechanism.compile"))
+    p = tmp_path / "pend.py"
+    p.write_text(SCENE_FILE)
+    for argv in (["list", "bead_attractor"], ["list", "fourbar_driven"], ["list", str(p)], ["list"]):
+        assert cli.main(argv) == 0, argv
+    assert calls == []
+    out = capsys.readouterr().out
+    assert "see 'femb list" not in out               # no scene points back to itself
+    assert "phi1_d     [rad/s]" in out and "T_drive" in out and "bar.theta" in out
+
+
 def test_list_scene_file_without_descriptions(tmp_path, capsys):
     p = tmp_path / "pend.py"
     p.write_text(SCENE_FILE)
@@ -88,7 +117,9 @@ def test_list_scene_file_without_descriptions(tmp_path, capsys):
     assert "outputs are the free coordinates" in out and "bar.theta" in out
 
 
-ALL_SCENES = ["andrews", "slider_crank", "flexible_slider_crank", "spin_up", "pendulum", "singular_slider_crank"]
+ALL_SCENES = ["andrews", "slider_crank", "flexible_slider_crank", "spin_up", "pendulum", "singular_slider_crank",
+              "bead_attractor", "double_pendulum", "force_pulse", "fourbar_driven", "spring_pendulum",
+              "two_bar_pendulum"]
 
 
 @pytest.mark.parametrize("name", ALL_SCENES)
@@ -135,7 +166,16 @@ def test_run_json_contract(tmp_path, capsys):
     assert data["scene"] == "slider_crank" and data["steps"] == 10
     assert data["t_end"] == pytest.approx(0.05) and data["h"] == pytest.approx(5e-3)
     assert data["rho_inf"] == 0.7 and data["scaling"] is True
-    assert data["params"] == {"T": 2}
+    # every parameter, defaults included, with value and unit; femb's version and the solver settings
+    assert data["params"]["T"] == {"value": 2, "unit": "N m", "given": True}
+    info = registry.load("slider_crank").parameter_info()
+    assert list(data["params"]) == list(info)
+    for k, (default, _, unit) in info.items():
+        assert data["params"][k]["unit"] == unit and (k == "T" or data["params"][k]["given"] is False)
+    assert data["femb_version"] == femb.__version__
+    assert data["settings"]["h"] == pytest.approx(5e-3) and data["settings"]["rho_inf"] == 0.7
+    assert data["settings"]["formulation"] == "index3" and "newton_rtol" in data["settings"]
+    assert data["output_units"]["theta"] == "rad"
     assert {"theta", "x3", "x4", "R_pivot_x", "R_pivot_y"} <= set(data["outputs"])
     assert all(isinstance(v, float) for v in data["outputs"].values())
     assert "theta" in capsys.readouterr().out
@@ -161,7 +201,7 @@ def test_run_scene_file_with_set(tmp_path, capsys):
     out = tmp_path / "o.json"
     assert cli.main(["run", str(p), "--t-end", "0.1", "--h", "1e-3", "--set", "length=1", "--json", str(out)]) == 0
     data = json.loads(out.read_text())
-    assert data["scene"] == "pend" and data["params"] == {"length": 1}
+    assert data["scene"] == "pend" and data["params"]["length"] == {"value": 1, "unit": "", "given": True}
     assert "bar.theta" in data["outputs"]         # no outputs(): the free coordinates
     # no DEFAULTS in the file: t_end and h are required
     capsys.readouterr()

@@ -197,6 +197,7 @@ def test_plain_progress_prints_sparse_lines():
     assert 9 <= len(lines) <= 11
     assert all(line.startswith("solve: ") for line in lines)
     assert "10%" in lines[0] and lines[-1].startswith("solve: done 1000/1000")
+    assert all("left" in line for line in lines[:-1])        # each line with the estimated time remaining
 
 
 def test_plain_progress_over_an_iterable_and_disabled():
@@ -217,6 +218,23 @@ def test_progress_without_terminal_is_plain(capsys):
     assert isinstance(bar, PlainProgress)
     assert "render: done 4/4" in capsys.readouterr().err
     assert list(progress(iter("ab"), "it", enabled=False)) == ["a", "b"]
+
+
+def test_progress_on_a_terminal_is_a_rich_bar_with_eta(monkeypatch):
+    import importlib
+
+    P = importlib.import_module("femb.io.progress")      # femb.io.progress is also the function's name
+    monkeypatch.setattr(P, "_is_terminal", lambda stream: True)
+    bar = P.progress(3, "render")
+    assert isinstance(bar, P.RichProgress)
+    cols = [type(c).__name__ for c in bar._bar.columns]
+    assert "TimeRemainingColumn" in cols and "BarColumn" in cols
+    bar.close()
+    buf = io.StringIO()
+    with P.RichProgress(range(4), desc="sweep", stream=buf) as it:
+        assert list(it) == [0, 1, 2, 3]
+    assert it.n == 4 and "sweep: done 4/4" in buf.getvalue()
+    assert P._eta(10.0, 1, 5) == 40.0 and P._eta(1.0, 0, 5) is None and P._clock(3725) == "1:02:05"
 
 
 def test_progress_with_unknown_total():

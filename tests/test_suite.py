@@ -1,9 +1,10 @@
-"""The benchmark suite end to end: ``femb bench --quick`` writes a complete report.
+"""The benchmark suite end to end: every part at quick size writes a complete report.
 
-One quick run (about a minute on 2 cores) is shared by the checks below: every
-registry scene has its work–precision study, every stress test its criteria
-with a verdict, the headline its ratios, and every figure the report embeds
-exists. Cheap unit checks of the suite's pieces and of its two stress scenes
+One run of every part at quick size (``--quick --only`` all parts: several
+minutes on 2 cores) is shared by the checks below: every registry scene has its
+work–precision study, every stress test its criteria with a verdict, the headline
+its ratios, and every figure the report embeds exists. What ``femb bench --quick``
+alone runs (a smaller set, about a minute) is checked through :func:`suite.plan`. Cheap unit checks of the suite's pieces and of its two stress scenes
 (pendulum, isosceles slider–crank) against their closed-form references follow.
 """
 import json
@@ -42,12 +43,9 @@ def quick_report(tmp_path_factory):
     # this checkout when femb is this checkout's, e.g. a worktree on PYTHONPATH beside an editable install)
     boot = (f"import sys; sys.path.insert(0, {str(Path(__file__).resolve().parent)!r}); import conftest; "
             "sys.argv[0] = 'femb'; ")
-    if _cli_has_bench_suite():
-        cmd = [sys.executable, "-c", boot + "from femb.cli import main; sys.exit(main(sys.argv[1:]))",
-               "bench", "--quick", "--out", str(out)]
-    else:   # until the command line forwards to the suite: the same entry point, called directly
-        cmd = [sys.executable, "-c", boot + "from femb.benchmarks.suite import main; sys.exit(main(sys.argv[1:]))",
-               "--quick", "--out", str(out)]
+    # every part at quick size (femb bench --quick alone runs the smaller set of suite.plan)
+    cmd = [sys.executable, "-c", boot + "from femb.benchmarks.suite import main; sys.exit(main(sys.argv[1:]))",
+           "--quick", "--out", str(out), "--only", ",".join(suite.PARTS)]
     proc = subprocess.run(cmd, capture_output=True, text=True, timeout=900)
     assert proc.returncode == 0, proc.stderr[-3000:]
     results = json.loads((out / "results.json").read_text())
@@ -222,6 +220,16 @@ def test_step_change_windows():
     assert w[0]["h_ratio"] == pytest.approx(0.5) and w[0]["after_over_before"] == pytest.approx(7.0)
     assert adaptive_suite.step_change_windows(np.ones(40), err) == []
 
+
+
+def test_quick_plan_is_the_small_set_and_only_widens_it():
+    parts, scenes = suite.plan(quick=True)
+    assert parts == list(suite.QUICK_PARTS) and scenes == list(suite.QUICK_SCENES)
+    assert set(parts) < set(suite.PARTS) and set(scenes) <= set(registry.names())
+    assert suite.plan(quick=False) == (list(suite.PARTS), registry.names())
+    assert suite.plan(quick=True, only=["work_precision"]) == (["work_precision"], registry.names())
+    assert suite.plan(quick=True, only=["headline"]) == (["headline"], ["andrews"])
+    assert _cli_has_bench_suite()
 
 
 def test_main_rejects_unknown_part(tmp_path, capsys):

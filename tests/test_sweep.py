@@ -125,6 +125,15 @@ def test_sweep_equals_serial_runs(client):
         assert r["newton_iterations"] == int(result.newton_iterations.sum())
         assert r["t_end"] == T_END and r["h"] == H
         assert r["wall_time"] > 0 and r["worker"].startswith("tcp://")
+    # the table's record: femb's version, the run settings, every parameter with value and unit
+    a = df.attrs
+    assert a["femb_version"] == femb.__version__
+    assert a["settings"]["h"] == H and a["settings"]["t_end"] == T_END
+    info = registry.load("slider_crank").parameter_info()
+    assert set(a["params"]) == set(info)          # rho_inf (varied) is a run setting, in the rows
+    assert a["params"]["k"] == {"value": None, "unit": info["k"][2], "given": True, "varied": True}
+    assert a["params"]["T"] == {"value": info["T"][0], "unit": "N m", "given": False}
+    assert a["units"]["theta"] == "rad"
 
 
 def test_failing_cases_are_rows(client):
@@ -244,6 +253,8 @@ def test_interrupt_then_resume(client, tmp_path):
     # the design comes back with the rows: parameters are not taken for outputs
     from femb.sweep import output_columns, plot_results
     assert on_disk.attrs["parameters"] == ["k"] and on_disk.attrs["outputs"] == df.attrs["outputs"]
+    for key in ("femb_version", "settings", "params", "units"):
+        assert on_disk.attrs[key] == df.attrs[key], key
     assert output_columns(on_disk, on_disk.attrs["parameters"]) == output_columns(df, df.attrs["parameters"])
     assert "k" not in output_columns(on_disk)
     plot_results(on_disk, tmp_path / "plot.png")

@@ -1,4 +1,4 @@
-"""Output layer: VTK time series, pictures, animations and progress reports.
+"""Output layer: VTK time series, pictures, animations, output channels and progress reports.
 
 This is the only layer that imports meshio or pyvista. The public names are
 loaded on first use, so ``import femb.io`` costs nothing; meshio is imported
@@ -10,8 +10,10 @@ Public names
 OutputError, merge_blocks, write_vtu, TimeSeriesWriter, read_pvd, read_frame
     from :mod:`femb.io.vtk`
 can_render, render_png, render_strip, render_animation, picture_scene
-    from :mod:`femb.io.render` (what a picture of a 3-D mechanism shows:
+    from :mod:`femb.io.render` (what a picture of a mechanism shows:
     :mod:`femb.io.mechanism`)
+OutputChannels
+    from :mod:`femb.io.channels` (named outputs to CSV or Parquet during a run)
 progress
     from :mod:`femb.io.progress`
 model_blocks, scene_field_data, VTKStream, write_vtk, write_vtk_stream
@@ -42,6 +44,7 @@ _EXPORTS = {
     "VTKStream": "frames",
     "write_vtk": "frames",
     "write_vtk_stream": "frames",
+    "OutputChannels": "channels",
 }
 
 __all__ = sorted([*_EXPORTS, "progress"])

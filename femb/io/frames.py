@@ -22,7 +22,10 @@ GLYPHS = {"body": 1, "body_frame": 2, "point_mass": 3, "revolute": 10, "spherica
           "spring": 20, "bushing": 21, "torsion": 22, "load": 30, "ground": 40, "beam": 50}
 
 #: Kinds of the blocks this module makes itself (the ground's named points).
-_OWN_KINDS = {"SpatialGround": "ground"}
+_OWN_KINDS = {"SpatialGround": "ground", "Ground": "ground"}
+
+#: kinds of planar pair elements that the renderer draws as joints at their points
+_PLANAR_JOINTS = ("revolute", "prismatic", "motor", "actuator", "torsion", "fixed")
 
 #: How a body is drawn (cell data ``body_look``): its given shape, the hull of its
 #: named points, or (neither given) the box with its mass and inertia.
@@ -51,10 +54,15 @@ class _Scene:
         self.body_look = {}
         self.points = {}              # (body, point) -> body-axes coordinates
         self.pairs = set()            # ids of groups of spatial pair elements
+        self.hinges = {}              # {body a, body b} -> (x entries (6,), s_a (2,)) of a planar hinge
         for g in model.groups:
             self.kinds.update(glyphs(g.cls))
             if getattr(g.cls, "frame_pair", False):
                 self.pairs.add(id(g))
+            elif glyphs(g.cls).get(g.cls.__name__) == "revolute" and _is_planar_pair(g) and "sa" in g.params:
+                for k, e in enumerate(g.elements):
+                    key = frozenset((getattr(e.a, "name", e.a), getattr(e.b, "name", e.b)))
+                    self.hinges.setdefault(key, (np.asarray(g.xdofs[k]), np.asarray(g.params["sa"][k], float)))
             for e in g.elements:
                 if (getattr(type(e), "spatial", False) and model.bodies.get(e.name) is e
                         and e.name in self.body_index):
@@ -74,6 +82,16 @@ class _Scene:
     def body(self, ref):
         name = getattr(ref, "name", ref)
         return self.body_index.get(name, 0)
+
+    def hinge_point(self, a, b, qx):
+        """Where a planar hinge joins bodies a and b at the configuration qx (2,), or None."""
+        h = self.hinges.get(frozenset((getattr(a, "name", a), getattr(b, "name", b))))
+        if h is None:
+            return None
+        from femb.elements._planar import rot
+
+        x = np.asarray(qx[h[0]], dtype=float)
+        return x[0:2] + rot(np.array([x[2]]), h[1][None])[0]
 
     def field_data(self, blocks):
         fd = {}
@@ -110,10 +128,16 @@ def _annotate(scene, g, blocks, qx):
         look = np.array([scene.body_look.get(n, LOOK_SHAPE) for n in names], dtype=np.int32)
         for b in blocks:
             ids = b.cell_data.get("body_id")
+            if ids is None and kind == "point_mass" and [c for c, _ in b.cells] == ["vertex"] \
+                    and len(b.points) == len(names):          # one vertex per point mass, in order
+                ids = [np.arange(len(names))]
             if ids is None:
                 continue
             b.cell_data["body"] = [index[np.asarray(i, dtype=np.int64)] for i in ids]
             b.cell_data["body_look"] = [look[np.asarray(i, dtype=np.int64)] for i in ids]
+        return
+    if kind in _PLANAR_JOINTS and id(g) not in scene.pairs and _is_planar_pair(g):
+        _planar_joint(scene, g, kind, blocks, qx)
         return
     if id(g) not in scene.pairs or not blocks:
         return
@@ -135,6 +159,79 @@ def _annotate(scene, g, blocks, qx):
             b.point_data["joint_pin_b"] = np.einsum("nij,nj->ni", Rb, p["Eb"][:, 0])
         b.cell_data["body_a"] = [ba.copy()]
         b.cell_data["body_b"] = [bb.copy()]
+
+
+def _is_planar_pair(g):
+    """A group of planar elements between two bodies (x, y, θ each: 6 configuration entries)."""
+    return not getattr(g.cls, "spatial", False) and bool(g.elements) and \
+        all(hasattr(e, "a") and hasattr(e, "b") for e in g.elements) and np.shape(g.xdofs)[1:] == (6,)
+
+
+def _planar_joint(scene, g, kind, blocks, qx):
+    """What the renderer needs of a planar joint, drive or torsion spring between bodies a and b.
+
+    Its points P_a = r_a + R(θ_a) s_a (vertex cells) carry ``joint_axis`` (z, or the
+    line's direction for sliders and driven displacements), ``joint_pb`` (P_b) and the
+    bodies ``body_a`` / ``body_b``. A type that draws nothing of its own (a driven angle,
+    a torsion spring) gets a block of its own there: at the hinge that joins the same
+    two bodies when there is one, else at P_a.
+    """
+    from femb.elements._planar import perp, rot
+
+    n = len(g.elements)
+    qe = np.asarray(qx[g.xdofs], dtype=float)
+    p = g.params
+    zero = np.zeros((n, 2))
+    sa = np.asarray(p.get("sa", zero), dtype=float).reshape(n, 2)
+    sb = np.asarray(p.get("sb", zero), dtype=float).reshape(n, 2)
+    Pa = qe[:, 0:2] + rot(qe[:, 2], sa)
+    Pb = qe[:, 3:5] + rot(qe[:, 5], sb)
+    if not blocks and kind in ("motor", "torsion"):
+        for k, e in enumerate(g.elements):
+            at = scene.hinge_point(e.a, e.b, qx)
+            if at is not None:
+                Pa[k] = Pb[k] = at
+    axis = np.zeros((n, 3))
+    if kind in ("prismatic", "actuator") and "u" in p:
+        axis[:, :2] = rot(qe[:, 2], np.asarray(p["u"], dtype=float).reshape(n, 2))
+    else:
+        axis[:, 2] = 1.0
+    pin = np.zeros((n, 3))                  # a direction normal to the axis (sleeves, arrows beside)
+    if kind in ("prismatic", "actuator"):
+        pin[:, :2] = perp(axis[:, :2])
+    else:
+        pin[:, 0] = 1.0
+    ba = np.array([scene.body(e.a) for e in g.elements], dtype=np.int32)
+    bb = np.array([scene.body(e.b) for e in g.elements], dtype=np.int32)
+    pa3, pb3 = np.zeros((n, 3)), np.zeros((n, 3))
+    pa3[:, :2], pb3[:, :2] = Pa, Pb
+    data = {"joint_axis": axis, "joint_pin_a": pin, "joint_pb": pb3}
+    own = [b for b in blocks if b.name == g.cls.__name__]
+    if not own:
+        blocks.append(GeometryBlock(g.cls.__name__, pa3, [("vertex", np.arange(n)[:, None])],
+                                    point_data=data, cell_data={"body_a": [ba], "body_b": [bb]}))
+        return
+    b = own[0]
+    kinds = [c for c, _ in b.cells]
+    if kinds == ["vertex"] and len(b.points) == n:        # a hinge: its vertices are the P_a
+        b.point_data.update(data)
+        b.cell_data.update(body_a=[ba], body_b=[bb])
+        return
+    # a line joint: its drawing (lines) stays for ParaView; vertices at P_a are added
+    m = len(b.points)
+    b.points = np.vstack((np.asarray(b.points, dtype=float), pa3))
+    for name, a in list(b.point_data.items()):
+        a = np.asarray(a)
+        b.point_data[name] = np.concatenate((a, np.zeros((n,) + a.shape[1:], a.dtype)))
+    for name, a in data.items():
+        b.point_data[name] = np.concatenate((np.zeros((m, 3)), a))
+    b.cells = list(b.cells) + [("vertex", m + np.arange(n)[:, None])]
+    for name, arrays in list(b.cell_data.items()):
+        last = np.asarray(arrays[-1])
+        b.cell_data[name] = list(arrays) + [np.zeros((n,) + last.shape[1:], last.dtype)]
+    minus = [np.full(len(c), -1, dtype=np.int32) for _, c in b.cells[:-1]]
+    b.cell_data["body_a"] = minus + [ba]
+    b.cell_data["body_b"] = [x.copy() for x in minus] + [bb]
 
 
 def model_blocks(model, t, q, qd, lam):

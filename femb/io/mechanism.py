@@ -1,4 +1,8 @@
-"""What a picture of a 3-D mechanism shows: bodies, joints, ground, floor, paths.
+"""What a picture of a mechanism shows: bodies, joints, ground, floor, paths.
+
+Spatial and planar mechanisms are drawn by the same parts; a planar one (bodies
+without frames in the plane z = 0) is seen straight onto its plane, without a
+floor, each body's flat outline on a layer of its own.
 
 A frame written by :func:`femb.io.frames.model_blocks` carries, next to its
 geometry, field data naming what each element type is (``glyph.<type>``),
@@ -61,7 +65,7 @@ JOINT_KINDS = ("revolute", "spherical", "prismatic", "cylindrical", "universal",
 DRIVE_COLOUR = (200, 30, 30)
 LOAD_COLOUR = (200, 30, 30)
 
-VIEWS = ("3d", "iso", "front", "side", "top", "xy", "xz", "yz")
+VIEWS = ("3d", "iso", "front", "side", "top", "plane", "xy", "xz", "yz")
 #: (azimuth, elevation) in degrees of the gravity-aware views (see :func:`view_direction`)
 VIEW_ANGLES = {"3d": (-45.0, 26.33), "iso": (-45.0, 35.26), "front": (-90.0, 0.0), "side": (0.0, 0.0),
                "top": (-90.0, 90.0)}
@@ -109,6 +113,7 @@ class Frame:
     points: dict               # (body, point) -> body-axes coordinates
     loads: list = field(default_factory=list)      # ("force" or "torque", point (3,), vector (3,))
     beams: list = field(default_factory=list)      # (type name, pyvista mesh of its line cells)
+    planar: bool = False       # bodies without frames (planar types): the mechanism of a plane
 
 
 def read_frame(mesh, time=0.0):
@@ -172,9 +177,15 @@ def read_frame(mesh, time=0.0):
             verts = cells[ctype[cells] == 1]
             lines = cells[ctype[cells] == 3]
             if kind == "spring":
+                # one line per spring, or a chain of lines (a planar spring's zigzag): its two ends
+                prev = None
                 for c in lines:
                     a, b = conn[off[c]:off[c] + 2]
-                    springs.append(("spring", P[a], P[b]))
+                    if prev is not None and a == prev:
+                        springs[-1] = ("spring", springs[-1][1], P[b])
+                    else:
+                        springs.append(("spring", P[a], P[b]))
+                    prev = b
                 continue
             ids = first_point(verts)
             ends = [P[conn[off[c] + 1]] for c in lines]
@@ -183,7 +194,7 @@ def read_frame(mesh, time=0.0):
                     return np.asarray(pd[name], dtype=float)[i] if name in pd else zero3.copy()
                 ba = int(np.asarray(cd["body_a"])[c]) if "body_a" in cd else -1
                 bb = int(np.asarray(cd["body_b"])[c]) if "body_b" in cd else -1
-                pb = ends[j] if j < len(ends) else P[i]
+                pb = vec("joint_pb") if "joint_pb" in pd else (ends[j] if j < len(ends) else P[i])
                 if kind in ("bushing", "torsion"):
                     springs.append((kind, P[i], vec("joint_axis")))
                     continue
@@ -196,8 +207,11 @@ def read_frame(mesh, time=0.0):
     for tname, cells in by_kind.get("load", []):
         ids = first_point(cells)
         for what in ("force", "torque"):
-            if what in pd:
-                V = np.asarray(pd[what], dtype=float)[ids]
+            src = "load" if what == "force" and "force" not in pd else what    # planar: "load" (N)
+            if src in pd:
+                V = np.asarray(pd[src], dtype=float)[ids]
+                if V.ndim == 1:                     # a planar torque: T about z (N m)
+                    V = np.column_stack((np.zeros((V.size, 2)), V))
                 keep = np.linalg.norm(V, axis=1) > 0.0
                 loads += [(what, P[i], v) for i, v in zip(ids[keep], V[keep])]
     beams = []
@@ -205,7 +219,8 @@ def read_frame(mesh, time=0.0):
         lines = cells[ctype[cells] == 3]
         if lines.size:
             beams.append((tname, mesh.extract_cells(lines)))
-    return Frame(time, bodies, names, centres, joints, springs, ground, g, points, loads, beams)
+    planar = bool(bodies) and "body_frame" not in by_kind
+    return Frame(time, bodies, names, centres, joints, springs, ground, g, points, loads, beams, planar)
 
 
 # ---------------------------------------------------------------------------
@@ -313,6 +328,7 @@ class Motion:
     traces: dict                # label -> (times (nt,), points (nt, 3), body)
     names: dict
     ground_side: dict = field(default_factory=dict)   # (type, index) -> +1 body above its ground joint, -1 below
+    planar: bool = False        # everything lies in the plane z = 0 (a planar mechanism)
 
     @property
     def joint_size(self):
@@ -320,7 +336,10 @@ class Motion:
 
     @property
     def up(self):
-        return up_vector(self.gravity)
+        up = up_vector(self.gravity)
+        if self.planar and abs(up[2]) > 0.9:        # a planar mechanism without in-plane gravity: y up
+            return np.array([0.0, 1.0, 0.0])
+        return up
 
 
 def trace_position(frame, body, point):
@@ -371,7 +390,10 @@ def scan_motion(frames, traces=()):
             keys.append(np.vstack((j.pa, j.pb)))
             if 0 in (j.body_a, j.body_b):
                 held = j.body_b if j.body_a == 0 else j.body_a
-                c = fr.centres.get(held, (j.pb, None))[0]
+                c = fr.centres.get(held, (None, None))[0]
+                if c is None:                   # a planar body (no frame): the middle of its drawing
+                    m = fr.bodies.get(held, {}).get("mesh")
+                    c = np.asarray(m.points, dtype=float).mean(axis=0) if m is not None and m.n_points else j.pb
                 side[(j.type_name, j.index)] = side.get((j.type_name, j.index), 0.0) + float((c - j.pa) @ up)
             if j.kind in ("prismatic", "cylindrical"):
                 s = float((j.pb - j.pa) @ j.axis)
@@ -397,8 +419,10 @@ def scan_motion(frames, traces=()):
     # thin the key points: bounding extremes in many directions are enough to frame
     if len(key) > 4000:
         key = np.unique(np.round(key / (1e-3 * size)), axis=0) * (1e-3 * size)
+    planar = bool(hi[2] - lo[2] <= 1e-9 * size) and frames[0].planar and (
+        frames[0].gravity is None or abs(float(frames[0].gravity[2])) == 0.0)
     return Motion(lo, hi, size, frames[0].gravity, rails, key, traces_out, dict(frames[0].names),
-                  {k: (-1.0 if v < 0.0 else 1.0) for k, v in side.items()})
+                  {k: (-1.0 if v < 0.0 else 1.0) for k, v in side.items()}, planar)
 
 
 # ---------------------------------------------------------------------------
@@ -495,6 +519,9 @@ def body_items(pv, frame, motion, shade=1.0):
             items.append(Item("body", name, ball, colour))
             continue
         surf = _surface(b["mesh"])
+        if motion.planar:               # flat outlines in one plane: each body on its own layer, no z-fighting
+            surf = surf.copy()
+            surf.points = np.asarray(surf.points, dtype=float) + np.array([0.0, 0.0, 0.04 * s * num])
         pts = np.asarray(surf.points, dtype=float)
         anchors = _distinct(att.get(num, []), 0.5 * s)
         if b["look"] == 2 and len(anchors) >= 2:
@@ -699,8 +726,8 @@ def load_items(pv, frame, motion, shade=1.0):
 
 
 def floor_item(pv, motion):
-    """A faint floor normal to gravity under the whole motion (None without gravity)."""
-    if motion.gravity is None or not np.any(motion.gravity):
+    """A faint floor normal to gravity under the whole motion (None without gravity or in a plane)."""
+    if motion.gravity is None or not np.any(motion.gravity) or motion.planar:
         return None
     up = motion.up
     s = motion.joint_size

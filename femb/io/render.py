@@ -263,8 +263,12 @@ class _Scan:
         self.size = size if size > 0 else 1.0
         self.planar = (hi[2] - lo[2]) <= 1e-9 * self.size
         # a 3-D mechanism written by femb (drawn by parts, in perspective, even when it moves in a plane)
-        self.mechanism = bool(entries) and any(
-            k.startswith("glyph.") for k in _read(pv, entries[0][1]).field_data.keys())
+        fd0 = _read(pv, entries[0][1]).field_data if entries else {}
+        glyphs = [int(np.asarray(fd0[k]).reshape(-1)[0]) for k in fd0.keys() if k.startswith("glyph.")]
+        self.mechanism = bool(glyphs)
+        # a planar mechanism (bodies without frames, z = 0, no gravity along z): seen straight onto its plane
+        g = np.asarray(fd0["gravity"], dtype=float).reshape(-1) if "gravity" in fd0.keys() else np.zeros(3)
+        self.plane = self.mechanism and self.planar and 2 not in glyphs and (g.size < 3 or g[2] == 0.0)
         if scalars is not None and not found:
             raise OutputError(
                 f"scalars={scalars!r}: no point or cell data of that name in the frames "
@@ -320,6 +324,8 @@ def _check_suffix(path, allowed, param):
 
 def _check_view(view, scan):
     if view is None:
+        if getattr(scan, "plane", False):
+            return "plane"
         return "xy" if scan.planar and not getattr(scan, "mechanism", False) else "3d"
     from .mechanism import parse_view
 
@@ -535,7 +541,12 @@ class _Mechanism:
         """A :class:`~femb.io.mechanism.Camera` showing the whole motion and its glyphs, fixed over it."""
         from . import mechanism as mx
 
-        d, pic_up = _direction(view, self.motion.up)
+        if view == "plane":             # straight onto the plane of a planar mechanism, its up along -g
+            up = self.motion.up
+            d, pic_up = np.array([0.0, 0.0, 1.0]), np.array([up[0], up[1], 0.0])
+            pic_up /= max(float(np.hypot(up[0], up[1])), 1e-300)
+        else:
+            d, pic_up = _direction(view, self.motion.up)
         s = self.motion.joint_size
         pad = 2.6 * s * np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)])
         key = self.motion.key
@@ -843,9 +854,10 @@ def render_png(pvd, out_png, time=None, *, scalars=None, window_size=(1024, 768)
         ``"3d"`` (default for 3-D data and femb mechanisms: perspective from
         azimuth −45°, elevation 26° about the up direction, −g or z; for z up
         the direction (1, −1, 0.7)), ``"iso"`` (elevation 35.3°), ``"front"``,
-        ``"side"``, ``"top"``, ``"azimuth,elevation"`` in degrees, or
-        ``"xy"`` (default for planar data), ``"xz"``, ``"yz"``: parallel views
-        along a coordinate axis.
+        ``"side"``, ``"top"``, ``"azimuth,elevation"`` in degrees,
+        ``"plane"`` (default for planar mechanisms written by femb: straight
+        onto the plane z = 0, −g pointing down), or ``"xy"`` (default for other
+        planar data), ``"xz"``, ``"yz"``: parallel views along a coordinate axis.
     trace : sequence of str, optional
         Paths to draw over the whole motion: ``"body"`` (its centre of mass)
         or ``"body:point"`` (a named point), for 3-D mechanisms written by
