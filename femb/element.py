@@ -22,6 +22,9 @@ Class-level metadata tells the compiled model what a scene needs:
 ``constant_force``          f does not depend on t, q, q̇ (evaluated once at compile)
 ``n_constraints``           constraints per element (0: none)
 ``rheonomic``               Φ depends explicitly on t
+``n_velocity_constraints``  velocity-level (non-holonomic) constraints per
+                            element, A(q, t) v + a(q, t) = 0, via
+                            ``kernels["velocity_constraint"]`` (0: none)
 =========================  ===================================================
 
 Sign conventions follow Arnold & Brüls (2007): M q̈ = f − Φ_qᵀ λ, Φ = 0.
@@ -43,7 +46,11 @@ class Element:
     rheonomic = False
     #: names of this type's constraint equations, for named reactions
     constraint_names: tuple = ()
-    #: compiled kernels by role ("mass", "force", "constraint", "rates"), see docs/kernels.md
+    #: velocity-level (non-holonomic) constraints per element and their names (docs/kernels.md)
+    n_velocity_constraints = 0
+    velocity_constraint_names: tuple = ()
+    #: compiled kernels by role ("mass", "force", "constraint", "rates", "velocity_constraint"),
+    #: see docs/kernels.md
     kernels: dict = {}
 
     def __init__(self, name):
@@ -75,7 +82,7 @@ class Element:
         """
         return {k: getattr(cls, k) for k in (
             "has_mass", "constant_mass", "has_force", "force_depends_on_qd",
-            "constant_force", "n_constraints", "rheonomic")}
+            "constant_force", "n_constraints", "rheonomic", "n_velocity_constraints")}
 
     @classmethod
     def time_functions(cls, element):
