@@ -332,7 +332,7 @@ class _Blocks:
                    else sp.csr_matrix((0, model.nq)))
 
 
-def reference(model, t, q, v, blocks=None):
+def reference(model, t, q, v, blocks=None, f_extra=None):
     """Accelerations v̇ and multipliers (λ, μ) of the state (t, q, v).
 
     Solves [[M, Wᵀ], [W, 0]] [v̇; ν] = [f; −γ] with W = [Φ_q; A], ν = (λ, μ) and γ the
@@ -342,12 +342,16 @@ def reference(model, t, q, v, blocks=None):
     Returns
     -------
     vd : ndarray (nq,), lam : ndarray (nc,), mu : ndarray (nn,)
+
+    ``f_extra`` (nq,) is added to the applied forces (e.g. inputs).
     """
     q = np.asarray(q, dtype=float)
     v = np.asarray(v, dtype=float)
     b_ = _Blocks(model, t, q, v) if blocks is None else blocks
     M = assembly.mass_matrix(model, q)
     f = assembly.force_vector(model, t, q, v)
+    if f_extra is not None:
+        f = f + np.asarray(f_extra, dtype=float)
     nq, nc = model.nq, model.nc
     if nc + model.nn:
         W = sp.vstack((b_.B, b_.A)).tocsc()
@@ -454,8 +458,11 @@ class LinearModel:
             import control
         except ImportError:
             raise ModelError("to_control needs python-control: pip install 'femb[control]'") from None
-        return control.ss(self.A, self._B(), self._C(), self._D(), states=list(self.state_names),
-                          inputs=list(self.input_names) or None, outputs=list(self.output_names) or None)
+        def ok(names):      # python-control refuses '.' in signal names: node.coordinate → node_coordinate
+            return [str(n).replace(".", "_") for n in names] or None
+
+        return control.ss(self.A, self._B(), self._C(), self._D(), states=ok(self.state_names),
+                          inputs=ok(self.input_names), outputs=ok(self.output_names))
 
     def _B(self):
         return self.B if self.B.shape[1] else np.zeros((self.n, 1))

@@ -1,0 +1,264 @@
+"""femb.linearize: the Whipple bicycle from the 3-D model, closed forms, finite differences, errors."""
+import numpy as np
+import pytest
+
+from femb import Mechanism
+from femb.benchmarks import whipple_bicycle as wb
+from femb.benchmarks.references import whipple_linear as ref
+from femb.elements import Hinge, RigidBody, Slider, SpringDamper
+from femb.elements.forces import Gravity
+from femb.elements.rolling import RollingDisc
+from femb.elements.spatial_bodies import SpatialRigidBody
+from femb.elements.spatial_forces import SpatialGravity
+from femb.elements.spatial_joints import SphericalJoint
+from femb.errors import ParameterError
+from femb import linearize as fl
+
+
+def _match(got, want):
+    """Largest distance between the two sets of eigenvalues (each matched to its nearest)."""
+    got, want = np.asarray(got), np.asarray(want)
+    assert got.shape == want.shape
+    return max(max(np.min(np.abs(got - w)) for w in want), max(np.min(np.abs(want - g)) for g in got))
+
+
+def _sorted(ev):
+    ev = np.asarray(ev)
+    return ev[np.lexsort((ev.imag, ev.real))]
+
+
+# ---------------------------------------------------------------- the Whipple bicycle
+@pytest.mark.parametrize("v", [0.0, 5.0, 10.0])
+def test_whipple_eigenvalues_table2(v):
+    got = wb.eigenvalues(v)
+    want = _sorted(wb.TABLE2[v])
+    assert np.max(np.abs(got - want)) < 1e-9
+
+
+def test_whipple_weave_and_capsize_speeds():
+    assert abs(wb.weave_speed() - wb.TABLE2["weave_speed"]) < 1e-8
+    assert abs(wb.capsize_speed() - wb.TABLE2["capsize_speed"]) < 1e-8
+
+
+@pytest.mark.parametrize("v", [0.0, 0.7, 3.0, 4.3, 6.0, 8.5, 10.0])
+def test_whipple_state_matrix_equals_canonical_equations(v):
+    """The whole (A, B) in (φ, δ, φ̇, δ̇), not only the eigenvalues: B = [0; M⁻¹] for (T_φ, T_δ)."""
+    lin = wb.linearized(v)
+    assert lin.state_names == ["lean", "steer", "lean_d", "steer_d"]
+    np.testing.assert_allclose(lin.A, ref.state_matrix(v), rtol=0, atol=1e-9 * max(1.0, v * v))
+    M = ref.canonical_matrices()[0]
+    np.testing.assert_allclose(lin.B, np.vstack((np.zeros((2, 2)), np.linalg.inv(M))), rtol=0, atol=1e-10)
+    np.testing.assert_allclose(lin.C, np.hstack((np.eye(2), np.zeros((2, 2)))), atol=1e-12)
+
+
+def _other_bicycle(seed):
+    rng = np.random.default_rng(seed)
+    p = dict(ref.BENCHMARK)
+    for k in ("w", "c", "lam", "rR", "mR", "xB", "zB", "mB", "xH", "zH", "mH", "rF", "mF"):
+        p[k] = p[k] * (1.0 + 0.25 * rng.uniform(-1.0, 1.0))
+    # each body's inertia tensor scaled as a whole: it stays physical (triangle inequalities)
+    for body, keys in (("R", ("IRxx", "IRyy")), ("B", ("IBxx", "IByy", "IBzz", "IBxz")),
+                       ("H", ("IHxx", "IHyy", "IHzz", "IHxz")), ("F", ("IFxx", "IFyy"))):
+        s = 1.0 + 0.4 * rng.uniform(-1.0, 1.0)
+        for k in keys:
+            p[k] = p[k] * s
+    return p
+
+
+@pytest.mark.parametrize("seed", [1, 2, 3])
+def test_other_bicycles_equal_canonical_equations(seed):
+    p = _other_bicycle(seed)
+    for v in (1.0, 4.0, 7.5):
+        got = wb.eigenvalues(v, p)
+        want = ref.eigenvalues(v, p)
+        assert np.max(np.abs(got - want)) < 1e-9, (p, v)
+        np.testing.assert_allclose(wb.linearized(v, p).A, ref.state_matrix(v, p), rtol=0, atol=1e-9 * (1 + v * v))
+
+
+def test_whipple_drift_is_eliminated_by_symmetry_not_by_value():
+    """Without the symmetries the linearization keeps the drift: 10 states, 6 of them zero modes."""
+    model = wb.model_for()
+    full = fl.linearize(model, (model.q0, wb.velocities(model, 5.0)), about="steady")
+    assert full.A.shape == (10, 10)
+    ev = _sorted(np.linalg.eigvals(full.A))
+    lateral = wb.eigenvalues(5.0)
+    for e in lateral:                        # the four of the reduced model are among them
+        assert np.min(np.abs(ev - e)) < 1e-8
+    assert wb.linearized(5.0).A.shape == (4, 4)
+
+
+def test_a_false_symmetry_is_refused():
+    model = wb.model_for()
+    st = (model.q0, wb.velocities(model, 5.0))
+    with pytest.raises(ParameterError, match="symmetr"):
+        fl.linearize(model, st, symmetries=[fl.translation((0.0, 0.0, 1.0), "z")])
+    with pytest.raises(ParameterError, match="not a steady motion"):
+        fl.linearize(model, st, about="steady", omega=(0.0, 0.0, 0.3))
+
+
+# ---------------------------------------------------------------- closed forms
+@pytest.mark.parametrize("m,k,d", [(2.0, 4000.0, 8.0), (1.0, 4000.0, 8.0), (0.5, 30.0, 0.2), (3.0, 100.0, 50.0)])
+def test_mass_spring_damper(m, k, d):
+    mech = Mechanism("msd")
+    mech.add(RigidBody("mass", m, 0.1, position=(1.0, 0.0)))
+    mech.add(Slider("s", "ground", "mass", axis=(1.0, 0.0)))
+    mech.add(SpringDamper("k", "ground", "mass", k, d, point_a=(0.0, 0.0), length=1.0))
+    model = mech.compile()
+    x = fl.coordinate(model, "mass.x")
+    lin = fl.linearize(model, states=[x, fl.coordinate(model, "mass.x", rate=True)])
+    w0, z = np.sqrt(k / m), d / (2.0 * np.sqrt(k * m))
+    ev = _sorted(lin.eig().eigenvalues)
+    want = _sorted(w0 * (-z + np.array([1, -1]) * np.sqrt(complex(z * z - 1.0))))
+    assert np.max(np.abs(ev - want)) < 1e-10 * w0
+    modes = lin.eig()
+    if z < 1:
+        np.testing.assert_allclose(modes.damping_ratio, z, atol=1e-12)
+        np.testing.assert_allclose(modes.natural_frequency, w0, rtol=1e-12)
+    np.testing.assert_allclose(lin.A, [[0, 1], [-k / m, -d / m]], atol=1e-10 * k / m)
+
+
+def _top(m=15.0, Ix=0.234375, I3=0.46875, l=1.0, spin_rate=40.0, g=9.81):
+    mech = Mechanism("sleeping_top")
+    mech.add(SpatialRigidBody("top", m, (Ix, Ix, I3), position=(0.0, 0.0, l), omega=(0.0, 0.0, spin_rate)))
+    mech.add(SphericalJoint("pivot", "ground", "top", at=(0.0, 0.0, 0.0)))
+    mech.add(SpatialGravity((0.0, 0.0, -g)))
+    model = mech.compile()
+    dv = np.zeros(model.nq)
+    dv[model.node_vindex["top"][5]] = 1.0
+    lin = fl.linearize(model, (model.q0, model.qd0), about="steady",
+                       symmetries=[fl.spin("top", (0.0, 0.0, 1.0)), fl.direction(np.zeros(model.nq), dv, "spin rate")])
+    return lin
+
+
+@pytest.mark.parametrize("spin_rate", [0.0, 10.0, 22.0, 40.0, 150.0])
+def test_sleeping_top_gyroscopic_split(spin_rate):
+    """I₁ s² − i I₃ ω s − m g l = 0 for u = φ_x + i φ_y (and its conjugate), I₁ about the pivot."""
+    m, Ix, I3, l, g = 15.0, 0.234375, 0.46875, 1.0, 9.81
+    lin = _top(m, Ix, I3, l, spin_rate, g)
+    I1 = Ix + m * l * l
+    disc = np.sqrt(complex(4.0 * I1 * m * g * l - (I3 * spin_rate) ** 2))
+    r = np.array([(1j * I3 * spin_rate + disc) / (2 * I1), (1j * I3 * spin_rate - disc) / (2 * I1)])
+    want = _sorted(np.concatenate((r, r.conj())))
+    assert lin.A.shape == (4, 4)
+    assert _match(lin.eig().eigenvalues, want) < 1e-10 * max(1.0, np.abs(want).max())
+
+
+def _coin(omega, m=1.3, r=0.4, g=9.81):
+    mech = Mechanism("coin")
+    A, C = m * r * r / 4.0, m * r * r / 2.0
+    mech.add(SpatialRigidBody("coin", m, (A, C, A), position=(0.0, 0.0, r), velocity=(r * omega, 0.0, 0.0),
+                              omega=(0.0, omega, 0.0)))
+    mech.add(RollingDisc("contact", "coin", r, (0.0, 1.0, 0.0)))
+    mech.add(SpatialGravity((0.0, 0.0, -g)))
+    model = mech.compile()
+    dv = np.zeros(model.nq)
+    idx = model.node_vindex["coin"]
+    dv[idx[0]], dv[idx[4]] = r, 1.0
+    syms = [fl.translation((1, 0, 0)), fl.translation((0, 1, 0)), fl.rotation((0, 0, 1)),
+            fl.spin("coin", (0, 1, 0)), fl.direction(np.zeros(model.nq), dv, "spin rate")]
+    return fl.linearize(model, (model.q0, model.qd0), about="steady", symmetries=syms), (m, r, g, A, C)
+
+
+@pytest.mark.parametrize("omega", [0.0, 2.0, 2.85, 3.0, 8.0, 20.0])
+def test_rolling_coin_upright_stability(omega):
+    """(A + m r²) φ̈ + [(C + m r²) C ω²/A − m g r] φ = 0 and A ψ̈ + C ω φ̇ = 0 (Neimark & Fufaev 1972)."""
+    lin, (m, r, g, A, C) = _coin(omega)
+    assert lin.A.shape == (3, 3)
+    s2 = -((C + m * r * r) * C * omega ** 2 / A - m * g * r) / (A + m * r * r)
+    s = np.sqrt(complex(s2))
+    want = _sorted([s, -s, 0.0])
+    assert _match(lin.eig().eigenvalues, want) < 1e-10 * max(1.0, abs(s))
+
+
+def test_rolling_coin_stability_bound():
+    """The critical spin ω² = m g r A / (C (C + m r²)) (g/(3r) for the thin uniform disc) from the linearization."""
+    from scipy.optimize import brentq
+    m, r, g = 1.3, 0.4, 9.81
+    crit = np.sqrt(g / (3.0 * r))
+    f = lambda w: np.max(_coin(w)[0].eig().eigenvalues.real) - 1e-3     # noqa: E731
+    # below the bound a real positive root, above it a centre: the largest real part jumps to ~0
+    assert np.max(_coin(0.999 * crit)[0].eig().eigenvalues.real) > 0.01
+    assert np.max(np.abs(_coin(1.001 * crit)[0].eig().eigenvalues.real)) < 1e-9
+    wc = brentq(lambda w: np.real(-((m * r * r * 1.5) * 0.5 * m * r * r * w * w / (0.25 * m * r * r) - m * g * r)),
+                0.5 * crit, 2 * crit)
+    assert abs(wc - crit) < 1e-10 * crit
+    del f
+
+
+# ---------------------------------------------------------------- the cart–pendulum
+def cart_pendulum(mc=1.5, m=0.5, l=0.6, J=0.02, g=9.81, theta0=np.pi / 2):
+    mech = Mechanism("cart_pendulum")
+    mech.add(RigidBody("cart", mc, 0.1, position=(0.0, 0.0)))
+    mech.add(Slider("rail", "ground", "cart", axis=(1.0, 0.0)))
+    mech.add(RigidBody("pole", m, J, position=(l * np.cos(theta0), l * np.sin(theta0)), angle=theta0))
+    mech.add(Hinge("pin", "cart", "pole", at=(0.0, 0.0)))
+    mech.add(Gravity((0.0, -g)))
+    return mech
+
+
+def _cart_linear(model):
+    states = [fl.coordinate(model, "cart.x"), fl.coordinate(model, "pole.theta"),
+              fl.coordinate(model, "cart.x", rate=True), fl.coordinate(model, "pole.theta", rate=True)]
+    return fl.linearize(model, states=states, inputs=[fl.force(model, model.q0, "cart", (1.0, 0.0), name="F")],
+                        outputs=states[:2])
+
+
+def test_cart_pendulum_closed_form():
+    mc, m, l, J, g = 1.5, 0.5, 0.6, 0.02, 9.81
+    model = cart_pendulum(mc, m, l, J, g).compile()
+    lin = _cart_linear(model)
+    # θ measured counter-clockwise; upright θ = π/2; a small tilt ϑ = θ − π/2 moves the CoM by −l ϑ in x
+    Mm = np.array([[mc + m, -m * l], [-m * l, J + m * l * l]])
+    Km = np.array([[0.0, 0.0], [0.0, -m * g * l]])
+    Mi = np.linalg.inv(Mm)
+    A = np.block([[np.zeros((2, 2)), np.eye(2)], [-Mi @ Km, np.zeros((2, 2))]])
+    np.testing.assert_allclose(lin.A, A, rtol=0, atol=1e-10)
+    np.testing.assert_allclose(lin.B[:, 0], np.concatenate(([0, 0], Mi[:, 0])), rtol=0, atol=1e-12)
+
+
+def test_linearization_matches_finite_differences_of_the_nonlinear_model():
+    """A and B against central differences of femb's own accelerations about equilibria: the
+    cart–pendulum upright (holonomic constraints) and with a spring holding the pole tilted
+    (constraint forces and geometric stiffness), the bicycle at rest (rolling constraints)."""
+    tilted = cart_pendulum(theta0=1.2)
+    tilted.add(SpringDamper("hold", "ground", "pole", 200.0, 1.5, point_a=(1.0, 0.3)))
+    tilted_model = tilted.compile()
+    from femb.static import solve_static
+    eq = solve_static(tilted_model)
+    for model, st in ((cart_pendulum().compile(), None), (tilted_model, (eq.q[-1], np.zeros(tilted_model.nq))),
+                      (wb.model_for(), None)):
+        q0 = model.q0 if st is None else st[0]
+        inputs = [fl.force(model, q0, model.node_names[1], (1.0, 0.0, 0.0)[:2 if not model.lie else 3], name="u")]
+        lin = fl.linearize(model, st, about="equilibrium", inputs=inputs)
+        X = lin.basis
+        nq = model.nq
+        Xp = np.linalg.pinv(X)
+        h = 1e-6
+        Afd = np.zeros_like(lin.A)
+
+        def rate(s, u=0.0):
+            q = model.compose(q0, X[:nq] @ s)
+            v = X[nq:] @ s
+            vd = fl.reference(model, 0.0, q, v, f_extra=u * inputs[0].F)[0]
+            return Xp @ np.concatenate((v, vd))
+
+        for i in range(lin.n):
+            e = np.zeros(lin.n)
+            e[i] = h
+            Afd[:, i] = (rate(e) - rate(-e)) / (2 * h)
+        Bfd = (rate(np.zeros(lin.n), h) - rate(np.zeros(lin.n), -h)) / (2 * h)
+        scale = np.abs(lin.A).max()
+        assert np.abs(Afd - lin.A).max() < 1e-6 * scale
+        assert np.abs(Bfd - lin.B[:, 0]).max() < 1e-6 * np.abs(lin.B).max()
+
+
+def test_state_space_exports():
+    model = cart_pendulum().compile()
+    lin = _cart_linear(model)
+    ss = lin.to_scipy()
+    np.testing.assert_allclose(ss.A, lin.A)
+    control = pytest.importorskip("control")
+    sys = lin.to_control()
+    assert isinstance(sys, control.StateSpace)
+    assert list(sys.state_labels) == [n.replace(".", "_") for n in lin.state_names]
+    assert list(sys.input_labels) == ["F"]
