@@ -262,3 +262,31 @@ def test_state_space_exports():
     assert isinstance(sys, control.StateSpace)
     assert list(sys.state_labels) == [n.replace(".", "_") for n in lin.state_names]
     assert list(sys.input_labels) == ["F"]
+
+
+# ---------------------------------------------------------------- large models, mode shapes
+def test_sparse_damped_modes_of_a_beam_match_dense_and_proportional_damping():
+    from femb.benchmarks.linearize_large import BETA, build
+    from femb.modal import modal_analysis
+    model = build(30, length=1.0).compile()
+    sparse = fl.damped_modes(model, n_modes=12)
+    dense = fl.linearize(model).eig()
+    s = sparse.eigenvalues
+    d = dense.eigenvalues[np.argsort(np.abs(dense.eigenvalues))][:12]
+    assert _match(s, d) < 1e-9 * np.abs(s).max()
+    w = modal_analysis(model, n_modes=6).omega              # undamped; ζ = βω/2 (C = βK at rest)
+    z = BETA * w / 2.0
+    want = np.concatenate((w * (-z + 1j * np.sqrt(1 - z * z)), w * (-z - 1j * np.sqrt(1 - z * z))))
+    assert _match(s, want) < 1e-8 * np.abs(s).max()
+    up = s[s.imag > 0]
+    np.testing.assert_allclose(sparse.damping_ratio[s.imag > 0], BETA * np.abs(up) / 2.0, rtol=1e-5)
+
+
+def test_mode_shapes_to_vtk(tmp_path):
+    lin = _top(spin_rate=40.0)
+    modes = lin.eig()
+    path = modes.write_vtk(tmp_path / "top", 0, frames=4)
+    assert path.exists() and path.suffix == ".pvd"
+    assert len(list((tmp_path / "top").glob("*.vt*"))) >= 4
+    bike = wb.linearized(5.0).eig()
+    assert bike.write_vtk(tmp_path / "bike", 1, frames=3).exists()
