@@ -668,6 +668,14 @@ def linearize(model, state=None, *, about="auto", omega=None, symmetries=(), inp
     vd, lam, mu = reference(model, t, q, v, b_)
     if about != "state":
         _check_steady(model, q, v, vd, omega, about, 1e-8)
+    elif (model.nc + model.nn) and np.max(np.abs(vd), initial=0.0) > 1e-8 * max(1.0, np.abs(v).max(initial=0.0)):
+        import warnings
+        from femb.errors import ParameterWarning
+        warnings.warn(f"linearize: model '{model.name}' accelerates at the reference (|v̇| = "
+                      f"{np.abs(vd).max():.3g}) and has constraints: about='state' freezes the constraint "
+                      "basis at this instant, so the matrices describe the motion only approximately "
+                      "(exact about equilibria and steady motions; docs/linearize.md)", ParameterWarning,
+                      stacklevel=2)
     st = State(t, q, v, vd, lam)
     M = assembly.mass_matrix(model, q).toarray()
     K = assembly.tangent_stiffness(model, st).toarray()
@@ -806,3 +814,43 @@ def damped_modes(model, state=None, n_modes=20, *, sigma=0.0, t=None, tol=1e-12,
     order = np.lexsort((-lam_s.imag, np.abs(lam_s)))
     op_ = {"t": t, "q": q, "v": v, "vd": vd, "lam": lam, "mu": mu}
     return DampedModes(lam_s[order], X[:, order], X[:, order], model, op_)
+
+
+# --------------------------------------------------------------------------
+# eigenvalues against a parameter
+# --------------------------------------------------------------------------
+def eigenvalue_sweep(linear_model, values):
+    """Eigenvalues of ``linear_model(p)`` (a function returning a :class:`LinearModel`) for each p.
+
+    Returns
+    -------
+    values : ndarray (k,); eigenvalues : ndarray (k, n) complex, each row sorted by real part
+    """
+    values = np.asarray(values, dtype=float)
+    rows = []
+    for p in values:
+        ev = np.linalg.eigvals(linear_model(p).A)
+        rows.append(ev[np.lexsort((ev.imag, ev.real))])
+    return values, np.array(rows)
+
+
+def campbell_plot(values, eigenvalues, path, *, xlabel="parameter", title=None, ylim=None):
+    """Real parts (dots) and |imaginary parts| (open circles) of the eigenvalues against the
+    parameter, saved to ``path`` (matplotlib, no display)."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    fig, ax = plt.subplots(figsize=(6.4, 4.2))
+    ax.plot(values, np.asarray(eigenvalues).real, "k.", ms=3)
+    ax.plot(values, np.abs(np.asarray(eigenvalues).imag), "o", mfc="none", color="tab:blue", ms=3)
+    ax.axhline(0.0, color="0.6", lw=0.8)
+    if ylim is not None:
+        ax.set_ylim(*ylim)
+    ax.set_xlabel(xlabel)
+    ax.set_ylabel("Re λ (dots), |Im λ| (circles)  [1/s]")
+    if title:
+        ax.set_title(title)
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)
+    return path
