@@ -185,26 +185,27 @@ class Symmetry:
                 if val is None:
                     continue
                 for i, a, b in zip(idx, val, vval):
-                    if i < nq:
-                        dq[i] += a
+                    if i < nq:          # fixed coordinates (the ground) stay: whether the constraints
+                        dq[i] += a      # to them allow the motion is checked on the constraints
                         dv[i] += b
-                    elif abs(a) > 1e-14 or abs(b) > 1e-14:
-                        raise ParameterError(f"symmetry {self.name}: it moves the fixed coordinates of node "
-                                             f"'{nd.name}'; it is not a symmetry of model '{model.name}'")
         return dq, dv
+
+
+def _fmt(v):
+    return "(" + ", ".join(f"{float(x):g}" for x in v) + ")"
 
 
 def translation(direction, name=None):
     """The model is invariant under a translation along ``direction`` (space axes)."""
     d = np.asarray(direction, dtype=float).reshape(3)
-    return Symmetry("translation", d / np.linalg.norm(d), name=name or f"translation{tuple(np.round(d, 3))}")
+    return Symmetry("translation", d / np.linalg.norm(d), name=name or f"translation along {_fmt(d)}")
 
 
 def rotation(axis, point=(0.0, 0.0, 0.0), name=None):
     """The model is invariant under a rotation of everything about ``axis`` through ``point`` (space axes)."""
     a = np.asarray(axis, dtype=float).reshape(3)
     return Symmetry("rotation", a / np.linalg.norm(a), point=np.asarray(point, dtype=float).reshape(3),
-                    name=name or f"rotation{tuple(np.round(a, 3))}")
+                    name=name or f"rotation about {_fmt(a)}")
 
 
 def spin(body, axis, name=None):

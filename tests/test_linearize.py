@@ -293,3 +293,27 @@ def test_mode_shapes_to_vtk(tmp_path):
     assert len(list((tmp_path / "top").glob("*.vt*"))) >= 4
     bike = wb.linearized(5.0).eig()
     assert bike.write_vtk(tmp_path / "bike", 1, frames=3).exists()
+
+
+@pytest.mark.parametrize("spin_rate", [10.0, 40.0])
+def test_sleeping_top_in_a_rotating_frame(spin_rate):
+    """The same motion as a world rotation ω_L = ω e_z (ω_R = 0): the perturbations are then measured in
+    the frame turning with the top, so every eigenvalue s of the fixed frame appears as s ∓ iω."""
+    m, Ix, I3, l, g = 15.0, 0.234375, 0.46875, 1.0, 9.81
+    mech = Mechanism("sleeping_top")
+    mech.add(SpatialRigidBody("top", m, (Ix, Ix, I3), position=(0.0, 0.0, l), omega=(0.0, 0.0, spin_rate)))
+    mech.add(SphericalJoint("pivot", "ground", "top", at=(0.0, 0.0, 0.0)))
+    mech.add(SpatialGravity((0.0, 0.0, -g)))
+    model = mech.compile()
+    dv = np.zeros(model.nq)
+    dv[model.node_vindex["top"][5]] = 1.0
+    lin = fl.linearize(model, (model.q0, model.qd0), about="steady", omega=(0.0, 0.0, spin_rate),
+                       symmetries=[fl.rotation((0.0, 0.0, 1.0)), fl.direction(np.zeros(model.nq), dv, "spin rate")])
+    I1 = Ix + m * l * l
+    disc = np.sqrt(complex(4.0 * I1 * m * g * l - (I3 * spin_rate) ** 2))
+    r = np.array([(1j * I3 * spin_rate + disc) / (2 * I1), (1j * I3 * spin_rate - disc) / (2 * I1)])
+    r = r - 1j * spin_rate
+    want = np.concatenate((r, r.conj()))
+    assert _match(lin.eig().eigenvalues, want) < 1e-10 * max(1.0, np.abs(want).max())
+    fixed = _top(m, Ix, I3, l, spin_rate, g).eig().eigenvalues
+    np.testing.assert_allclose(np.sort(lin.eig().eigenvalues.real), np.sort(fixed.real), atol=1e-10)
