@@ -229,12 +229,14 @@ def direction(dq, dv, name="direction"):
 # --------------------------------------------------------------------------
 @dataclass
 class Output:
-    """y = cq·δq + cv·δv (+ its rate, from the linear model, when ``rate``)."""
+    """y = cq·δq + cv·δv (+ its rate, from the linear model, when ``rate``); or, with ``nu`` ≥ 0,
+    the change of the multiplier ν[nu] of ν = (λ, μ) (a reaction, :func:`reaction`)."""
     name: str
     unit: str
     cq: np.ndarray
     cv: np.ndarray
     rate: bool = False
+    nu: int = -1
 
 
 @dataclass
@@ -270,6 +272,39 @@ def angle(model, q, body, axis, relative_to=None, name=None, rate=False):
                 cq[i] += sgn * c
     nm = name or (f"{body} angle" + (f" rel. {relative_to}" if relative_to else ""))
     return Output(nm + ("_d" if rate else ""), "rad/s" if rate else "rad", cq, np.zeros(model.nq), rate)
+
+
+def reaction(model, element, row=0):
+    """Output: the change of a joint's multiplier (a reaction) — λ of its constraint ``row`` (index or
+    name in the type's ``constraint_names``), or μ of its velocity-constraint row (names in
+    ``velocity_constraint_names``). Sign and units as the element's multipliers (docs/conventions.md)."""
+    cls = None
+    for g in model.groups:
+        if element in g.names:
+            cls = g.cls
+    if cls is None:
+        raise ModelError(f"model '{model.name}' has no element named '{element}'")
+    lam, mu = model.lam_indices(element), model.mu_indices(element)
+    names_l, names_m = tuple(cls.constraint_names), tuple(getattr(cls, "velocity_constraint_names", ()))
+    if isinstance(row, str):
+        if row in names_l:
+            k, nu = row, int(lam[names_l.index(row)])
+        elif row in names_m:
+            k, nu = row, model.nc + int(mu[names_m.index(row)])
+        else:
+            raise ModelError(f"{cls.__name__} '{element}' has no constraint row '{row}' "
+                             f"(known: {', '.join(names_l + names_m)})")
+    else:
+        r = int(row)
+        if not 0 <= r < lam.size + mu.size:
+            raise ModelError(f"{cls.__name__} '{element}' has {lam.size + mu.size} constraint rows, not row {row!r}")
+        nu = int(lam[r]) if r < lam.size else model.nc + int(mu[r - lam.size])
+        allnames = names_l + names_m
+        k = allnames[r] if r < len(allnames) else str(r)
+    units = tuple(getattr(cls, "constraint_units", ()))
+    unit = units[names_l.index(k)] if k in names_l and len(units) == len(names_l) else ""
+    z = np.zeros(model.nq)
+    return Output(f"{element}.{k}", unit, z, z.copy(), False, nu)
 
 
 def coordinate(model, label, rate=False):
@@ -557,6 +592,9 @@ def _state_of(model, state, t):
     if isinstance(state, tuple):
         q, v = state
         return float(t or 0.0), np.asarray(q, dtype=float), np.asarray(v, dtype=float)
+    if np.ndim(getattr(state, "t", 0.0)) == 1 and hasattr(state, "qd"):       # a Result: its step nearest t
+        k = len(state.t) - 1 if t is None else int(np.argmin(np.abs(np.asarray(state.t) - float(t))))
+        return float(state.t[k]), np.asarray(state.q[k], dtype=float), np.asarray(state.qd[k], dtype=float)
     st = getattr(state, "state", state)
     return float(st.t if t is None else t), np.asarray(st.q, dtype=float), np.asarray(st.qd, dtype=float)
 
@@ -629,9 +667,10 @@ def linearize(model, state=None, *, about="auto", omega=None, symmetries=(), inp
     Parameters
     ----------
     model : Model
-    state : State, StaticResult, (q, v) tuple, optional
-        The reference (default: the initial coordinates at rest). Multipliers and accelerations are
-        computed from it (:func:`reference`).
+    state : State, StaticResult, Result, (q, v) tuple, optional
+        The reference (default: the initial coordinates at rest); of a Result, its stored step
+        nearest ``t`` (default the last). Multipliers and accelerations are computed from it
+        (:func:`reference`).
     about : {"auto", "equilibrium", "steady", "state"}
         "equilibrium": v = 0 and v̇ = 0 checked; "steady": a relative equilibrium with world
         rotation ``omega`` (default 0: straight motion), its accelerations checked, linearized in
@@ -709,10 +748,15 @@ def linearize(model, state=None, *, about="auto", omega=None, symmetries=(), inp
         Ti = np.linalg.inv(T)
         Abar, Bbar, X = T @ Abar @ Ti, T @ Bbar, X @ Ti
         names, units = [s.name for s in states], [s.unit for s in states]
-    Cm = _output_rows(outputs, X, Abar)
-    Dm = np.array([[float(o.rate) * 0.0 for _ in inputs] for o in outputs]).reshape(len(outputs), len(inputs))
+    Rx = Ru = None
+    if any(o.nu >= 0 for o in outputs):
+        Rx, Ru = _multiplier_maps(M, K, Ct, E, W, Z, F)
+    Cm = _output_rows(outputs, X, Abar, Rx)
+    Dm = np.zeros((len(outputs), len(inputs)))
     for i, o in enumerate(outputs):
-        if o.rate:
+        if o.nu >= 0:
+            Dm[i] = Ru[o.nu]
+        elif o.rate:
             Dm[i] = (np.concatenate((o.cq, o.cv)) @ X) @ Bbar
     op = {"t": t, "q": q, "v": v, "vd": vd, "lam": lam, "mu": mu}
     desc = {"M": M, "C": Ct, "K": K, "E": E, "Phi_q": Phi_q, "W": W, "Z": Z, "F": F}
@@ -721,12 +765,30 @@ def linearize(model, state=None, *, about="auto", omega=None, symmetries=(), inp
                        [s.name for s in symmetries])
 
 
-def _output_rows(outputs, X, Abar):
+def _output_rows(outputs, X, Abar, Rx=None):
     rows = []
     for o in outputs:
+        if o.nu >= 0:
+            if o.rate:
+                raise ParameterError(f"linearize: output {o.name}: the rate of a reaction is not available")
+            rows.append(Rx[o.nu] @ X)
+            continue
         c = np.concatenate((o.cq, o.cv)) @ X
         rows.append(c @ Abar if o.rate else c)
     return np.array(rows).reshape(len(rows), X.shape[1])
+
+
+def _multiplier_maps(M, K, Ct, E, W, Z, F):
+    """δν = Rx (δq, δv) + Ru u from M δv̇' = −K δq − Ct δv − Wᵀ δν + F u and d/dt (W δv + Z δq) = 0."""
+    try:
+        MiW = np.linalg.solve(M, W.T)
+        G = np.linalg.inv(W @ MiW)
+    except np.linalg.LinAlgError:
+        raise SingularMatrixError("linearize: reactions need a nonsingular M and independent constraints") from None
+    WMi = MiW.T
+    Rq = G @ (-WMi @ K + Z @ E)
+    Rv = G @ (-WMi @ Ct + Z)
+    return np.hstack((Rq, Rv)), G @ (WMi @ F)
 
 
 # --------------------------------------------------------------------------

@@ -317,3 +317,38 @@ def test_sleeping_top_in_a_rotating_frame(spin_rate):
     assert _match(lin.eig().eigenvalues, want) < 1e-10 * max(1.0, np.abs(want).max())
     fixed = _top(m, Ix, I3, l, spin_rate, g).eig().eigenvalues
     np.testing.assert_allclose(np.sort(lin.eig().eigenvalues.real), np.sort(fixed.real), atol=1e-10)
+
+
+def test_reaction_outputs_match_finite_differences():
+    """C and D rows of joint reactions against central differences of femb's multipliers (cart–pendulum)."""
+    model = cart_pendulum().compile()
+    q0 = model.q0
+    inp = [fl.force(model, q0, "cart", (1.0, 0.0), name="F")]
+    outs = [fl.reaction(model, "pin", 0), fl.reaction(model, "pin", "y"), fl.reaction(model, "rail", 1)]
+    lin = fl.linearize(model, inputs=inp, outputs=outs)
+    assert lin.output_names == ["pin.x", "pin.y", "rail.moment"]
+    X, nq, h = lin.basis, model.nq, 1e-6
+    nus = [o.nu for o in outs]
+
+    def nu(s, u=0.0):
+        q = model.compose(q0, X[:nq] @ s)
+        _, lam, mu = fl.reference(model, 0.0, q, X[nq:] @ s, f_extra=u * inp[0].F)
+        return np.concatenate((lam, mu))[nus]
+
+    C = np.array([(nu(h * e) - nu(-h * e)) / (2 * h) for e in np.eye(lin.n)]).T
+    D = (nu(np.zeros(lin.n), h) - nu(np.zeros(lin.n), -h)) / (2 * h)
+    np.testing.assert_allclose(lin.C, C, rtol=0, atol=1e-6 * np.abs(C).max())
+    np.testing.assert_allclose(lin.D[:, 0], D, rtol=0, atol=1e-6 * np.abs(D).max())
+    with pytest.raises(Exception, match="no constraint row"):
+        fl.reaction(model, "pin", "z")
+
+
+def test_state_of_a_result():
+    """A stored step of a run is a reference (here the cart–pendulum hanging at rest, an equilibrium)."""
+    import femb
+    model = cart_pendulum(theta0=-np.pi / 2).compile()
+    res = femb.simulate(model, 0.05, h=0.01)
+    lin = fl.linearize(model, res, t=0.05)
+    assert lin.operating_point["t"] == pytest.approx(0.05)
+    ev = lin.eig().eigenvalues
+    assert np.max(ev.real) < 1e-8 and np.max(np.abs(ev.imag)) > 1.0      # the hanging pole swings
