@@ -161,7 +161,7 @@ class Symmetry:
             return np.array(self.vector[0], dtype=float), np.array(self.vector[1], dtype=float)
         dq, dv = np.zeros(nq), np.zeros(nq)
         k = self.vector
-        for nd, tr, rot, R, tr_free, rot_free in _table(model, q).blocks(10 ** 18):
+        for nd, tr, rot, R, tr_free, rot_free in _table(model, q).blocks(nq):
             if self.kind == "spin" and nd.name != self.body:
                 continue
             r = model.node_coordinates(nd.name, q)[:len(tr)] if tr else None
@@ -660,6 +660,42 @@ def _quotient(model, q, v, Abar, Bbar, X, bases, symmetries, tol):
     return QW.T @ Abar @ QW, QW.T @ Bbar, X @ QW
 
 
+def _second_order(model, t, q, v, omega, about):
+    """The blocks of the linearized equations before elimination (dense): M, K, C (with −MṪ), E,
+    Φ_q, W, Z and the operating point (checked as ``about`` says)."""
+    b_ = _Blocks(model, t, q, v)
+    _check_admissible(model, v, b_, 1e-8)
+    vd, lam, mu = reference(model, t, q, v, b_)
+    if about != "state":
+        _check_steady(model, q, v, vd, omega, about, 1e-8)
+    elif (model.nc + model.nn) and np.max(np.abs(vd), initial=0.0) > 1e-8 * max(1.0, np.abs(v).max(initial=0.0)):
+        import warnings
+        from femb.errors import ParameterWarning
+        warnings.warn(f"linearize: model '{model.name}' accelerates at the reference (|v̇| = "
+                      f"{np.abs(vd).max():.3g}) and has constraints: about='state' freezes the constraint "
+                      "basis at this instant, so the matrices describe the motion only approximately "
+                      "(exact about equilibria and steady motions; docs/linearize.md)", ParameterWarning,
+                      stacklevel=3)
+    st = State(t, q, v, vd, lam)
+    M = assembly.mass_matrix(model, q).toarray()
+    K = assembly.tangent_stiffness(model, st).toarray()
+    Ct = assembly.tangent_damping(model, st).toarray()
+    Phi_q = b_.B.toarray()
+    ZB = (assembly.constraint_velocity_jacobian(model, t, q, v).toarray() if np.any(v)
+          else np.zeros((model.nc, model.nq)))
+    if model.nn:
+        ZA, HA = assembly.velocity_constraint_jacobians(model, t, q, v, mu)
+        K = K + HA.toarray()
+        ZA = ZA.toarray()
+    else:
+        ZA = np.zeros((0, model.nq))
+    W = np.vstack((Phi_q, b_.A.toarray()))
+    Z = np.vstack((ZB, ZA))
+    E, Td = _kinematics(model, q, v, omega, about == "steady")
+    Ct = Ct - M @ Td
+    return M, K, Ct, E, Phi_q, W, Z, {"t": t, "q": q, "v": v, "vd": vd, "lam": lam, "mu": mu}
+
+
 def linearize(model, state=None, *, about="auto", omega=None, symmetries=(), inputs=(), outputs=(),
               states=None, t=None, tol=1e-8):
     """Linearize ``model`` about an equilibrium, a steady motion or a state: a :class:`LinearModel`.
@@ -703,36 +739,7 @@ def linearize(model, state=None, *, about="auto", omega=None, symmetries=(), inp
         raise ParameterError(f"linearize: about must be 'auto', 'equilibrium', 'steady' or 'state', got {about!r}")
     if getattr(model, "rheonomic", False):
         raise ModelError(f"linearize: model '{model.name}' has rheonomic (driven) constraints; not supported")
-    b_ = _Blocks(model, t, q, v)
-    _check_admissible(model, v, b_, 1e-8)
-    vd, lam, mu = reference(model, t, q, v, b_)
-    if about != "state":
-        _check_steady(model, q, v, vd, omega, about, 1e-8)
-    elif (model.nc + model.nn) and np.max(np.abs(vd), initial=0.0) > 1e-8 * max(1.0, np.abs(v).max(initial=0.0)):
-        import warnings
-        from femb.errors import ParameterWarning
-        warnings.warn(f"linearize: model '{model.name}' accelerates at the reference (|v̇| = "
-                      f"{np.abs(vd).max():.3g}) and has constraints: about='state' freezes the constraint "
-                      "basis at this instant, so the matrices describe the motion only approximately "
-                      "(exact about equilibria and steady motions; docs/linearize.md)", ParameterWarning,
-                      stacklevel=2)
-    st = State(t, q, v, vd, lam)
-    M = assembly.mass_matrix(model, q).toarray()
-    K = assembly.tangent_stiffness(model, st).toarray()
-    Ct = assembly.tangent_damping(model, st).toarray()
-    Phi_q = b_.B.toarray()
-    ZB = (assembly.constraint_velocity_jacobian(model, t, q, v).toarray() if np.any(v)
-          else np.zeros((model.nc, model.nq)))
-    if model.nn:
-        ZA, HA = assembly.velocity_constraint_jacobians(model, t, q, v, mu)
-        K = K + HA.toarray()
-        ZA = ZA.toarray()
-    else:
-        ZA = np.zeros((0, model.nq))
-    W = np.vstack((Phi_q, b_.A.toarray()))
-    Z = np.vstack((ZB, ZA))
-    E, Td = _kinematics(model, q, v, omega, about == "steady")
-    Ct = Ct - M @ Td
+    M, K, Ct, E, Phi_q, W, Z, op = _second_order(model, t, q, v, omega, about)
     F = np.array([u.F for u in inputs]).T if inputs else np.zeros((model.nq, 0))
     Abar, Bbar, X, bases = _reduce(M, K, Ct, E, Phi_q, W, Z, F, tol)
     if symmetries:
@@ -758,7 +765,6 @@ def linearize(model, state=None, *, about="auto", omega=None, symmetries=(), inp
             Dm[i] = Ru[o.nu]
         elif o.rate:
             Dm[i] = (np.concatenate((o.cq, o.cv)) @ X) @ Bbar
-    op = {"t": t, "q": q, "v": v, "vd": vd, "lam": lam, "mu": mu}
     desc = {"M": M, "C": Ct, "K": K, "E": E, "Phi_q": Phi_q, "W": W, "Z": Z, "F": F}
     return LinearModel(Abar, Bbar, Cm, Dm, names, units, [u.name for u in inputs], [u.unit for u in inputs],
                        [o.name for o in outputs], [o.unit for o in outputs], op, desc, X, model,

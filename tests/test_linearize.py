@@ -171,18 +171,19 @@ def test_rolling_coin_upright_stability(omega):
 
 
 def test_rolling_coin_stability_bound():
-    """The critical spin ω² = m g r A / (C (C + m r²)) (g/(3r) for the thin uniform disc) from the linearization."""
+    """The critical spin ω² = m g r A / (C (C + m r²)) = g/(3r) (thin uniform disc), found from the
+    linearization alone: the lean mode's s² (a coefficient of det(sI − A) = s³ − s² s) changes sign."""
     from scipy.optimize import brentq
     m, r, g = 1.3, 0.4, 9.81
     crit = np.sqrt(g / (3.0 * r))
-    f = lambda w: np.max(_coin(w)[0].eig().eigenvalues.real) - 1e-3     # noqa: E731
-    # below the bound a real positive root, above it a centre: the largest real part jumps to ~0
-    assert np.max(_coin(0.999 * crit)[0].eig().eigenvalues.real) > 0.01
-    assert np.max(np.abs(_coin(1.001 * crit)[0].eig().eigenvalues.real)) < 1e-9
-    wc = brentq(lambda w: np.real(-((m * r * r * 1.5) * 0.5 * m * r * r * w * w / (0.25 * m * r * r) - m * g * r)),
-                0.5 * crit, 2 * crit)
+
+    def s2(w):
+        return -np.real(np.poly(_coin(w, m, r, g)[0].A)[2])
+
+    wc = brentq(s2, 0.5 * crit, 2.0 * crit, xtol=1e-14)
     assert abs(wc - crit) < 1e-10 * crit
-    del f
+    assert np.max(_coin(0.99 * crit)[0].eig().eigenvalues.real) > 0.01          # unstable below
+    assert np.max(np.abs(_coin(1.01 * crit)[0].eig().eigenvalues.real)) < 1e-9  # a centre above
 
 
 # ---------------------------------------------------------------- the cart–pendulum

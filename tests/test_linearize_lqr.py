@@ -3,7 +3,6 @@ import numpy as np
 import scipy.linalg as sla
 
 import femb
-from femb import linearize as fl
 from femb.element import Element
 from femb.jit import kernel
 
