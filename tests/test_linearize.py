@@ -353,3 +353,21 @@ def test_state_of_a_result():
     assert lin.operating_point["t"] == pytest.approx(0.05)
     ev = lin.eig().eigenvalues
     assert np.max(ev.real) < 1e-8 and np.max(np.abs(ev.imag)) > 1.0      # the hanging pole swings
+
+
+@pytest.mark.parametrize("u,a", [(2.0, 0.3), (-1.5, 0.3), (1.0, -0.2)])
+def test_chaplygin_sleigh(u, a):
+    """A knife edge a behind the centre of mass, sliding straight at speed u: (J + m a²) ω̇ = −m a u ω."""
+    from femb.elements.rolling import KnifeEdge
+    m, J = 2.5, 0.3
+    mech = Mechanism("sleigh")
+    mech.add(RigidBody("sled", m, J, velocity=(u, 0.0)))
+    mech.add(KnifeEdge("blade", "sled", 0.0, (-a, 0.0)))
+    model = mech.compile()
+    dv = np.zeros(model.nq)
+    dv[model.node_vindex["sled"][0]] = 1.0
+    syms = [fl.translation((1, 0, 0)), fl.translation((0, 1, 0)), fl.rotation((0, 0, 1)),
+            fl.direction(np.zeros(model.nq), dv, "speed")]
+    lin = fl.linearize(model, (model.q0, model.qd0), about="steady", symmetries=syms)
+    assert lin.A.shape == (1, 1)
+    assert abs(lin.A[0, 0] + m * a * u / (J + m * a * a)) < 1e-12
