@@ -371,3 +371,17 @@ def test_chaplygin_sleigh(u, a):
     lin = fl.linearize(model, (model.q0, model.qd0), about="steady", symmetries=syms)
     assert lin.A.shape == (1, 1)
     assert abs(lin.A[0, 0] + m * a * u / (J + m * a * a)) < 1e-12
+
+
+def test_whipple_contact_forces_at_the_operating_point():
+    """Straight running: the normal forces carry the weight as at rest, N_F = m_T g x_T / w; no traction."""
+    p = ref.BENCHMARK
+    lin = wb.linearized(5.0)
+    model = lin.model
+    lam, mu = lin.operating_point["lam"], lin.operating_point["mu"]
+    mT = p["mR"] + p["mB"] + p["mH"] + p["mF"]
+    xT = (p["xB"] * p["mB"] + p["xH"] * p["mH"] + p["w"] * p["mF"]) / mT
+    NF = mT * p["g"] * xT / p["w"]
+    assert -lam[model.lam_indices("front_contact")[0]] == pytest.approx(NF, rel=1e-12)
+    assert -lam[model.lam_indices("rear_contact")[0]] == pytest.approx(mT * p["g"] - NF, rel=1e-12)
+    assert np.max(np.abs(mu)) < 1e-9
