@@ -5,14 +5,10 @@ import pytest
 from femb import Mechanism
 from femb.benchmarks import whipple_bicycle as wb
 from femb.benchmarks.references import whipple_linear as ref
-from femb.elements import Hinge, RigidBody, Slider, SpringDamper
-from femb.elements.forces import Gravity
-from femb.elements.rolling import RollingDisc
-from femb.elements.spatial_bodies import SpatialRigidBody
-from femb.elements.spatial_forces import SpatialGravity
-from femb.elements.spatial_joints import SphericalJoint
+from femb.elements import RigidBody, Slider, SpringDamper
 from femb.errors import ParameterError
 from femb import linearize as fl
+from femb.benchmarks import linearize_scenes as sc
 
 
 def _match(got, want):
@@ -118,16 +114,7 @@ def test_mass_spring_damper(m, k, d):
 
 
 def _top(m=15.0, Ix=0.234375, I3=0.46875, l=1.0, spin_rate=40.0, g=9.81):
-    mech = Mechanism("sleeping_top")
-    mech.add(SpatialRigidBody("top", m, (Ix, Ix, I3), position=(0.0, 0.0, l), omega=(0.0, 0.0, spin_rate)))
-    mech.add(SphericalJoint("pivot", "ground", "top", at=(0.0, 0.0, 0.0)))
-    mech.add(SpatialGravity((0.0, 0.0, -g)))
-    model = mech.compile()
-    dv = np.zeros(model.nq)
-    dv[model.node_vindex["top"][5]] = 1.0
-    lin = fl.linearize(model, (model.q0, model.qd0), about="steady",
-                       symmetries=[fl.spin("top", (0.0, 0.0, 1.0)), fl.direction(np.zeros(model.nq), dv, "spin rate")])
-    return lin
+    return sc.sleeping_top(spin_rate, "fixed", m, Ix, I3, l, g)[0]
 
 
 @pytest.mark.parametrize("spin_rate", [0.0, 10.0, 22.0, 40.0, 150.0])
@@ -144,19 +131,9 @@ def test_sleeping_top_gyroscopic_split(spin_rate):
 
 
 def _coin(omega, m=1.3, r=0.4, g=9.81):
-    mech = Mechanism("coin")
+    lin, _ = sc.rolling_coin(omega, m, r, g)
     A, C = m * r * r / 4.0, m * r * r / 2.0
-    mech.add(SpatialRigidBody("coin", m, (A, C, A), position=(0.0, 0.0, r), velocity=(r * omega, 0.0, 0.0),
-                              omega=(0.0, omega, 0.0)))
-    mech.add(RollingDisc("contact", "coin", r, (0.0, 1.0, 0.0)))
-    mech.add(SpatialGravity((0.0, 0.0, -g)))
-    model = mech.compile()
-    dv = np.zeros(model.nq)
-    idx = model.node_vindex["coin"]
-    dv[idx[0]], dv[idx[4]] = r, 1.0
-    syms = [fl.translation((1, 0, 0)), fl.translation((0, 1, 0)), fl.rotation((0, 0, 1)),
-            fl.spin("coin", (0, 1, 0)), fl.direction(np.zeros(model.nq), dv, "spin rate")]
-    return fl.linearize(model, (model.q0, model.qd0), about="steady", symmetries=syms), (m, r, g, A, C)
+    return lin, (m, r, g, A, C)
 
 
 @pytest.mark.parametrize("omega", [0.0, 2.0, 2.85, 3.0, 8.0, 20.0])
@@ -187,21 +164,8 @@ def test_rolling_coin_stability_bound():
 
 
 # ---------------------------------------------------------------- the cart–pendulum
-def cart_pendulum(mc=1.5, m=0.5, l=0.6, J=0.02, g=9.81, theta0=np.pi / 2):
-    mech = Mechanism("cart_pendulum")
-    mech.add(RigidBody("cart", mc, 0.1, position=(0.0, 0.0)))
-    mech.add(Slider("rail", "ground", "cart", axis=(1.0, 0.0)))
-    mech.add(RigidBody("pole", m, J, position=(l * np.cos(theta0), l * np.sin(theta0)), angle=theta0))
-    mech.add(Hinge("pin", "cart", "pole", at=(0.0, 0.0)))
-    mech.add(Gravity((0.0, -g)))
-    return mech
-
-
-def _cart_linear(model):
-    states = [fl.coordinate(model, "cart.x"), fl.coordinate(model, "pole.theta"),
-              fl.coordinate(model, "cart.x", rate=True), fl.coordinate(model, "pole.theta", rate=True)]
-    return fl.linearize(model, states=states, inputs=[fl.force(model, model.q0, "cart", (1.0, 0.0), name="F")],
-                        outputs=states[:2])
+cart_pendulum = sc.cart_pendulum
+_cart_linear = sc.cart_pendulum_linear
 
 
 def test_cart_pendulum_closed_form():
@@ -300,23 +264,9 @@ def test_mode_shapes_to_vtk(tmp_path):
 def test_sleeping_top_in_a_rotating_frame(spin_rate):
     """The same motion as a world rotation ω_L = ω e_z (ω_R = 0): the perturbations are then measured in
     the frame turning with the top, so every eigenvalue s of the fixed frame appears as s ∓ iω."""
-    m, Ix, I3, l, g = 15.0, 0.234375, 0.46875, 1.0, 9.81
-    mech = Mechanism("sleeping_top")
-    mech.add(SpatialRigidBody("top", m, (Ix, Ix, I3), position=(0.0, 0.0, l), omega=(0.0, 0.0, spin_rate)))
-    mech.add(SphericalJoint("pivot", "ground", "top", at=(0.0, 0.0, 0.0)))
-    mech.add(SpatialGravity((0.0, 0.0, -g)))
-    model = mech.compile()
-    dv = np.zeros(model.nq)
-    dv[model.node_vindex["top"][5]] = 1.0
-    lin = fl.linearize(model, (model.q0, model.qd0), about="steady", omega=(0.0, 0.0, spin_rate),
-                       symmetries=[fl.rotation((0.0, 0.0, 1.0)), fl.direction(np.zeros(model.nq), dv, "spin rate")])
-    I1 = Ix + m * l * l
-    disc = np.sqrt(complex(4.0 * I1 * m * g * l - (I3 * spin_rate) ** 2))
-    r = np.array([(1j * I3 * spin_rate + disc) / (2 * I1), (1j * I3 * spin_rate - disc) / (2 * I1)])
-    r = r - 1j * spin_rate
-    want = np.concatenate((r, r.conj()))
+    lin, want = sc.sleeping_top(spin_rate, "turning")
     assert _match(lin.eig().eigenvalues, want) < 1e-10 * max(1.0, np.abs(want).max())
-    fixed = _top(m, Ix, I3, l, spin_rate, g).eig().eigenvalues
+    fixed = _top(spin_rate=spin_rate).eig().eigenvalues
     np.testing.assert_allclose(np.sort(lin.eig().eigenvalues.real), np.sort(fixed.real), atol=1e-10)
 
 
@@ -358,19 +308,11 @@ def test_state_of_a_result():
 @pytest.mark.parametrize("u,a", [(2.0, 0.3), (-1.5, 0.3), (1.0, -0.2)])
 def test_chaplygin_sleigh(u, a):
     """A knife edge a behind the centre of mass, sliding straight at speed u: (J + m a²) ω̇ = −m a u ω."""
-    from femb.elements.rolling import KnifeEdge
     m, J = 2.5, 0.3
-    mech = Mechanism("sleigh")
-    mech.add(RigidBody("sled", m, J, velocity=(u, 0.0)))
-    mech.add(KnifeEdge("blade", "sled", 0.0, (-a, 0.0)))
-    model = mech.compile()
-    dv = np.zeros(model.nq)
-    dv[model.node_vindex["sled"][0]] = 1.0
-    syms = [fl.translation((1, 0, 0)), fl.translation((0, 1, 0)), fl.rotation((0, 0, 1)),
-            fl.direction(np.zeros(model.nq), dv, "speed")]
-    lin = fl.linearize(model, (model.q0, model.qd0), about="steady", symmetries=syms)
+    lin, want = sc.sleigh(u, a, m, J)
     assert lin.A.shape == (1, 1)
-    assert abs(lin.A[0, 0] + m * a * u / (J + m * a * a)) < 1e-12
+    assert abs(lin.A[0, 0] - want[0]) < 1e-12
+    assert abs(want[0] + m * a * u / (J + m * a * a)) == 0.0
 
 
 def test_whipple_contact_forces_at_the_operating_point():

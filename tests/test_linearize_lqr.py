@@ -6,7 +6,8 @@ import femb
 from femb.element import Element
 from femb.jit import kernel
 
-from test_linearize import _cart_linear, cart_pendulum
+from femb.benchmarks.linearize_scenes import cart_pendulum
+from femb.benchmarks.linearize_scenes import cart_pendulum_linear as _cart_linear
 
 
 @kernel
