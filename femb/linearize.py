@@ -147,7 +147,8 @@ def _kinematics(model, q, v, omega_L, steady):
 # --------------------------------------------------------------------------
 @dataclass
 class Symmetry:
-    """A one-parameter symmetry of the model: ``kind`` 'translation', 'rotation' or 'spin'."""
+    """A one-parameter symmetry of the model: ``kind`` 'translation', 'rotation', 'spin' or 'direction'
+    (made by :func:`translation`, :func:`rotation`, :func:`spin`, :func:`direction`)."""
     kind: str
     vector: np.ndarray
     point: np.ndarray = None
@@ -161,6 +162,8 @@ class Symmetry:
             return np.array(self.vector[0], dtype=float), np.array(self.vector[1], dtype=float)
         dq, dv = np.zeros(nq), np.zeros(nq)
         k = self.vector
+        if self.kind == "spin" and self.body not in model.node_vindex:
+            raise ModelError(f"symmetry {self.name}: model '{model.name}' has no body named '{self.body}'")
         for nd, tr, rot, R, tr_free, rot_free in _table(model, q).blocks(nq):
             if self.kind == "spin" and nd.name != self.body:
                 continue
@@ -195,23 +198,34 @@ def _fmt(v):
     return "(" + ", ".join(f"{float(x):g}" for x in v) + ")"
 
 
+def _unit(what, v):
+    try:
+        a = np.asarray(v, dtype=float).reshape(3)
+    except (TypeError, ValueError):
+        raise ParameterError(f"{what} must be a 3-vector, got {v!r}") from None
+    n = float(np.linalg.norm(a))
+    if not (np.isfinite(n) and n > 0.0):
+        raise ParameterError(f"{what} must be a finite non-zero 3-vector, got {v!r}")
+    return a / n
+
+
 def translation(direction, name=None):
     """The model is invariant under a translation along ``direction`` (space axes)."""
-    d = np.asarray(direction, dtype=float).reshape(3)
-    return Symmetry("translation", d / np.linalg.norm(d), name=name or f"translation along {_fmt(d)}")
+    d = _unit("translation: direction", direction)
+    return Symmetry("translation", d, name=name or f"translation along {_fmt(d)}")
 
 
 def rotation(axis, point=(0.0, 0.0, 0.0), name=None):
     """The model is invariant under a rotation of everything about ``axis`` through ``point`` (space axes)."""
-    a = np.asarray(axis, dtype=float).reshape(3)
-    return Symmetry("rotation", a / np.linalg.norm(a), point=np.asarray(point, dtype=float).reshape(3),
+    a = _unit("rotation: axis", axis)
+    return Symmetry("rotation", a, point=np.asarray(point, dtype=float).reshape(3),
                     name=name or f"rotation about {_fmt(a)}")
 
 
 def spin(body, axis, name=None):
     """The model is invariant under a rotation of ``body`` about its own ``axis`` (body axes): a wheel."""
-    a = np.asarray(axis, dtype=float).reshape(3)
-    return Symmetry("spin", a / np.linalg.norm(a), body=str(body), name=name or f"spin of {body}")
+    a = _unit("spin: axis", axis)
+    return Symmetry("spin", a, body=str(body), name=name or f"spin of {body}")
 
 
 def direction(dq, dv, name="direction"):

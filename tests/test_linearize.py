@@ -327,3 +327,23 @@ def test_whipple_contact_forces_at_the_operating_point():
     assert -lam[model.lam_indices("front_contact")[0]] == pytest.approx(NF, rel=1e-12)
     assert -lam[model.lam_indices("rear_contact")[0]] == pytest.approx(mT * p["g"] - NF, rel=1e-12)
     assert np.max(np.abs(mu)) < 1e-9
+
+
+def test_bad_linearize_input_is_named():
+    from femb.errors import ModelError
+    with pytest.raises(ParameterError, match="translation: direction"):
+        fl.translation((0.0, 0.0, 0.0))
+    with pytest.raises(ParameterError, match="spin: axis"):
+        fl.spin("w", (np.nan, 0.0, 1.0))
+    model = wb.model_for()
+    st = (model.q0, wb.velocities(model, 5.0))
+    with pytest.raises(ModelError, match="no body named 'wheel'"):
+        fl.linearize(model, st, symmetries=[fl.spin("wheel", (0.0, 1.0, 0.0))])
+    with pytest.raises(ParameterError, match="about must be"):
+        fl.linearize(model, st, about="moving")
+    with pytest.raises(ParameterError, match="does not fit"):
+        fl.linearize(model, (model.q0[:5], st[1]))
+    with pytest.raises(ParameterError, match="violates the constraints"):
+        fl.linearize(model, (model.q0, st[1] + 0.1))
+    with pytest.raises(ParameterError, match="states given"):
+        fl.linearize(model, st, states=[fl.angle(model, model.q0, "rear_frame", (1.0, 0.0, 0.0))])
