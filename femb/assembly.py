@@ -208,3 +208,89 @@ def iteration_matrix(model, state, h, alpha, scaled=True):
         d[model.nq + rem] = 1.0
         S = (S + sp.diags(d)).tocsc()
     return S
+
+
+# --------------------------------------------------------------------------
+# velocity-level (non-holonomic) constraints A(q, t) v + a(q, t) = 0
+# --------------------------------------------------------------------------
+def _rows_coo(model, blocks, nrow):
+    """Sum (nel, k, nd) blocks of the velocity-constraint batches into a csr matrix (nn, nq)."""
+    rows, cols, vals = [], [], []
+    for g, B in zip(model.velocity_constraint_groups, blocks):
+        nel, k, nd = B.shape
+        R = np.broadcast_to(g.mu[:, :, None], B.shape).reshape(-1)
+        C = np.broadcast_to(g.dofs[:, None, :], B.shape).reshape(-1)
+        sel = C < model.nq
+        rows.append(R[sel])
+        cols.append(C[sel])
+        vals.append(B.reshape(-1)[sel])
+    if not rows:
+        return sp.csr_matrix((nrow, model.nq))
+    A = sp.csr_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
+                      shape=(nrow, model.nq))
+    A.sum_duplicates()
+    return A
+
+
+def velocity_constraints(model, t, q, qd):
+    """Velocity constraints Ψ = A(q, t) v + a(q, t), their matrix A and Ψ_t = ∂Ψ/∂t.
+
+    Parameters
+    ----------
+    model : Model
+    t : float
+    q : ndarray, shape (nx,)
+    qd : ndarray, shape (nq,)
+        Velocities v (body-axes Ω on rotation nodes).
+
+    Returns
+    -------
+    Psi : ndarray, shape (nn,)
+    A : scipy.sparse.csr_matrix, shape (nn, nq)
+    Psi_t : ndarray, shape (nn,)
+    """
+    qx, qdx = _ext(model, q, qd)
+    Psi, Psi_t, As = np.zeros(model.nn), np.zeros(model.nn), []
+    for g in model.velocity_constraint_groups:
+        P, A, Pt, _, _ = kernels.velocity_constraint(g, t, qx[g.xdofs], qdx[g.dofs], jac=False)
+        Psi[g.mu.ravel()] = P.ravel()
+        Psi_t[g.mu.ravel()] = Pt.ravel()
+        As.append(A)
+    return Psi, _rows_coo(model, As, model.nn), Psi_t
+
+
+def velocity_constraint_jacobians(model, t, q, qd, mu):
+    """(Ψ_q, ∂(Aᵀμ)/∂q): ``Dq = ∂Ψ/∂q`` (csr (nn, nq)) and ``H`` (csr (nq, nq)).
+
+    Both along the model's perturbation q ∘ exp(δq) at fixed v (docs/kernels.md).
+    """
+    qx, qdx = _ext(model, q, qd)
+    mu = np.asarray(mu, dtype=float)
+    Ds, Hs = [], []
+    for g in model.velocity_constraint_groups:
+        _, _, _, D, H = kernels.velocity_constraint(g, t, qx[g.xdofs], qdx[g.dofs], mu[g.mu], jac=True)
+        Ds.append(D)
+        Hs.append(H)
+    return (_rows_coo(model, Ds, model.nn),
+            _coo(model.velocity_constraint_groups, "nn", Hs, (model.nq, model.nq)).tocsr())
+
+
+def constraint_velocity_jacobian(model, t, q, qd):
+    """∂(Φ_q v)/∂q along q ∘ exp(δq) at fixed v, csr (nc, nq).
+
+    Row i is vᵀ H(e_i) with H(λ) = ∂(Φ_qᵀλ)/∂q the constraint kernel's Jacobian (one
+    kernel call per constraint row of an element). Used to linearize the velocity level
+    Φ_q v + Φ_t = 0 of holonomic constraints about a moving state.
+    """
+    qx, qdx = _ext(model, q, qd)
+    blocks = []
+    for g in model.constraint_groups:
+        xe, ve = qx[g.xdofs], qdx[g.dofs]
+        D = np.zeros((g.nel, g.nc, g.nd))
+        for i in range(g.nc):
+            le = np.zeros((g.nel, g.nc))
+            le[:, i] = 1.0
+            H = kernels.constraint(g, t, xe, le, jac=True)[2]
+            D[:, i, :] = np.einsum("ejk,ej->ek", H, ve)
+        blocks.append(_masked_rows(model, g, D))
+    return _coo(model.constraint_groups, "cq", blocks, (model.nc, model.nq))

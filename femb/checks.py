@@ -224,4 +224,32 @@ def check_jacobians(model: Model, state: State | None = None, t: float | None = 
         add(g, "rates: gamma", gam, (pp - psi(-hs)) / (2.0 * hs),
             "the rates kernel's gam disagrees with d/dt (B v + Phi_t) along the motion",
             noise=FD_NOISE * float(np.max(np.abs(pp), initial=0.0)) / hs)
+    mu = rng.uniform(-1.0, 1.0, getattr(model, "nn", 0))
+    for g in getattr(model, "velocity_constraint_groups", []):
+        _check_velocity_constraint(g, mu[g.mu], t, gather(g, q, qd), gather, columns, add)
     return report
+
+
+def _check_velocity_constraint(g, me, t, xv, gather, columns, add):
+    """A = ∂Ψ/∂v, Dq = ∂Ψ/∂x, H = ∂(Aᵀμ)/∂x and Ψ_t of a velocity-constraint batch against differences."""
+    def psi_of(qq, vv):
+        x_, v_ = gather(g, qq, vv)
+        return K.velocity_constraint(g, t, x_, v_, None, jac=False)[0]
+
+    def atm_of(qq, vv):
+        x_, v_ = gather(g, qq, vv)
+        return np.einsum("ejd,ej->ed", K.velocity_constraint(g, t, x_, v_, None, jac=False)[1], me)
+
+    _, A, Pt, Dq, H = K.velocity_constraint(g, t, xv[0], xv[1], me, jac=True)
+    add(g, "velocity constraint: A", A, columns(g, psi_of, "A", "v"),
+        "the velocity_constraint kernel's A disagrees with finite differences of Psi in v")
+    add(g, "velocity constraint: dPsi/dx (Dq)", Dq, columns(g, psi_of, "Dq", "x"),
+        "the velocity_constraint kernel's Dq disagrees with finite differences of Psi")
+    add(g, "velocity constraint: H", H, columns(g, atm_of, "H", "x"),
+        "the velocity_constraint kernel's H disagrees with finite differences of A^T mu")
+    ht = 1e-6 * max(1.0, abs(t))
+    Pp = K.velocity_constraint(g, t + ht, xv[0], xv[1], None, jac=False)[0]
+    Pm = K.velocity_constraint(g, t - ht, xv[0], xv[1], None, jac=False)[0]
+    add(g, "velocity constraint: Psi_t", Pt, (Pp - Pm) / (2.0 * ht),
+        "the velocity_constraint kernel's Psi_t disagrees with finite differences of Psi in t",
+        noise=FD_NOISE * float(np.max(np.abs(Pp), initial=0.0)) / ht)

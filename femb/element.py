@@ -33,6 +33,9 @@ Class-level metadata tells the compiled model what a scene needs:
                             counted
 ``spatial``                 acts on spatial frame nodes
 ``glyph``                   how pictures draw the type (:mod:`femb.io.frames`)
+``n_velocity_constraints``  velocity-level (non-holonomic) constraints per
+                            element, A(q, t) v + a(q, t) = 0, via
+                            ``kernels["velocity_constraint"]`` (0: none)
 =========================  ===================================================
 
 Kinetic and gravitational energy and the momenta need no trait: they follow
@@ -59,7 +62,11 @@ class Element:
     work = None
     #: names of this type's constraint equations, for named reactions
     constraint_names: tuple = ()
-    #: compiled kernels by role ("mass", "force", "constraint", "rates", "energy"), see docs/kernels.md
+    #: velocity-level (non-holonomic) constraints per element and their names (docs/kernels.md)
+    n_velocity_constraints = 0
+    velocity_constraint_names: tuple = ()
+    #: compiled kernels by role ("mass", "force", "constraint", "rates", "energy", "velocity_constraint"),
+    #: see docs/kernels.md
     kernels: dict = {}
 
     def __init__(self, name):
@@ -91,7 +98,7 @@ class Element:
         """
         return {k: getattr(cls, k) for k in (
             "has_mass", "constant_mass", "has_force", "force_depends_on_qd",
-            "constant_force", "n_constraints", "rheonomic")}
+            "constant_force", "n_constraints", "rheonomic", "n_velocity_constraints")}
 
     @classmethod
     def time_functions(cls, element):

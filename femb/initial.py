@@ -418,7 +418,16 @@ def consistent_initial_state(model: Model, state: State | None = None, *, t0: fl
         (names the joints with the largest initial residual), constraint
         equations are dependent (names them, and what they depend on), or a
         matrix is singular.
+    ModelError
+        The model has velocity-level (non-holonomic) constraints (rolling joints): the
+        time loop does not integrate them yet (they serve :mod:`femb.linearize`).
     """
+    if getattr(model, "nn", 0):
+        from femb.errors import ModelError
+        names = sorted({g.cls.__name__ for g in model.velocity_constraint_groups})
+        raise ModelError(f"model '{model.name}' has {model.nn} velocity-level (non-holonomic) constraints "
+                         f"({', '.join(names)}): the time loop does not integrate them yet; use "
+                         "femb.linearize for their linearized dynamics (docs/linearize.md)")
     st = (state or model.initial_state(t0)).copy()
     t = st.t
     nq, nc = model.nq, model.nc

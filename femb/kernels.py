@@ -22,6 +22,19 @@ from femb.jit import (KERNEL_OPTIONS, ROLE_ARGUMENTS, ROLE_SIGNATURES, _PY_KERNE
                       is_cached, jit_disabled, use_cache)
 
 
+#: the velocity-level (non-holonomic) constraint role, A(q, t) v + a(q, t) = 0 (docs/kernels.md):
+#: ``velocity_constraint(P, t, tf, xe, ve, le, jac, Psi, A, Psi_t, Dq, H)`` with Psi = A v + a
+#: (nel, nn), A (nel, nn, ndv), Psi_t = ∂Psi/∂t (nel, nn); with ``jac``: Dq = ∂Psi/∂x along
+#: x ∘ exp(εw) at fixed v (nel, nn, ndv) and H = ∂(Aᵀμ)/∂x (nel, ndv, ndv). Python paths only
+#: (linearization, checks); the time loop does not call it.
+_F2, _F3 = types.float64[:, ::1], types.float64[:, :, ::1]
+SIGNATURES = dict(ROLE_SIGNATURES, velocity_constraint=types.void(
+    _F2, types.float64, _F3, _F2, _F2, _F2, types.boolean, _F2, _F3, _F2, _F3, _F3))
+ARGUMENTS = dict(ROLE_ARGUMENTS, velocity_constraint=(
+    "P", "t", "tf", "xe", "ve", "le", "jac", "Psi", "A", "Psi_t", "Dq", "H"))
+_N_OUTPUTS = {"mass": 1, "force": 3, "constraint": 3, "rates": 2, "energy": 1, "velocity_constraint": 5}
+
+
 def _f(a):
     return np.ascontiguousarray(a, dtype=np.float64)
 
@@ -41,7 +54,7 @@ def debug_mode() -> bool:
 def _check_kernel(owner, role, fn):
     """The checks of a kernel before it is compiled: a function of the role's arity."""
     py = getattr(fn, "py_func", fn)
-    args = ", ".join(ROLE_ARGUMENTS[role])
+    args = ", ".join(ARGUMENTS[role])
     if not inspect.isfunction(py):
         raise ModelError(f"element type {owner}: kernels['{role}'] is {fn!r}, not a function; expected "
                          f"a function {role}({args}) (docs/kernels.md)")
@@ -50,12 +63,12 @@ def _check_kernel(owner, role, fn):
     except (TypeError, ValueError):
         params = []
     positional = [p for p in params if p.kind in (p.POSITIONAL_ONLY, p.POSITIONAL_OR_KEYWORD)]
-    if len(positional) != len(ROLE_ARGUMENTS[role]) or any(p.kind == p.VAR_POSITIONAL for p in params):
+    if len(positional) != len(ARGUMENTS[role]) or any(p.kind == p.VAR_POSITIONAL for p in params):
         have = ", ".join(p.name for p in params)
         raise ModelError(f"element type {owner}: kernel {py.__name__}({have}) for the role '{role}' must take "
-                         f"{len(ROLE_ARGUMENTS[role])} arguments ({args}); it takes {len(positional)} "
+                         f"{len(ARGUMENTS[role])} arguments ({args}); it takes {len(positional)} "
                          f"(docs/kernels.md)")
-    outputs = {"mass": 1, "force": 3, "constraint": 3, "rates": 2, "energy": 1}[role]
+    outputs = _N_OUTPUTS[role]
     out_names = [p.name for p in positional][-outputs:]
     used = _loaded_names(py.__code__)
     if not any(n in used for n in out_names):
@@ -102,7 +115,7 @@ def compiled_kernel(owner, role, fn, boundscheck=None):
     if hit is not None:
         _compiled[(fn, role, debug)] = hit
         return hit
-    sig = ROLE_SIGNATURES[role]
+    sig = SIGNATURES[role]
     if jit_disabled():
         _PY_KERNELS.append(py)
         out = (py, len(_PY_KERNELS) - 1)
@@ -126,13 +139,13 @@ def compiled_kernel(owner, role, fn, boundscheck=None):
         first = str(e).strip().splitlines()
         msg = next((ln for ln in first if ln.strip()), "")
         raise ModelError(f"element type {owner}: kernel {py.__name__} does not compile for the role '{role}' "
-                         f"with the argument types {role}({', '.join(ROLE_ARGUMENTS[role])}) = {args} "
+                         f"with the argument types {role}({', '.join(ARGUMENTS[role])}) = {args} "
                          f"(docs/kernels.md): {msg}") from None
     cres = disp.overloads[args]
     if cres.signature.return_type != types.none:
         raise ModelError(f"element type {owner}: kernel {py.__name__} returns a value "
                          f"({cres.signature.return_type}); kernels write their results into the output "
-                         f"arrays ({', '.join(ROLE_ARGUMENTS[role][-2:])}, ...) and return nothing (docs/kernels.md)")
+                         f"arrays ({', '.join(ARGUMENTS[role][-2:])}, ...) and return nothing (docs/kernels.md)")
     addr = cres.library.get_pointer_to_function(cres.fndesc.llvm_func_name)
     if fresh:
         _fresh.append((owner, role, time.perf_counter() - t0))
@@ -251,6 +264,22 @@ def energy(group, t, xe):
     return Ve
 
 
+def velocity_constraint(group, t, xe, ve, le=None, jac=True):
+    """``Psi (nel, nn)`` = A v + a, ``A (nel, nn, ndv)``, ``Psi_t (nel, nn)`` and, with ``jac``,
+    ``Dq = ∂Psi/∂x (nel, nn, ndv)`` and ``H = ∂(Aᵀμ)/∂x (nel, ndv, ndv)`` (None without)."""
+    xe, ve = _f(xe), _f(ve)
+    nel, ndv, nn = xe.shape[0], group.ndv, group.nn
+    le = np.zeros((nel, nn)) if le is None else _f(le)
+    Psi = np.zeros((nel, nn))
+    A = np.zeros((nel, nn, ndv))
+    Psi_t = np.zeros((nel, nn))
+    Dq = np.zeros((nel, nn, ndv))
+    H = np.zeros((nel, ndv, ndv))
+    _kernel(group, "velocity_constraint")(group.P, float(t), time_values(group, t), xe, ve, le, bool(jac),
+                                          Psi, A, Psi_t, Dq, H)
+    return Psi, A, Psi_t, (Dq if jac else None), (H if jac else None)
+
+
 def is_builtin(cls):
     """Whether ``cls`` is one of femb's own element types (their kernels are tested by femb)."""
     return (cls.__module__ or "").startswith(("femb.", "elements."))
@@ -307,6 +336,10 @@ def contract_check(group, xe, ve, t=0.0):
             run("rates", P, float(t), tf, xe, ve, np.zeros((nel, nc)), np.zeros((nel, nc)))
     if "energy" in ks:
         run("energy", P, float(t), tf, xe, np.zeros(nel))
+    nn = group.nn
+    if nn and "velocity_constraint" in ks:
+        run("velocity_constraint", P, float(t), tf, xe, ve, np.zeros((nel, nn)), True, np.zeros((nel, nn)),
+            np.zeros((nel, nn, ndv)), np.zeros((nel, nn)), np.zeros((nel, nn, ndv)), np.zeros((nel, ndv, ndv)))
 
 
 class ContractWarning(UserWarning):

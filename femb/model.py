@@ -67,6 +67,7 @@ class Group:
     cq_sel: np.ndarray = None  # flat indices of entries of (nel, nc, nd) on free columns
     cq_rows: np.ndarray = None  # constraint index
     cq_cols: np.ndarray = None  # coordinate index
+    mu: np.ndarray = None      # (nel, nn) indices into μ, the multipliers of velocity constraints
 
     @property
     def nel(self):
@@ -79,6 +80,11 @@ class Group:
     @property
     def nc(self):
         return self.lam.shape[1]
+
+    @property
+    def nn(self):
+        """Velocity-level (non-holonomic) constraints per element (0 without)."""
+        return 0 if self.mu is None else self.mu.shape[1]
 
     @property
     def ndv(self):
@@ -118,6 +124,11 @@ class Model:
         Constant forces (constant loads and, with constant mass, gravity).
     needs_C : bool
         Some force depends on q̇ (C_t is assembled).
+    nn : int
+        Number of velocity-level (non-holonomic) constraints A(q, t) v + a(q, t) = 0
+        (multipliers μ, numbered per element in ``mu_index``); 0 for most models.
+    velocity_constraint_groups : list of Group
+        The batches with velocity constraints.
     rheonomic : bool
         Some constraint depends explicitly on t.
     length_scale : float
@@ -235,6 +246,12 @@ class Model:
             if i < self.nq:
                 out[..., k] = qd[..., i]
         return out
+
+    def mu_indices(self, name):
+        """Indices into μ (the multipliers of velocity constraints) of element ``name`` (empty if none)."""
+        if name not in self.element_types:
+            raise ModelError(f"model '{self.name}' has no element named '{name}'")
+        return self.mu_index.get(name, np.zeros(0, dtype=np.int64))
 
     def lam_indices(self, name):
         """Indices into λ of element ``name`` (empty for elements without constraints)."""
@@ -427,7 +444,9 @@ def compile_model(mech, *, length_scale=None):
         batches.setdefault(_group_key(e), []).append(e)
     groups = []
     nc = 0
+    nn = 0
     lam_index = {}
+    mu_index = {}
     tf_all = []
     for (cls, key), els in batches.items():
         dofs = np.array([np.concatenate([node_vindex[n.name] for n in e.nodes()]) for e in els],
@@ -440,6 +459,12 @@ def compile_model(mech, *, length_scale=None):
         nc += len(els) * ncon
         for e, row in zip(els, lam):
             lam_index[e.name] = row.copy()
+        nvc = int(tr.get("n_velocity_constraints", 0) or 0)
+        mu = (nn + np.arange(len(els) * nvc)).reshape(len(els), nvc)
+        nn += len(els) * nvc
+        if nvc:
+            for e, row in zip(els, mu):
+                mu_index[e.name] = row.copy()
         params = cls.pack(els)
         if not isinstance(params, dict):
             raise ModelError(f"{cls.__name__}.pack must return a dict, got {type(params).__name__}")
@@ -459,7 +484,7 @@ def compile_model(mech, *, length_scale=None):
         g = Group(cls=cls, key=key, elements=els, names=[e.name for e in els],
                   params=params, dofs=dofs, xdofs=xdofs, traits=tr, lam=lam,
                   P=np.ascontiguousarray(params["P"], dtype=np.float64), tf_index=tf_index,
-                  time_functions=fns)
+                  time_functions=fns, mu=mu if nvc else None)
         _index_group(g, nq)
         groups.append(g)
     for e in gravity:
@@ -469,6 +494,7 @@ def compile_model(mech, *, length_scale=None):
     const_force_groups = [g for g in groups if g.traits["has_force"] and g.traits["constant_force"]]
     force_groups = [g for g in groups if g.traits["has_force"] and not g.traits["constant_force"]]
     constraint_groups = [g for g in groups if g.nc > 0]
+    velocity_constraint_groups = [g for g in groups if g.nn > 0]
     if not mass_groups:
         raise ModelError(f"mechanism '{mech.name}' has no mass (add a RigidBody, PointMass or beam)")
     for g in mass_groups:
@@ -481,7 +507,7 @@ def compile_model(mech, *, length_scale=None):
     # its element type, and nothing compiles later, unannounced
     for g in groups:
         for role, fn in (getattr(g.cls, "kernels", None) or {}).items():
-            if role in ("mass", "force", "constraint", "rates"):
+            if role in ("mass", "force", "constraint", "rates") or (role == "velocity_constraint" and g.nn):
                 _kernels.compiled_kernel(g.cls.__name__, role, fn)
     _kernels.announce_compiled()
 
@@ -555,6 +581,7 @@ def compile_model(mech, *, length_scale=None):
         needs_C=any(g.traits["force_depends_on_qd"] for g in force_groups),
         rheonomic=any(g.traits["rheonomic"] for g in constraint_groups),
         lam_index=lam_index, length_scale=length_scale,
+        nn=nn, velocity_constraint_groups=velocity_constraint_groups, mu_index=mu_index,
         time_function_table=_time_function_table(tf_all),
         force_weight=w_ext[:nq].copy(), force_weight_ext=w_ext,
         bodies={e.name: e for e in [mech.ground] + others if _is_body(e)},
@@ -587,6 +614,8 @@ def _kernel_roles(tr):
     need = [role for flag, role in _ROLES if tr[flag]]
     if int(tr["n_constraints"]):
         need += ["constraint", "rates"]
+    if int(tr.get("n_velocity_constraints", 0) or 0):
+        need += ["velocity_constraint"]
     return need
 
 
