@@ -22,6 +22,9 @@ Class-level metadata tells the compiled model what a scene needs:
 ``constant_force``          f does not depend on t, q, q̇ (evaluated once at compile)
 ``n_constraints``           constraints per element (0: none)
 ``rheonomic``               Φ depends explicitly on t
+``n_contacts``              unilateral contacts per element (gaps g_N ≥ 0, role
+                            ``"contact"``, docs/contact.md; 0: none)
+``n_friction``              tangent (friction) directions per element
 =========================  ===================================================
 
 Sign conventions follow Arnold & Brüls (2007): M q̈ = f − Φ_qᵀ λ, Φ = 0.
@@ -41,6 +44,8 @@ class Element:
     constant_force = False
     n_constraints = 0
     rheonomic = False
+    n_contacts = 0
+    n_friction = 0
     #: names of this type's constraint equations, for named reactions
     constraint_names: tuple = ()
     #: compiled kernels by role ("mass", "force", "constraint", "rates"), see docs/kernels.md
@@ -75,7 +80,7 @@ class Element:
         """
         return {k: getattr(cls, k) for k in (
             "has_mass", "constant_mass", "has_force", "force_depends_on_qd",
-            "constant_force", "n_constraints", "rheonomic")}
+            "constant_force", "n_constraints", "rheonomic", "n_contacts", "n_friction")}
 
     @classmethod
     def time_functions(cls, element):

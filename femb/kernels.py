@@ -27,6 +27,19 @@ def _f(a):
 
 
 # --------------------------------------------------------------------------
+# the unilateral-contact role (docs/contact.md): called from Python by femb.contact,
+# not (yet) by the compiled engine, so its signature lives here beside the engine's roles
+# --------------------------------------------------------------------------
+_F2 = numba.types.Array(numba.types.float64, 2, "C")
+_F3 = numba.types.Array(numba.types.float64, 3, "C")
+#: contact(P, t, tf, xe, ve, le, jac, gN, W, zeta, H): gap, force directions, curvature terms
+CONTACT_SIGNATURE = types.void(_F2, types.float64, _F3, _F2, _F2, _F2, types.boolean, _F2, _F3, _F2, _F3)
+CONTACT_ARGUMENTS = ("P", "t", "tf", "xe", "ve", "le", "jac", "gN", "W", "zeta", "H")
+_SIGNATURES = dict(ROLE_SIGNATURES, contact=CONTACT_SIGNATURE)
+_ARGUMENTS = dict(ROLE_ARGUMENTS, contact=CONTACT_ARGUMENTS)
+
+
+# --------------------------------------------------------------------------
 # kernels compiled once per element type (and cached on disk)
 # --------------------------------------------------------------------------
 _compiled = {}
@@ -41,7 +54,7 @@ def debug_mode() -> bool:
 def _check_kernel(owner, role, fn):
     """The checks of a kernel before it is compiled: a function of the role's arity."""
     py = getattr(fn, "py_func", fn)
-    args = ", ".join(ROLE_ARGUMENTS[role])
+    args = ", ".join(_ARGUMENTS[role])
     if not inspect.isfunction(py):
         raise ModelError(f"element type {owner}: kernels['{role}'] is {fn!r}, not a function; expected "
                          f"a function {role}({args}) (docs/kernels.md)")
@@ -50,12 +63,12 @@ def _check_kernel(owner, role, fn):
     except (TypeError, ValueError):
         params = []
     positional = [p for p in params if p.kind in (p.POSITIONAL_ONLY, p.POSITIONAL_OR_KEYWORD)]
-    if len(positional) != len(ROLE_ARGUMENTS[role]) or any(p.kind == p.VAR_POSITIONAL for p in params):
+    if len(positional) != len(_ARGUMENTS[role]) or any(p.kind == p.VAR_POSITIONAL for p in params):
         have = ", ".join(p.name for p in params)
         raise ModelError(f"element type {owner}: kernel {py.__name__}({have}) for the role '{role}' must take "
-                         f"{len(ROLE_ARGUMENTS[role])} arguments ({args}); it takes {len(positional)} "
+                         f"{len(_ARGUMENTS[role])} arguments ({args}); it takes {len(positional)} "
                          f"(docs/kernels.md)")
-    outputs = {"mass": 1, "force": 3, "constraint": 3, "rates": 2}[role]
+    outputs = {"mass": 1, "force": 3, "constraint": 3, "rates": 2, "contact": 4}[role]
     out_names = [p.name for p in positional][-outputs:]
     used = _loaded_names(py.__code__)
     if not any(n in used for n in out_names):
@@ -102,7 +115,7 @@ def compiled_kernel(owner, role, fn, boundscheck=None):
     if hit is not None:
         _compiled[(fn, role, debug)] = hit
         return hit
-    sig = ROLE_SIGNATURES[role]
+    sig = _SIGNATURES[role]
     if jit_disabled():
         _PY_KERNELS.append(py)
         out = (py, len(_PY_KERNELS) - 1)
@@ -126,13 +139,13 @@ def compiled_kernel(owner, role, fn, boundscheck=None):
         first = str(e).strip().splitlines()
         msg = next((ln for ln in first if ln.strip()), "")
         raise ModelError(f"element type {owner}: kernel {py.__name__} does not compile for the role '{role}' "
-                         f"with the argument types {role}({', '.join(ROLE_ARGUMENTS[role])}) = {args} "
+                         f"with the argument types {role}({', '.join(_ARGUMENTS[role])}) = {args} "
                          f"(docs/kernels.md): {msg}") from None
     cres = disp.overloads[args]
     if cres.signature.return_type != types.none:
         raise ModelError(f"element type {owner}: kernel {py.__name__} returns a value "
                          f"({cres.signature.return_type}); kernels write their results into the output "
-                         f"arrays ({', '.join(ROLE_ARGUMENTS[role][-2:])}, ...) and return nothing (docs/kernels.md)")
+                         f"arrays ({', '.join(_ARGUMENTS[role][-2:])}, ...) and return nothing (docs/kernels.md)")
     addr = cres.library.get_pointer_to_function(cres.fndesc.llvm_func_name)
     if fresh:
         _fresh.append((owner, role, time.perf_counter() - t0))
@@ -222,6 +235,44 @@ def rates(group, t, xe, ve):
     gam = np.zeros((nel, nc))
     _kernel(group, "rates")(group.P, float(t), time_values(group, t), xe, ve, Phi_t, gam)
     return Phi_t, gam
+
+
+def contact(group, t, xe, ve, le=None, jac=True):
+    """A contact batch's kernel (docs/contact.md): gaps, force directions, curvature terms.
+
+    Parameters
+    ----------
+    group : Group
+        A batch of a type with ``n_contacts`` = k normal and ``n_friction`` = l tangent
+        directions per element (``r = k + l`` rows).
+    t : float
+    xe : ndarray, shape (nel, ndx)
+    ve : ndarray, shape (nel, ndv)
+    le : ndarray, shape (nel, r), optional
+        Contact forces (λ_N, λ_F) for ``H``.
+    jac : bool
+
+    Returns
+    -------
+    gN : ndarray, shape (nel, k)
+        Gaps g_N ≥ 0.
+    W : ndarray, shape (nel, r, ndv)
+        Rows W_N = ∂g_N/∂v (normal velocity ġ_N = W_N v) and W_F (slip velocities γ_F = W_F v).
+    zeta : ndarray, shape (nel, r)
+        Curvature terms: g̈_N = W_N v̇ + ζ_N, γ̇_F = W_F v̇ + ζ_F.
+    H : ndarray, shape (nel, ndv, ndv) or None
+        ∂(Wᵀ le)/∂x along x ∘ exp(δ) (with ``jac``).
+    """
+    xe, ve = _f(xe), _f(ve)
+    nel, ndv = xe.shape[0], group.ndv
+    r = group.n_contact_rows
+    le = np.zeros((nel, r)) if le is None else _f(le)
+    gN = np.zeros((nel, group.traits["n_contacts"]))
+    W = np.zeros((nel, r, ndv))
+    zeta = np.zeros((nel, r))
+    H = np.zeros((nel, ndv, ndv))
+    _kernel(group, "contact")(group.P, float(t), time_values(group, t), xe, ve, le, bool(jac), gN, W, zeta, H)
+    return gN, W, zeta, (H if jac else None)
 
 
 def is_builtin(cls):
