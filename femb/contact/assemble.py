@@ -69,7 +69,7 @@ def _rows(g):
     return g.cN, g.cF
 
 
-def evaluate(model, t, q, u, lam_N=None, lam_F=None, jac=False):
+def evaluate(model, t, q, u, lam_N=None, lam_F=None, jac=False, dense=False):
     """Gaps and contact operators at (t, q, u).
 
     Parameters
@@ -81,6 +81,8 @@ def evaluate(model, t, q, u, lam_N=None, lam_F=None, jac=False):
     lam_N, lam_F : ndarray, shapes (nN,), (nF,), optional
         Contact forces for the curvature matrix ``H`` (with ``jac``).
     jac : bool
+    dense : bool
+        Return WN, WF, H as dense arrays (small models: no sparse overhead).
 
     Returns
     -------
@@ -121,6 +123,11 @@ def evaluate(model, t, q, u, lam_N=None, lam_F=None, jac=False):
             Hv.append(H[m])
 
     def mat(R, C, V, n):
+        if dense:
+            out = np.zeros((n, nq))
+            for r, c, v in zip(R, C, V):
+                np.add.at(out, (r, c), v)
+            return out
         if not R:
             return sp.csr_matrix((n, nq))
         return sp.csr_matrix((np.concatenate(V), (np.concatenate(R), np.concatenate(C))), shape=(n, nq))

@@ -147,7 +147,8 @@ def _states(ev, sets, lay, vel_tol):
     return st
 
 
-def simulate(model, t_end, h, *, rho_inf=0.8, t0=0.0, tol=None, max_iter=40, max_fixed_point=400):
+def simulate(model, t_end, h, *, rho_inf=0.8, t0=0.0, tol=None, max_iter=40, max_fixed_point=400,
+             locate_impacts=True):
     """Integrate a model with contacts by the nonsmooth generalized-α method, fixed steps.
 
     Parameters
@@ -156,7 +157,8 @@ def simulate(model, t_end, h, *, rho_inf=0.8, t0=0.0, tol=None, max_iter=40, max
         With contact elements (:mod:`femb.elements.contact`); bilateral joints are allowed.
     t_end : float
     h : float
-        Step size (adjusted slightly so that the steps end on t_end).
+        Step size (adjusted slightly so that the steps end on t_end); results are stored at
+        every step.
     rho_inf : float in [0, 1)
         Spectral radius at infinity of the smooth part (α_m, α_f, β, γ by Chung & Hulbert).
     t0 : float
@@ -164,6 +166,9 @@ def simulate(model, t_end, h, *, rho_inf=0.8, t0=0.0, tol=None, max_iter=40, max
         Newton tolerance on the residual in length units (default 1e-12 × length scale).
     max_iter, max_fixed_point : int
         Semismooth Newton iterations per step; prox fixed-point iterations of the fallback.
+    locate_impacts : bool
+        Split a step in which an open contact closes at the impact (docs/contact.md §2.4), so
+        the impact law sees the velocity at the impact and not at the step's start.
 
     Returns
     -------
@@ -176,6 +181,8 @@ def simulate(model, t_end, h, *, rho_inf=0.8, t0=0.0, tol=None, max_iter=40, max
         why (Painlevé's paradox diagnosed, :func:`diagnose`); carries the partial result.
     ModelError
         A contact starts penetrated.
+    ParameterError
+        Bad t_end, h, t0 or rho_inf.
     """
     if hasattr(model, "compile") and not hasattr(model, "contact_groups"):
         model = model.compile()
@@ -189,6 +196,26 @@ def simulate(model, t_end, h, *, rho_inf=0.8, t0=0.0, tol=None, max_iter=40, max
     stepper = NonsmoothStep(model, h, GeneralizedAlpha.from_rho_inf(rho_inf), lay, tol, max_iter, max_fixed_point)
     vel_tol = max(100.0 * tol / h, 1e-12)
     t_init = time.perf_counter()
+    s, x0, ev0 = _start(model, lay, stepper, t0, vel_tol)
+    rec = _Recorder(model, lay)
+    rec.store(s, x0, ev0, np.zeros(lay.nN, dtype=np.int8), stepper, (0.0, 0.0))
+    init_time = time.perf_counter() - t_init
+    t_loop = time.perf_counter()
+    for n in range(1, nsteps + 1):
+        try:
+            s, x, ev, sets, work = _step(stepper, s, h, n, rec, vel_tol, locate_impacts)
+        except StepFailure as err:
+            res = rec.result(h, rho_inf, tol, init_time, time.perf_counter() - t_loop, "failed", str(err))
+            name, why = diagnose(model, lay, s, 1e-9 * L, vel_tol)
+            raise ContactError(f"contact step {n} from t = {s.t:.6g} s to t = {s.t + h:.6g} s failed: {why} "
+                               f"({err})", contact=name, t=s.t + h, step=n, result=res) from None
+        rec.store(s, x, ev, _states(ev, sets, lay, vel_tol), stepper, work)
+    return rec.result(h, rho_inf, tol, init_time, time.perf_counter() - t_loop, "success", "")
+
+
+def _start(model, lay, stepper, t0, vel_tol):
+    """The consistent starting state (bilateral projection, contact forces of the closed contacts)."""
+    L = model.length_scale
     st = consistent_initial_state(model, t0=t0)
     ev0 = assemble.evaluate(model, t0, st.q, st.qd)
     bad = np.nonzero(ev0["gN"] < -1e-10 * L)[0]
@@ -198,7 +225,7 @@ def simulate(model, t_end, h, *, rho_inf=0.8, t0=0.0, tol=None, max_iter=40, max
                          "place the bodies apart or touching")
     ud, lg, lN, lF = initial_contact_forces(model, lay, st, 1e-9 * L, vel_tol)
     s = StepState(t0, st.q.copy(), st.qd.copy(), ud, ud.copy(), lN, lF, lN.copy(), lF.copy(),
-                  ev0["WN"] @ st.qd, ev0["WF"] @ st.qd)
+                  ev0["WN"] @ st.qd, ev0["WF"] @ st.qd, gN=ev0["gN"], gNdd=ev0["WN"] @ ud + ev0["zN"])
     x0 = np.zeros(stepper.nx)
     o = stepper.offsets
     x0[o[0]:o[1]] = ud
@@ -206,86 +233,132 @@ def simulate(model, t_end, h, *, rho_inf=0.8, t0=0.0, tol=None, max_iter=40, max
     x0[o[8]:o[9]] = lN
     x0[o[10]:o[11]] = lF
     s.x = x0
-    rec = _Recorder(model, lay, nsteps)
-    rec.store(s.t, s.q, s.u, ud, lg, ev0, None, np.zeros(lay.nN, dtype=np.int8), stepper, x0, s)
-    init_time = time.perf_counter() - t_init
-    t_loop = time.perf_counter()
-    for n in range(1, nsteps + 1):
-        try:
-            x, ev, sets, info = stepper.solve(s)
-        except StepFailure as err:
-            res = rec.result(h, rho_inf, tol, init_time, time.perf_counter() - t_loop, "failed", str(err))
-            name, why = diagnose(model, lay, s, 1e-9 * L, vel_tol)
-            raise ContactError(f"contact step {n} from t = {s.t:.6g} s to t = {s.t + h:.6g} s failed: {why} "
-                               f"({err})", contact=name, t=s.t + h, step=n, result=res) from None
-        before = s.gNd
-        s = _advance(stepper, s, x, ev)
-        rec.iterations.append(info["iterations"])
-        rec.methods.append(info["method"])
-        rec.store(s.t, s.q, s.u, s.ud, stepper.split(x)[5], ev, sets, _states(ev, sets, lay, vel_tol), stepper, x,
-                  s, events=(n, vel_tol, before))
-    return rec.result(h, rho_inf, tol, init_time, time.perf_counter() - t_loop, "success", "")
+    ev0 = dict(ev0, PN=np.zeros(lay.nN), PF=np.zeros(lay.nF), u=st.qd)
+    return s, x0, ev0
+
+
+def _impact_time(stepper, s, ev, sets, H, gap_tol):
+    """Earliest time τ ∈ (0, H) at which an open contact closes in a step of size H, or None.
+
+    From the contact's gap at the step's start, g + ġτ + ½g̈τ² = 0 (exact for a body in free
+    flight under constant forces); the secant of g over the step when that has no root in (0, H).
+    """
+    A = sets[0]
+    cand = np.nonzero(A & ((s.gN > gap_tol) | (s.gNd > 0.0)))[0]    # open, or touching and leaving
+    best = None
+    free = None
+    for i in cand:
+        gdd = s.gNdd[i]
+        if s.gN[i] <= gap_tol:          # leaving: its g̈_N at t_n holds its own contact force; take the free one
+            free = _free_gNdd(stepper.model, s) if free is None else free
+            gdd = free[i]
+        a, b, c = 0.5 * gdd, s.gNd[i], s.gN[i]
+        roots = np.roots([a, b, c]) if abs(a) > 0.0 else np.array([-c / b]) if b != 0.0 else np.zeros(0)
+        roots = [r.real for r in np.atleast_1d(roots) if abs(r.imag) == 0.0 and 0.0 < r.real < H]
+        tau = min(roots) if roots else H * c / (c - ev["gN"][i]) if c - ev["gN"][i] > 0.0 else None
+        if tau is not None and (best is None or tau < best):
+            best = tau
+    return best
+
+
+def _free_gNdd(model, s):
+    """g̈_N at s without contact forces (bilateral constraints kept)."""
+    lu = _kkt(model, s.t, s.q)
+    _, gam = assembly.constraint_rates(model, s.t, s.q, s.u)
+    ud, _ = _solve_kkt(lu, model, assembly.force_vector(model, s.t, s.q, s.u), -gam)
+    ev = assemble.evaluate(model, s.t, s.q, s.u)
+    return ev["WN"] @ ud + ev["zN"]
+
+
+def _step(stepper, s, h, n, rec, vel_tol, locate, depth=0):
+    """Advance s by h: one nonsmooth step, split at the first impact of an open contact.
+
+    Returns (state, x, ev, sets, (work_N, work_F)) at s.t + h; impacts go to ``rec.events``.
+    """
+    stepper.set_h(h)
+    x, ev, sets, info = stepper.solve(s)
+    tau = _impact_time(stepper, s, ev, sets, h, 1e-9 * stepper.model.length_scale) if locate and depth < 30 else None
+    hf = stepper.h_fixed
+    if tau is not None and 1e-3 * hf < tau < h - 1e-3 * hf:
+        # free flight to just before the impact (the gap stays open); the impact in a step of 1e-4 h,
+        # so Newton's law sees the velocity at the impact and the bodies leave at once; the rest
+        tau -= 1e-6 * hf
+        d = min(1e-4 * hf, 0.5 * (h - tau))
+        work = [0.0, 0.0]
+        for hk in (tau, d, h - tau - d):
+            s, x, ev, sets, w = _step(stepper, s, hk, n, rec, vel_tol, locate, depth + 1)
+            work[0] += w[0]
+            work[1] += w[1]
+        stepper.set_h(h)
+        return s, x, ev, sets, tuple(work)
+    rec.iterations.append(info["iterations"])
+    rec.methods.append(info["method"])
+    um = 0.5 * (s.u + ev["u"])
+    work = (float(um @ (ev["WN"].T @ ev["PN"])), float(um @ (ev["WF"].T @ ev["PF"])))
+    new = _advance(stepper, s, x, ev)
+    rec.impacts(n, s, new, ev, sets, stepper.split(x), vel_tol)
+    return new, x, ev, sets, work
 
 
 def _advance(stepper, s, x, ev):
     """The state after an accepted step (ā, λ̄ carried as in eqs. (71), (96), (114))."""
     parts = stepper.split(x)
     return StepState(s.t + stepper.h, ev["q"], ev["u"], parts[0].copy(), ev["abar"], parts[8].copy(),
-                     parts[10].copy(), ev["lbar_N"], ev["lbar_F"], ev["gNd"], ev["gF"], x.copy())
+                     parts[10].copy(), ev["lbar_N"], ev["lbar_F"], ev["gNd"], ev["gF"], x.copy(),
+                     gN=ev["gN"], gNdd=ev["gNdd"])
 
 
 class _Recorder:
     """Stores every step and builds the :class:`ContactResult`."""
 
-    def __init__(self, model, lay, nsteps):
+    def __init__(self, model, lay):
         self.model, self.lay = model, lay
         self.t, self.q, self.u, self.ud, self.lam = [], [], [], [], []
         self.c = {k: [] for k in ("gN", "gN_d", "lam_N", "Lam_N", "P_N", "state", "gam_F", "lam_F", "Lam_F", "P_F",
                                   "work_N", "work_F")}
         self.iterations, self.methods, self.events = [], [], []
-        self._u_prev = None
         self._wN = self._wF = 0.0
 
-    def store(self, t, q, u, ud, lam, ev, sets, state, stepper, x, s, events=None):
+    def store(self, s, x, ev, state, stepper, work):
         parts = stepper.split(x)
-        PN = ev.get("PN", np.zeros(self.lay.nN))
-        PF = ev.get("PF", np.zeros(self.lay.nF))
-        if self._u_prev is not None:
-            um = 0.5 * (self._u_prev + u)
-            self._wN += float(um @ (ev["WN"].T @ PN))
-            self._wF += float(um @ (ev["WF"].T @ PF))
-        self._u_prev = u.copy()
-        self.t.append(t)
-        self.q.append(q.copy())
-        self.u.append(u.copy())
-        self.ud.append(ud.copy())
-        self.lam.append(np.array(lam, dtype=float))
-        for key, val in (("gN", ev["gN"]), ("gN_d", ev["WN"] @ u), ("lam_N", parts[8]), ("Lam_N", parts[7]),
-                         ("P_N", PN), ("state", state), ("gam_F", ev["WF"] @ u), ("lam_F", parts[10]),
-                         ("Lam_F", parts[9]), ("P_F", PF), ("work_N", self._wN), ("work_F", self._wF)):
+        self._wN += work[0]
+        self._wF += work[1]
+        self.t.append(s.t)
+        self.q.append(s.q.copy())
+        self.u.append(s.u.copy())
+        self.ud.append(s.ud.copy())
+        self.lam.append(np.array(parts[5], dtype=float))
+        for key, val in (("gN", ev["gN"]), ("gN_d", ev["WN"] @ s.u), ("lam_N", parts[8]), ("Lam_N", parts[7]),
+                         ("P_N", ev["PN"]), ("state", state), ("gam_F", ev["WF"] @ s.u), ("lam_F", parts[10]),
+                         ("Lam_F", parts[9]), ("P_F", ev["PF"]), ("work_N", self._wN), ("work_F", self._wF)):
             self.c[key].append(np.array(val, copy=True))
-        if events is not None:
-            self._events(*events, t, ev, parts, state)
 
-    def _events(self, n, vel_tol, before, t, ev, parts, state):
-        """Impacts: a contact closed at the end of a step that began approaching (ġ_N(t_n) < 0), with P_N > 0."""
-        after = ev["WN"] @ ev["u"]
-        for i in np.nonzero((before < -vel_tol) & (state != OPEN) & (ev["PN"] > 0.0))[0]:
-            self.events.append(dict(t=t, step=n, contact=self.lay.names[i], v_before=float(before[i]),
-                                    v_after=float(after[i]), Lambda_N=float(parts[7][i]), P_N=float(ev["PN"][i])))
+    def impacts(self, n, s, new, ev, sets, parts, vel_tol):
+        """Impacts of a (sub)step: a contact closed at its end that began approaching (ġ_N < 0), P_N > 0."""
+        closed = sets[0] & (sets[1] | sets[2])
+        for i in np.nonzero((s.gNd < -vel_tol) & closed & (ev["PN"] > 0.0))[0]:
+            a, b, c = 0.5 * s.gNdd[i], s.gNd[i], max(s.gN[i], 0.0)      # impact time inside the (sub)step
+            roots = [r.real for r in np.atleast_1d(np.roots([a, b, c]) if a else [-c / b])
+                     if abs(r.imag) == 0.0 and 0.0 <= r.real <= new.t - s.t]
+            self.events.append(dict(t=s.t + min(roots) if roots else new.t, step=n, contact=self.lay.names[i],
+                                    v_before=float(s.gNd[i]), v_after=float(new.gNd[i]), Lambda_N=float(parts[7][i]),
+                                    P_N=float(ev["PN"][i]), u_before=s.u.copy(), u_after=new.u.copy()))
 
     def result(self, h, rho_inf, tol, init_time, wall, status, message):
         m, lay = self.model, self.lay
+        nt = len(self.t)
         contact = {k: np.array(v) for k, v in self.c.items()}
-        for k, n in (("gN", lay.nN), ("gN_d", lay.nN), ("lam_N", lay.nN), ("Lam_N", lay.nN), ("P_N", lay.nN),
-                     ("state", lay.nN), ("gam_F", lay.nF), ("lam_F", lay.nF), ("Lam_F", lay.nF), ("P_F", lay.nF)):
-            contact[k] = contact[k].reshape(len(self.t), n)
+        for k in ("gN", "gN_d", "lam_N", "Lam_N", "P_N", "state"):
+            contact[k] = contact[k].reshape(nt, lay.nN)
+        for k in ("gam_F", "lam_F", "Lam_F", "P_F"):
+            contact[k] = contact[k].reshape(nt, lay.nF)
         its = np.array(self.iterations, dtype=np.int64)
         return ContactResult(
             model=m, t=np.array(self.t), q=np.array(self.q), qd=np.array(self.u), qdd=np.array(self.ud),
-            lam=np.array(self.lam).reshape(len(self.t), m.nc), newton_iterations=its, status=status,
+            lam=np.array(self.lam).reshape(nt, m.nc), newton_iterations=its, status=status,
             message=message, wall_time=wall, init_time=init_time,
-            stats={"steps": int(its.size), "fixed_point_steps": int(sum(1 for x in self.methods if x != "newton"))},
+            stats={"steps": nt - 1, "substeps": int(its.size),
+                   "fixed_point_steps": int(sum(1 for x in self.methods if x != "newton"))},
             settings={"h": h, "rho_inf": rho_inf, "tol": tol, "scheme": "nonsmooth generalized-alpha "
                       "(Capobianco, Harsch, Eugster & Leine 2021)"},
             contact=contact, contact_names=list(lay.names), friction_rows=[r.copy() for r in lay.friction],

@@ -31,7 +31,7 @@ R_s for fixed contact unknowns, then the proximal update of the contact unknowns
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 import scipy.sparse as sp
@@ -58,7 +58,8 @@ class StepState:
     gNd: np.ndarray         # ġ_N(q_n, u_n), for Newton's impact law
     gFd: np.ndarray         # γ_F(q_n, u_n)
     x: np.ndarray = None    # the previous step's unknowns (initial guess)
-    extra: dict = field(default_factory=dict)
+    gN: np.ndarray = None   # g_N(q_n) and g̈_N(q_n, u_n, u̇_n): locate impacts inside a step
+    gNdd: np.ndarray = None
 
 
 class StepFailure(Exception):
@@ -97,13 +98,12 @@ class NonsmoothStep:
         self.model, self.h, self.lay = model, float(h), lay
         self.am, self.af, self.beta, self.gamma = alpha.alpha_m, alpha.alpha_f, alpha.beta, alpha.gamma
         self.tol, self.max_iter, self.max_fp = tol, max_iter, max_fixed_point
+        self.h_fixed = float(h)
         n, m, k, l = model.nq, model.nc, lay.nN, lay.nF
         self.sizes = (n, n, n, m, m, m, k, k, k, l, l)
         self.offsets = np.concatenate(([0], np.cumsum(self.sizes)))
         self.nx = int(self.offsets[-1])
-        c = (1.0 - self.af) / (1.0 - self.am)
-        self.c_u = h * self.gamma * c        # ∂u_{n+1}/∂u̇_{n+1}, ∂P/∂λ
-        self.c_q = h * h * self.beta * c     # ∂Δq/∂u̇_{n+1}, ∂κ̂/∂λ
+        self.set_h(h)
         self.owner = np.zeros(l, dtype=np.int64)
         for i, idx in enumerate(lay.friction):
             self.owner[idx] = i
@@ -111,9 +111,18 @@ class NonsmoothStep:
         self.M = model.M_const.tocsc() if model.constant_mass else None
         #: dense linear algebra below this many unknowns (sparse overhead dominates small systems)
         self.dense = self.nx <= 600
+        self.Md = self.M.toarray() if (self.dense and self.M is not None) else None
+        self.Minv = np.linalg.inv(self.Md) if self.Md is not None else None
         diagM = (self.M if self.M is not None else assembly.mass_matrix(model, model.q0)).diagonal()
         w = model.force_weight
         self.m_ref = float(np.mean(diagM[w == 1.0])) if np.any(w == 1.0) else float(np.mean(diagM))
+
+    def set_h(self, h):
+        """Use step size h (impact steps are split at the impact, docs/contact.md §2.4)."""
+        self.h = float(h)
+        c = (1.0 - self.af) / (1.0 - self.am)
+        self.c_u = self.h * self.gamma * c        # ∂u_{n+1}/∂u̇_{n+1}, ∂P/∂λ
+        self.c_q = self.h * self.h * self.beta * c     # ∂Δq/∂u̇_{n+1}, ∂κ̂/∂λ
 
     # ------------------------------------------------------------------ bookkeeping
     def split(self, x):
@@ -137,13 +146,15 @@ class NonsmoothStep:
 
     def prox_r(self, q, t):
         """Prox parameters r_i = 1/(W M⁻¹ Wᵀ)_ii per normal and tangent row (Studer 2009)."""
-        ev = assemble.evaluate(self.model, t, q, np.zeros(self.model.nq))
-        M = self.M if self.M is not None else assembly.mass_matrix(self.model, q).tocsc()
-        W = sp.vstack((ev["WN"], ev["WF"])).tocsc()
-        if W.shape[0] == 0:
+        ev = assemble.evaluate(self.model, t, q, np.zeros(self.model.nq), dense=True)
+        Wd = np.vstack((ev["WN"], ev["WF"]))
+        if Wd.shape[0] == 0:
             return np.zeros(0), np.zeros(0)
-        Wd = W.toarray()
-        G = np.einsum("ij,ji->i", Wd, spla.splu(M).solve(np.ascontiguousarray(Wd.T)))
+        if self.Minv is not None:
+            G = np.einsum("ij,ji->i", Wd, self.Minv @ Wd.T)
+        else:
+            M = self.M if self.M is not None else assembly.mass_matrix(self.model, q).tocsc()
+            G = np.einsum("ij,ji->i", Wd, spla.splu(M).solve(np.ascontiguousarray(Wd.T)))
         r = 1.0 / np.maximum(G, 1e-300)
         return r[:self.lay.nN], r[self.lay.nN:]
 
@@ -154,12 +165,16 @@ class NonsmoothStep:
         ev = self.kinematics(s, x)
         q, u = ev["q"], ev["u"]
         ud, U, Q, kg, Lg, lg, kN, LN, lN, LF, lF = self.split(x)
-        ev["M"] = self.M if self.M is not None else assembly.mass_matrix(model, q).tocsc()
+        if self.dense:
+            ev["M"] = self.Md if self.Md is not None else assembly.mass_matrix(model, q).toarray()
+        else:
+            ev["M"] = self.M if self.M is not None else assembly.mass_matrix(model, q).tocsc()
         ev["f"] = assembly.force_vector(model, t1, q, u)
         ev["Phi"] = assembly.constraint_vector(model, t1, q)
-        ev["B"] = assembly.constraint_jacobian(model, t1, q)
+        B = assembly.constraint_jacobian(model, t1, q)
+        ev["B"] = B.toarray() if self.dense else B
         ev["Phi_t"], ev["gam"] = assembly.constraint_rates(model, t1, q, u)
-        c = assemble.evaluate(model, t1, q, u, lN, lF, jac=True)
+        c = assemble.evaluate(model, t1, q, u, lN, lF, jac=True, dense=self.dense)
         ev.update(c)
         WN, WF = c["WN"], c["WF"]
         ev["gNd"] = WN @ u
