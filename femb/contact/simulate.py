@@ -35,7 +35,7 @@ def _solve_kkt(lu, model, rhs_q, rhs_c):
     return x[:model.nq], x[model.nq:]
 
 
-def initial_contact_forces(model, lay, st, gap_tol, vel_tol, max_iter=20000):
+def initial_contact_forces(model, lay, st, gap_tol, vel_tol, max_iter=5000):
     """Accelerations and contact forces at t₀ for the contacts that are closed (g_N ≤ gap_tol and
     |ġ_N| ≤ vel_tol): the acceleration-level contact problem (Signorini on g̈_N, Coulomb on γ̇_F
     or the slip law on γ_F), solved by a projected Jacobi fixed point with prox parameters
@@ -78,8 +78,16 @@ def initial_contact_forces(model, lay, st, gap_tol, vel_tol, max_iter=20000):
         lN, lF = lN1, lF1
         if change <= 1e-13 * max(1.0, np.max(np.abs(lN), initial=0.0)):
             break
+        if not np.all(np.isfinite(lN)) or np.max(np.abs(lN), initial=0.0) > 1e12 * _force_scale(model, f):
+            break
+    if not (np.all(np.isfinite(lN)) and change <= 1e-9 * max(1.0, np.max(np.abs(lN), initial=0.0))):
+        return None
     ud, lg = _solve_kkt(lu, model, f + WN.T @ lN + WF.T @ lF, -gam)
     return ud, lg, lN, lF
+
+
+def _force_scale(model, f):
+    return max(float(np.max(np.abs(f), initial=0.0)), 1e-300)
 
 
 def _check_parameters(model, t_end, h, rho_inf, t0):
@@ -125,8 +133,9 @@ def diagnose(model, lay, s, gap_tol, vel_tol):
         shat = gF / np.linalg.norm(gF)
         w = WN[i].toarray().ravel() - lay.mu[i] * (shat @ WF[idx].toarray())
         x, _ = _solve_kkt(lu, model, w, np.zeros(model.nc))
-        a = float(WN[i] @ x)
-        b = float(WN[i] @ ud0 + ev["zN"][i])
+        wN = WN[i].toarray().ravel()
+        a = float(wN @ x)
+        b = float(wN @ ud0 + ev["zN"][i])
         if a <= 0.0:
             kind = "inconsistency: no contact force exists" if b < 0 else "indeterminacy: the contact force is not unique"
             return lay.names[i], (f"contact '{lay.names[i]}' slips at {np.linalg.norm(gF):.4g} m/s with μ = "
@@ -223,7 +232,12 @@ def _start(model, lay, stepper, t0, vel_tol):
         i = bad[0]
         raise ModelError(f"contact '{lay.names[i]}' starts penetrated: g_N = {ev0['gN'][i]:.6g} m < 0 at t0 = {t0:g}; "
                          "place the bodies apart or touching")
-    ud, lg, lN, lF = initial_contact_forces(model, lay, st, 1e-9 * L, vel_tol)
+    init = initial_contact_forces(model, lay, st, 1e-9 * L, vel_tol)
+    if init is None:
+        probe = StepState(t0, st.q, st.qd, *([None] * 8))
+        name, why = diagnose(model, lay, probe, 1e-9 * L, vel_tol)
+        raise ContactError(f"initial contact forces at t0 = {t0:g} s: {why}", contact=name, t=t0, step=0)
+    ud, lg, lN, lF = init
     s = StepState(t0, st.q.copy(), st.qd.copy(), ud, ud.copy(), lN, lF, lN.copy(), lF.copy(),
                   ev0["WN"] @ st.qd, ev0["WF"] @ st.qd, gN=ev0["gN"], gNdd=ev0["WN"] @ ud + ev0["zN"])
     x0 = np.zeros(stepper.nx)
@@ -237,19 +251,19 @@ def _start(model, lay, stepper, t0, vel_tol):
     return s, x0, ev0
 
 
-def _impact_time(stepper, s, ev, sets, H, gap_tol):
+def _impact_time(stepper, s, ev, sets, H, gap_tol, vel_tol):
     """Earliest time τ ∈ (0, H) at which an open contact closes in a step of size H, or None.
 
     From the contact's gap at the step's start, g + ġτ + ½g̈τ² = 0 (exact for a body in free
     flight under constant forces); the secant of g over the step when that has no root in (0, H).
     """
     A = sets[0]
-    cand = np.nonzero(A & ((s.gN > gap_tol) | (s.gNd > 0.0)))[0]    # open, or touching and leaving
+    cand = np.nonzero(A & ((s.gN > gap_tol) | (np.abs(s.gNd) > vel_tol)))[0]    # open, or touching and moving
     best = None
     free = None
     for i in cand:
         gdd = s.gNdd[i]
-        if s.gN[i] <= gap_tol:          # leaving: its g̈_N at t_n holds its own contact force; take the free one
+        if s.gN[i] <= gap_tol and s.gNd[i] > 0.0:   # leaving: its g̈_N(t_n) holds its contact force; the free one
             free = _free_gNdd(stepper.model, s) if free is None else free
             gdd = free[i]
         a, b, c = 0.5 * gdd, s.gNd[i], s.gN[i]
@@ -271,26 +285,54 @@ def _free_gNdd(model, s):
 
 
 def _step(stepper, s, h, n, rec, vel_tol, locate, depth=0):
-    """Advance s by h: one nonsmooth step, split at the first impact of an open contact.
+    """Advance s by h: one nonsmooth step, or substeps around the impact of an open contact.
 
-    Returns (state, x, ev, sets, (work_N, work_F)) at s.t + h; impacts go to ``rec.events``.
+    An open contact that closes in the step is located from its gap, velocity and free
+    acceleration (:func:`_impact_time`): the step goes in free flight to d = 1e-4 h before the
+    impact (shortened until the contact is still open at its end), takes the impact in a substep
+    that ends d after it (so Newton's law sees the velocity at the impact and the bodies leave at
+    once), and the rest of the step (docs/contact.md §2.4). Returns (state, x, ev, sets, (work_N,
+    work_F)) at s.t + h; impacts go to ``rec.events``.
     """
     stepper.set_h(h)
     x, ev, sets, info = stepper.solve(s)
-    tau = _impact_time(stepper, s, ev, sets, h, 1e-9 * stepper.model.length_scale) if locate and depth < 30 else None
-    hf = stepper.h_fixed
-    if tau is not None and 1e-3 * hf < tau < h - 1e-3 * hf:
-        # free flight to just before the impact (the gap stays open); the impact in a step of 1e-4 h,
-        # so Newton's law sees the velocity at the impact and the bodies leave at once; the rest
-        tau -= 1e-6 * hf
-        d = min(1e-4 * hf, 0.5 * (h - tau))
-        work = [0.0, 0.0]
-        for hk in (tau, d, h - tau - d):
-            s, x, ev, sets, w = _step(stepper, s, hk, n, rec, vel_tol, locate, depth + 1)
-            work[0] += w[0]
-            work[1] += w[1]
-        stepper.set_h(h)
-        return s, x, ev, sets, tuple(work)
+    gap_tol = 1e-9 * stepper.model.length_scale
+    d = 1e-4 * stepper.h_fixed
+    tau = _impact_time(stepper, s, ev, sets, h, gap_tol, vel_tol) if locate and depth < 40 and h > 3 * d else None
+    if tau is None:
+        return _accept(stepper, s, x, ev, sets, info, n, rec, vel_tol)
+    if tau > 2 * d:
+        free = _free_flight(stepper, s, tau - d, gap_tol)
+        if free is not None:                            # free flight, then the impact from closer by
+            x1, ev1, sets1, info1, h1 = free
+            s1, _, _, _, w1 = _accept(stepper, s, x1, ev1, sets1, info1, n, rec, vel_tol)
+            s2, x2, ev2, sets2, w2 = _step(stepper, s1, h - h1, n, rec, vel_tol, locate, depth + 1)
+            stepper.set_h(h)
+            return s2, x2, ev2, sets2, (w1[0] + w2[0], w1[1] + w2[1])
+    work = [0.0, 0.0]
+    first = min(tau + d, 0.5 * h)
+    for hk in (first, h - first):                       # the impact is imminent: take it in ≤ 3d
+        s, x, ev, sets, w = _step(stepper, s, hk, n, rec, vel_tol, locate, depth + 1)
+        work[0] += w[0]
+        work[1] += w[1]
+    stepper.set_h(h)
+    return s, x, ev, sets, tuple(work)
+
+
+def _free_flight(stepper, s, tau, gap_tol, tries=8):
+    """A step of size ≤ tau after which the contacts open at s are still open (halved until so), or None."""
+    was_open = (s.gN > gap_tol) | (s.gNd > 0.0)     # open, or touching and leaving
+    for _ in range(tries):
+        stepper.set_h(tau)
+        x, ev, sets, info = stepper.solve(s)
+        if not np.any(sets[0] & was_open):
+            return x, ev, sets, info, tau
+        tau *= 0.5
+    return None
+
+
+def _accept(stepper, s, x, ev, sets, info, n, rec, vel_tol):
+    """Book an accepted (sub)step: iterations, contact work, impacts; the new state."""
     rec.iterations.append(info["iterations"])
     rec.methods.append(info["method"])
     um = 0.5 * (s.u + ev["u"])

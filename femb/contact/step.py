@@ -31,9 +31,11 @@ R_s for fixed contact unknowns, then the proximal update of the contact unknowns
 """
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass
 
 import numpy as np
+import scipy.linalg as sla
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
@@ -363,14 +365,35 @@ class NonsmoothStep:
                 return x, ev, sets, it, False, err
             if err <= self.tol:
                 return x, ev, sets, it, True, err
-            try:
-                dx = np.linalg.solve(J, -R) if self.dense else spla.splu(J).solve(-R)
-            except (RuntimeError, np.linalg.LinAlgError):        # singular iteration matrix
+            dx = self.newton_increment(J, R)
+            if dx is None:
                 return x, ev, sets, it, False, err
             x = x + dx
         R, J, ev, sets = self.system(s, x, fixed_z)
         err = float(np.max(np.abs(self.scale(sets) * R))) if R.size else 0.0
         return x, ev, sets, self.max_iter, err <= self.tol, err
+
+    def newton_increment(self, J, R):
+        """Solve J dx = −R; with a rank-deficient J (forces that the contact laws leave undetermined,
+        e.g. the friction forces of two sticking corners of one block, of which only the sum is
+        unique) the minimum-norm least-squares increment (SVD), which keeps the undetermined parts
+        where they are. None if J cannot be factored at all."""
+        try:
+            if self.dense:
+                with warnings.catch_warnings():
+                    warnings.simplefilter("ignore", sla.LinAlgWarning)
+                    lu, piv = sla.lu_factor(J, check_finite=False)
+                d = np.abs(np.diag(lu))
+                if d.min() > 1e-11 * d.max():
+                    return sla.lu_solve((lu, piv), -R, check_finite=False)
+                return np.linalg.lstsq(J, -R, rcond=1e-11)[0]
+            lu = spla.splu(J)
+            d = np.abs(lu.U.diagonal())
+            if d.min() > 1e-11 * d.max():
+                return lu.solve(-R)
+            return spla.lsqr(J, -R, atol=1e-14, btol=1e-14)[0]
+        except (RuntimeError, ValueError, np.linalg.LinAlgError):
+            return None
 
     def prox_update(self, s, x):
         """The proximal update z ↦ p(y, z) of eq. (146), eqs. (128)–(140) in turn."""
