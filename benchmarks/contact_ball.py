@@ -113,12 +113,13 @@ def bouncing_table(h=DEFAULTS["h"], rho_inf=DEFAULTS["rho_inf"], t_end=DEFAULTS[
     E0 = PARAMS["mass"] * PARAMS["g"] * (PARAMS["y0"] - PARAMS["radius"])
     Ek = np.array([0.5 * PARAMS["mass"] * e["v_after"] ** 2 for e in ev])
     ratio = Ek / (E0 * e_N ** (2 * np.arange(1, len(ev) + 1)))
+    ratio = ratio[:10]      # later bounces carry less than e^20 E0: gravity over the 1e-4 h impact substep shows
     t_inf = accumulation_time(e_N=e_N)
     last = t_ev[-1]
     after = res.t > last + h
     return {"impacts": len(ev), "max |t_k - t_k,exact|": float(np.max(np.abs(t_ev - ex))),
             "t1": float(t_ev[0]), "t_inf (last impact)": float(last), "t_inf error": float(last - t_inf),
-            "max |E_k/(e^2k E0) - 1|": float(np.max(np.abs(ratio - 1.0))),
+            "max |E_k/(e^2k E0) - 1|, k <= 10": float(np.max(np.abs(ratio - 1.0))),
             "min g_N / L": float(res.contact["gN"].min() / res.model.length_scale),
             "max |v| after t_inf": float(np.abs(res.qd[after]).max()),
             "max g_N after t_inf": float(res.contact["gN"][after].max()),

@@ -28,14 +28,15 @@ from femb.elements import Gravity, RigidBody, SpringDamper
 from femb.elements.contact import block_corners
 
 PARAMS = {"mass": 1.0, "width": 0.2, "height": 0.1, "phi": 0.3, "mu": 0.2, "v0": 1.0, "g": 9.81,
-          "spring": 0.0, "anchor": (1.0, 1.0)}
+          "spring": 0.0, "anchor": (1.0, -0.6),
+          "spring_length": 0.6}
 DEFAULTS = {"t_end": 1.0, "h": 1e-2, "rho_inf": 0.8}
 PARAMETERS = {
     "mass": ("block mass", "kg"), "width": ("block width (along the plane)", "m"),
     "height": ("block height", "m"), "phi": ("inclination of the plane", "rad"),
     "mu": ("friction coefficient", "-"), "v0": ("initial speed downhill", "m/s"),
     "g": ("gravity along -y", "m/s^2"), "spring": ("stiffness of the spring to the anchor (0: none)", "N/m"),
-    "anchor": ("fixed end of the spring", "m"),
+    "anchor": ("fixed end of the spring", "m"), "spring_length": ("unstretched length of the spring", "m"),
 }
 OUTPUTS = {
     "s": ("position of the centre along the plane (downhill)", "m"),
@@ -53,7 +54,8 @@ def _frame(phi):
 
 
 def build(mass=PARAMS["mass"], width=PARAMS["width"], height=PARAMS["height"], phi=PARAMS["phi"],
-          mu=PARAMS["mu"], v0=PARAMS["v0"], g=PARAMS["g"], spring=PARAMS["spring"], anchor=PARAMS["anchor"]):
+          mu=PARAMS["mu"], v0=PARAMS["v0"], g=PARAMS["g"], spring=PARAMS["spring"], anchor=PARAMS["anchor"],
+          spring_length=PARAMS["spring_length"]):
     """The block ``block`` on corners ``corner.c0`` … ``corner.c3`` (c0 uphill, c1 downhill on the plane)."""
     n, d = _frame(phi)
     J = mass * (width ** 2 + height ** 2) / 12.0
@@ -64,7 +66,7 @@ def build(mass=PARAMS["mass"], width=PARAMS["width"], height=PARAMS["height"], p
     for c in block_corners("corner", "block", width, height, mu=mu, normal=tuple(n)):
         mech.add(c)
     if spring > 0.0:
-        mech.add(SpringDamper("spring", "ground", "block", spring, length=0.0, point_a=tuple(anchor)))
+        mech.add(SpringDamper("spring", "ground", "block", spring, length=spring_length, point_a=tuple(anchor)))
     return mech
 
 

@@ -318,7 +318,7 @@ def body_moves(model, q_from, q_to):
 
 
 def consistent_initial_state(model, state=None, *, t0=0.0, phi_tol=1e-12, max_iter=50,
-                             max_initial_move=None, report_move=REPORT_MOVE):
+                             max_initial_move=None, report_move=REPORT_MOVE, contacts=False):
     """Project an initial state onto the constraints at all levels, and say so.
 
     1. positions: least change q = argmin ‖q − q_0‖ subject to Φ(q, t_0) = 0
@@ -347,6 +347,10 @@ def consistent_initial_state(model, state=None, *, t0=0.0, phi_tol=1e-12, max_it
         length scale: rounding of the input (µm) passes, a joint placed at a
         wrong point (a visible fraction of the mechanism) does not.
         ``float("inf")`` disables the check.
+    contacts : bool
+        Accept a model with contact elements (only :func:`femb.contact.simulate` does: it
+        treats the contacts itself); otherwise such a model is a ModelError, so that
+        ``femb.simulate`` never integrates it silently without its contacts.
     report_move : float
         Bodies moved by more than ``report_move`` × length scale (or turned by
         more than ``report_move`` rad) are listed in an
@@ -373,6 +377,10 @@ def consistent_initial_state(model, state=None, *, t0=0.0, phi_tol=1e-12, max_it
         equations are dependent (names them, and what they depend on), or a
         matrix is singular.
     """
+    if getattr(model, "n_contacts", 0) and not contacts:
+        raise ModelError(f"model '{model.name}' has contact elements ({model.n_contacts} contacts): the compiled "
+                         "engine (femb.simulate) does not treat contacts yet and would ignore them; integrate it "
+                         "with femb.contact.simulate (docs/contact.md)")
     st = (state or model.initial_state(t0)).copy()
     t = st.t
     nq, nc = model.nq, model.nc

@@ -225,7 +225,7 @@ def simulate(model, t_end, h, *, rho_inf=0.8, t0=0.0, tol=None, max_iter=40, max
 def _start(model, lay, stepper, t0, vel_tol):
     """The consistent starting state (bilateral projection, contact forces of the closed contacts)."""
     L = model.length_scale
-    st = consistent_initial_state(model, t0=t0)
+    st = consistent_initial_state(model, t0=t0, contacts=True)
     ev0 = assemble.evaluate(model, t0, st.q, st.qd)
     bad = np.nonzero(ev0["gN"] < -1e-10 * L)[0]
     if bad.size:
@@ -288,8 +288,8 @@ def _step(stepper, s, h, n, rec, vel_tol, locate, depth=0):
     """Advance s by h: one nonsmooth step, or substeps around the impact of an open contact.
 
     An open contact that closes in the step is located from its gap, velocity and free
-    acceleration (:func:`_impact_time`): the step goes in free flight to d = 1e-4 h before the
-    impact (shortened until the contact is still open at its end), takes the impact in a substep
+    acceleration (:func:`_impact_time`): the step goes in free flight to 1e-3 d before the
+    impact, d = 1e-4 h (shortened until the contact is still open at its end), takes the impact in a substep
     that ends d after it (so Newton's law sees the velocity at the impact and the bodies leave at
     once), and the rest of the step (docs/contact.md §2.4). Returns (state, x, ev, sets, (work_N,
     work_F)) at s.t + h; impacts go to ``rec.events``.
@@ -302,7 +302,7 @@ def _step(stepper, s, h, n, rec, vel_tol, locate, depth=0):
     if tau is None:
         return _accept(stepper, s, x, ev, sets, info, n, rec, vel_tol)
     if tau > 2 * d:
-        free = _free_flight(stepper, s, tau - d, gap_tol)
+        free = _free_flight(stepper, s, tau - 1e-3 * d, gap_tol)
         if free is not None:                            # free flight, then the impact from closer by
             x1, ev1, sets1, info1, h1 = free
             s1, _, _, _, w1 = _accept(stepper, s, x1, ev1, sets1, info1, n, rec, vel_tol)
