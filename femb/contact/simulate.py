@@ -301,13 +301,27 @@ def _step(stepper, s, h, n, rec, vel_tol, locate, depth=0):
     tau = _impact_time(stepper, s, ev, sets, h, gap_tol, vel_tol) if locate and depth < 40 and h > 3 * d else None
     if tau is None:
         return _accept(stepper, s, x, ev, sets, info, n, rec, vel_tol)
+    mark = (len(rec.events), len(rec.iterations), len(rec.methods))
+    try:
+        out = _split_at_impact(stepper, s, h, tau, d, gap_tol, n, rec, vel_tol, locate, depth)
+    except StepFailure:
+        # the substeps around the impact found no solution (e.g. a second contact closing within d):
+        # keep the unsplit step, whose impact comes at its end (the paper's scheme, first order there)
+        del rec.events[mark[0]:], rec.iterations[mark[1]:], rec.methods[mark[2]:]
+        stepper.set_h(h)
+        return _accept(stepper, s, x, ev, sets, info, n, rec, vel_tol)
+    stepper.set_h(h)
+    return out
+
+
+def _split_at_impact(stepper, s, h, tau, d, gap_tol, n, rec, vel_tol, locate, depth):
+    """Free flight to just before the impact at tau (if it is not imminent), the impact, the rest."""
     if tau > 2 * d:
         free = _free_flight(stepper, s, tau - 1e-3 * d, gap_tol)
         if free is not None:                            # free flight, then the impact from closer by
             x1, ev1, sets1, info1, h1 = free
             s1, _, _, _, w1 = _accept(stepper, s, x1, ev1, sets1, info1, n, rec, vel_tol)
             s2, x2, ev2, sets2, w2 = _step(stepper, s1, h - h1, n, rec, vel_tol, locate, depth + 1)
-            stepper.set_h(h)
             return s2, x2, ev2, sets2, (w1[0] + w2[0], w1[1] + w2[1])
     work = [0.0, 0.0]
     first = min(tau + d, 0.5 * h)
@@ -315,7 +329,6 @@ def _step(stepper, s, h, n, rec, vel_tol, locate, depth=0):
         s, x, ev, sets, w = _step(stepper, s, hk, n, rec, vel_tol, locate, depth + 1)
         work[0] += w[0]
         work[1] += w[1]
-    stepper.set_h(h)
     return s, x, ev, sets, tuple(work)
 
 

@@ -100,6 +100,8 @@ class NonsmoothStep:
         self.model, self.h, self.lay = model, float(h), lay
         self.am, self.af, self.beta, self.gamma = alpha.alpha_m, alpha.alpha_f, alpha.beta, alpha.gamma
         self.tol, self.max_iter, self.max_fp = tol, max_iter, max_fixed_point
+        #: semismooth Newton iterations before the index sets are held fixed
+        self.freeze_after = max(2, max_iter // 2)
         self.h_fixed = float(h)
         n, m, k, l = model.nq, model.nc, lay.nN, lay.nF
         self.sizes = (n, n, n, m, m, m, k, k, k, l, l)
@@ -190,12 +192,18 @@ class NonsmoothStep:
         return ev
 
     def index_sets(self, ev, x):
-        """A, B, C (normal) and D, E (friction, per contact) of eqs. (130), (133), (136), (139), (141)."""
+        """A, B, C (normal) and D, E (friction, per contact) of eqs. (130), (133), (136), (139), (141).
+
+        r > 0, so r g − κ̂ ≤ 0 ⇔ g − κ̂/r ≤ 0; femb compares with the Newton tolerance instead of 0.
+        """
         rN, rF, mu = self.rN, self.rF, self.lay.mu
         lN, lF = self.split(x)[8], self.split(x)[10]
-        A = rN * ev["gN"] - ev["kN_hat"] <= 0.0
-        B = A & (rN * ev["xiN"] - ev["PN"] <= 0.0)
-        C = B & (rN * ev["gNdd"] - lN <= 0.0)
+        # the inequalities with the Newton tolerance as slack (in length units: g ≤ tol, h ξ ≤ tol,
+        # h² g̈ ≤ tol): where both sides of a complementarity vanish the set must not flip on round-off
+        h, tol = self.h, self.tol
+        A = ev["gN"] - ev["kN_hat"] / rN <= tol
+        B = A & (h * (ev["xiN"] - ev["PN"] / rN) <= tol)
+        C = B & (h * h * (ev["gNdd"] - lN / rN) <= tol)
         D = np.zeros_like(A)
         E = np.zeros_like(A)
         for i, idx in enumerate(self.lay.friction):
@@ -250,7 +258,7 @@ class NonsmoothStep:
                 Dln[idx, i] = mu[i] * w
         return R9, R10, dict(Dxi=Dxi, Dgd=Dgd, Dg=Dg, Dpf=Dpf, Dlf=Dlf, Dpn=Dpn, Dln=Dln)
 
-    def system(self, s, x, fixed_z=None):
+    def system(self, s, x, fixed_z=None, frozen=None):
         """Residual R (eq. (127)), its Jacobian (csc) and the index sets at the iterate x.
 
         With ``fixed_z`` (the contact unknowns, eq. (144)) the contact rows become z − fixed_z = 0:
@@ -259,11 +267,10 @@ class NonsmoothStep:
         curvature of W in the percussion and position-correction rows (a modified Newton method
         that converges to the same solution).
         """
-        model, h, cu, cq = self.model, self.h, self.c_u, self.c_q
         ev = self.evaluate(s, x)
-        A, B_, C, D, E = self.index_sets(ev, x)
-        ud, U, Q, kg, Lg, lg, kN, LN, lN, LF, lF = self.split(x)
+        A, B_, C, D, E = self.index_sets(ev, x) if frozen is None else frozen
         rows = self.smooth_rows(ev, x)
+        lN = self.split(x)[8]
         # normal contact rows (129), (132), (135)
         rows.append(np.where(A, ev["gN"], ev["kN_hat"]))
         rows.append(np.where(B_, ev["xiN"], ev["PN"]))
@@ -358,13 +365,21 @@ class NonsmoothStep:
         """
         x = x0.copy()
         err = np.inf
+        frozen = None
         for it in range(1, (max_iter or self.max_iter) + 1):
-            R, J, ev, sets = self.system(s, x, fixed_z)
+            R, J, ev, sets = self.system(s, x, fixed_z, frozen)
             err = float(np.max(np.abs(self.scale(sets) * R))) if R.size else 0.0
             if not np.isfinite(err):
                 return x, ev, sets, it, False, err
             if err <= self.tol:
-                return x, ev, sets, it, True, err
+                if frozen is None:
+                    return x, ev, sets, it, True, err
+                # converged with the index sets held: a solution if they are its own index sets
+                R2, _, ev2, sets2 = self.system(s, x, fixed_z)
+                err2 = float(np.max(np.abs(self.scale(sets2) * R2))) if R2.size else 0.0
+                return x, ev2, sets2, it, err2 <= self.tol, err2
+            if it == self.freeze_after:     # the index sets keep switching: hold them (Newton on one branch)
+                frozen = sets
             dx = self.newton_increment(J, R)
             if dx is None:
                 return x, ev, sets, it, False, err
@@ -470,5 +485,9 @@ class NonsmoothStep:
         x1, ev1, sets1, it1, ok1, err1 = self.fixed_point(s, x0)
         if ok1:
             return x1, ev1, sets1, dict(method="fixed_point", iterations=it + it1, error=err1)
+        if np.all(np.isfinite(x1)):             # Newton again, from where the fixed point got to
+            x2, ev2, sets2, it2, ok2, err2 = self.newton(s, x1)
+            if ok2:
+                return x2, ev2, sets2, dict(method="fixed_point", iterations=it + it1 + it2, error=err2)
         raise StepFailure(f"semismooth Newton: {it} iterations, residual {err:.3e}; prox fixed point: "
                           f"{it1} iterations, last change {err1:.3e} (tolerance {self.tol:.1e})", x, sets)
