@@ -4,7 +4,7 @@ import pytest
 
 import femb
 from femb.contact import check_contact_kernels
-from femb.elements import Gravity, RigidBody, SpatialRigidBody
+from femb.elements import RigidBody, SpatialRigidBody
 from femb.elements.contact import (DiscOnDisc, PinInHole, SphereOnPlane, SpatialSphereOnPlane, block_corners)
 from femb.errors import ModelError
 
