@@ -112,10 +112,30 @@ def table(mu=PARAMS["mu"], h=DEFAULTS["h"], t_end=DEFAULTS["t_end"], rho_inf=DEF
     return row
 
 
+def order_study(hs=(2e-2, 1e-2, 5e-3, 2.5e-3), t_end=0.4, spring=20.0, mu=0.1, v0=0.3):
+    """Persistent sliding contact pulled by a spring: errors of s and N at t_end against a run at
+    h/8 of the finest step, and the fitted orders (dict)."""
+    from femb.contact import simulate
+    model = build(spring=spring, mu=mu, v0=v0).compile()
+    ref = simulate(model, t_end, hs[-1] / 8)
+    r = outputs(ref)
+    es, eN = [], []
+    for h in hs:
+        out = outputs(simulate(model, t_end, h))
+        es.append(abs(out["s"][-1] - r["s"][-1]))
+        eN.append(abs(out["N"][-1] - r["N"][-1]))
+    return {"h": list(hs), "error s": es, "error N": eN,
+            "order s": float(np.polyfit(np.log(hs), np.log(es), 1)[0]),
+            "order N": float(np.polyfit(np.log(hs), np.log(eN), 1)[0]),
+            "always sliding": bool(np.all(ref.contact["state"][1:, :2] == 2))}
+
+
 def main():
     for mu in (0.2, 0.5):
         for k, v in table(mu).items():
             print(f"block  {k:32s} {v}")
+    for k, v in order_study().items():
+        print(f"block order  {k:16s} {v}")
 
 
 if __name__ == "__main__":
