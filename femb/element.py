@@ -36,6 +36,9 @@ Class-level metadata tells the compiled model what a scene needs:
 ``n_velocity_constraints``  velocity-level (non-holonomic) constraints per
                             element, A(q, t) v + a(q, t) = 0, via
                             ``kernels["velocity_constraint"]`` (0: none)
+``n_contacts``              unilateral contacts per element (gaps g_N ≥ 0, role
+                            ``"contact"``, docs/contact.md; 0: none)
+``n_friction``              tangent (friction) directions per element
 =========================  ===================================================
 
 Kinetic and gravitational energy and the momenta need no trait: they follow
@@ -60,6 +63,8 @@ class Element:
     rheonomic = False
     #: how the force enters the energies: "potential", "load", "none" or None (see above)
     work = None
+    n_contacts = 0
+    n_friction = 0
     #: names of this type's constraint equations, for named reactions
     constraint_names: tuple = ()
     #: velocity-level (non-holonomic) constraints per element and their names (docs/kernels.md)
@@ -98,7 +103,8 @@ class Element:
         """
         return {k: getattr(cls, k) for k in (
             "has_mass", "constant_mass", "has_force", "force_depends_on_qd",
-            "constant_force", "n_constraints", "rheonomic", "n_velocity_constraints")}
+            "constant_force", "n_constraints", "rheonomic", "n_velocity_constraints",
+            "n_contacts", "n_friction")}
 
     @classmethod
     def time_functions(cls, element):

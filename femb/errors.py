@@ -123,3 +123,14 @@ class PathJumpWarning(UserWarning):
 
 class AccuracyWarning(UserWarning):
     """A fixed-step run whose local error estimate says the steps are far too large."""
+
+
+class ContactError(SolverError):
+    """A contact step has no consistent solution (or none was found): names the time, the step,
+    the contact and why (e.g. Painlevé's paradox: no contact force is consistent with Coulomb
+    friction). Carries the partial result like every :class:`SolverError`; ``contact`` is the
+    name of the contact element at fault (or None)."""
+
+    def __init__(self, message, *, contact=None, **kw):
+        super().__init__(message, **kw)
+        self.contact = contact

@@ -353,7 +353,8 @@ def body_moves(model, q_from, q_to):
 
 def consistent_initial_state(model: Model, state: State | None = None, *, t0: float = 0.0, phi_tol: float = 1e-12,
                              max_iter: int = 50, max_initial_move: float | None = None,
-                             report_move: float = REPORT_MOVE, weights: "StartWeights | None" = None) -> State:
+                             report_move: float = REPORT_MOVE, weights: "StartWeights | None" = None,
+                             contacts: bool = False) -> State:
     """Project an initial state onto the constraints at all levels, and say so.
 
     1. positions: least change q = argmin ‖q − q_0‖ subject to Φ(q, t_0) = 0
@@ -393,6 +394,10 @@ def consistent_initial_state(model: Model, state: State | None = None, *, t0: fl
         ``float("inf")`` disables the check.
     weights : StartWeights, optional
         The start of flexible models (:meth:`StartWeights.for_step`); None: identity and M.
+    contacts : bool
+        Accept a model with contact elements (only :func:`femb.contact.simulate` does: it
+        treats the contacts itself); otherwise such a model is a ModelError, so that
+        ``femb.simulate`` never integrates it silently without its contacts.
     report_move : float
         Bodies moved by more than ``report_move`` × length scale (or turned by
         more than ``report_move`` rad) are listed in an
@@ -428,6 +433,10 @@ def consistent_initial_state(model: Model, state: State | None = None, *, t0: fl
         raise ModelError(f"model '{model.name}' has {model.nn} velocity-level (non-holonomic) constraints "
                          f"({', '.join(names)}): the time loop does not integrate them yet; use "
                          "femb.linearize for their linearized dynamics (docs/linearize.md)")
+    if getattr(model, "n_contacts", 0) and not contacts:
+        raise ModelError(f"model '{model.name}' has contact elements ({model.n_contacts} contacts): the compiled "
+                         "engine (femb.simulate) does not treat contacts yet and would ignore them; integrate it "
+                         "with femb.contact.simulate (docs/contact.md)")
     st = (state or model.initial_state(t0)).copy()
     t = st.t
     nq, nc = model.nq, model.nc

@@ -40,6 +40,18 @@ def _f(a):
 
 
 # --------------------------------------------------------------------------
+# the unilateral-contact role (docs/contact.md): called from Python by femb.contact,
+# not (yet) by the compiled engine, so its signature lives here beside the engine's roles
+# --------------------------------------------------------------------------
+#: contact(P, t, tf, xe, ve, le, jac, gN, W, zeta, H): gap, force directions, curvature terms
+CONTACT_SIGNATURE = types.void(_F2, types.float64, _F3, _F2, _F2, _F2, types.boolean, _F2, _F3, _F2, _F3)
+CONTACT_ARGUMENTS = ("P", "t", "tf", "xe", "ve", "le", "jac", "gN", "W", "zeta", "H")
+SIGNATURES["contact"] = CONTACT_SIGNATURE
+ARGUMENTS["contact"] = CONTACT_ARGUMENTS
+_N_OUTPUTS["contact"] = 4
+
+
+# --------------------------------------------------------------------------
 # kernels compiled once per element type (and cached on disk)
 # --------------------------------------------------------------------------
 _compiled = {}
@@ -139,6 +151,9 @@ def compiled_kernel(owner, role, fn, boundscheck=None):
         first = str(e).strip().splitlines()
         msg = next((ln for ln in first if ln.strip()), "")
         raise ModelError(f"element type {owner}: kernel {py.__name__} does not compile for the role '{role}' "
+                         f"with the argument types {role}({', '.join(ARGUMENTS[role])}) = {args} "
+
+
                          f"with the argument types {role}({', '.join(ARGUMENTS[role])}) = {args} "
                          f"(docs/kernels.md): {msg}") from None
     cres = disp.overloads[args]

@@ -68,6 +68,13 @@ class Group:
     cq_rows: np.ndarray = None  # constraint index
     cq_cols: np.ndarray = None  # coordinate index
     mu: np.ndarray = None      # (nel, nn) indices into μ, the multipliers of velocity constraints
+    cN: np.ndarray = None      # (nel, n_contacts) indices of the batch's gaps among the model's (contact batches)
+    cF: np.ndarray = None      # (nel, n_friction) indices of its tangent directions
+
+    @property
+    def n_contact_rows(self):
+        """Normal and tangent rows per element of a contact batch (0 for other batches)."""
+        return int(self.traits.get("n_contacts", 0)) + int(self.traits.get("n_friction", 0))
 
     @property
     def nel(self):
@@ -445,6 +452,7 @@ def compile_model(mech, *, length_scale=None):
     groups = []
     nc = 0
     nn = 0
+    n_N = n_F = 0                  # unilateral contacts and their tangent directions (docs/contact.md)
     lam_index = {}
     mu_index = {}
     tf_all = []
@@ -465,6 +473,11 @@ def compile_model(mech, *, length_scale=None):
         if nvc:
             for e, row in zip(els, mu):
                 mu_index[e.name] = row.copy()
+        kN, kF = int(tr.get("n_contacts", 0)), int(tr.get("n_friction", 0))
+        cN = (n_N + np.arange(len(els) * kN)).reshape(len(els), kN)
+        cF = (n_F + np.arange(len(els) * kF)).reshape(len(els), kF)
+        n_N += len(els) * kN
+        n_F += len(els) * kF
         params = cls.pack(els)
         if not isinstance(params, dict):
             raise ModelError(f"{cls.__name__}.pack must return a dict, got {type(params).__name__}")
@@ -484,7 +497,7 @@ def compile_model(mech, *, length_scale=None):
         g = Group(cls=cls, key=key, elements=els, names=[e.name for e in els],
                   params=params, dofs=dofs, xdofs=xdofs, traits=tr, lam=lam,
                   P=np.ascontiguousarray(params["P"], dtype=np.float64), tf_index=tf_index,
-                  time_functions=fns, mu=mu if nvc else None)
+                  time_functions=fns, mu=mu if nvc else None, cN=cN, cF=cF)
         _index_group(g, nq)
         groups.append(g)
     for e in gravity:
@@ -495,6 +508,7 @@ def compile_model(mech, *, length_scale=None):
     force_groups = [g for g in groups if g.traits["has_force"] and not g.traits["constant_force"]]
     constraint_groups = [g for g in groups if g.nc > 0]
     velocity_constraint_groups = [g for g in groups if g.nn > 0]
+    contact_groups = [g for g in groups if g.cN.shape[1] > 0]
     if not mass_groups:
         raise ModelError(f"mechanism '{mech.name}' has no mass (add a RigidBody, PointMass or beam)")
     for g in mass_groups:
@@ -507,7 +521,7 @@ def compile_model(mech, *, length_scale=None):
     # its element type, and nothing compiles later, unannounced
     for g in groups:
         for role, fn in (getattr(g.cls, "kernels", None) or {}).items():
-            if role in ("mass", "force", "constraint", "rates") or (role == "velocity_constraint" and g.nn):
+            if role in ("mass", "force", "constraint", "rates", "contact") or (role == "velocity_constraint" and g.nn):
                 _kernels.compiled_kernel(g.cls.__name__, role, fn)
     _kernels.announce_compiled()
 
@@ -576,6 +590,7 @@ def compile_model(mech, *, length_scale=None):
         rot_blocks=np.array(rot_blocks, dtype=np.int64).reshape(-1, 2),
         groups=groups, mass_groups=mass_groups, force_groups=force_groups,
         const_force_groups=const_force_groups, constraint_groups=constraint_groups,
+        contact_groups=contact_groups, n_contacts=n_N, n_friction=n_F,
         constant_mass=constant_mass, M_const=M_const, f_const=f_const[:nq].copy(),
         g_hat=g_hat, gravity=None if not gravity else gravity[0].g.copy(),
         needs_C=any(g.traits["force_depends_on_qd"] for g in force_groups),
@@ -616,6 +631,8 @@ def _kernel_roles(tr):
         need += ["constraint", "rates"]
     if int(tr.get("n_velocity_constraints", 0) or 0):
         need += ["velocity_constraint"]
+    if int(tr.get("n_contacts", 0)):
+        need += ["contact"]
     return need
 
 

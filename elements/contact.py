@@ -1,0 +1,475 @@
+"""Unilateral contact elements: gaps g_N ≥ 0, their force directions and curvature terms.
+
+Each type provides the compiled kernel of the ``"contact"`` role (docs/contact.md, §3)::
+
+    contact(P, t, tf, xe, ve, le, jac, gN, W, zeta, H)
+
+for a batch of ``nel`` contact elements with ``k`` = ``n_contacts`` gaps and ``l`` =
+``n_friction`` tangent directions each (``r = k + l`` rows):
+
+* ``gN (nel, k)``: the gap g_N(q) (m), positive when open;
+* ``W (nel, r, ndv)``: rows W_N = ∂g_N/∂v (so ġ_N = W_N v) and W_F, the tangent (slip)
+  velocities γ_F = W_F v of the contact point of the second body relative to the first;
+  in the model's velocity coordinates (spatial frame nodes: ṙ in space axes, Ω in body axes);
+* ``zeta (nel, r)``: the curvature terms, g̈_N = W_N v̇ + ζ_N and γ̇_F = W_F v̇ + ζ_F;
+* ``H (nel, ndv, ndv)`` (with ``jac``): ∂(Wᵀ le)/∂x along x ∘ exp(δ), ``le = (λ_N, λ_F)``.
+
+A contact force λ_N ≥ 0 acts on the coordinates as +W_Nᵀ λ_N (it pushes the bodies apart)
+and friction as +W_Fᵀ λ_F, against the sign convention of bilateral joints (−Φ_qᵀ λ): the
+contact laws of docs/contact.md are written for this sign (Glocker 2001; Capobianco, Harsch,
+Eugster & Leine 2021, eq. (127)).
+
+Every kernel is checked against finite differences of its own outputs
+(``femb.contact.check_contact_kernels``, ``tests/test_contact_kernels.py``).
+
+References
+----------
+C. Glocker, Set-Valued Force Laws, Springer, 2001 (gap functions, W_N, W_F, the impact laws).
+F. Pfeiffer, C. Glocker, Multibody Dynamics with Unilateral Contacts, Wiley, 1996.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from femb.element import Element
+from femb.errors import ModelError
+from femb.jit import kernel
+from femb.rotations import quat_to_matrix_t
+
+from ._spatial import cross3, dot3, mtv
+
+
+# ---------------------------------------------------------------------------
+# parameters common to every contact: e_N, e_F, μ
+# ---------------------------------------------------------------------------
+def _scalar(owner, what, value, lo=None, hi=None):
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        raise ModelError(f"{owner}: {what} must be a number, got {value!r}") from None
+    if not math.isfinite(v):
+        raise ModelError(f"{owner}: {what} must be finite, got {value!r}")
+    if lo is not None and v < lo or hi is not None and v > hi:
+        rng = f"[{lo:g}, {hi:g}]" if hi is not None else f"≥ {lo:g}"
+        raise ModelError(f"{owner}: {what} must be in {rng}, got {v:g}")
+    return v
+
+
+def _vector(owner, what, value, n):
+    try:
+        v = np.array(value, dtype=float).reshape(-1)
+    except (TypeError, ValueError):
+        raise ModelError(f"{owner}: {what} must be {n} numbers, got {value!r}") from None
+    if v.size != n or not np.all(np.isfinite(v)):
+        raise ModelError(f"{owner}: {what} must be {n} finite numbers, got {value!r}")
+    return v
+
+
+def _unit(owner, what, value, n):
+    v = _vector(owner, what, value, n)
+    L = float(np.linalg.norm(v))
+    if L < 1e-12:
+        raise ModelError(f"{owner}: {what} must be a non-zero vector, got {value!r}")
+    return v / L
+
+
+class ContactElement(Element):
+    """Base of the contact types: the impact and friction parameters of one contact.
+
+    Parameters
+    ----------
+    name : str
+    e_N : float in [0, 1]
+        Newton's normal restitution coefficient (0: plastic, 1: elastic impact).
+    mu : float ≥ 0
+        Coulomb friction coefficient (0: frictionless).
+    e_F : float in [0, 1]
+        Tangential restitution (0: the slip velocity after an impact that sticks is zero).
+    """
+
+    n_contacts = 1
+
+    def __init__(self, name, e_N=0.0, mu=0.0, e_F=0.0):
+        super().__init__(name)
+        owner = f"{type(self).__name__} '{name}'"
+        self.e_N = _scalar(owner, "e_N (normal restitution)", e_N, 0.0, 1.0)
+        self.mu = _scalar(owner, "mu (friction coefficient)", mu, 0.0)
+        self.e_F = _scalar(owner, "e_F (tangential restitution)", e_F, 0.0, 1.0)
+
+
+def _body(owner, lookup, ref, role):
+    b = lookup(ref, role)
+    if getattr(b, "node", None) is None:
+        raise ModelError(f"{owner}: {role} must be a body with a node, got {ref!r}")
+    return b
+
+
+# ---------------------------------------------------------------------------
+# planar: a point or disc of a body on a plane fixed in space
+# ---------------------------------------------------------------------------
+@kernel
+def sphere_plane_contact(P, t, tf, xe, ve, le, jac, gN, W, zeta, H):
+    """Disc (radius R, centre s on the body) on the fixed line through p with unit normal n.
+
+    g = n·(r + R(θ)s − p) − R; W_N = (n, n·Jd); W_F = (t, R − n·d) with t = (n_y, −n_x),
+    d = R(θ)s, Jd = (−d_y, d_x); ζ_N = −ω² n·d, ζ_F = −ω² n·Jd;
+    H_θθ = −λ_N n·d − λ_F n·Jd.  P = (s_x, s_y, R, p_x, p_y, n_x, n_y).
+    """
+    for e in range(xe.shape[0]):
+        c, s = math.cos(xe[e, 2]), math.sin(xe[e, 2])
+        dx = c * P[e, 0] - s * P[e, 1]
+        dy = s * P[e, 0] + c * P[e, 1]
+        nx, ny = P[e, 5], P[e, 6]
+        R = P[e, 2]
+        nd = nx * dx + ny * dy
+        nJd = -nx * dy + ny * dx
+        gN[e, 0] = nx * (xe[e, 0] + dx - P[e, 3]) + ny * (xe[e, 1] + dy - P[e, 4]) - R
+        W[e, 0, 0] = nx
+        W[e, 0, 1] = ny
+        W[e, 0, 2] = nJd
+        W[e, 1, 0] = ny
+        W[e, 1, 1] = -nx
+        W[e, 1, 2] = R - nd
+        w2 = ve[e, 2] * ve[e, 2]
+        zeta[e, 0] = -w2 * nd
+        zeta[e, 1] = -w2 * nJd
+        if jac:
+            H[e, 2, 2] = -le[e, 0] * nd - le[e, 1] * nJd
+
+
+class SphereOnPlane(ContactElement):
+    """A point or disc of a planar body on a plane (a line) fixed in space, with Coulomb friction.
+
+    g_N = n·(r_C − p) − R ≥ 0 for the disc centre r_C = r + R(θ) s; the tangent
+    t = (n_y, −n_x) is n turned clockwise (on a floor with n = (0, 1): t = +x). The slip
+    velocity γ_F = t·(velocity of the contact point r_C − R n). With ``radius = 0`` it is a
+    corner or edge point (rocking blocks: one element per corner, :func:`block_corners`).
+
+    Parameters
+    ----------
+    name : str
+    body : body or name
+        A planar body (RigidBody, PointMass, ...).
+    radius : float ≥ 0
+    point : (2,) or name
+        Disc centre in the body frame.
+    plane_point, normal : (2,)
+        A point of the plane and its normal (pointing to the free side; normalised).
+    e_N, mu, e_F : see :class:`ContactElement`.
+    """
+
+    n_friction = 1
+    kernels = {"contact": sphere_plane_contact}
+
+    def __init__(self, name, body, radius=0.0, point=(0.0, 0.0), plane_point=(0.0, 0.0), normal=(0.0, 1.0),
+                 e_N=0.0, mu=0.0, e_F=0.0):
+        super().__init__(name, e_N, mu, e_F)
+        owner = f"SphereOnPlane '{name}'"
+        self.body = body
+        self._point = point
+        self.radius = _scalar(owner, "radius", radius, 0.0)
+        self.p = _vector(owner, "plane_point", plane_point, 2)
+        self.n = _unit(owner, "normal", normal, 2)
+
+    def resolve(self, lookup):
+        owner = f"SphereOnPlane '{self.name}'"
+        self.body = _body(owner, lookup, self.body, "body")
+        self.s = np.asarray(self.body.local(self._point, "point"), dtype=float)
+
+    def nodes(self):
+        return [self.body.node]
+
+    @classmethod
+    def pack(cls, elements):
+        P = np.array([[*e.s, e.radius, *e.p, *e.n] for e in elements], dtype=float)
+        return {"P": np.ascontiguousarray(P)}
+
+
+def block_corners(name, body, width, height, e_N=0.0, mu=0.0, e_F=0.0, plane_point=(0.0, 0.0),
+                  normal=(0.0, 1.0)):
+    """The four corner contacts of a planar rectangular block centred on its node.
+
+    Returns
+    -------
+    list of SphereOnPlane
+        Named ``<name>.c0`` … ``<name>.c3`` at the corners (−w/2, −h/2), (w/2, −h/2),
+        (w/2, h/2), (−w/2, h/2) of the body frame.
+    """
+    owner = f"block_corners '{name}'"
+    a = 0.5 * _scalar(owner, "width", width, 0.0)
+    b = 0.5 * _scalar(owner, "height", height, 0.0)
+    pts = ((-a, -b), (a, -b), (a, b), (-a, b))
+    return [SphereOnPlane(f"{name}.c{k}", body, 0.0, p, plane_point, normal, e_N, mu, e_F)
+            for k, p in enumerate(pts)]
+
+
+# ---------------------------------------------------------------------------
+# planar: two discs (outside each other) or a pin in a hole (revolute clearance)
+# ---------------------------------------------------------------------------
+@kernel
+def disc_pair_contact(P, t, tf, xe, ve, le, jac, gN, W, zeta, H):
+    """Disc on body b against a disc (sN = +1) or a hole (sN = −1) on body a.
+
+    e = c_b − c_a (c = r + R(θ)s), L = |e|, n = e/L, t = (n_y, −n_x), E = ∂e/∂v =
+    [−I, −Jd_a, I, Jd_b]; g = sN L + c0; W_N = sN nᵀE; W_F = tᵀE + (0, 0, ca, 0, 0, cb);
+    ζ_N = sN((t·ė)²/L + n·ë_c), ζ_F = −(n·ė)(t·ė)/L + t·ë_c with ë_c = ω_a² d_a − ω_b² d_b;
+    H = (sN λ_N EᵀttᵀE − λ_F EᵀntᵀE)/L + the θθ terms of ∂E/∂θ.
+    P = (s_a(2), s_b(2), sN, c0, ca, cb).
+    """
+    for e in range(xe.shape[0]):
+        ca_, sa_ = math.cos(xe[e, 2]), math.sin(xe[e, 2])
+        cb_, sb_ = math.cos(xe[e, 5]), math.sin(xe[e, 5])
+        dax = ca_ * P[e, 0] - sa_ * P[e, 1]
+        day = sa_ * P[e, 0] + ca_ * P[e, 1]
+        dbx = cb_ * P[e, 2] - sb_ * P[e, 3]
+        dby = sb_ * P[e, 2] + cb_ * P[e, 3]
+        ex = xe[e, 3] + dbx - xe[e, 0] - dax
+        ey = xe[e, 4] + dby - xe[e, 1] - day
+        L = math.sqrt(ex * ex + ey * ey)
+        nx, ny = ex / L, ey / L
+        tx, ty = ny, -nx
+        sN = P[e, 4]
+        gN[e, 0] = sN * L + P[e, 5]
+        # E = ∂e/∂v, columns (vx_a, vy_a, ω_a, vx_b, vy_b, ω_b), rows x and y
+        nE = (-nx, -ny, nx * day - ny * dax, nx, ny, -nx * dby + ny * dbx)
+        tE = (-tx, -ty, tx * day - ty * dax, tx, ty, -tx * dby + ty * dbx)
+        for j in range(6):
+            W[e, 0, j] = sN * nE[j]
+            W[e, 1, j] = tE[j]
+        W[e, 1, 2] += P[e, 6]
+        W[e, 1, 5] += P[e, 7]
+        edx = ve[e, 3] - ve[e, 5] * dby - ve[e, 0] + ve[e, 2] * day
+        edy = ve[e, 4] + ve[e, 5] * dbx - ve[e, 1] - ve[e, 2] * dax
+        wa2 = ve[e, 2] * ve[e, 2]
+        wb2 = ve[e, 5] * ve[e, 5]
+        ecx = wa2 * dax - wb2 * dbx
+        ecy = wa2 * day - wb2 * dby
+        ne = nx * edx + ny * edy
+        te = tx * edx + ty * edy
+        zeta[e, 0] = sN * (te * te / L + nx * ecx + ny * ecy)
+        zeta[e, 1] = -ne * te / L + tx * ecx + ty * ecy
+        if jac:
+            lN, lF = le[e, 0], le[e, 1]
+            for i in range(6):
+                for j in range(6):
+                    H[e, i, j] = (sN * lN * tE[i] - lF * nE[i]) * tE[j] / L
+            # ∂E/∂θ: the columns of ω_a, (d_ay, −d_ax), and of ω_b, (−d_by, d_bx), turn with their bodies
+            ux = sN * lN * nx + lF * tx
+            uy = sN * lN * ny + lF * ty
+            H[e, 2, 2] += ux * dax + uy * day
+            H[e, 5, 5] -= ux * dbx + uy * dby
+
+
+class _DiscPair(ContactElement):
+    n_friction = 1
+    kernels = {"contact": disc_pair_contact}
+
+    def __init__(self, name, a, b, point_a, point_b, e_N, mu, e_F):
+        super().__init__(name, e_N, mu, e_F)
+        self.a, self.b = a, b
+        self._pa, self._pb = point_a, point_b
+
+    def resolve(self, lookup):
+        owner = f"{type(self).__name__} '{self.name}'"
+        self.a = _body(owner, lookup, self.a, "a")
+        self.b = _body(owner, lookup, self.b, "b")
+        if self.a is self.b:
+            raise ModelError(f"{owner}: bodies a and b are the same ('{self.a.name}')")
+        self.sa = np.asarray(self.a.local(self._pa, "point_a"), dtype=float)
+        self.sb = np.asarray(self.b.local(self._pb, "point_b"), dtype=float)
+
+    def nodes(self):
+        return [self.a.node, self.b.node]
+
+    @classmethod
+    def pack(cls, elements):
+        P = np.array([[*e.sa, *e.sb, *e._law()] for e in elements], dtype=float)
+        return {"P": np.ascontiguousarray(P)}
+
+
+class DiscOnDisc(_DiscPair):
+    """Two discs (planar spheres) outside each other, with Coulomb friction.
+
+    g_N = |c_b − c_a| − R_a − R_b, normal n from c_a to c_b, tangent t = (n_y, −n_x);
+    γ_F is the slip velocity of b's contact point relative to a's along t.
+
+    Parameters
+    ----------
+    name : str
+    a, b : body or name
+    radius_a, radius_b : float ≥ 0
+    point_a, point_b : (2,) or name
+        Disc centres in the body frames.
+    e_N, mu, e_F : see :class:`ContactElement`.
+    """
+
+    def __init__(self, name, a, b, radius_a, radius_b, point_a=(0.0, 0.0), point_b=(0.0, 0.0),
+                 e_N=0.0, mu=0.0, e_F=0.0):
+        super().__init__(name, a, b, point_a, point_b, e_N, mu, e_F)
+        owner = f"DiscOnDisc '{name}'"
+        self.Ra = _scalar(owner, "radius_a", radius_a, 0.0)
+        self.Rb = _scalar(owner, "radius_b", radius_b, 0.0)
+
+    def _law(self):
+        return (1.0, -(self.Ra + self.Rb), self.Ra, self.Rb)
+
+
+class PinInHole(_DiscPair):
+    """A pin (radius R_p on body b) in a hole (radius R_h > R_p on body a): a revolute joint with clearance.
+
+    g_N = (R_h − R_p) − |c_b − c_a| ≥ 0 (the clearance joint of Flores, Ambrósio, Claro &
+    Lankarani, Kinematics and Dynamics of Multibody Systems with Imperfect Joints, Springer
+    2008, Ch. 4); n points from the hole's centre to the pin's; friction acts on the slip of
+    the pin's surface against the hole's.
+
+    Parameters
+    ----------
+    name : str
+    a : body or name
+        The body with the hole (bushing).
+    b : body or name
+        The body with the pin (journal).
+    hole_radius, pin_radius : float, hole_radius > pin_radius ≥ 0
+    point_a, point_b : (2,) or name
+        Hole and pin centres in the body frames.
+    e_N, mu, e_F : see :class:`ContactElement`.
+    """
+
+    def __init__(self, name, a, b, hole_radius, pin_radius, point_a=(0.0, 0.0), point_b=(0.0, 0.0),
+                 e_N=0.0, mu=0.0, e_F=0.0):
+        super().__init__(name, a, b, point_a, point_b, e_N, mu, e_F)
+        owner = f"PinInHole '{name}'"
+        self.Rh = _scalar(owner, "hole_radius", hole_radius, 0.0)
+        self.Rp = _scalar(owner, "pin_radius", pin_radius, 0.0)
+        if not self.Rh > self.Rp:
+            raise ModelError(f"{owner}: hole_radius ({self.Rh:g}) must exceed pin_radius ({self.Rp:g})")
+
+    def _law(self):
+        return (-1.0, self.Rh - self.Rp, self.Rh, -self.Rp)
+
+
+# ---------------------------------------------------------------------------
+# spatial: a point or sphere of a spatial body on a plane fixed in space
+# ---------------------------------------------------------------------------
+@kernel
+def _row(W, Z, H, e, k, lk, jac, w, m, s, Rm, Om):
+    """Row k for a direction w fixed in space and m = R_s n × w: W = (w, s × Rᵀw − Rᵀm),
+    ζ = −(Ω × s)·(Ω × Rᵀw), H_θθ += λ (s̃ w̃' − m̃') with w' = Rᵀw, m' = Rᵀm."""
+    wp = mtv(Rm, w)
+    mp = mtv(Rm, m)
+    rot = cross3(s, wp)
+    for i in range(3):
+        W[e, k, i] = w[i]
+        W[e, k, 3 + i] = rot[i] - mp[i]
+    Z[e, k] = -dot3(cross3(Om, s), cross3(Om, wp))
+    if jac:
+        # (s̃ w̃')_ij = w'_i s_j − (s·w') δ_ij ;  −(m̃')_ij
+        sw = dot3(s, wp)
+        H[e, 3, 3] += lk * (wp[0] * s[0] - sw)
+        H[e, 3, 4] += lk * (wp[0] * s[1] + mp[2])
+        H[e, 3, 5] += lk * (wp[0] * s[2] - mp[1])
+        H[e, 4, 3] += lk * (wp[1] * s[0] - mp[2])
+        H[e, 4, 4] += lk * (wp[1] * s[1] - sw)
+        H[e, 4, 5] += lk * (wp[1] * s[2] + mp[0])
+        H[e, 5, 3] += lk * (wp[2] * s[0] + mp[1])
+        H[e, 5, 4] += lk * (wp[2] * s[1] - mp[0])
+        H[e, 5, 5] += lk * (wp[2] * s[2] - sw)
+
+
+@kernel
+def spatial_sphere_plane_contact(P, t, tf, xe, ve, le, jac, gN, W, zeta, H):
+    """Sphere (radius R_s, centre s in body axes) on the fixed plane through p with unit normal n.
+
+    g = n·(r + R(p)s − p) − R_s; rows w ∈ (n, t₁, t₂): W = (w, s × Rᵀw − Rᵀm_w) with
+    m_w = R_s n × w (m_n = 0): the velocity of the contact point r + Rs − R_s n along w;
+    ζ = −(Ω × s)·(Ω × Rᵀw). P = (s(3), R_s, p(3), n(3), t₁(3), t₂(3)).
+    """
+    for e in range(xe.shape[0]):
+        Rm = quat_to_matrix_t(xe[e, 3], xe[e, 4], xe[e, 5], xe[e, 6])
+        s = (P[e, 0], P[e, 1], P[e, 2])
+        Rs = P[e, 3]
+        n = (P[e, 7], P[e, 8], P[e, 9])
+        t1 = (P[e, 10], P[e, 11], P[e, 12])
+        t2 = (P[e, 13], P[e, 14], P[e, 15])
+        Om = (ve[e, 3], ve[e, 4], ve[e, 5])
+        d0 = Rm[0] * s[0] + Rm[1] * s[1] + Rm[2] * s[2]
+        d1 = Rm[3] * s[0] + Rm[4] * s[1] + Rm[5] * s[2]
+        d2 = Rm[6] * s[0] + Rm[7] * s[1] + Rm[8] * s[2]
+        gN[e, 0] = (n[0] * (xe[e, 0] + d0 - P[e, 4]) + n[1] * (xe[e, 1] + d1 - P[e, 5])
+                    + n[2] * (xe[e, 2] + d2 - P[e, 6]) - Rs)
+        c1 = cross3(n, t1)
+        c2 = cross3(n, t2)
+        _row(W, zeta, H, e, 0, le[e, 0], jac, n, (0.0, 0.0, 0.0), s, Rm, Om)
+        _row(W, zeta, H, e, 1, le[e, 1], jac, t1, (Rs * c1[0], Rs * c1[1], Rs * c1[2]), s, Rm, Om)
+        _row(W, zeta, H, e, 2, le[e, 2], jac, t2, (Rs * c2[0], Rs * c2[1], Rs * c2[2]), s, Rm, Om)
+
+
+def tangents(n):
+    """Two unit tangents (t₁, t₂) of a unit normal n, with (t₁, t₂, n) right-handed."""
+    k = int(np.argmin(np.abs(n)))
+    e = np.zeros(3)
+    e[k] = 1.0
+    t1 = np.cross(e, n)
+    t1 /= np.linalg.norm(t1)
+    return t1, np.cross(n, t1)
+
+
+class SpatialSphereOnPlane(ContactElement):
+    """A point or sphere of a spatial body on a plane fixed in space, with isotropic Coulomb friction.
+
+    g_N = n·(r + R s − p) − R_s; two tangents (t₁, t₂, n right-handed; from
+    :func:`tangents` unless ``tangent`` is given) span the friction cone; γ_F = (t₁, t₂)·(the
+    velocity of the contact point r + R s − R_s n).
+
+    Parameters
+    ----------
+    name : str
+    body : spatial body or name
+    radius : float ≥ 0
+    point : (3,) or name
+        Sphere centre in body axes.
+    plane_point, normal : (3,)
+    tangent : (3,), optional
+        t₁ (its part orthogonal to n).
+    e_N, mu, e_F : see :class:`ContactElement`.
+    """
+
+    spatial = True
+    n_friction = 2
+    kernels = {"contact": spatial_sphere_plane_contact}
+
+    def __init__(self, name, body, radius=0.0, point=(0.0, 0.0, 0.0), plane_point=(0.0, 0.0, 0.0),
+                 normal=(0.0, 0.0, 1.0), tangent=None, e_N=0.0, mu=0.0, e_F=0.0):
+        super().__init__(name, e_N, mu, e_F)
+        owner = f"SpatialSphereOnPlane '{name}'"
+        self.body = body
+        self._point = point
+        self.radius = _scalar(owner, "radius", radius, 0.0)
+        self.p = _vector(owner, "plane_point", plane_point, 3)
+        self.n = _unit(owner, "normal", normal, 3)
+        if tangent is None:
+            self.t1, self.t2 = tangents(self.n)
+        else:
+            t1 = _vector(owner, "tangent", tangent, 3)
+            t1 = t1 - (t1 @ self.n) * self.n
+            if np.linalg.norm(t1) < 1e-9:
+                raise ModelError(f"{owner}: tangent must not be parallel to the normal, got {tangent!r}")
+            self.t1 = t1 / np.linalg.norm(t1)
+            self.t2 = np.cross(self.n, self.t1)
+
+    def resolve(self, lookup):
+        owner = f"SpatialSphereOnPlane '{self.name}'"
+        self.body = _body(owner, lookup, self.body, "body")
+        if not getattr(self.body.node, "rotation_blocks", ()):
+            raise ModelError(f"{owner}: body '{self.body.name}' is planar; use SphereOnPlane")
+        self.s = np.asarray(self.body.local(self._point, "point"), dtype=float)
+
+    def nodes(self):
+        return [self.body.node]
+
+    @classmethod
+    def pack(cls, elements):
+        P = np.array([[*e.s, e.radius, *e.p, *e.n, *e.t1, *e.t2] for e in elements], dtype=float)
+        return {"P": np.ascontiguousarray(P)}

@@ -1,0 +1,420 @@
+"""Fixed-step simulation of models with unilateral contacts and friction (docs/contact.md §4).
+
+:func:`simulate` starts from a state consistent with the bilateral constraints and the
+closed contacts (accelerations and contact forces from the acceleration-level contact
+problem), advances it by :class:`femb.contact.step.NonsmoothStep`, and returns a
+:class:`femb.contact.result.ContactResult`.
+"""
+from __future__ import annotations
+
+import time
+
+import numpy as np
+import scipy.sparse as sp
+import scipy.sparse.linalg as spla
+
+from femb import assembly
+from femb.alpha import GeneralizedAlpha
+from femb.contact import assemble
+from femb.contact.prox import prox_disc
+from femb.contact.result import OPEN, SLIP, STICK, ContactResult
+from femb.contact.step import NonsmoothStep, StepFailure, StepState
+from femb.errors import ContactError, ModelError, ParameterError
+from femb.initial import consistent_initial_state
+
+
+def _kkt(model, t, q):
+    """LU of [[M, Φ_qᵀ], [Φ_q, 0]] at (t, q)."""
+    M = model.M_const if model.constant_mass else assembly.mass_matrix(model, q)
+    B = assembly.constraint_jacobian(model, t, q)
+    return spla.splu(sp.bmat([[M, B.T], [B, None]], format="csc") if model.nc else sp.csc_matrix(M))
+
+
+def _solve_kkt(lu, model, rhs_q, rhs_c):
+    x = lu.solve(np.concatenate((rhs_q, rhs_c)))
+    return x[:model.nq], x[model.nq:]
+
+
+def initial_contact_forces(model, lay, st, gap_tol, vel_tol, max_iter=5000):
+    """Accelerations and contact forces at t₀ for the contacts that are closed (g_N ≤ gap_tol and
+    |ġ_N| ≤ vel_tol): the acceleration-level contact problem (Signorini on g̈_N, Coulomb on γ̇_F
+    or the slip law on γ_F), solved by a projected Jacobi fixed point with prox parameters
+    1/(W M⁻¹ Wᵀ)_ii (Studer 2009, §3.4).
+
+    Returns
+    -------
+    (ud, lam_g, lam_N, lam_F)
+    """
+    t, q, u = st.t, st.q, st.qd
+    ev = assemble.evaluate(model, t, q, u)
+    WN, WF = ev["WN"], ev["WF"]
+    closed = (ev["gN"] <= gap_tol) & (np.abs(WN @ u) <= vel_tol)
+    lN, lF = np.zeros(lay.nN), np.zeros(lay.nF)
+    f = assembly.force_vector(model, t, q, u)
+    _, gam = assembly.constraint_rates(model, t, q, u)
+    lu = _kkt(model, t, q)
+    ud, lg = _solve_kkt(lu, model, f, -gam)
+    if not closed.any():
+        return ud, lg, lN, lF
+    W = sp.vstack((WN, WF)).tocsc()
+    G = np.array([(W[k] @ _solve_kkt(lu, model, W[k].toarray().ravel(), np.zeros(model.nc))[0])[0]
+                  for k in range(W.shape[0])])
+    r = 1.0 / np.maximum(G, 1e-300)
+    gF = WF @ u
+    for _ in range(max_iter):
+        ud, lg = _solve_kkt(lu, model, f + WN.T @ lN + WF.T @ lF, -gam)
+        gNdd = WN @ ud + ev["zN"]
+        gFdd = WF @ ud + ev["zF"]
+        lN1 = np.where(closed, np.maximum(lN - r[:lay.nN] * gNdd, 0.0), 0.0)
+        lF1 = np.zeros(lay.nF)
+        for i, idx in enumerate(lay.friction):
+            if not (idx.size and closed[i]):
+                continue
+            if np.linalg.norm(gF[idx]) > vel_tol:               # slipping: λ_F = −μ λ_N γ_F/|γ_F|
+                lF1[idx] = -lay.mu[i] * lN1[i] * gF[idx] / np.linalg.norm(gF[idx])
+            else:
+                lF1[idx] = prox_disc(lF[idx] - r[lay.nN + idx] * gFdd[idx], lay.mu[i] * lN1[i])
+        change = max(np.max(np.abs(lN1 - lN), initial=0.0), np.max(np.abs(lF1 - lF), initial=0.0))
+        lN, lF = lN1, lF1
+        if change <= 1e-13 * max(1.0, np.max(np.abs(lN), initial=0.0)):
+            break
+        if not np.all(np.isfinite(lN)) or np.max(np.abs(lN), initial=0.0) > 1e12 * _force_scale(model, f):
+            break
+    if not (np.all(np.isfinite(lN)) and change <= 1e-9 * max(1.0, np.max(np.abs(lN), initial=0.0))):
+        return None
+    ud, lg = _solve_kkt(lu, model, f + WN.T @ lN + WF.T @ lF, -gam)
+    return ud, lg, lN, lF
+
+
+def _force_scale(model, f):
+    return max(float(np.max(np.abs(f), initial=0.0)), 1e-300)
+
+
+def _check_parameters(model, t_end, h, rho_inf, t0):
+    for name, v in (("t_end", t_end), ("h", h), ("t0", t0)):
+        try:
+            v = float(v)
+        except (TypeError, ValueError):
+            raise ParameterError(f"{name} must be a number, got {v!r}") from None
+        if not np.isfinite(v):
+            raise ParameterError(f"{name} must be finite, got {v!r}")
+    if not float(h) > 0.0:
+        raise ParameterError(f"h must be positive, got {h!r}")
+    if not float(t_end) > float(t0):
+        raise ParameterError(f"t_end ({t_end!r}) must exceed t0 ({t0!r})")
+    if not 0.0 <= float(rho_inf) < 1.0:
+        raise ParameterError(f"rho_inf must lie in [0, 1) for the nonsmooth scheme (strict stability at "
+                             f"infinity, docs/contact.md §2), got {rho_inf!r}")
+    if not hasattr(model, "contact_groups"):
+        raise ModelError("femb.contact.simulate needs a compiled femb Model (Mechanism.compile())")
+
+
+def diagnose(model, lay, s, gap_tol, vel_tol):
+    """Why a step has no consistent contact force: (contact name, reason) or (None, reason).
+
+    For every closed, slipping contact i with μ_i > 0 it forms the normal acceleration's
+    response to its own normal force when friction opposes the slip, a_i = W_N,i G (W_N,i −
+    μ_i ŝ W_F,i)ᵀ with G the constrained inverse mass (the KKT matrix), and the free normal
+    acceleration b_i. a_i ≤ 0 is Painlevé's paradox (Painlevé 1895; Génot & Brogliato,
+    Eur. J. Mech. A 18 (1999) 653–677): no non-negative λ_N gives g̈_N = b_i + a_i λ_N ≥ 0 with
+    complementarity when b_i < 0 (inconsistency), two solutions when b_i > 0 (indeterminacy).
+    """
+    t, q, u = s.t, s.q, s.u
+    ev = assemble.evaluate(model, t, q, u)
+    WN, WF = ev["WN"], ev["WF"]
+    lu = _kkt(model, t, q)
+    f = assembly.force_vector(model, t, q, u)
+    _, gam = assembly.constraint_rates(model, t, q, u)
+    ud0, _ = _solve_kkt(lu, model, f, -gam)
+    for i, idx in enumerate(lay.friction):
+        gF = WF[idx] @ u if idx.size else np.zeros(0)
+        if not (idx.size and lay.mu[i] > 0 and ev["gN"][i] <= gap_tol and np.linalg.norm(gF) > vel_tol):
+            continue
+        shat = gF / np.linalg.norm(gF)
+        w = WN[i].toarray().ravel() - lay.mu[i] * (shat @ WF[idx].toarray())
+        x, _ = _solve_kkt(lu, model, w, np.zeros(model.nc))
+        wN = WN[i].toarray().ravel()
+        a = float(wN @ x)
+        b = float(wN @ ud0 + ev["zN"][i])
+        if a <= 0.0:
+            kind = "inconsistency: no contact force exists" if b < 0 else "indeterminacy: the contact force is not unique"
+            return lay.names[i], (f"contact '{lay.names[i]}' slips at {np.linalg.norm(gF):.4g} m/s with μ = "
+                                  f"{lay.mu[i]:g}, and its normal acceleration falls as its normal force grows "
+                                  f"(W_N G (W_N − μ ŝ W_F)ᵀ = {a:.4g} ≤ 0; free normal acceleration {b:.4g}): "
+                                  f"Painlevé's paradox, {kind} for Coulomb friction")
+    return None, "no consistent contact forces found (no slipping contact shows Painlevé's paradox)"
+
+
+def _states(ev, sets, lay, vel_tol):
+    A, B_, C, D, E = sets
+    closed = A & (B_ | C)
+    st = np.full(lay.nN, OPEN, dtype=np.int8)
+    for i, idx in enumerate(lay.friction):
+        if closed[i]:
+            slip = idx.size and np.linalg.norm(ev["gF"][idx]) > vel_tol
+            st[i] = SLIP if slip else STICK
+    return st
+
+
+def simulate(model, t_end, h, *, rho_inf=0.8, t0=0.0, tol=None, max_iter=40, max_fixed_point=400,
+             locate_impacts=True):
+    """Integrate a model with contacts by the nonsmooth generalized-α method, fixed steps.
+
+    Parameters
+    ----------
+    model : Model or Mechanism
+        With contact elements (:mod:`femb.elements.contact`); bilateral joints are allowed.
+    t_end : float
+    h : float
+        Step size (adjusted slightly so that the steps end on t_end); results are stored at
+        every step.
+    rho_inf : float in [0, 1)
+        Spectral radius at infinity of the smooth part (α_m, α_f, β, γ by Chung & Hulbert).
+    t0 : float
+    tol : float, optional
+        Newton tolerance on the residual in length units (default 1e-12 × length scale).
+    max_iter, max_fixed_point : int
+        Semismooth Newton iterations per step; prox fixed-point iterations of the fallback.
+    locate_impacts : bool
+        Split a step in which an open contact closes at the impact (docs/contact.md §2.4), so
+        the impact law sees the velocity at the impact and not at the step's start.
+
+    Returns
+    -------
+    ContactResult
+
+    Raises
+    ------
+    ContactError
+        A step found no consistent contact forces: names the time, the step, the contact and
+        why (Painlevé's paradox diagnosed, :func:`diagnose`); carries the partial result.
+    ModelError
+        A contact starts penetrated.
+    ParameterError
+        Bad t_end, h, t0 or rho_inf.
+    """
+    if hasattr(model, "compile") and not hasattr(model, "contact_groups"):
+        model = model.compile()
+    _check_parameters(model, t_end, h, rho_inf, t0)
+    t0, t_end = float(t0), float(t_end)
+    nsteps = max(1, int(round((t_end - t0) / float(h))))
+    h = (t_end - t0) / nsteps
+    L = model.length_scale
+    tol = 1e-12 * L if tol is None else float(tol)
+    lay = assemble.layout(model)
+    stepper = NonsmoothStep(model, h, GeneralizedAlpha.from_rho_inf(rho_inf), lay, tol, max_iter, max_fixed_point)
+    vel_tol = max(100.0 * tol / h, 1e-12)
+    t_init = time.perf_counter()
+    s, x0, ev0 = _start(model, lay, stepper, t0, vel_tol)
+    rec = _Recorder(model, lay)
+    rec.store(s, x0, ev0, np.zeros(lay.nN, dtype=np.int8), stepper, (0.0, 0.0))
+    init_time = time.perf_counter() - t_init
+    t_loop = time.perf_counter()
+    for n in range(1, nsteps + 1):
+        try:
+            s, x, ev, sets, work = _step(stepper, s, h, n, rec, vel_tol, locate_impacts)
+        except StepFailure as err:
+            res = rec.result(h, rho_inf, tol, init_time, time.perf_counter() - t_loop, "failed", str(err))
+            name, why = diagnose(model, lay, s, 1e-9 * L, vel_tol)
+            raise ContactError(f"contact step {n} from t = {s.t:.6g} s to t = {s.t + h:.6g} s failed: {why} "
+                               f"({err})", contact=name, t=s.t + h, step=n, result=res) from None
+        rec.store(s, x, ev, _states(ev, sets, lay, vel_tol), stepper, work)
+    return rec.result(h, rho_inf, tol, init_time, time.perf_counter() - t_loop, "success", "")
+
+
+def _start(model, lay, stepper, t0, vel_tol):
+    """The consistent starting state (bilateral projection, contact forces of the closed contacts)."""
+    L = model.length_scale
+    st = consistent_initial_state(model, t0=t0, contacts=True)
+    ev0 = assemble.evaluate(model, t0, st.q, st.qd)
+    bad = np.nonzero(ev0["gN"] < -1e-10 * L)[0]
+    if bad.size:
+        i = bad[0]
+        raise ModelError(f"contact '{lay.names[i]}' starts penetrated: g_N = {ev0['gN'][i]:.6g} m < 0 at t0 = {t0:g}; "
+                         "place the bodies apart or touching")
+    init = initial_contact_forces(model, lay, st, 1e-9 * L, vel_tol)
+    if init is None:
+        probe = StepState(t0, st.q, st.qd, *([None] * 8))
+        name, why = diagnose(model, lay, probe, 1e-9 * L, vel_tol)
+        raise ContactError(f"initial contact forces at t0 = {t0:g} s: {why}", contact=name, t=t0, step=0)
+    ud, lg, lN, lF = init
+    s = StepState(t0, st.q.copy(), st.qd.copy(), ud, ud.copy(), lN, lF, lN.copy(), lF.copy(),
+                  ev0["WN"] @ st.qd, ev0["WF"] @ st.qd, gN=ev0["gN"], gNdd=ev0["WN"] @ ud + ev0["zN"])
+    x0 = np.zeros(stepper.nx)
+    o = stepper.offsets
+    x0[o[0]:o[1]] = ud
+    x0[o[5]:o[6]] = lg
+    x0[o[8]:o[9]] = lN
+    x0[o[10]:o[11]] = lF
+    s.x = x0
+    ev0 = dict(ev0, PN=np.zeros(lay.nN), PF=np.zeros(lay.nF), u=st.qd)
+    return s, x0, ev0
+
+
+def _impact_time(stepper, s, ev, sets, H, gap_tol, vel_tol):
+    """Earliest time τ ∈ (0, H) at which an open contact closes in a step of size H, or None.
+
+    From the contact's gap at the step's start, g + ġτ + ½g̈τ² = 0 (exact for a body in free
+    flight under constant forces); the secant of g over the step when that has no root in (0, H).
+    """
+    A = sets[0]
+    cand = np.nonzero(A & ((s.gN > gap_tol) | (np.abs(s.gNd) > vel_tol)))[0]    # open, or touching and moving
+    best = None
+    free = None
+    for i in cand:
+        gdd = s.gNdd[i]
+        if s.gN[i] <= gap_tol and s.gNd[i] > 0.0:   # leaving: its g̈_N(t_n) holds its contact force; the free one
+            free = _free_gNdd(stepper.model, s) if free is None else free
+            gdd = free[i]
+        a, b, c = 0.5 * gdd, s.gNd[i], s.gN[i]
+        roots = np.roots([a, b, c]) if abs(a) > 0.0 else np.array([-c / b]) if b != 0.0 else np.zeros(0)
+        roots = [r.real for r in np.atleast_1d(roots) if abs(r.imag) == 0.0 and 0.0 < r.real < H]
+        tau = min(roots) if roots else H * c / (c - ev["gN"][i]) if c - ev["gN"][i] > 0.0 else None
+        if tau is not None and (best is None or tau < best):
+            best = tau
+    return best
+
+
+def _free_gNdd(model, s):
+    """g̈_N at s without contact forces (bilateral constraints kept)."""
+    lu = _kkt(model, s.t, s.q)
+    _, gam = assembly.constraint_rates(model, s.t, s.q, s.u)
+    ud, _ = _solve_kkt(lu, model, assembly.force_vector(model, s.t, s.q, s.u), -gam)
+    ev = assemble.evaluate(model, s.t, s.q, s.u)
+    return ev["WN"] @ ud + ev["zN"]
+
+
+def _step(stepper, s, h, n, rec, vel_tol, locate, depth=0):
+    """Advance s by h: one nonsmooth step, or substeps around the impact of an open contact.
+
+    An open contact that closes in the step is located from its gap, velocity and free
+    acceleration (:func:`_impact_time`): the step goes in free flight to 1e-3 d before the
+    impact, d = 1e-4 h (shortened until the contact is still open at its end), takes the impact in a substep
+    that ends d after it (so Newton's law sees the velocity at the impact and the bodies leave at
+    once), and the rest of the step (docs/contact.md §2.4). Returns (state, x, ev, sets, (work_N,
+    work_F)) at s.t + h; impacts go to ``rec.events``.
+    """
+    stepper.set_h(h)
+    x, ev, sets, info = stepper.solve(s)
+    gap_tol = 1e-9 * stepper.model.length_scale
+    d = 1e-4 * stepper.h_fixed
+    tau = _impact_time(stepper, s, ev, sets, h, gap_tol, vel_tol) if locate and depth < 40 and h > 3 * d else None
+    if tau is None:
+        return _accept(stepper, s, x, ev, sets, info, n, rec, vel_tol)
+    mark = (len(rec.events), len(rec.iterations), len(rec.methods))
+    try:
+        out = _split_at_impact(stepper, s, h, tau, d, gap_tol, n, rec, vel_tol, locate, depth)
+    except StepFailure:
+        # the substeps around the impact found no solution (e.g. a second contact closing within d):
+        # keep the unsplit step, whose impact comes at its end (the paper's scheme, first order there)
+        del rec.events[mark[0]:], rec.iterations[mark[1]:], rec.methods[mark[2]:]
+        stepper.set_h(h)
+        return _accept(stepper, s, x, ev, sets, info, n, rec, vel_tol)
+    stepper.set_h(h)
+    return out
+
+
+def _split_at_impact(stepper, s, h, tau, d, gap_tol, n, rec, vel_tol, locate, depth):
+    """Free flight to just before the impact at tau (if it is not imminent), the impact, the rest."""
+    if tau > 2 * d:
+        free = _free_flight(stepper, s, tau - 1e-3 * d, gap_tol)
+        if free is not None:                            # free flight, then the impact from closer by
+            x1, ev1, sets1, info1, h1 = free
+            s1, _, _, _, w1 = _accept(stepper, s, x1, ev1, sets1, info1, n, rec, vel_tol)
+            s2, x2, ev2, sets2, w2 = _step(stepper, s1, h - h1, n, rec, vel_tol, locate, depth + 1)
+            return s2, x2, ev2, sets2, (w1[0] + w2[0], w1[1] + w2[1])
+    work = [0.0, 0.0]
+    first = min(tau + d, 0.5 * h)
+    for hk in (first, h - first):                       # the impact is imminent: take it in ≤ 3d
+        s, x, ev, sets, w = _step(stepper, s, hk, n, rec, vel_tol, locate, depth + 1)
+        work[0] += w[0]
+        work[1] += w[1]
+    return s, x, ev, sets, tuple(work)
+
+
+def _free_flight(stepper, s, tau, gap_tol, tries=8):
+    """A step of size ≤ tau after which the contacts open at s are still open (halved until so), or None."""
+    was_open = (s.gN > gap_tol) | (s.gNd > 0.0)     # open, or touching and leaving
+    for _ in range(tries):
+        stepper.set_h(tau)
+        x, ev, sets, info = stepper.solve(s)
+        if not np.any(sets[0] & was_open):
+            return x, ev, sets, info, tau
+        tau *= 0.5
+    return None
+
+
+def _accept(stepper, s, x, ev, sets, info, n, rec, vel_tol):
+    """Book an accepted (sub)step: iterations, contact work, impacts; the new state."""
+    rec.iterations.append(info["iterations"])
+    rec.methods.append(info["method"])
+    um = 0.5 * (s.u + ev["u"])
+    work = (float(um @ (ev["WN"].T @ ev["PN"])), float(um @ (ev["WF"].T @ ev["PF"])))
+    new = _advance(stepper, s, x, ev)
+    rec.impacts(n, s, new, ev, sets, stepper.split(x), vel_tol)
+    return new, x, ev, sets, work
+
+
+def _advance(stepper, s, x, ev):
+    """The state after an accepted step (ā, λ̄ carried as in eqs. (71), (96), (114))."""
+    parts = stepper.split(x)
+    return StepState(s.t + stepper.h, ev["q"], ev["u"], parts[0].copy(), ev["abar"], parts[8].copy(),
+                     parts[10].copy(), ev["lbar_N"], ev["lbar_F"], ev["gNd"], ev["gF"], x.copy(),
+                     gN=ev["gN"], gNdd=ev["gNdd"])
+
+
+class _Recorder:
+    """Stores every step and builds the :class:`ContactResult`."""
+
+    def __init__(self, model, lay):
+        self.model, self.lay = model, lay
+        self.t, self.q, self.u, self.ud, self.lam = [], [], [], [], []
+        self.c = {k: [] for k in ("gN", "gN_d", "lam_N", "Lam_N", "P_N", "state", "gam_F", "lam_F", "Lam_F", "P_F",
+                                  "work_N", "work_F")}
+        self.iterations, self.methods, self.events = [], [], []
+        self._wN = self._wF = 0.0
+
+    def store(self, s, x, ev, state, stepper, work):
+        parts = stepper.split(x)
+        self._wN += work[0]
+        self._wF += work[1]
+        self.t.append(s.t)
+        self.q.append(s.q.copy())
+        self.u.append(s.u.copy())
+        self.ud.append(s.ud.copy())
+        self.lam.append(np.array(parts[5], dtype=float))
+        for key, val in (("gN", ev["gN"]), ("gN_d", ev["WN"] @ s.u), ("lam_N", parts[8]), ("Lam_N", parts[7]),
+                         ("P_N", ev["PN"]), ("state", state), ("gam_F", ev["WF"] @ s.u), ("lam_F", parts[10]),
+                         ("Lam_F", parts[9]), ("P_F", ev["PF"]), ("work_N", self._wN), ("work_F", self._wF)):
+            self.c[key].append(np.array(val, copy=True))
+
+    def impacts(self, n, s, new, ev, sets, parts, vel_tol):
+        """Impacts of a (sub)step: a contact closed at its end that began approaching (ġ_N < 0), P_N > 0."""
+        closed = sets[0] & (sets[1] | sets[2])
+        for i in np.nonzero((s.gNd < -vel_tol) & closed & (ev["PN"] > 0.0))[0]:
+            a, b, c = 0.5 * s.gNdd[i], s.gNd[i], max(s.gN[i], 0.0)      # impact time inside the (sub)step
+            roots = [r.real for r in np.atleast_1d(np.roots([a, b, c]) if a else [-c / b])
+                     if abs(r.imag) == 0.0 and 0.0 <= r.real <= new.t - s.t]
+            self.events.append(dict(t=s.t + min(roots) if roots else new.t, step=n, contact=self.lay.names[i],
+                                    v_before=float(s.gNd[i]), v_after=float(new.gNd[i]), Lambda_N=float(parts[7][i]),
+                                    P_N=float(ev["PN"][i]), u_before=s.u.copy(), u_after=new.u.copy()))
+
+    def result(self, h, rho_inf, tol, init_time, wall, status, message):
+        m, lay = self.model, self.lay
+        nt = len(self.t)
+        contact = {k: np.array(v) for k, v in self.c.items()}
+        for k in ("gN", "gN_d", "lam_N", "Lam_N", "P_N", "state"):
+            contact[k] = contact[k].reshape(nt, lay.nN)
+        for k in ("gam_F", "lam_F", "Lam_F", "P_F"):
+            contact[k] = contact[k].reshape(nt, lay.nF)
+        its = np.array(self.iterations, dtype=np.int64)
+        return ContactResult(
+            model=m, t=np.array(self.t), q=np.array(self.q), qd=np.array(self.u), qdd=np.array(self.ud),
+            lam=np.array(self.lam).reshape(nt, m.nc), newton_iterations=its, status=status,
+            message=message, wall_time=wall, init_time=init_time,
+            stats={"steps": nt - 1, "substeps": int(its.size),
+                   "fixed_point_steps": int(sum(1 for x in self.methods if x != "newton"))},
+            settings={"h": h, "rho_inf": rho_inf, "tol": tol, "scheme": "nonsmooth generalized-alpha "
+                      "(Capobianco, Harsch, Eugster & Leine 2021)"},
+            contact=contact, contact_names=list(lay.names), friction_rows=[r.copy() for r in lay.friction],
+            events=list(self.events))

@@ -1,0 +1,493 @@
+"""One step of the nonsmooth generalized-α method (Capobianco, Harsch, Eugster & Leine 2021).
+
+Equation numbers refer to G. Capobianco, J. Harsch, S. R. Eugster, R. I. Leine, "A nonsmooth
+generalized-α method for mechanical systems with frictional contact", Int. J. Numer. Methods
+Eng. 122 (2021) 6497–6526, doi:10.1002/nme.6801 (the paper's numbering as carried by the
+authors' implementation). Notation: u̇ the true accelerations, ā the auxiliary (α-weighted)
+accelerations, U the velocity jump, Q the position correction; λ forces, Λ percussions,
+κ position-correction multipliers; g bilateral (femb's Φ, sign M u̇ = f − Φ_qᵀλ), N normal, F
+friction (contact forces act as +W_Nᵀλ_N + W_Fᵀλ_F).
+
+Unknowns of a step (eq. (126)), x = (u̇, U, Q, κ_g, Λ_g, λ_g, κ_N, Λ_N, λ_N, Λ_F, λ_F), and
+the residual R = (R_s, R_c) of eq. (127):
+
+    M u̇ − f + Φ_qᵀλ_g − W_Nᵀλ_N − W_Fᵀλ_F = 0
+    M U + Φ_qᵀΛ_g − W_NᵀΛ_N − W_FᵀΛ_F = 0
+    M Q + Φ_qᵀκ_g − W_Nᵀκ_N − (h/2) W_FᵀΛ_F = 0
+    Φ = 0,   Φ_q u + Φ_t = 0,   Φ_q u̇ + γ = 0                 (index-3 exactness at all levels,
+                                                             Brüls, Acary & Cardona 2014)
+    contact rows, eqs. (129), (132), (135), (138), (142), on the index sets (130)–(141)
+
+with the kinematics (71), (73), (125): ā_{n+1} from (1 − α_m)ā_{n+1} + α_m ā_n =
+(1 − α_f)u̇_{n+1} + α_f u̇_n, u_{n+1} = u_n + h((1 − γ)ā_n + γā_{n+1}) + U,
+q_{n+1} = q_n ∘ exp(h u_n + h²((1/2 − β)ā_n + βā_{n+1}) + Q); the auxiliary contact forces
+λ̄ (96), (114), the percussions P = Λ + h((1 − γ)λ̄_n + γλ̄_{n+1}) (95), (113) and
+κ̂_N = κ_N + h²((1/2 − β)λ̄_N,n + βλ̄_N,n+1) (102).
+
+The step is solved by a semismooth Newton method on this active-set form (index sets
+updated from the current iterate at every iteration, eqs. (130), (133), (136), (139),
+(141)); when it does not converge, by the prox fixed point of eqs. (144)–(146) (Newton on
+R_s for fixed contact unknowns, then the proximal update of the contact unknowns).
+"""
+from __future__ import annotations
+
+import warnings
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.linalg as sla
+import scipy.sparse as sp
+import scipy.sparse.linalg as spla
+
+from femb import assembly, kernels
+from femb.contact import assemble
+from femb.contact.prox import direction, prox_disc, prox_nonnegative
+
+
+@dataclass
+class StepState:
+    """What a step needs from the previous one (all arrays owned)."""
+
+    t: float
+    q: np.ndarray
+    u: np.ndarray
+    ud: np.ndarray          # u̇_n (true accelerations)
+    abar: np.ndarray        # ā_n
+    lam_N: np.ndarray
+    lam_F: np.ndarray
+    lbar_N: np.ndarray      # λ̄_N,n
+    lbar_F: np.ndarray
+    gNd: np.ndarray         # ġ_N(q_n, u_n), for Newton's impact law
+    gFd: np.ndarray         # γ_F(q_n, u_n)
+    x: np.ndarray = None    # the previous step's unknowns (initial guess)
+    gN: np.ndarray = None   # g_N(q_n) and g̈_N(q_n, u_n, u̇_n): locate impacts inside a step
+    gNdd: np.ndarray = None
+
+
+class StepFailure(Exception):
+    """Neither the semismooth Newton method nor the fixed point found the step's solution."""
+
+    def __init__(self, message, x=None, sets=None):
+        super().__init__(message)
+        self.x = x
+        self.sets = sets
+
+
+def _bilateral_H(model, t, q, lam):
+    """∂(Φ_qᵀλ)/∂q (csr)."""
+    if not model.constraint_groups:
+        return sp.csr_matrix((model.nq, model.nq))
+    qx = model.ext(q)
+    blocks = [kernels.constraint(g, t, qx[g.xdofs], lam[g.lam], jac=True)[2] for g in model.constraint_groups]
+    return assembly._coo(model.constraint_groups, "nn", blocks, (model.nq, model.nq))
+
+
+class NonsmoothStep:
+    """The residual, its Jacobian and the solvers of one step (see the module docstring).
+
+    Parameters
+    ----------
+    model : Model
+    h : float
+    alpha : femb.GeneralizedAlpha
+    lay : femb.contact.assemble.ContactLayout
+    tol : float
+        Newton tolerance on the residual in length units (rows scaled by h, h², 1/m as below).
+    max_iter, max_fixed_point : int
+    """
+
+    def __init__(self, model, h, alpha, lay, tol, max_iter=40, max_fixed_point=400):
+        self.model, self.h, self.lay = model, float(h), lay
+        self.am, self.af, self.beta, self.gamma = alpha.alpha_m, alpha.alpha_f, alpha.beta, alpha.gamma
+        self.tol, self.max_iter, self.max_fp = tol, max_iter, max_fixed_point
+        #: semismooth Newton iterations before the index sets are held fixed
+        self.freeze_after = max(2, max_iter // 2)
+        self.h_fixed = float(h)
+        n, m, k, l = model.nq, model.nc, lay.nN, lay.nF
+        self.sizes = (n, n, n, m, m, m, k, k, k, l, l)
+        self.offsets = np.concatenate(([0], np.cumsum(self.sizes)))
+        self.nx = int(self.offsets[-1])
+        self.set_h(h)
+        self.owner = np.zeros(l, dtype=np.int64)
+        for i, idx in enumerate(lay.friction):
+            self.owner[idx] = i
+        self.e_F = lay.e_F_rows
+        self.M = model.M_const.tocsc() if model.constant_mass else None
+        #: dense linear algebra below this many unknowns (sparse overhead dominates small systems)
+        self.dense = self.nx <= 600
+        self.Md = self.M.toarray() if (self.dense and self.M is not None) else None
+        self.Minv = np.linalg.inv(self.Md) if self.Md is not None else None
+        diagM = (self.M if self.M is not None else assembly.mass_matrix(model, model.q0)).diagonal()
+        w = model.force_weight
+        self.m_ref = float(np.mean(diagM[w == 1.0])) if np.any(w == 1.0) else float(np.mean(diagM))
+
+    def set_h(self, h):
+        """Use step size h (impact steps are split at the impact, docs/contact.md §2.4)."""
+        self.h = float(h)
+        c = (1.0 - self.af) / (1.0 - self.am)
+        self.c_u = self.h * self.gamma * c        # ∂u_{n+1}/∂u̇_{n+1}, ∂P/∂λ
+        self.c_q = self.h * self.h * self.beta * c     # ∂Δq/∂u̇_{n+1}, ∂κ̂/∂λ
+
+    # ------------------------------------------------------------------ bookkeeping
+    def split(self, x):
+        """The 11 blocks of x (eq. (126))."""
+        o = self.offsets
+        return [x[o[i]:o[i + 1]] for i in range(11)]
+
+    def kinematics(self, s, x):
+        """q, u, ā, λ̄_N, λ̄_F, P_N, κ̂_N, P_F of the iterate x (eqs. (71), (73), (125), (95), (96), (102), (113), (114))."""
+        h, am, af, b, g = self.h, self.am, self.af, self.beta, self.gamma
+        ud, U, Q, _, _, _, kN, LN, lN, LF, lF = self.split(x)
+        abar = (af * s.ud + (1 - af) * ud - am * s.abar) / (1 - am)
+        u = s.u + h * ((1 - g) * s.abar + g * abar) + U
+        q = self.model.compose(s.q, h * s.u + h * h * ((0.5 - b) * s.abar + b * abar) + Q)
+        lbN = (af * s.lam_N + (1 - af) * lN - am * s.lbar_N) / (1 - am)
+        lbF = (af * s.lam_F + (1 - af) * lF - am * s.lbar_F) / (1 - am)
+        PN = LN + h * ((1 - g) * s.lbar_N + g * lbN)
+        kN_hat = kN + h * h * ((0.5 - b) * s.lbar_N + b * lbN)
+        PF = LF + h * ((1 - g) * s.lbar_F + g * lbF)
+        return dict(q=q, u=u, abar=abar, lbar_N=lbN, lbar_F=lbF, PN=PN, kN_hat=kN_hat, PF=PF)
+
+    def prox_r(self, q, t):
+        """Prox parameters r_i = 1/(W M⁻¹ Wᵀ)_ii per normal and tangent row (Studer 2009)."""
+        ev = assemble.evaluate(self.model, t, q, np.zeros(self.model.nq), dense=True)
+        Wd = np.vstack((ev["WN"], ev["WF"]))
+        if Wd.shape[0] == 0:
+            return np.zeros(0), np.zeros(0)
+        if self.Minv is not None:
+            G = np.einsum("ij,ji->i", Wd, self.Minv @ Wd.T)
+        else:
+            M = self.M if self.M is not None else assembly.mass_matrix(self.model, q).tocsc()
+            G = np.einsum("ij,ji->i", Wd, spla.splu(M).solve(np.ascontiguousarray(Wd.T)))
+        r = 1.0 / np.maximum(G, 1e-300)
+        return r[:self.lay.nN], r[self.lay.nN:]
+
+    # ------------------------------------------------------------------ residual and Jacobian
+    def evaluate(self, s, x):
+        """Model quantities at the iterate x: kinematics, M, f, constraint and contact operators."""
+        model, t1 = self.model, s.t + self.h
+        ev = self.kinematics(s, x)
+        q, u = ev["q"], ev["u"]
+        ud, U, Q, kg, Lg, lg, kN, LN, lN, LF, lF = self.split(x)
+        if self.dense:
+            ev["M"] = self.Md if self.Md is not None else assembly.mass_matrix(model, q).toarray()
+        else:
+            ev["M"] = self.M if self.M is not None else assembly.mass_matrix(model, q).tocsc()
+        ev["f"] = assembly.force_vector(model, t1, q, u)
+        ev["Phi"] = assembly.constraint_vector(model, t1, q)
+        B = assembly.constraint_jacobian(model, t1, q)
+        ev["B"] = B.toarray() if self.dense else B
+        ev["Phi_t"], ev["gam"] = assembly.constraint_rates(model, t1, q, u)
+        c = assemble.evaluate(model, t1, q, u, lN, lF, jac=True, dense=self.dense)
+        ev.update(c)
+        WN, WF = c["WN"], c["WF"]
+        ev["gNd"] = WN @ u
+        # Newton's impact law ξ_N = ġ_N⁺ + e_N ġ_N⁻, the restitution acting on an approaching ġ_N⁻ only
+        # (a contact that closes while separating, ġ_N⁻ > 0, has no impact to restitute: ξ_N = ġ_N⁺)
+        ev["xiN"] = ev["gNd"] + self.lay.e_N * np.minimum(s.gNd, 0.0)
+        ev["gNdd"] = WN @ ud + c["zN"]
+        ev["gF"] = WF @ u
+        ev["xiF"] = ev["gF"] + self.e_F * s.gFd * (s.gNd < 0.0)[self.owner]   # ξ_F, at impacts only
+        ev["gFdd"] = WF @ ud + c["zF"]
+        return ev
+
+    def index_sets(self, ev, x):
+        """A, B, C (normal) and D, E (friction, per contact) of eqs. (130), (133), (136), (139), (141).
+
+        r > 0, so r g − κ̂ ≤ 0 ⇔ g − κ̂/r ≤ 0; femb compares with the Newton tolerance instead of 0.
+        """
+        rN, rF, mu = self.rN, self.rF, self.lay.mu
+        lN, lF = self.split(x)[8], self.split(x)[10]
+        # the inequalities with the Newton tolerance as slack (in length units: g ≤ tol, h ξ ≤ tol,
+        # h² g̈ ≤ tol): where both sides of a complementarity vanish the set must not flip on round-off
+        h, tol = self.h, self.tol
+        A = ev["gN"] - ev["kN_hat"] / rN <= tol
+        B = A & (h * (ev["xiN"] - ev["PN"] / rN) <= tol)
+        C = B & (h * h * (ev["gNdd"] - lN / rN) <= tol)
+        D = np.zeros_like(A)
+        E = np.zeros_like(A)
+        for i, idx in enumerate(self.lay.friction):
+            if idx.size and A[i]:
+                D[i] = np.linalg.norm(rF[idx] * ev["xiF"][idx] - ev["PF"][idx]) <= mu[i] * ev["PN"][i]
+                E[i] = D[i] and np.linalg.norm(rF[idx] * ev["gFdd"][idx] - lF[idx]) <= mu[i] * lN[i]
+        return A, B, C, D, E
+
+    def smooth_rows(self, ev, x):
+        """R_s of eq. (127): three dynamic rows and the bilateral constraints at three levels."""
+        ud, U, Q, kg, Lg, lg, kN, LN, lN, LF, lF = self.split(x)
+        M, B, WN, WF = ev["M"], ev["B"], ev["WN"], ev["WF"]
+        return [M @ ud - ev["f"] + B.T @ lg - WN.T @ lN - WF.T @ lF,
+                M @ U + B.T @ Lg - WN.T @ LN - WF.T @ LF,
+                M @ Q + B.T @ kg - WN.T @ kN - 0.5 * self.h * (WF.T @ LF),
+                ev["Phi"], B @ ev["u"] + ev["Phi_t"], B @ ud + ev["gam"]]
+
+    def friction_rows(self, ev, x, A, D, E):
+        """R_c for friction, eqs. (138), (142), and the derivative blocks of the Jacobian."""
+        mu, nF, nN = self.lay.mu, self.lay.nF, self.lay.nN
+        lN, lF = self.split(x)[8], self.split(x)[10]
+        PN, PF, xiF, gF, gFdd = ev["PN"], ev["PF"], ev["xiF"], ev["gF"], ev["gFdd"]
+        R9, R10 = PF.copy(), lF.copy()
+        Dxi, Dgd, Dg = np.zeros((nF, nF)), np.zeros((nF, nF)), np.zeros((nF, nF))
+        Dpf, Dlf = np.ones(nF), np.ones(nF)
+        Dpn, Dln = np.zeros((nF, nN)), np.zeros((nF, nN))
+        for i, idx in enumerate(self.lay.friction):
+            if not idx.size or not A[i]:
+                continue                                   # (138c), (142d): P_F = 0, λ_F = 0
+            blk = np.ix_(idx, idx)
+            if D[i]:
+                R9[idx] = xiF[idx]                         # (138a): stick at percussion level
+                Dxi[blk] = np.eye(idx.size)
+                Dpf[idx] = 0.0
+                if E[i]:
+                    R10[idx] = gFdd[idx]                   # (142a): stick at acceleration level
+                    Dgd[blk] = np.eye(idx.size)
+                    Dlf[idx] = 0.0
+                else:                                      # (142b): slip at acceleration level
+                    v, dv = direction(gFdd[idx])
+                    R10[idx] = lF[idx] + mu[i] * lN[i] * v
+                    Dgd[blk] = mu[i] * lN[i] * dv
+                    Dln[idx, i] = mu[i] * v
+            else:                                          # (138b), (142c): slip
+                v, dv = direction(xiF[idx])
+                R9[idx] = PF[idx] + mu[i] * PN[i] * v
+                Dxi[blk] = mu[i] * PN[i] * dv
+                Dpn[idx, i] = mu[i] * v
+                w, dw = direction(gF[idx])
+                R10[idx] = lF[idx] + mu[i] * lN[i] * w
+                Dg[blk] = mu[i] * lN[i] * dw
+                Dln[idx, i] = mu[i] * w
+        return R9, R10, dict(Dxi=Dxi, Dgd=Dgd, Dg=Dg, Dpf=Dpf, Dlf=Dlf, Dpn=Dpn, Dln=Dln)
+
+    def system(self, s, x, fixed_z=None, frozen=None):
+        """Residual R (eq. (127)), its Jacobian (csc) and the index sets at the iterate x.
+
+        With ``fixed_z`` (the contact unknowns, eq. (144)) the contact rows become z − fixed_z = 0:
+        Newton on R_s for fixed contact unknowns, the inner problem of the fixed point (145).
+        The Jacobian leaves out ∂(Φ_q u)/∂q, ∂γ/∂q, ∂ζ/∂q, ∂W u/∂q in the velocity rows and the
+        curvature of W in the percussion and position-correction rows (a modified Newton method
+        that converges to the same solution).
+        """
+        ev = self.evaluate(s, x)
+        A, B_, C, D, E = self.index_sets(ev, x) if frozen is None else frozen
+        rows = self.smooth_rows(ev, x)
+        lN = self.split(x)[8]
+        # normal contact rows (129), (132), (135)
+        rows.append(np.where(A, ev["gN"], ev["kN_hat"]))
+        rows.append(np.where(B_, ev["xiN"], ev["PN"]))
+        rows.append(np.where(C, ev["gNdd"], lN))
+        R9, R10, Fd = self.friction_rows(ev, x, A, D, E)
+        rows += [R9, R10]
+        J = self.jacobian(s, ev, x, (A, B_, C), Fd)
+        if fixed_z is not None:
+            o = self.offsets[6]
+            for i in range(6, 11):
+                J[i] = [None] * 11
+                J[i][i] = self._eye(self.sizes[i])
+            rows[6:] = np.split(x[o:] - fixed_z, np.cumsum(self.sizes[6:-1]))
+        R = np.concatenate(rows)
+        Jm = self._matrix(J)
+        return R, Jm, ev, (A, B_, C, D, E)
+
+    def _eye(self, k):
+        return np.eye(k) if self.dense else sp.identity(k, format="csr")
+
+    def _matrix(self, J):
+        """The block matrix J (11 × 11 blocks, None for zero): a dense array for small systems, else csc."""
+        if not self.dense:
+            for i in range(11):                          # empty blocks keep their shapes
+                if J[i][i] is None:
+                    J[i][i] = sp.csr_matrix((self.sizes[i], self.sizes[i]))
+            return sp.bmat(J, format="csc", dtype=float)
+        o = self.offsets
+        out = np.zeros((self.nx, self.nx))
+        for i in range(11):
+            for j in range(11):
+                b = J[i][j]
+                if b is not None and b.size:
+                    out[o[i]:o[i + 1], o[j]:o[j + 1]] = b.toarray() if sp.issparse(b) else b
+        return out
+
+    def jacobian(self, s, ev, x, normal_sets, Fd):
+        """The 11 × 11 blocks of ∂R/∂x (see :meth:`system`)."""
+        model, h, cu, cq = self.model, self.h, self.c_u, self.c_q
+        A, B_, C = normal_sets
+        lg = self.split(x)[5]
+        M, Bc, WN, WF = ev["M"], ev["B"], ev["WN"], ev["WF"]
+        fq, fu = assembly.force_jacobians(model, s.t + h, ev["q"], ev["u"])
+        K1 = -fq + _bilateral_H(model, s.t + h, ev["q"], lg) - ev["H"]
+        C1 = -fu
+        if self.dense:
+            M, Bc, WN, WF, K1, C1 = (a.toarray() if sp.issparse(a) else a for a in (M, Bc, WN, WF, K1, C1))
+            dg = np.diag
+            mk = np.asarray
+        else:
+            dg = sp.diags
+            mk = sp.csr_matrix
+        Af, Bf, Cf = A.astype(float), B_.astype(float), C.astype(float)
+        Dxi, Dgd, Dg, Dpn, Dln = (mk(Fd[k]) for k in ("Dxi", "Dgd", "Dg", "Dpn", "Dln"))
+        J = [[None] * 11 for _ in range(11)]
+        J[0][0], J[0][1], J[0][2] = M + cq * K1 + cu * C1, C1, K1
+        J[0][5], J[0][8], J[0][10] = Bc.T, -WN.T, -WF.T
+        J[1][1], J[1][4], J[1][7], J[1][9] = M, Bc.T, -WN.T, -WF.T
+        J[2][2], J[2][3], J[2][6], J[2][9] = M, Bc.T, -WN.T, -0.5 * h * WF.T
+        J[3][0], J[3][2] = cq * Bc, Bc
+        J[4][0], J[4][1] = cu * Bc, Bc
+        J[5][0] = Bc
+        J[6][0], J[6][2], J[6][6], J[6][8] = cq * (dg(Af) @ WN), dg(Af) @ WN, dg(1 - Af), cq * dg(1 - Af)
+        J[7][0], J[7][1], J[7][7], J[7][8] = cu * (dg(Bf) @ WN), dg(Bf) @ WN, dg(1 - Bf), cu * dg(1 - Bf)
+        J[8][0], J[8][8] = dg(Cf) @ WN, dg(1 - Cf)
+        J[9][0], J[9][1], J[9][7], J[9][8] = cu * (Dxi @ WF), Dxi @ WF, Dpn, cu * Dpn
+        J[9][9], J[9][10] = dg(Fd["Dpf"]), cu * dg(Fd["Dpf"])
+        J[10][0], J[10][1], J[10][8], J[10][10] = Dgd @ WF + cu * (Dg @ WF), Dg @ WF, Dln, dg(Fd["Dlf"])
+        return J
+
+    def scale(self, sets):
+        """Row weights that turn every row of R into a length (for the Newton test)."""
+        h, m = self.h, self.m_ref
+        A, B_, C, D, E = sets
+        w = self.model.force_weight
+        Df = np.zeros(self.lay.nF, dtype=bool)
+        Ef = np.zeros(self.lay.nF, dtype=bool)
+        for i, idx in enumerate(self.lay.friction):
+            Df[idx], Ef[idx] = D[i], E[i]
+        n, mc = self.model.nq, self.model.nc
+        return np.concatenate((h * h * w / m, h * w / m, w / m, np.ones(mc), np.full(mc, h), np.full(mc, h * h),
+                               np.where(A, 1.0, 1.0 / m), np.where(B_, h, h / m), np.where(C, h * h, h * h / m),
+                               np.where(Df, h, h / m), np.where(Ef, h * h, h * h / m)))
+
+    # ------------------------------------------------------------------ solvers
+    def newton(self, s, x0, fixed_z=None, max_iter=None):
+        """Semismooth Newton iterations on R(x) = 0 (index sets updated at every iterate).
+
+        Returns
+        -------
+        (x, ev, sets, iterations, converged, error)
+        """
+        x = x0.copy()
+        err = np.inf
+        frozen = None
+        for it in range(1, (max_iter or self.max_iter) + 1):
+            R, J, ev, sets = self.system(s, x, fixed_z, frozen)
+            err = float(np.max(np.abs(self.scale(sets) * R))) if R.size else 0.0
+            if not np.isfinite(err):
+                return x, ev, sets, it, False, err
+            if err <= self.tol:
+                if frozen is None:
+                    return x, ev, sets, it, True, err
+                # converged with the index sets held: a solution if they are its own index sets
+                R2, _, ev2, sets2 = self.system(s, x, fixed_z)
+                err2 = float(np.max(np.abs(self.scale(sets2) * R2))) if R2.size else 0.0
+                return x, ev2, sets2, it, err2 <= self.tol, err2
+            if it == self.freeze_after:     # the index sets keep switching: hold them (Newton on one branch)
+                frozen = sets
+            dx = self.newton_increment(J, R)
+            if dx is None:
+                return x, ev, sets, it, False, err
+            x = x + dx
+        R, J, ev, sets = self.system(s, x, fixed_z)
+        err = float(np.max(np.abs(self.scale(sets) * R))) if R.size else 0.0
+        return x, ev, sets, self.max_iter, err <= self.tol, err
+
+    def newton_increment(self, J, R):
+        """Solve J dx = −R; with a rank-deficient J (forces that the contact laws leave undetermined,
+        e.g. the friction forces of two sticking corners of one block, of which only the sum is
+        unique) the minimum-norm least-squares increment (SVD), which keeps the undetermined parts
+        where they are. None if J cannot be factored at all."""
+        try:
+            if self.dense:
+                with warnings.catch_warnings():
+                    warnings.simplefilter("ignore", sla.LinAlgWarning)
+                    lu, piv = sla.lu_factor(J, check_finite=False)
+                d = np.abs(np.diag(lu))
+                if d.min() > 1e-11 * d.max():
+                    return sla.lu_solve((lu, piv), -R, check_finite=False)
+                return np.linalg.lstsq(J, -R, rcond=1e-11)[0]
+            lu = spla.splu(J)
+            d = np.abs(lu.U.diagonal())
+            if d.min() > 1e-11 * d.max():
+                return lu.solve(-R)
+            return spla.lsqr(J, -R, atol=1e-14, btol=1e-14)[0]
+        except (RuntimeError, ValueError, np.linalg.LinAlgError):
+            return None
+
+    def prox_update(self, s, x):
+        """The proximal update z ↦ p(y, z) of eq. (146), eqs. (128)–(140) in turn."""
+        ev = self.evaluate(s, x)
+        rN, rF, mu = self.rN, self.rF, self.lay.mu
+        h, am, af, b, g = self.h, self.am, self.af, self.beta, self.gamma
+        lN_j, lF_j = self.split(x)[8], self.split(x)[10]
+        kN_hat = prox_nonnegative(ev["kN_hat"] - rN * ev["gN"])              # (128)
+        A = rN * ev["gN"] - ev["kN_hat"] <= 0.0
+        PN = np.where(A, prox_nonnegative(ev["PN"] - rN * ev["xiN"]), 0.0)     # (131)
+        B_ = A & (rN * ev["xiN"] - ev["PN"] <= 0.0)
+        lN = np.where(B_, prox_nonnegative(lN_j - rN * ev["gNdd"]), 0.0)      # (134)
+        PF, lF = np.zeros(self.lay.nF), np.zeros(self.lay.nF)
+        for i, idx in enumerate(self.lay.friction):
+            if not idx.size or not A[i]:
+                continue
+            arg = ev["PF"][idx] - rF[idx] * ev["xiF"][idx]                    # (137)
+            PF[idx] = prox_disc(arg, mu[i] * PN[i])
+            if np.linalg.norm(arg) <= mu[i] * PN[i]:                          # (139), (140a)
+                lF[idx] = prox_disc(lF_j[idx] - rF[idx] * ev["gFdd"][idx], mu[i] * lN[i])
+            else:                                                             # (140b)
+                v, _ = direction(ev["gF"][idx])
+                lF[idx] = -mu[i] * lN[i] * v
+        lbN = (af * s.lam_N + (1 - af) * lN - am * s.lbar_N) / (1 - am)
+        lbF = (af * s.lam_F + (1 - af) * lF - am * s.lbar_F) / (1 - am)
+        LN = PN - h * ((1 - g) * s.lbar_N + g * lbN)                          # (95)
+        kN = kN_hat - h * h * ((0.5 - b) * s.lbar_N + b * lbN)                # (102)
+        LF = PF - h * ((1 - g) * s.lbar_F + g * lbF)                          # (113)
+        return np.concatenate((kN, LN, lN, LF, lF))
+
+    def fixed_point(self, s, x0):
+        """The prox fixed point of eqs. (144)–(146); returns (x, ev, sets, iterations, converged, error)."""
+        o = self.offsets[6]
+        x = x0.copy()
+        z = x[o:].copy()
+        err = np.inf
+        for it in range(1, self.max_fp + 1):
+            x[o:] = z
+            x, ev, sets, _, ok, _ = self.newton(s, x, fixed_z=z)
+            if not ok:
+                return x, ev, sets, it, False, np.inf
+            z1 = self.prox_update(s, x)
+            step = np.abs(z1 - z)
+            scale = np.concatenate((np.full(self.lay.nN, 1.0 / self.m_ref), np.full(self.lay.nN, self.h / self.m_ref),
+                                    np.full(self.lay.nN, self.h * self.h / self.m_ref),
+                                    np.full(self.lay.nF, self.h / self.m_ref),
+                                    np.full(self.lay.nF, self.h * self.h / self.m_ref)))
+            err = float(np.max(step * scale)) if step.size else 0.0
+            z = z1
+            if err <= self.tol:
+                x[o:] = z
+                R, _, ev, sets = self.system(s, x)
+                return x, ev, sets, it, True, err
+        x[o:] = z
+        R, _, ev, sets = self.system(s, x)
+        return x, ev, sets, self.max_fp, False, err
+
+    def solve(self, s):
+        """One step from s: semismooth Newton, the fixed point if Newton fails.
+
+        Returns
+        -------
+        (x, ev, sets, info) with info = dict(method, iterations, error)
+
+        Raises
+        ------
+        StepFailure
+        """
+        self.rN, self.rF = self.prox_r(s.q, s.t)
+        x0 = s.x if s.x is not None else np.zeros(self.nx)
+        x, ev, sets, it, ok, err = self.newton(s, x0)
+        if ok:
+            return x, ev, sets, dict(method="newton", iterations=it, error=err)
+        x1, ev1, sets1, it1, ok1, err1 = self.fixed_point(s, x0)
+        if ok1:
+            return x1, ev1, sets1, dict(method="fixed_point", iterations=it + it1, error=err1)
+        if np.all(np.isfinite(x1)):             # Newton again, from where the fixed point got to
+            x2, ev2, sets2, it2, ok2, err2 = self.newton(s, x1)
+            if ok2:
+                return x2, ev2, sets2, dict(method="fixed_point", iterations=it + it1 + it2, error=err2)
+        raise StepFailure(f"semismooth Newton: {it} iterations, residual {err:.3e}; prox fixed point: "
+                          f"{it1} iterations, last change {err1:.3e} (tolerance {self.tol:.1e})", x, sets)
