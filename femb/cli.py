@@ -238,15 +238,14 @@ def _print_outputs(scene, indent, *, detail):
 def _coordinate_labels(scene):
     """Names ``BODY.COORDINATE`` of the free coordinates of a scene built with its defaults, read from its
     bodies' nodes without compiling the mechanism (compiling would compile element kernels)."""
-    from femb.elements.bodies import Body
-    from femb.model import Model
+    from femb.model import Model, _is_body
 
     built = scene.module.build()
     if isinstance(built, Model):
         return list(built.coord_labels)
     labels, seen = [], set()
     for e in getattr(built, "elements", ()):
-        if not isinstance(e, Body):
+        if not _is_body(e):
             continue
         for nd in e.nodes():
             if id(nd) in seen:

@@ -428,7 +428,6 @@ def consistent_initial_state(model: Model, state: State | None = None, *, t0: fl
         time loop does not integrate them yet (they serve :mod:`femb.linearize`).
     """
     if getattr(model, "nn", 0):
-        from femb.errors import ModelError
         names = sorted({g.cls.__name__ for g in model.velocity_constraint_groups})
         raise ModelError(f"model '{model.name}' has {model.nn} velocity-level (non-holonomic) constraints "
                          f"({', '.join(names)}): the time loop does not integrate them yet; use "

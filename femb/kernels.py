@@ -152,9 +152,6 @@ def compiled_kernel(owner, role, fn, boundscheck=None):
         msg = next((ln for ln in first if ln.strip()), "")
         raise ModelError(f"element type {owner}: kernel {py.__name__} does not compile for the role '{role}' "
                          f"with the argument types {role}({', '.join(ARGUMENTS[role])}) = {args} "
-
-
-                         f"with the argument types {role}({', '.join(ARGUMENTS[role])}) = {args} "
                          f"(docs/kernels.md): {msg}") from None
     cres = disp.overloads[args]
     if cres.signature.return_type != types.none:
@@ -293,6 +290,44 @@ def velocity_constraint(group, t, xe, ve, le=None, jac=True):
     _kernel(group, "velocity_constraint")(group.P, float(t), time_values(group, t), xe, ve, le, bool(jac),
                                           Psi, A, Psi_t, Dq, H)
     return Psi, A, Psi_t, (Dq if jac else None), (H if jac else None)
+
+
+def contact(group, t, xe, ve, le=None, jac=True):
+    """A contact batch's kernel (docs/contact.md): gaps, force directions, curvature terms.
+
+    Parameters
+    ----------
+    group : Group
+        A batch of a type with ``n_contacts`` = k normal and ``n_friction`` = l tangent
+        directions per element (``r = k + l`` rows).
+    t : float
+    xe : ndarray, shape (nel, ndx)
+    ve : ndarray, shape (nel, ndv)
+    le : ndarray, shape (nel, r), optional
+        Contact forces (λ_N, λ_F) for ``H``.
+    jac : bool
+
+    Returns
+    -------
+    gN : ndarray, shape (nel, k)
+        Gaps g_N ≥ 0.
+    W : ndarray, shape (nel, r, ndv)
+        Rows W_N = ∂g_N/∂v (normal velocity ġ_N = W_N v) and W_F (slip velocities γ_F = W_F v).
+    zeta : ndarray, shape (nel, r)
+        Curvature terms: g̈_N = W_N v̇ + ζ_N, γ̇_F = W_F v̇ + ζ_F.
+    H : ndarray, shape (nel, ndv, ndv) or None
+        ∂(Wᵀ le)/∂x along x ∘ exp(δ) (with ``jac``).
+    """
+    xe, ve = _f(xe), _f(ve)
+    nel, ndv = xe.shape[0], group.ndv
+    r = group.n_contact_rows
+    le = np.zeros((nel, r)) if le is None else _f(le)
+    gN = np.zeros((nel, group.traits["n_contacts"]))
+    W = np.zeros((nel, r, ndv))
+    zeta = np.zeros((nel, r))
+    H = np.zeros((nel, ndv, ndv))
+    _kernel(group, "contact")(group.P, float(t), time_values(group, t), xe, ve, le, bool(jac), gN, W, zeta, H)
+    return gN, W, zeta, (H if jac else None)
 
 
 def is_builtin(cls):

@@ -32,6 +32,7 @@ from typing import Any, Callable
 import numpy as np
 from numpy.typing import ArrayLike
 
+from femb.alpha import GeneralizedAlpha  # noqa: F401  (in the annotations of simulate)
 from femb.errors import SINGULAR_HINT_DIVERGED, ConvergenceError, ModelError, ParameterError, SingularMatrixError
 from femb import initial
 from femb.initial import consistent_initial_state, singular_hint  # noqa: F401  (re-exported)

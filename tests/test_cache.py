@@ -302,12 +302,12 @@ def test_a_damaged_kernel_entry_is_discarded_and_compiled_again_with_one_warning
 @pytest.mark.skipif(jit.jit_disabled(), reason="no compilation without the JIT")
 def test_a_damaged_engine_entry_is_discarded_and_compiled_again(tmp_path):
     cache = _engine_only_cache(tmp_path / "cache")
-    small = sorted((cache / "numba").glob("step-*/step.lie_reset-*.nbc"))
+    small = sorted((cache / "numba").glob("engine.*/*lie_reset-*.nbc"))
     assert small
     for f in small:
         _damage(f, "garbage")
-    script = ("import warnings\nwarnings.simplefilter('always')\nfrom femb import step\n"
-              "step.ensure_engine(background=False)\nprint('ready')")
+    script = ("import warnings\nwarnings.simplefilter('always')\nfrom femb import engine\n"
+              "engine.ensure_engine()\nprint('ready')")
     out = subprocess.run([sys.executable, "-c", script], env=_env(cache), capture_output=True, text=True,
                          timeout=900)
     assert out.returncode == 0 and "ready" in out.stdout, out.stderr
