@@ -277,7 +277,7 @@ def fixed_steps(h, t0, t_end):
     When (t_end − t0)/h is an integer n (to ``STEP_COUNT_RTOL``, the round-off of the
     division), n steps of (t_end − t0)/n; otherwise n = ⌈(t_end − t0)/h⌉ equal steps of
     (t_end − t0)/n < h, so that the run ends exactly on t_end with steps no longer than asked
-    (``simulate(m, 0.01, 0.007)`` takes one step of 0.007 s).
+    (``simulate(m, 0.01, 0.007)`` takes two steps of 0.005 s).
 
     Raises
     ------
