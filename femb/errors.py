@@ -7,6 +7,21 @@ index and the residual norms, and the partial result computed so far.
 from __future__ import annotations
 
 
+def user_stacklevel():
+    """The ``stacklevel`` for :func:`warnings.warn` called here that names the first frame outside
+    femb's own packages (femb, femb.elements, femb.benchmarks): the user's line, however deep
+    inside femb the warning is raised."""
+    import os
+    import sys
+
+    roots = tuple(os.path.dirname(os.path.dirname(os.path.abspath(__file__))) + os.sep + d + os.sep
+                  for d in ("femb", "elements", "benchmarks"))
+    f, level = sys._getframe(1), 1
+    while f is not None and os.path.abspath(f.f_code.co_filename).startswith(roots):
+        f, level = f.f_back, level + 1
+    return level
+
+
 class FembError(Exception):
     """Base class of all femb errors."""
 

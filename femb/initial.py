@@ -42,6 +42,7 @@ import scipy.sparse as sp
 
 from femb import assembly, kernels
 from femb.model import Model, State
+from femb.errors import user_stacklevel
 from femb.errors import (NEWTON_HINT, NEWTON_HINT_START, SINGULAR_HINT, SINGULAR_HINT_DIVERGED, SINGULAR_HINT_INDEPENDENT, SINGULAR_HINT_STEP,
                          InitializationError,
                          InitialMoveWarning, InitialVelocityWarning, ModelError,  # noqa: F401 (re-exported)
@@ -960,7 +961,7 @@ def _check_moves(model, q0, q, Phi0, labels, act, limit, report_move):
             "the joints' points, or raise max_initial_move (Mechanism.compile(max_initial_move=...))")
     warnings.warn(f"model '{model.name}': the initial positions were moved onto the constraints: {listing} "
                   f"(largest initial residual in {joints}, {res[order[0]]:.3g})",
-                  InitialMoveWarning, stacklevel=4)
+                  InitialMoveWarning, stacklevel=user_stacklevel())
 
 
 def body_velocity_changes(model, qd_from, qd_to):
@@ -1012,4 +1013,4 @@ def _check_velocity_changes(model, qd0, qd, report_move):
                         for n, dv, dw, given in changed)
     warnings.warn(f"model '{model.name}': the initial velocities were changed to satisfy the constraints "
                   f"(B q̇ + Φ_t = 0; least change): {listing}. Give consistent initial velocities to keep "
-                  "them as given", InitialVelocityWarning, stacklevel=4)
+                  "them as given", InitialVelocityWarning, stacklevel=user_stacklevel())
