@@ -11,7 +11,7 @@ onto the floor y = 0 (Capobianco, Harsch, Eugster & Leine, IJNME 122 (2021), §1
   brings the slip velocity ẋ + R ω to zero after 0.29977 s, at t = 0.72812 s, and the ball rolls
   on at ẋ = −(2/7) R ω₀ = −10/7 m/s (angular momentum about the contact point is conserved
   through impact and sliding). With ``omega0 = 10`` the impact itself stops the slip (it needs
-  |Λ_F| = (2/7) R ω₀ m = 0.286 ≤ μ Λ_N = 0.840): ẋ⁺ = −2/7 m/s.
+  a friction percussion of (2/7) R ω₀ m = 0.286 ≤ μ Λ_N = 0.840): ẋ⁺ = −2/7 m/s.
 
 Run ``python -m femb.benchmarks.contact_ball`` for the validation table of docs/contact.md.
 These scenes need :func:`femb.contact.simulate` (the compiled engine does not treat contacts

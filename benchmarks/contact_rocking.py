@@ -64,7 +64,7 @@ def housner_ratio(half_width=PARAMS["half_width"], half_height=PARAMS["half_heig
 
 def first_impact_speed(theta0=PARAMS["theta0"], half_width=PARAMS["half_width"], half_height=PARAMS["half_height"],
                        g=PARAMS["g"]):
-    """|ω⁻| at the first impact from energy conservation about the pivot: (4/3) m R² ω²/2 = m g R (cos(α − θ₀) − cos α)."""
+    """The speed ω⁻ (absolute value) at the first impact from energy conservation about the pivot: (4/3) m R² ω²/2 = m g R (cos(α − θ₀) − cos α)."""
     R = math.hypot(half_width, half_height)
     alpha = math.atan(half_width / half_height)
     return math.sqrt(1.5 * g / R * (math.cos(alpha - theta0) - math.cos(alpha)))

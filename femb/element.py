@@ -14,7 +14,7 @@ path (:mod:`femb.kernels`), so each element's equations exist once.
 
 Class-level metadata tells the compiled model what a scene needs:
 
-=========================  ===================================================
+==========================  ==================================================
 ``has_mass``                contributes to M via ``kernels["mass"]``
 ``constant_mass``           M of this type does not depend on q (assembled once)
 ``has_force``               contributes to f via ``kernels["force"]``
@@ -39,7 +39,7 @@ Class-level metadata tells the compiled model what a scene needs:
 ``n_contacts``              unilateral contacts per element (gaps g_N ≥ 0, role
                             ``"contact"``, docs/contact.md; 0: none)
 ``n_friction``              tangent (friction) directions per element
-=========================  ===================================================
+==========================  ==================================================
 
 Kinetic and gravitational energy and the momenta need no trait: they follow
 from the ``"mass"`` kernel (T = ½ vᵀMv; the gravity force is M ĝ).

@@ -554,7 +554,7 @@ class DampedModes:
 
     @property
     def damped_frequency(self):
-        """|Im s| / 2π (Hz)."""
+        """abs(Im s) / 2π (Hz)."""
         return np.abs(self.eigenvalues.imag) / (2.0 * np.pi)
 
     @property

@@ -30,7 +30,29 @@ def _clock(seconds):
     return f"{s // 3600}:{s % 3600 // 60:02d}:{s % 60:02d}" if s >= 3600 else f"{s // 60}:{s % 60:02d}"
 
 
-class PlainProgress:
+class _Reporter:
+    """What both reporters share: iterating over ``iterable`` with an update per item, and the
+    ``with`` block that closes them (subclasses define ``iterable``, ``update`` and ``close``)."""
+
+    def __iter__(self):
+        if self.iterable is None:
+            raise TypeError("this progress reporter was made from a total, not an iterable")
+        try:
+            for item in self.iterable:
+                yield item
+                self.update(1)
+        finally:
+            self.close()
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, exc_type, exc, tb):
+        self.close()
+        return False
+
+
+class PlainProgress(_Reporter):
     """Line-based progress reporter (no carriage returns, sparse output).
 
     Parameters
@@ -101,25 +123,9 @@ class PlainProgress:
         total = f"/{self.total}" if self.total else ""
         self._print(f"done {self.n}{total} in {elapsed:.1f} s")
 
-    def __iter__(self):
-        if self.iterable is None:
-            raise TypeError("this progress reporter was made from a total, not an iterable")
-        try:
-            for item in self.iterable:
-                yield item
-                self.update(1)
-        finally:
-            self.close()
-
-    def __enter__(self):
-        return self
-
-    def __exit__(self, exc_type, exc, tb):
-        self.close()
-        return False
 
 
-class RichProgress:
+class RichProgress(_Reporter):
     """A live bar on a terminal, drawn by ``rich.progress``: what, how far, elapsed, time remaining.
 
     Same interface as :class:`PlainProgress` (``update``, ``close``, iteration,
@@ -162,22 +168,6 @@ class RichProgress:
         self._console.print(f"{self.desc + ': ' if self.desc else ''}done {self.n}{total} in "
                             f"{time.monotonic() - self._t0:.1f} s", highlight=False, markup=False)
 
-    def __iter__(self):
-        if self.iterable is None:
-            raise TypeError("this progress reporter was made from a total, not an iterable")
-        try:
-            for item in self.iterable:
-                yield item
-                self.update(1)
-        finally:
-            self.close()
-
-    def __enter__(self):
-        return self
-
-    def __exit__(self, exc_type, exc, tb):
-        self.close()
-        return False
 
 
 def progress(iterable_or_total, desc="", enabled=True):
