@@ -268,22 +268,30 @@ def _body_rot_index(model, body, q):
     raise ModelError(f"model '{model.name}' has no node/body named '{body}'")
 
 
-def angle(model, q, body, axis, relative_to=None, name=None, rate=False):
-    """Small rotation of ``body`` about the space-axes ``axis`` (relative to ``relative_to``), rad.
-
-    δφ = axis·(R_b δθ_b − R_a δθ_a); with ``rate`` its time derivative (rad/s).
-    """
+def _axis_row(model, q, axis, plus, minus=None):
+    """(nq,) row axis·(R_plus δθ_plus − R_minus δθ_minus) in the model's rotation coordinates: the
+    small rotation about the space-axes ``axis`` of body ``plus`` relative to ``minus`` (None: ground),
+    and, transposed, where a torque about ``axis`` on ``plus`` (reaction on ``minus``) enters f."""
     ax = np.asarray(axis, dtype=float).reshape(3)
     ax = ax / np.linalg.norm(ax)
-    cq = np.zeros(model.nq)
-    for b, sgn in ((body, 1.0), (relative_to, -1.0)):
+    row = np.zeros(model.nq)
+    for b, sgn in ((plus, 1.0), (minus, -1.0)):
         if b is None:
             continue
         _, rot, R = _body_rot_index(model, b, q)
         vals = R.T @ ax if R is not None else np.array([ax[2]])
         for i, c in zip(rot, vals):
             if i < model.nq:
-                cq[i] += sgn * c
+                row[i] += sgn * c
+    return row
+
+
+def angle(model, q, body, axis, relative_to=None, name=None, rate=False):
+    """Small rotation of ``body`` about the space-axes ``axis`` (relative to ``relative_to``), rad.
+
+    δφ = axis·(R_b δθ_b − R_a δθ_a); with ``rate`` its time derivative (rad/s).
+    """
+    cq = _axis_row(model, q, axis, body, relative_to)
     nm = name or (f"{body} angle" + (f" rel. {relative_to}" if relative_to else ""))
     return Output(nm + ("_d" if rate else ""), "rad/s" if rate else "rad", cq, np.zeros(model.nq), rate)
 
@@ -335,17 +343,7 @@ def coordinate(model, label, rate=False):
 
 def torque(model, q, body, axis, reaction=None, name=None, unit="N m"):
     """Input: a torque on ``body`` about the space-axes ``axis`` (and its reaction on ``reaction``)."""
-    ax = np.asarray(axis, dtype=float).reshape(3)
-    ax = ax / np.linalg.norm(ax)
-    F = np.zeros(model.nq)
-    for b, sgn in ((body, 1.0), (reaction, -1.0)):
-        if b is None:
-            continue
-        _, rot, R = _body_rot_index(model, b, q)
-        vals = R.T @ ax if R is not None else np.array([ax[2]])
-        for i, c in zip(rot, vals):
-            if i < model.nq:
-                F[i] += sgn * c
+    F = _axis_row(model, q, axis, body, reaction)
     return Input(name or f"torque on {body}", unit, F)
 
 
