@@ -20,18 +20,11 @@ import resource
 import subprocess
 import sys
 
+from femb.benchmarks.vtk_memory import build  # noqa: E402  (the same pendulum as the VTK memory study)
+
 VARIANTS = {"none": dict(store=False), "all": dict(store=True), "stride100": dict(store=True, stride=100)}
 
 
-def build():
-    import femb
-    from femb.elements import Gravity, Hinge, RigidBody
-
-    m = femb.Mechanism("pendulum")
-    bar = m.add(RigidBody("bar", 1.0, 1 / 12, (0.5, 0.0), 0.0, points={"O": (-0.5, 0.0)}))
-    m.add(Hinge("pivot", "ground", bar, point_b="O"))
-    m.add(Gravity((0.0, -9.81)))
-    return m
 
 
 def child(steps, variant, h):
