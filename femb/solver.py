@@ -316,6 +316,10 @@ class GeneralizedAlphaSolver:
         self.W, self.Wv = pack([np.zeros(size[n], dtype=np.int64 if n == "piv" else np.float64)
                                 for _, n in S.W_FIELDS])
         self.Wv[S.W_ATOLV][:] = self.atol
+        # the named packs of the compiled loop (femb/engine/layout.py): views of the arrays above
+        self.par = S.Par(self.ip, self.fp, self.si, self.sf, self.stats_arr)
+        self.step_state = S.StepState(self.q, self.qd, self.qdd, self.lam, self.a, self.pqdd, self.plam)
+        self.newton_arrays = S.NewtonArrays(self.AB, self.ipiv, self.r, self.Phi, self.rhs, self.x, self.info, cp.tfv)
 
     # ------------------------------------------------------------------ internals
     def _tf_at(self, t):
@@ -334,12 +338,9 @@ class GeneralizedAlphaSolver:
     def _qpp(self, t, q, qd, KB, kpiv):
         """Constrained accelerations q̈ᵖᵖ at (t, q, q̇) (compiled KKT solve)."""
         cp = self.cp
-        W = self.W
         self._tf_at(t)
         out = np.zeros(self.model.nq)
-        if cp.mod.kkt_accelerations(cp.G, cp.C, self.ip, self.fp, self.si, self.sf, self.stats_arr, float(t), q, qd,
-                                    self.qdd, self.lam, 1.0, 1.0, self.AB, self.ipiv, np.zeros(self.model.nc), W,
-                                    KB, kpiv, out, 0) != 0:
+        if cp.mod.kkt_solve(cp.G, cp.C, self.par, self.newton_arrays, self.W, float(t), q, qd, (KB, kpiv), out) != 0:
             raise SingularMatrixError(f"the matrix [[M, Φ_qᵀ], [Φ_q, 0]] of the constrained accelerations is "
                                       f"singular at t = {t:.6g} s (start); {singular_hint(self.model, q, t)}",
                                       t=float(t), step=0)
@@ -363,8 +364,8 @@ class GeneralizedAlphaSolver:
             return Pt
 
         def project(t, q, qd, target):
-            cp.mod.project_normal_velocity(cp.G, cp.C, self.ip, float(t), q, qd, target, self.Wv[S.W_KBACC],
-                                           self.Wv[S.W_KPIVACC], self.Wv[S.W_KX], self.Wv[S.W_BV])
+            cp.mod.project_normal_velocity(cp.G, cp.C, self.ip, self.W, float(t), q, qd, target,
+                                           (self.Wv[S.W_KBACC], self.Wv[S.W_KPIVACC]))
 
         return initial.StartEngine(lambda t, q, qd: self._qpp(t, q, qd, KBt, kp), jacobian_times, rates, project)
 
@@ -464,11 +465,8 @@ class GeneralizedAlphaSolver:
         while True:
             k = int(self.si[0]) - before
             try:
-                status = cp.mod.run(cp.G, cp.C, self.ip, self.fp, self.si, self.sf, self.stats_arr,
-                                    self.q, self.qd, self.qdd, self.lam, self.a, self.pqdd, self.plam,
-                                    cp.tfv, self.AB, self.ipiv, self.r, self.Phi, self.rhs, self.x, self.info,
-                                    self.W, n_chunk - k, bt[m:], bq[m:], bqd[m:], bqdd[m:], bl[m:], bh[k:],
-                                    bit[k:], berr[k:])
+                out = S.Out(bt[m:], bq[m:], bqd[m:], bqdd[m:], bl[m:], bh[k:], bit[k:], berr[k:])
+                status = cp.mod.run(cp.G, cp.C, self.W, self.par, self.step_state, self.newton_arrays, out, n_chunk - k)
             except IndexError as exc:      # a kernel's bounds check (FEMB_DEBUG=1)
                 raise self._kernel_bounds_error(exc) from None
             m += int(self.si[3])

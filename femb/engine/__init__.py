@@ -17,11 +17,11 @@ The package re-exports the entry points and the layout's names: ``femb.engine.ru
 serves any combination of element types (their kernels are called through their addresses).
 """
 from femb.engine.layout import *  # noqa: F401,F403  (the named fields, re-exported)
-from femb.engine.layout import carry_rule, named_array  # noqa: F401
+from femb.engine.layout import NewtonArrays, Out, Par, StepState, carry_rule, named_array  # noqa: F401
 from femb.engine.linalg import band_lu, band_solve, dense_lu_solve  # noqa: F401
 from femb.engine.evaluate import (constraint_B, copy_B, eval_time_functions, evaluate,  # noqa: F401
                                   jacobian_times, rates)
 from femb.engine.newton import ggl_matrix, lie_reset  # noqa: F401
-from femb.engine.control import kkt_accelerations, project_normal_velocity  # noqa: F401
+from femb.engine.control import kkt_solve, project_normal_velocity  # noqa: F401
 from femb.engine.loop import run  # noqa: F401
 from femb.engine.build import engine_signatures, ensure_engine  # noqa: F401

@@ -9,7 +9,7 @@ from femb.engine.linalg import band_lu, band_solve, dense_lu_solve
 from femb.engine.evaluate import (constraint_B, copy_B, eval_time_functions, evaluate, jacobian_times,
                                     rates)
 from femb.engine.newton import ggl_matrix, lie_reset
-from femb.engine.control import kkt_accelerations, project_normal_velocity
+from femb.engine.control import kkt_solve, project_normal_velocity
 from femb.engine.loop import run
 
 
@@ -18,16 +18,20 @@ def engine_signatures():
     """``{entry point: argument types}``: every entry point of the engine has one signature,
     whatever the model (its data come as packs and arrays of fixed rank and dtype)."""
     from numba import types as T
+    from femb.engine.layout import NewtonArrays, Out, Par, StepState
     f1, i1, i2, f2 = T.float64[::1], T.int64[::1], T.int64[:, ::1], T.float64[:, ::1]
     P = T.Tuple((f1, i1, i2))
     f, i, b = T.float64, T.int64, T.boolean
-    loop = (P, P, i1, f1, i1, f1, i1)
+    par = T.NamedTuple((i1, f1, i1, f1, i1), Par)
+    state = T.NamedUniTuple(f1, len(StepState._fields), StepState)
+    newton = T.NamedTuple((f1, i1, f1, f1, f1, f1, f1, f2), NewtonArrays)
+    out = T.NamedTuple((f1, f2, f2, f2, f2, f1, T.int32[::1], f1), Out)
+    fac = T.Tuple((f1, i1))
     return {
-        run: loop + (f1,) * 7 + (f2, f1, i1, f1, f1, f1, f1, f1, P, i, f1, f2, f2, f2, f2, f1,
-                                  T.int32[::1], f1),
+        run: (P, P, P, par, state, newton, out, i),
         evaluate: (P, P, f, f1, f1, f1, f1, b, f, f, f, f1, f1, f1),
-        kkt_accelerations: loop + (f, f1, f1, f1, f1, f, f, f1, i1, f1, P, f1, i1, f1, i),
-        project_normal_velocity: (P, P, i1, f, f1, f1, f1, f1, i1, f1, f1),
+        kkt_solve: (P, P, par, newton, P, f, f1, f1, fac, f1),
+        project_normal_velocity: (P, P, i1, P, f, f1, f1, f1, fac),
         rates: (P, P, f, f1, f1, f1, f1),
         jacobian_times: (P, P, f, f1, f1, f1),
         constraint_B: (P, P, f, f1, f1, f1),

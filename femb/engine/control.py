@@ -1,7 +1,7 @@
 """Stage: error estimate and step-size control.
 
 The local error estimate of the generalized-α scheme, e_q = C_q h² Δq̈ᵖᵖ from the constrained
-accelerations q̈ᵖᵖ of two steps (:func:`kkt_accelerations`, [[M, Bᵀ], [B, 0]] [q̈; λ] = [f; −γ]),
+accelerations q̈ᵖᵖ of two steps (:func:`kkt_solve`, :func:`kkt_estimate`, [[M, Bᵀ], [B, 0]] [q̈; λ] = [f; −γ]),
 its weighted norm (:func:`error_norm`), the step-size factor of the controller
 (:func:`step_factor`), the re-synchronisation of a and q̇ after a change of h
 (:func:`resynchronise`, :func:`project_normal_velocity`) and the Newton weights: docs/stepsize.md
@@ -20,101 +20,49 @@ from numba import njit
 from femb.jit import (engine, fview1, iview1, iview2)
 from femb.engine.layout import (C_ACTIVE, C_ENV, C_IPERM, C_TFCOEF, C_TFKIND, C_TFOFF, C_W, C_XMAP, ENTRY,
     FP_AF, FP_AM, FP_BETA, FP_CQ, FP_CV, FP_EPUS, FP_ERTOL, FP_L, FP_NEWTC, FP_SCALED, FP_TOLQ, INNER, IP_GGL,
-    IP_NC, IP_NV, KKT_EST_QV, KKT_FACTOR, NS_KKT, NS_REFINE, REFINE_CHECK, REFINE_HGROW, REFINE_SHARE,
+    IP_NC, IP_NV, NS_KKT, NS_REFINE, REFINE_CHECK, REFINE_HGROW, REFINE_SHARE,
     SF_ERRPREV, SF_RCHECKH, SI_LUVALID, SI_NOGROW, SI_PROJ, SI_RCOUNT, SI_RMODE, W_ATOLV, W_BV, W_DU, W_EQ,
-    W_EV, W_GAM, W_JN, W_KBACC, W_KPIVACC, W_KR, W_KX, W_LK, W_PT, W_QPP_NEW, W_TGT, W_ZL, W_ZQ)
+    W_EV, W_GAM, W_JN, W_KB, W_KBACC, W_KPIV, W_KPIVACC, W_KR, W_KX, W_LK, W_PT, W_QPP_NEW, W_TGT, W_ZL, W_ZQ)
 from femb.engine.linalg import (copy_into, factor, solve)
 from femb.engine.evaluate import (eval_time_functions, evaluate, jacobian_times, rates)
 
 
 @engine(**ENTRY)
-def kkt_accelerations(G, C, ip, fp, si, sf, stats, t, q, qd, qdd, lam, h, hbar, AB, ipiv, Phi, W, KB, kpiv, out,
-                      mode):
+def kkt_solve(G, C, P, N, W, t, q, qd, K, out):
     """Constrained accelerations q̈ᵖᵖ of [[M, Bᵀ], [B, 0]] [q̈; λ] = [f; −γ] at (t, q, q̇) into ``out``.
 
-    ``mode`` 0 (``KKT_FACTOR``): factorize the KKT matrix into ``KB``/``kpiv`` (left there for
-    velocity projections at this configuration) and solve. Returns 0, or 1 if
-    the matrix is singular.
+    The KKT matrix is factorized into ``K`` = (KB, kpiv) and left there for velocity projections
+    at this configuration (:func:`project_normal_velocity`).
 
-    ``mode`` 1 and 2 (``KKT_EST_Q``, ``KKT_EST_QV``): for the error estimate of a
-    step just taken (of q; of q and q̇). With the index-3 step, one correction with the Newton
-    matrix of the step (``AB``/``ipiv``) replaces the factorization. That matrix,
-    S = [[κM + c γ' C_t + c K_t, Bᵀ], [B, 0]] (κ = c β', see ``newton_step``),
-    differs from the KKT matrix [[κM, Bᵀ], [B, 0]] by terms of order h (damping)
-    and h² (stiffness), so the correction, started from the step's own (q̈, λ),
+    Parameters
+    ----------
+    G, C, W : pack
+        The element batches, the model constants, the loop's work arrays.
+    P : Par
+    N : NewtonArrays
+        ``N.Phi`` is scratch here.
+    t : float
+    q : ndarray (nx,)
+    qd : ndarray (nv,)
+    K : (ndarray, ndarray)
+        Storage of a factorization (size of ``N.AB``) and its pivots.
+    out : ndarray (nv,)
 
-        S [z; μ] = −[M q̈ − f + Bᵀλ; (B q̈ + γ)/κ],   q̈ += κ z,   λ += μ,
-
-    contracts the error by ρ(S⁻¹E), E = S − KKT (iterative refinement with the
-    factors Newton has just computed). It is trusted while a second correction
-    changes the error estimate by at most ``REFINE_SHARE`` of the tolerance,
-    checked every ``REFINE_CHECK`` calls and whenever h has grown by
-    ``REFINE_HGROW`` since the last check; where that fails (stiff elements at
-    large steps) the KKT matrix is factorized, as in mode 0, until the next check.
+    Returns
+    -------
+    int
+        0, or 1 if the matrix is singular.
     """
-    # work arrays: views into the pack W (femb/solver.py, W_FIELDS)
+    ip = P.ip
+    nv = ip[IP_NV]
+    nc = ip[IP_NC]
+    iperm = iview1(C, C_IPERM)
+    KB, kpiv = K
     kr = fview1(W, W_KR)
     kx = fview1(W, W_KX)
     gam = fview1(W, W_GAM)
     Pt = fview1(W, W_PT)
-    zq = fview1(W, W_ZQ)
-    zl = fview1(W, W_ZL)
-    Bu = fview1(W, W_BV)
-    eq = fview1(W, W_EQ)
-    ev = fview1(W, W_EV)
-    atolv = fview1(W, W_ATOLV)
-    du = fview1(W, W_DU)
-    lk = fview1(W, W_LK)
-    nv = ip[IP_NV]
-    nc = ip[IP_NC]
-    iperm = iview1(C, C_IPERM)
-    if mode != KKT_FACTOR and ip[IP_GGL] == 0 and si[SI_LUVALID] != 0:
-        due = si[SI_RCOUNT] <= 0 or h > REFINE_HGROW * sf[SF_RCHECKH]
-        if not due:
-            si[SI_RCOUNT] -= 1
-        if due or si[SI_RMODE] == 0:
-            copy_into(out, qdd)
-            copy_into(lk, lam)
-            rates(G, C, t, q, qd, Pt, gam)
-            if fp[FP_SCALED] != 0.0:
-                kappa = (1.0 - fp[FP_AM]) / (1.0 - fp[FP_AF])
-            else:
-                kappa = (1.0 - fp[FP_AM]) / (h * h * fp[FP_BETA] * (1.0 - fp[FP_AF]))
-            active = iview1(C, C_ACTIVE)
-            ncorr = 2 if due else 1
-            for it in range(ncorr):
-                evaluate(G, C, t, q, qd, out, lk, nv < 0, 0.0, 0.0, 0.0, AB, kr, Phi)
-                jacobian_times(G, C, t, q, out, Bu)
-                for i in range(nv):
-                    kx[iperm[i]] = -kr[i]
-                for j in range(nc):
-                    kx[iperm[nv + j]] = -(Bu[j] + gam[j]) / kappa if active[j] != 0 else 0.0
-                solve(AB, ip, iview2(C, C_ENV), ipiv, kx)
-                for i in range(nv):
-                    d = kappa * kx[iperm[i]]
-                    du[i] = d
-                    out[i] += d
-                for j in range(nc):
-                    lk[j] += kx[iperm[nv + j]]
-            stats[NS_REFINE] += ncorr
-            if not due:
-                return 0
-            # the second correction's share of the error estimate (stepsize.md §3 with Δq̈ᵖᵖ = du)
-            Cq = fp[FP_CQ]
-            Cv = fp[FP_CV]
-            for i in range(nv):
-                eq[i] = Cq * h * h * du[i]
-                ev[i] = Cv * h * h * du[i] / hbar
-            share = error_norm(ip, fp, iview1(C, C_XMAP), q, q, qd, qd, eq, ev, atolv, mode == KKT_EST_QV)
-            if mode == KKT_EST_QV and fp[FP_EPUS] != 0.0:
-                share /= h
-            si[SI_RCOUNT] = REFINE_CHECK
-            sf[SF_RCHECKH] = h
-            if share <= REFINE_SHARE:
-                si[SI_RMODE] = 0
-                return 0
-            si[SI_RMODE] = 1
-    evaluate(G, C, t, q, qd, zq, zl, nv >= 0, 1.0, 0.0, 0.0, KB, kr, Phi)
+    evaluate(G, C, t, q, qd, fview1(W, W_ZQ), fview1(W, W_ZL), nv >= 0, 1.0, 0.0, 0.0, KB, kr, N.Phi)
     if factor(KB, ip, iview2(C, C_ENV), kpiv, 1e-13) != 0:
         return 1
     rates(G, C, t, q, qd, Pt, gam)
@@ -125,17 +73,114 @@ def kkt_accelerations(G, C, ip, fp, si, sf, stats, t, q, qd, qdd, lam, h, hbar, 
     solve(KB, ip, iview2(C, C_ENV), kpiv, kx)
     for i in range(nv):
         out[i] = kx[iperm[i]]
-    stats[NS_KKT] += 1
+    P.stats[NS_KKT] += 1
     return 0
 
 
+@njit(**INNER)
+def kkt_estimate(G, C, P, S, N, W, t, h, hbar, use_v):
+    """q̈ᵖᵖ at the step just taken, for its error estimate (of q; with ``use_v`` of q and q̇), into
+    the work array ``qpp_new`` of W.
+
+    With the index-3 step, one correction with the Newton matrix of the step (``N.AB``) replaces
+    the factorization of :func:`kkt_solve`. That matrix, S = [[κM + c γ' C_t + c K_t, Bᵀ], [B, 0]]
+    (κ = c β', see ``newton_step``), differs from the KKT matrix [[κM, Bᵀ], [B, 0]] by terms of
+    order h (damping) and h² (stiffness), so the correction, started from the step's own (q̈, λ),
+
+        S [z; μ] = −[M q̈ − f + Bᵀλ; (B q̈ + γ)/κ],   q̈ += κ z,   λ += μ,
+
+    contracts the error by ρ(S⁻¹E), E = S − KKT (iterative refinement with the factors Newton has
+    just computed). It is trusted while a second correction changes the error estimate by at
+    most ``REFINE_SHARE`` of the tolerance, checked every ``REFINE_CHECK`` calls and whenever h
+    has grown by ``REFINE_HGROW`` since the last check; where that fails (stiff elements at large
+    steps) the KKT matrix is factorized (into W's ``KB``, ``kpiv``) until the next check.
+
+    Returns 0, or 1 if the KKT matrix is singular.
+    """
+    ip, fp, si, sf, stats = P
+    out = fview1(W, W_QPP_NEW)
+    if ip[IP_GGL] == 0 and si[SI_LUVALID] != 0:
+        due = si[SI_RCOUNT] <= 0 or h > REFINE_HGROW * sf[SF_RCHECKH]
+        if not due:
+            si[SI_RCOUNT] -= 1
+        if due or si[SI_RMODE] == 0:
+            ncorr = 2 if due else 1
+            refine_accelerations(G, C, P, S, N, W, t, h, ncorr)
+            if not due:
+                return 0
+            # the second correction's share of the error estimate (stepsize.md §3 with Δq̈ᵖᵖ = du)
+            Cq = fp[FP_CQ]
+            Cv = fp[FP_CV]
+            du = fview1(W, W_DU)
+            eq = fview1(W, W_EQ)
+            ev = fview1(W, W_EV)
+            for i in range(ip[IP_NV]):
+                eq[i] = Cq * h * h * du[i]
+                ev[i] = Cv * h * h * du[i] / hbar
+            share = error_norm(ip, fp, C, W, S.q, S.q, S.qd, S.qd, use_v)
+            if use_v and fp[FP_EPUS] != 0.0:
+                share /= h
+            si[SI_RCOUNT] = REFINE_CHECK
+            sf[SF_RCHECKH] = h
+            if share <= REFINE_SHARE:
+                si[SI_RMODE] = 0
+                return 0
+            si[SI_RMODE] = 1
+    return kkt_solve(G, C, P, N, W, t, S.q, S.qd, (fview1(W, W_KB), iview1(W, W_KPIV)), out)
+
+
+@njit(**INNER)
+def refine_accelerations(G, C, P, S, N, W, t, h, ncorr):
+    """``ncorr`` corrections of (q̈, λ) = the step's, towards the KKT solution, with the Newton
+    matrix of the step (:func:`kkt_estimate`); q̈ into W's ``qpp_new``, the last increment κ z into
+    ``du``."""
+    ip, fp = P.ip, P.fp
+    nv = ip[IP_NV]
+    nc = ip[IP_NC]
+    iperm = iview1(C, C_IPERM)
+    q, qd = S.q, S.qd
+    out = fview1(W, W_QPP_NEW)
+    kr = fview1(W, W_KR)
+    kx = fview1(W, W_KX)
+    gam = fview1(W, W_GAM)
+    Bu = fview1(W, W_BV)
+    du = fview1(W, W_DU)
+    lk = fview1(W, W_LK)
+    copy_into(out, S.qdd)
+    copy_into(lk, S.lam)
+    rates(G, C, t, q, qd, fview1(W, W_PT), gam)
+    if fp[FP_SCALED] != 0.0:
+        kappa = (1.0 - fp[FP_AM]) / (1.0 - fp[FP_AF])
+    else:
+        kappa = (1.0 - fp[FP_AM]) / (h * h * fp[FP_BETA] * (1.0 - fp[FP_AF]))
+    active = iview1(C, C_ACTIVE)
+    for it in range(ncorr):
+        evaluate(G, C, t, q, qd, out, lk, nv < 0, 0.0, 0.0, 0.0, N.AB, kr, N.Phi)
+        jacobian_times(G, C, t, q, out, Bu)
+        for i in range(nv):
+            kx[iperm[i]] = -kr[i]
+        for j in range(nc):
+            kx[iperm[nv + j]] = -(Bu[j] + gam[j]) / kappa if active[j] != 0 else 0.0
+        solve(N.AB, ip, iview2(C, C_ENV), N.ipiv, kx)
+        for i in range(nv):
+            d = kappa * kx[iperm[i]]
+            du[i] = d
+            out[i] += d
+        for j in range(nc):
+            lk[j] += kx[iperm[nv + j]]
+    P.stats[NS_REFINE] += ncorr
+
+
 @engine(**ENTRY)
-def project_normal_velocity(G, C, ip, t, q, qd, target, KB, kpiv, kx, Bv):
+def project_normal_velocity(G, C, ip, W, t, q, qd, target, K):
     """q̇ ← q̇ + δ with B δ = target − B q̇ and δ M-orthogonal to the constraint manifold.
 
-    Solves [[M, Bᵀ], [B, 0]] [δ; μ] = [0; target − B q̇] with the factorization of
-    :func:`kkt_accelerations` at this configuration.
+    Solves [[M, Bᵀ], [B, 0]] [δ; μ] = [0; target − B q̇] with the factorization ``K`` = (KB, kpiv)
+    of :func:`kkt_solve` at this configuration (W's ``kx`` and ``Bv`` are scratch).
     """
+    KB, kpiv = K
+    kx = fview1(W, W_KX)
+    Bv = fview1(W, W_BV)
     nv = ip[IP_NV]
     nc = ip[IP_NC]
     iperm = iview1(C, C_IPERM)
@@ -151,8 +196,13 @@ def project_normal_velocity(G, C, ip, t, q, qd, target, KB, kpiv, kx, Bv):
 
 
 @njit(**INNER)
-def error_norm(ip, fp, xm, q0, q1, qd0, qd1, eq, ev, atolv, use_v):
-    """RMS of the local error estimate over q (and q̇) weighted by atol + rtol·max(|x_n|, |x_{n+1}|)."""
+def error_norm(ip, fp, C, W, q0, q1, qd0, qd1, use_v):
+    """RMS of the local error estimate (W's ``eq``, ``ev``) over q (and q̇) weighted by
+    atol + rtol·max(|x_n|, |x_{n+1}|) (W's ``atolv``; stepsize.md §3)."""
+    xm = iview1(C, C_XMAP)
+    eq = fview1(W, W_EQ)
+    ev = fview1(W, W_EV)
+    atolv = fview1(W, W_ATOLV)
     nv = ip[IP_NV]
     rtol = fp[FP_ERTOL]
     s = 0.0
@@ -172,7 +222,7 @@ def error_norm(ip, fp, xm, q0, q1, qd0, qd1, eq, ev, atolv, use_v):
 
 # ---- the parts of the time loop ---------------------------------------------------------------
 @njit(**INNER)
-def resynchronise(G, C, ip, fp, si, sf, stats, t, h, h_prev, q, qd, qdd, lam, a, tfv, AB, ipiv, Phi, W, nc0):
+def resynchronise(G, C, P, S, N, W, t, h, h_prev):
     """Re-synchronise a and the normal velocity with a new step size (stepsize.md §2), in place.
 
     a* = a + Δ (h − h_prev) j with Δ = α_m − α_f; index 3: B q̇* = h² C_q B j − Φ_t (the
@@ -180,6 +230,8 @@ def resynchronise(G, C, ip, fp, si, sf, stats, t, h, h_prev, q, qd, qdd, lam, a,
     the Newton matrix of the accepted step (``si[SI_PROJ] == 1``) or a KKT factorization at
     the accepted state. Returns 0, or 1 if that KKT matrix is singular.
     """
+    ip, fp, si = P.ip, P.fp, P.si
+    q, qd, a = S.q, S.qd, S.a
     nv = ip[IP_NV]
     nc = ip[IP_NC]
     jn = fview1(W, W_JN)
@@ -191,26 +243,23 @@ def resynchronise(G, C, ip, fp, si, sf, stats, t, h, h_prev, q, qd, qdd, lam, a,
     Bv = fview1(W, W_BV)
     Pt = fview1(W, W_PT)
     tgt = fview1(W, W_TGT)
-    kx = fview1(W, W_KX)
-    KBacc = fview1(W, W_KBACC)
-    kpivacc = iview1(W, W_KPIVACC)
+    acc = (fview1(W, W_KBACC), iview1(W, W_KPIVACC))
     # Φ_t at t: the time functions at t (Python ones were asked for before the step)
-    eval_time_functions(t, iview1(C, C_TFKIND), iview1(C, C_TFOFF), fview1(C, C_TFCOEF), tfv)
+    eval_time_functions(t, iview1(C, C_TFKIND), iview1(C, C_TFOFF), fview1(C, C_TFCOEF), N.tfv)
     jacobian_times(G, C, t, q, jn, Bv)
     rates(G, C, t, q, qd, Pt, fview1(W, W_GAM))
     for j in range(nc):
         tgt[j] = -Pt[j] + h * h * fp[FP_CQ] * Bv[j]
     if si[SI_PROJ] == 1:
         # the Newton matrix of the accepted step: its constraint rows are B
-        project_normal_velocity(G, C, ip, t, q, qd, tgt, AB, ipiv, kx, Bv)
+        project_normal_velocity(G, C, ip, W, t, q, qd, tgt, (N.AB, N.ipiv))
         return 0
     if si[SI_PROJ] != 2:
         # no factorization at the accepted state (a trial was rejected): one here
-        if kkt_accelerations(G, C, ip, fp, si, sf, stats, t, q, qd, qdd, lam, h, h, AB, ipiv, Phi, W, KBacc,
-                             kpivacc, fview1(W, W_QPP_NEW), KKT_FACTOR + nc0) != 0:
+        if kkt_solve(G, C, P, N, W, t, q, qd, acc, fview1(W, W_QPP_NEW)) != 0:
             return 1
         si[SI_PROJ] = 2
-    project_normal_velocity(G, C, ip, t, q, qd, tgt, KBacc, kpivacc, kx, Bv)
+    project_normal_velocity(G, C, ip, W, t, q, qd, tgt, acc)
     return 0
 
 

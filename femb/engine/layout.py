@@ -11,6 +11,8 @@ described by ONE tuple of field names here; the index constants are generated fr
 Nothing here is compiled: the constants are read by the compiled stages as globals (compile-time
 constants), and the engine's cache key hashes this file with the stages (:func:`femb.jit.engine`).
 """
+from collections import namedtuple
+
 from femb.jit import OPTIONS
 
 #: functions called from Python: no C-callable wrapper (``cfunc``), whose argument list is
@@ -71,6 +73,8 @@ ST_DIVERGED_SINGULAR = -3
 ST_SINGULAR = -4
 ST_HMIN = -5          # adaptive: the step size fell below its floor
 ST_KKT_SINGULAR = -6  # the matrix [[M, Bᵀ], [B, 0]] of the error estimate is singular
+#: inside the loop only (never returned to Python): the stage went well, go on
+ST_GO = 99
 
 # ---- the named fields of the solver's parameter and state arrays ----------------------------
 # Each array that crosses into compiled code is described by ONE tuple of field names below;
@@ -96,6 +100,23 @@ SF_FIELDS = ("fref", "tftime", "t", "hnext", "hprev", "errprev", "errmax", "errm
              "warn_err", "eta", "rcheckh", "fref_s", "luh")
 #: statistics counters
 NS_FIELDS = ("steps", "eval", "fact", "solve", "roundoff", "kkt", "refine")
+
+
+# ---- the solver's arrays, as named packs (numba namedtuples: one type whatever the model) ---------
+#: the solver's parameters and run state: ``ip``, ``fp`` (IP_FIELDS, FP_FIELDS), ``si``, ``sf``
+#: (SI_FIELDS, SF_FIELDS) and the counters ``stats`` (NS_FIELDS)
+Par = namedtuple("Par", ("ip", "fp", "si", "sf", "stats"))
+#: the step's state (nv or nc entries each; q has nx): q, q̇, q̈, λ, the auxiliary variable a of
+#: Arnold & Brüls (2007), and q̈, λ of the step before (the predictor's extrapolation)
+StepState = namedtuple("StepState", ("q", "qd", "qdd", "lam", "a", "pqdd", "plam"))
+#: Newton's arrays: the iteration matrix ``AB`` (band or dense storage) and its pivots, the
+#: residuals r_q (nv) and Φ (nc), the right-hand side and a_base (N), the failure report
+#: ``info`` (8: t, ‖r_q‖, ‖Φ‖, iteration, largest Φ, tolerances) and the time functions' values
+#: ``tfv`` (ntf, 3)
+NewtonArrays = namedtuple("NewtonArrays", ("AB", "ipiv", "r", "Phi", "rhs", "x", "info", "tfv"))
+#: the caller's buffers of one chunk: stored states (t, q, q̇, q̈, λ) and, per accepted step,
+#: h, Newton iterations and the error estimate
+Out = namedtuple("Out", ("t", "q", "qd", "qdd", "lam", "h", "it", "err"))
 
 
 def _number(prefix, names):
@@ -156,9 +177,7 @@ NEWTON_CARRY_MIN_N = 1000
 #: last measured rate, :func:`newton_rate_start`) is at most this (θ ≤ 0.2)
 NEWTON_CARRY_ETA = 1e-3
 # ---- constrained accelerations of the error estimate --------------------------------------
-#: modes of :func:`kkt_accelerations`: factorize, estimate of q, estimate of q and q̇
-KKT_FACTOR, KKT_EST_Q, KKT_EST_QV = 0, 1, 2
-#: calls of :func:`kkt_accelerations` (error estimate) between two checks of the one-correction solve
+#: calls of ``kkt_estimate`` (error estimate) between two checks of the one-correction solve
 REFINE_CHECK = 16
 #: largest share of the error estimate (in units of the tolerance) that the second correction
 #: may carry for one correction to be trusted until the next check

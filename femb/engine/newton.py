@@ -33,6 +33,8 @@ from femb.engine.evaluate import (constraint_B, copy_B, evaluate, rates)
 
 #: actions of the correction rule (:func:`correction_test`)
 NT_CONTINUE, NT_ACCEPT, NT_ROUNDOFF, NT_REFRESH, NT_FAIL = 0, 1, 2, 3, 4
+#: the residual rule's verdict "converged" (:func:`measure_residual`; failures are ``ST_*`` < 0)
+RES_CONVERGED = 1
 
 
 @njit(**INNER)
@@ -90,8 +92,7 @@ def newton_first_accept(eta0, size, phi_ratio, fresh):
 
 
 @njit(**INNER)
-def newton_step(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam, t1, h, h_prev,
-                AB, ipiv, r, Phi, rhs, x, info, wq):
+def newton_step(G, C, P, S, N, t1, h, h_prev, wq):
     """One step t1 − h → t1 of the generalized-α scheme, in place: index 3 or stabilized index 2.
 
     **Index 3** (``ip[IP_GGL] == 0``): Algorithm 1 of Arnold & Brüls (2007), Newton on
@@ -127,54 +128,42 @@ def newton_step(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam, t1,
     Returns
     -------
     int
-        Newton iterations (≥ 0) on success, then q, qd, qdd, lam, a hold the new step; a
-        negative status code otherwise, with ``info`` = (t1, ‖r_q‖, ‖Φ‖, iteration, index of
-        the largest |Φ_i|, tolerance of r_q, tolerance of Φ).
+        Newton iterations (≥ 0) on success, then the state ``S`` (``StepState``) holds the new
+        step; a negative status code otherwise, with ``N.info`` = (t1, ‖r_q‖, ‖Φ‖, iteration,
+        index of the largest |Φ_i|, tolerance of r_q, tolerance of Φ).
+
+    Parameters
+    ----------
+    G, C : pack
+        The element batches and the model constants (:func:`femb.jit.pack`).
+    P : Par
+        ``ip``, ``fp``, ``si``, ``sf``, ``stats`` (:mod:`femb.engine.layout`).
+    S : StepState
+        The state at t_n, in place: the state at t_{n+1}.
+    N : NewtonArrays
+        The iteration matrix, its pivots, r, Φ, the right-hand side, a_base, ``info``.
+    t1, h, h_prev : float
+        t_{n+1}, the step, the previous step (the predictor's ratio).
+    wq : ndarray (nv,)
+        The q tolerance of each coordinate for the correction rule.
     """
+    ip, fp, si, sf, stats = P
     ggl = ip[IP_GGL] != 0
     lie = iview1(C, C_LIE)[0] != 0
-    nv = ip[IP_NV]
     nc = ip[IP_NC]
-    beta = fp[FP_BETA]
-    gamma = fp[FP_GAMMA]
-    bp = (1.0 - fp[FP_AM]) / (h * h * beta * (1.0 - fp[FP_AF]))
-    gp = gamma / (h * beta)
-    scaled = fp[FP_SCALED] != 0.0
-    c = beta * h * h if scaled else 1.0
-    sg = 1.0 if scaled else gp          # index 2: the velocity rows' factor in the matrix
-    sr = 1.0 / gp if scaled else 1.0    # and in the right-hand side
-    ka = (1.0 - fp[FP_AF]) / (1.0 - fp[FP_AM])
-    iperm = iview1(C, C_IPERM)
-    env = iview2(C, C_ENV)
+    bp, gp, c, sg, sr = step_coefficients(fp, h)
     full = ip[IP_FULL] != 0
     tol_phi = fp[FP_PHITOL] * fp[FP_L]
     rtol = fp[FP_RTOL]
     atol = fp[FP_ATOL]
     ntest = ip[IP_NTEST]
-    E = fview2(C, C_GGLW)            # index 2: η, g, Φ_t, γ
-    Bn = fview2(C, C_BW)[0]          # index 2: B(q_n), flat element blocks
-    if ggl:
-        # B(q_n) for the step (time functions at t_{n+1}: they are evaluated before the step)
-        constraint_B(G, C, t1, q, qd, Bn)
-    predict(C, ip, fp, si, q, qd, qdd, lam, a, pqdd, plam, x, h, h_prev, lie)
-    if ggl:
-        zero1(E[0])
+    g = fview2(C, C_GGLW)[1]         # index 2: g = B q̇ + Φ_t
+    eta0, carry, carried = newton_begin(G, C, P, S, N.x, t1, h, h_prev, ggl, lie)
     F_ref = sf[SF_FREF]
-    # correction rule, index 3: the contraction estimate carried over from the previous step
-    eta0 = newton_rate_start(sf) if (ntest != 0 and not ggl) else -1.0
-    # large band systems: the factorized matrix of an earlier step is used again while it was
-    # built for this h (the same β', γ', c) and the carried estimate promises fast contraction;
-    # the correction rule refreshes it when the contraction turns out poor (NT_REFRESH)
-    carry = ip[IP_CARRY] != 0 and ntest != 0 and not ggl
-    carried = (carry and si[SI_CARRY] != 0 and si[SI_LUVALID] != 0 and sf[SF_LUH] == h
-               and 0.0 <= eta0 <= NEWTON_CARRY_ETA)
-    si[SI_CARRY] = 0
-    si[SI_LUFRESH] = 0
     theta_first = -1.0
     prev_norm = -1.0
     theta_prev_bad = 0
     k = 0
-    maxit = ip[IP_MAXIT]
     F = F_ref
     have_lu = carried
     err_f = 0.0
@@ -187,69 +176,37 @@ def newton_step(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam, t1,
             jac = (full and k == 0) or si[SI_LUVALID] == 0
         else:
             jac = not have_lu
-        scale = evaluate(G, C, t1, q, qd, qdd, lam, jac, c * bp, c * gp, c, AB, r, Phi)
+        scale = evaluate(G, C, t1, S.q, S.qd, S.qdd, S.lam, jac, c * bp, c * gp, c, N.AB, N.r, N.Phi)
         stats[NS_EVAL] += 1
         if ggl:
-            velocity_residual(G, C, t1, q, qd, jac, lie, E[1])
+            velocity_residual(G, C, t1, S.q, S.qd, jac, lie, g)
         if not redo:
             F = scale if scale > F_ref else F_ref
-            err_f = residual_norm(r, fview1(C, C_W))
-            err_phi, iphi = constraint_norm(Phi, E[1], gp, ggl)
-            info[0] = t1
-            info[1] = err_f
-            info[2] = err_phi
-            info[3] = k
-            info[4] = iphi
-            info[5] = rtol * F + atol
-            info[6] = tol_phi
-            if not (math.isfinite(err_f) and math.isfinite(err_phi)):
-                return ST_NONFINITE
-            if ntest == 0 and k >= ip[IP_MINIT] and err_f <= rtol * F + atol and err_phi <= tol_phi:
+            err_f, err_phi, status = measure_residual(C, P, N, t1, k, F, gp, ggl)
+            if status == RES_CONVERGED:
                 break
-            if k == maxit:
-                return ST_MAXITER
-            if ntest == 0 and not jac:
-                # the residual rule needs the iteration matrix at this iterate: full Newton always,
-                # modified Newton when the contraction was poor
-                if full:
-                    redo = True
-                    continue
-                if prev_norm >= 0.0 and si[SI_LUVALID] != 0:
-                    cur = max(err_f / max(F, 1e-300), err_phi / max(tol_phi, 1e-300))
-                    if cur > 0.25 * prev_norm:
-                        redo = True
-                        continue
+            if status != 0:
+                return status
+            if ntest == 0 and not jac and residual_rule_redo(si, full, prev_norm, err_f, err_phi, F, tol_phi):
+                redo = True
+                continue
         redo = False
         if jac:
-            if ggl:
-                ggl_matrix(C, AB, sg)
-            if factor(AB, ip, env, ipiv, fp[FP_SINGTOL]) != 0:
-                si[SI_LUVALID] = 0
-                return ST_DIVERGED_SINGULAR if k > 0 else ST_SINGULAR
-            si[SI_LUVALID] = 1
-            si[SI_LUFRESH] = 1
-            sf[SF_LUH] = h
+            status = factor_matrix(C, P, N, h, sg, ggl, k)
+            if status != 0:
+                return status
             have_lu = True
             carried = False
-            stats[NS_FACT] += 1
         if ntest == 0 and not full:
             prev_norm = max(err_f / max(F, 1e-300), err_phi / max(tol_phi, 1e-300))
-        for i in range(nv):
-            rhs[iperm[i]] = -c * r[i]
-        for j in range(nc):
-            rhs[iperm[nv + j]] = -Phi[j]
-        if ggl:
-            for j in range(nc):
-                rhs[iperm[nv + nc + j]] = -sr * E[1][j]
-        solve(AB, ip, env, ipiv, rhs)
-        stats[NS_SOLVE] += 1
-        dqmax, qmax, dqw, qddmax = apply_correction(C, ip, q, qd, qdd, lam, rhs, wq, bp, gp, c, lie, ggl)
+        solve_correction(C, P, N, g, c, sr, ggl)
+        m = apply_correction(C, ip, S, N.rhs, wq, bp, gp, c, lie, ggl)
         k += 1
         if ntest == 0:
             # round-off floor: a correction at the level of the coordinates' own round-off
             # cannot improve the iterate (stiff elements nearly at rest)
             if (err_phi <= tol_phi and err_f <= 1e4 * (rtol * F + atol)
-                    and dqmax <= fp[FP_XTOL] * (qmax + fp[FP_L])):
+                    and m[0] <= fp[FP_XTOL] * (m[1] + fp[FP_L])):
                 stats[NS_ROUNDOFF] += 1
                 break
         else:
@@ -257,8 +214,8 @@ def newton_step(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam, t1,
             # constraints: its constraint rows belong to an earlier configuration, so η₀‖Φ₀‖
             # does not bound Φ after the correction (a chain of 400 bricks ended its runs with
             # ‖Φ‖ up to half the tolerance, 2e-4 of it with fresh matrices)
-            action, size, theta = correction_test(ip, fp, k, jac, carried and nc == 0, dqmax, qmax, dqw, qddmax,
-                                                  bp, eta0, prev_norm, err_phi / tol_phi, theta_prev_bad)
+            action, size, theta = correction_test(P, k, jac, carried and nc == 0, m, bp,
+                                                  (eta0, prev_norm), err_phi / tol_phi, theta_prev_bad)
             if theta_first < 0.0 and theta >= 0.0:
                 theta_first = theta
             if action == NT_ROUNDOFF:
@@ -267,27 +224,170 @@ def newton_step(G, C, ip, fp, si, sf, stats, q, qd, qdd, lam, a, pqdd, plam, t1,
             if action == NT_ACCEPT:
                 break
             if action == NT_FAIL:
-                info[3] = k
+                N.info[3] = k
                 return ST_MAXITER
             if theta >= 1.0 and jac:
                 theta_prev_bad += 1
             if action == NT_REFRESH:
                 have_lu = False          # slow or no contraction: refresh the iteration matrix
             prev_norm = size
-    for i in range(nv):
-        a[i] = x[i] + ka * qdd[i]
-    if F > F_ref:
-        sf[SF_FREF] = F
-    if ntest != 0 and not ggl:
-        newton_rate_end(sf, eta0, theta_first)
-    if carry:
-        si[SI_CARRY] = 1
-    si[SI_HASPREV] = 1
+    newton_end(P, S, N.x, F, F_ref, eta0, theta_first, carry, ggl)
     return k
 
 
 @njit(**INNER)
-def predict(C, ip, fp, si, q, qd, qdd, lam, a, pqdd, plam, x, h, h_prev, lie):
+def step_coefficients(fp, h):
+    """(β', γ', c, s_g, s_r) of a step h: β' = (1 − α_m)/(h²β(1 − α_f)), γ' = γ/(hβ) (Arnold &
+    Brüls 2007, eq. 6), the scaling c = βh² (Bottasso, Dopico & Trainelli 2008; 1 unscaled) and
+    the index-2 velocity rows' factors in the matrix (s_g) and the right-hand side (s_r)."""
+    beta = fp[FP_BETA]
+    bp = (1.0 - fp[FP_AM]) / (h * h * beta * (1.0 - fp[FP_AF]))
+    gp = fp[FP_GAMMA] / (h * beta)
+    scaled = fp[FP_SCALED] != 0.0
+    c = beta * h * h if scaled else 1.0
+    sg = 1.0 if scaled else gp
+    sr = 1.0 / gp if scaled else 1.0
+    return bp, gp, c, sg, sr
+
+
+@njit(**INNER)
+def newton_begin(G, C, P, S, x, t1, h, h_prev, ggl, lie):
+    """Before the first iterate: B(q_n) (index 2), the predictor, the carried contraction estimate
+    η₀ and whether the factorized matrix of an earlier step is used again.
+
+    Large band systems use the factorized matrix of an earlier step while it was built for this
+    h (the same β', γ', c) and the carried estimate promises fast contraction; the correction rule
+    refreshes it when the contraction turns out poor (``NT_REFRESH``).
+
+    Returns
+    -------
+    (eta0, carry, carried) : (float, bool, bool)
+    """
+    ip, fp, si, sf, stats = P
+    ntest = ip[IP_NTEST]
+    if ggl:
+        # B(q_n) for the step (time functions at t_{n+1}: they are evaluated before the step)
+        constraint_B(G, C, t1, S.q, S.qd, fview2(C, C_BW)[0])
+    predict(C, P, S, x, h, h_prev, lie)
+    if ggl:
+        zero1(fview2(C, C_GGLW)[0])
+    # correction rule, index 3: the contraction estimate carried over from the previous step
+    eta0 = newton_rate_start(sf) if (ntest != 0 and not ggl) else -1.0
+    carry = ip[IP_CARRY] != 0 and ntest != 0 and not ggl
+    carried = (carry and si[SI_CARRY] != 0 and si[SI_LUVALID] != 0 and sf[SF_LUH] == h
+               and 0.0 <= eta0 <= NEWTON_CARRY_ETA)
+    si[SI_CARRY] = 0
+    si[SI_LUFRESH] = 0
+    return eta0, carry, carried
+
+
+@njit(**INNER)
+def measure_residual(C, P, N, t1, k, F, gp, ggl):
+    """‖W r_q‖∞ and ‖Φ‖∞ of the iterate k into ``N.info``, and the residual rule's verdict.
+
+    Returns
+    -------
+    (err_f, err_phi, status)
+        status: ``RES_CONVERGED`` (residual rule, ``ip[IP_NTEST] == 0``: r_q and Φ within their
+        tolerances after at least ``IP_MINIT`` iterations), ``ST_NONFINITE``, ``ST_MAXITER``
+        (k = ``IP_MAXIT``) or 0 (go on).
+    """
+    ip, fp, si, sf, stats = P
+    info = N.info
+    tol_phi = fp[FP_PHITOL] * fp[FP_L]
+    tol_f = fp[FP_RTOL] * F + fp[FP_ATOL]
+    err_f = residual_norm(N.r, fview1(C, C_W))
+    err_phi, iphi = constraint_norm(N.Phi, fview2(C, C_GGLW)[1], gp, ggl)
+    info[0] = t1
+    info[1] = err_f
+    info[2] = err_phi
+    info[3] = k
+    info[4] = iphi
+    info[5] = tol_f
+    info[6] = tol_phi
+    if not (math.isfinite(err_f) and math.isfinite(err_phi)):
+        return err_f, err_phi, ST_NONFINITE
+    if ip[IP_NTEST] == 0 and k >= ip[IP_MINIT] and err_f <= tol_f and err_phi <= tol_phi:
+        return err_f, err_phi, RES_CONVERGED
+    if k == ip[IP_MAXIT]:
+        return err_f, err_phi, ST_MAXITER
+    return err_f, err_phi, 0
+
+
+@njit(**INNER)
+def residual_rule_redo(si, full, prev_norm, err_f, err_phi, F, tol_phi):
+    """The residual rule needs the iteration matrix at this iterate: full Newton always, modified
+    Newton when the contraction was poor (the relative residual fell by less than 4)."""
+    if full:
+        return True
+    if prev_norm >= 0.0 and si[SI_LUVALID] != 0:
+        cur = max(err_f / max(F, 1e-300), err_phi / max(tol_phi, 1e-300))
+        if cur > 0.25 * prev_norm:
+            return True
+    return False
+
+
+@njit(**INNER)
+def factor_matrix(C, P, N, h, sg, ggl, k):
+    """Factorize the iteration matrix ``N.AB`` (index 2: with the rows of :func:`ggl_matrix`).
+
+    Returns 0, or ``ST_DIVERGED_SINGULAR`` / ``ST_SINGULAR`` (after k > 0 corrections / at the
+    predictor) when a pivot is below ``FP_SINGTOL``.
+    """
+    ip, fp, si, sf, stats = P
+    if ggl:
+        ggl_matrix(C, N.AB, sg)
+    if factor(N.AB, ip, iview2(C, C_ENV), N.ipiv, fp[FP_SINGTOL]) != 0:
+        si[SI_LUVALID] = 0
+        return ST_DIVERGED_SINGULAR if k > 0 else ST_SINGULAR
+    si[SI_LUVALID] = 1
+    si[SI_LUFRESH] = 1
+    sf[SF_LUH] = h
+    stats[NS_FACT] += 1
+    return 0
+
+
+@njit(**INNER)
+def solve_correction(C, P, N, g, c, sr, ggl):
+    """The Newton correction into ``N.rhs``: S_t [Δq; Δλ/c (; δη)] = −[c r_q; Φ (; s_r g)] (eq. 8)."""
+    ip = P.ip
+    nv = ip[IP_NV]
+    nc = ip[IP_NC]
+    iperm = iview1(C, C_IPERM)
+    rhs = N.rhs
+    r = N.r
+    Phi = N.Phi
+    for i in range(nv):
+        rhs[iperm[i]] = -c * r[i]
+    for j in range(nc):
+        rhs[iperm[nv + j]] = -Phi[j]
+    if ggl:
+        for j in range(nc):
+            rhs[iperm[nv + nc + j]] = -sr * g[j]
+    solve(N.AB, ip, iview2(C, C_ENV), N.ipiv, rhs)
+    P.stats[NS_SOLVE] += 1
+
+
+@njit(**INNER)
+def newton_end(P, S, x, F, F_ref, eta0, theta_first, carry, ggl):
+    """After the accepted iterate: a += (1 − α_f)/(1 − α_m) q̈ (eq. 3, a_base kept in ``x``), the
+    force scale, the contraction estimate for the next step and the carry flag."""
+    ip, fp, si, sf, stats = P
+    ka = (1.0 - fp[FP_AF]) / (1.0 - fp[FP_AM])
+    a = S.a
+    qdd = S.qdd
+    for i in range(ip[IP_NV]):
+        a[i] = x[i] + ka * qdd[i]
+    if F > F_ref:
+        sf[SF_FREF] = F
+    if ip[IP_NTEST] != 0 and not ggl:
+        newton_rate_end(sf, eta0, theta_first)
+    if carry:
+        si[SI_CARRY] = 1
+    si[SI_HASPREV] = 1
+
+@njit(**INNER)
+def predict(C, P, S, x, h, h_prev, lie):
     """The predictor and (3)–(5) of Algorithm 1 (Arnold & Brüls 2007) for it, in place.
 
     q̈ and λ are guessed (``ip[IP_PRED]``: 0 zero, 1 previous, 2 extrapolated from the last
@@ -295,6 +395,8 @@ def predict(C, ip, fp, si, q, qd, qdd, lam, a, pqdd, plam, x, h, h_prev, lie):
     (rotations: q_n ∘ exp(D), the quaternions p_n saved in C's ``C_PN``). ``x[:nv]`` keeps
     a_base = (α_f q̈_n − α_m a_n)/(1 − α_m) until the step is accepted (eq. (3) needs it).
     """
+    ip, fp, si = P.ip, P.fp, P.si
+    q, qd, qdd, lam, a, pqdd, plam = S
     nv = ip[IP_NV]
     nc = ip[IP_NC]
     am = fp[FP_AM]
@@ -398,7 +500,7 @@ def constraint_norm(Phi, g, gp, ggl):
 
 
 @njit(**INNER)
-def apply_correction(C, ip, q, qd, qdd, lam, rhs, wq, bp, gp, c, lie, ggl):
+def apply_correction(C, ip, S, rhs, wq, bp, gp, c, lie, ggl):
     """The solved Newton correction ``rhs`` into the iterate, in place.
 
     Index 3: q ∘ exp(Δq), q̇ += γ'Δq, q̈ += β'Δq, λ += Δλ/c. Index 2 (``ggl``): q̇ and q̈ from
@@ -407,6 +509,7 @@ def apply_correction(C, ip, q, qd, qdd, lam, rhs, wq, bp, gp, c, lie, ggl):
     Returns (max |Δ_i| of the q̇/q̈ increment, max |q_i| of additive entries, max |δq_i|/wq_i,
     max |q̈_i|).
     """
+    q, qd, qdd, lam = S.q, S.qd, S.qdd, S.lam
     nv = ip[IP_NV]
     nc = ip[IP_NC]
     iperm = iview1(C, C_IPERM)
@@ -457,8 +560,7 @@ def apply_correction(C, ip, q, qd, qdd, lam, rhs, wq, bp, gp, c, lie, ggl):
 
 
 @njit(**INNER)
-def correction_test(ip, fp, k, jac, carried, dqmax, qmax, dqw, qddmax, bp, eta0, prev_norm, phi_ratio,
-                    theta_prev_bad):
+def correction_test(P, k, jac, carried, m, bp, rates, phi_ratio, theta_prev_bad):
     """The correction rule (stepsize.md §5) after correction k: what Newton does next.
 
     The correction is measured in q units (max_i |Δq_i|/wq_i) and in acceleration units
@@ -475,6 +577,15 @@ def correction_test(ip, fp, k, jac, carried, dqmax, qmax, dqw, qddmax, bp, eta0,
     need more than ``NEWTON_FROZEN_MAX`` corrections at the observed rate
     (n = log((1 − θ)/size)/log θ, Hairer & Wanner, *Solving ODEs II*, §IV.8).
 
+    Parameters
+    ----------
+    m : (float, float, float, float)
+        The measures of the correction (:func:`apply_correction`): max |Δ_i|, max |q_i|,
+        max |δq_i|/wq_i, max |q̈_i|.
+    rates : (float, float)
+        η₀ (carried contraction estimate, −1 if none) and the size of the previous correction
+        (−1 before the second).
+
     Returns
     -------
     (action, size, theta)
@@ -483,6 +594,9 @@ def correction_test(ip, fp, k, jac, carried, dqmax, qmax, dqw, qddmax, bp, eta0,
         ``NT_REFRESH`` (go on with a fresh matrix) or ``NT_CONTINUE``; the size of the
         correction; θ (−1 at the first correction).
     """
+    ip, fp = P.ip, P.fp
+    dqmax, qmax, dqw, qddmax = m
+    eta0, prev_norm = rates
     nv = ip[IP_NV]
     minit = ip[IP_MINIT]
     eps = 2.220446049250313e-16
