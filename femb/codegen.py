@@ -415,8 +415,8 @@ def evaluate_dense(model, state, h, alpha, scaled=True, ordering="rcm", formulat
     r = np.zeros(nv)
     Phi = np.zeros(model.nc)
     cp.mod.lie_reset(cp.C)
-    scale = cp.mod.evaluate(cp.G, cp.C, float(state.t), _f64(state.q), _f64(state.qd), _f64(state.qdd),
-                            _f64(state.lam), True, c * bp, c * gp, c, AB, r, Phi)
+    X = (_f64(state.q), _f64(state.qd), _f64(state.qdd), _f64(state.lam))
+    scale = cp.mod.evaluate(cp.G, cp.C, float(state.t), X, True, (c * bp, c * gp, c), (AB, r, Phi))
     if formulation == "index2":
         Bw = cp.Cv[_S.C_BW]
         cp.mod.constraint_B(cp.G, cp.C, float(state.t), _f64(state.q), _f64(state.qd), Bw[0])

@@ -374,8 +374,8 @@ class GeneralizedAlphaSolver:
         cp = self.cp
         t0 = self.t0
         self._tf_at(t0)
-        self.sf[0] = cp.mod.evaluate(cp.G, cp.C, t0, self.q, self.qd, self.qdd, self.lam, False,
-                                     0.0, 0.0, 0.0, self.AB, self.r, self.Phi)
+        self.sf[0] = cp.mod.evaluate(cp.G, cp.C, t0, (self.q, self.qd, self.qdd, self.lam), False,
+                                     (0.0, 0.0, 0.0), (self.AB, self.r, self.Phi))
         if self.newton_test == "residual":
             # deformable elements: their internal forces carry round-off ε K L far above ε times the loads;
             # 10⁻⁴ of it in the absolute tolerance lets the engine's round-off acceptance (corrections at

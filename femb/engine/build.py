@@ -29,7 +29,7 @@ def engine_signatures():
     fac = T.Tuple((f1, i1))
     return {
         run: (P, P, P, par, state, newton, out, i),
-        evaluate: (P, P, f, f1, f1, f1, f1, b, f, f, f, f1, f1, f1),
+        evaluate: (P, P, f, T.UniTuple(f1, 4), b, T.UniTuple(f, 3), T.UniTuple(f1, 3)),
         kkt_solve: (P, P, par, newton, P, f, f1, f1, fac, f1),
         project_normal_velocity: (P, P, i1, P, f, f1, f1, f1, fac),
         rates: (P, P, f, f1, f1, f1, f1),

@@ -62,7 +62,7 @@ def kkt_solve(G, C, P, N, W, t, q, qd, K, out):
     kx = fview1(W, W_KX)
     gam = fview1(W, W_GAM)
     Pt = fview1(W, W_PT)
-    evaluate(G, C, t, q, qd, fview1(W, W_ZQ), fview1(W, W_ZL), nv >= 0, 1.0, 0.0, 0.0, KB, kr, N.Phi)
+    evaluate(G, C, t, (q, qd, fview1(W, W_ZQ), fview1(W, W_ZL)), nv >= 0, (1.0, 0.0, 0.0), (KB, kr, N.Phi))
     if factor(KB, ip, iview2(C, C_ENV), kpiv, 1e-13) != 0:
         return 1
     rates(G, C, t, q, qd, Pt, gam)
@@ -155,7 +155,7 @@ def refine_accelerations(G, C, P, S, N, W, t, h, ncorr):
         kappa = (1.0 - fp[FP_AM]) / (h * h * fp[FP_BETA] * (1.0 - fp[FP_AF]))
     active = iview1(C, C_ACTIVE)
     for it in range(ncorr):
-        evaluate(G, C, t, q, qd, out, lk, nv < 0, 0.0, 0.0, 0.0, N.AB, kr, N.Phi)
+        evaluate(G, C, t, (q, qd, out, lk), nv < 0, (0.0, 0.0, 0.0), (N.AB, kr, N.Phi))
         jacobian_times(G, C, t, q, out, Bu)
         for i in range(nv):
             kx[iperm[i]] = -kr[i]

@@ -55,20 +55,38 @@ def eval_time_functions(t, kind, off, coef, tfv):
 
 # ---- the model's element batches: residual, iteration matrix, rates, B -------------------
 @engine(**ENTRY)
-def evaluate(G, C, t, q, qd, qdd, lam, jac, cM, cC, cK, ABf, r, Phi):
+def evaluate(G, C, t, X, jac, coef, out):
     """Residual r = M q̈ − f + Bᵀλ, Φ, and (jac) the iteration matrix into ABf; returns the force scale.
 
-    ``cM``, ``cC``, ``cK`` multiply M, C_t = −∂f/∂q̇ and K_t = −∂f/∂q + ∂(Bᵀλ)/∂q in the
-    matrix (Newton: the scaled β', γ' and 1). Batches run in the order of the batch table:
-    forces first, then constraints.
+    Batches run in the order of the batch table: forces first, then constraints.
+
+    Parameters
+    ----------
+    G, C : pack
+        The element batches and the model constants.
+    t : float
+    X : (ndarray, ndarray, ndarray, ndarray)
+        The iterate (q (nx,), q̇ (nv,), q̈ (nv,), λ (nc,)).
+    jac : bool
+        Whether the iteration matrix is built.
+    coef : (float, float, float)
+        cM, cC, cK: the factors of M, C_t = −∂f/∂q̇ and K_t = −∂f/∂q + ∂(Bᵀλ)/∂q in the matrix
+        (Newton: c β', c γ', c; Arnold & Brüls 2007, eq. 7 scaled by c as in eq. 8).
+    out : (ndarray, ndarray, ndarray)
+        ABf (the matrix's storage), r (nv,), Φ (nc,), written.
+
+    Returns
+    -------
+    float
+        The force scale max |f_i w_i| (the residual test's reference).
     """
     batches = iview2(C, C_BATCHES)
-    scale = mass_residual(C, qdd, r, ABf, jac, cM)
+    scale = mass_residual(C, X[2], out[1], out[0], jac, coef[0])
     for b in range(batches.shape[0]):
         if batches[b, B_ROLE] == ROLE_FORCE:
-            scale = force_batch(G, C, batches[b], t, q, qd, jac, cC, cK, ABf, r, scale)
+            scale = force_batch(G, C, batches[b], t, X, jac, coef, out, scale)
         else:
-            scale = constraint_batch(G, C, batches[b], t, q, qd, lam, jac, cK, ABf, r, Phi, scale)
+            scale = constraint_batch(G, C, batches[b], t, X, jac, coef, out, scale)
     return scale
 
 
@@ -86,8 +104,12 @@ def gather_batch(G, C, base, xdofs_k, dofs_k, xe_k, ve_k, q, v):
 
 
 @njit(**INNER)
-def force_batch(G, C, row, t, q, qd, jac, cC, cK, ABf, r, scale):
-    """One force batch: f_e and its Jacobians from the kernel, −f into r, −cK ∂f/∂q − cC ∂f/∂q̇ into ABf."""
+def force_batch(G, C, row, t, X, jac, coef, out, scale):
+    """One force batch: f_e and its Jacobians from the kernel, −f into r, −cK ∂f/∂q − cC ∂f/∂q̇ into ABf
+    (the arguments of :func:`evaluate`; ``row`` the batch's row of the batch table)."""
+    q, qd = X[0], X[1]
+    cC, cK = coef[1], coef[2]
+    ABf, r = out[0], out[1]
     base = row[B_BASE]
     gather_batch(G, C, base, F_XDOFS, F_DOFS, F_XE, F_VE, q, qd)
     tf = fview3(G, base + F_TF)
@@ -113,8 +135,12 @@ def force_batch(G, C, row, t, q, qd, jac, cC, cK, ABf, r, scale):
 
 
 @njit(**INNER)
-def constraint_batch(G, C, row, t, q, qd, lam, jac, cK, ABf, r, Phi, scale):
-    """One constraint batch: Φ_e, B_e and H_e from the kernel; Φ, Bᵀλ into r, [B, Bᵀ, cK H] into ABf."""
+def constraint_batch(G, C, row, t, X, jac, coef, out, scale):
+    """One constraint batch: Φ_e, B_e and H_e from the kernel; Φ, Bᵀλ into r, [B, Bᵀ, cK H] into ABf
+    (the arguments of :func:`evaluate`; ``row`` the batch's row of the batch table)."""
+    q, qd, lam = X[0], X[1], X[3]
+    cK = coef[2]
+    ABf, r, Phi = out
     base = row[B_BASE]
     gather_batch(G, C, base, K_XDOFS, K_DOFS, K_XE, K_VE, q, qd)
     lamidx = iview2(G, base + K_LAMIDX)
@@ -131,7 +157,7 @@ def constraint_batch(G, C, row, t, q, qd, lam, jac, cK, ABf, r, Phi, scale):
         zero3(He)
     call_constraint(row[B_KERNEL], fview2(G, base + K_P), t, tf, fview2(G, base + K_XE), le, jac, Phe, Be, He)
     scale = scatter_constraint(Phe, Be, le, iview2(G, base + K_DOFS), lamidx, iview1(C, C_ACTIVE), Phi, r,
-                               qd.shape[0], fview1(C, C_WEXT), scale)
+                               fview1(C, C_WEXT), scale)
     if jac:
         tB = iview3(G, base + K_TB)
         tBt = iview3(G, base + K_TBT)
@@ -298,8 +324,10 @@ def scatter_force(fe, dofs, r, nv, wext, scale):
 
 
 @njit(**INNER)
-def scatter_constraint(Phe, Be, le, dofs, lamidx, active, Phi, r, nv, wext, scale):
-    """Φ rows and r += Bᵀλ per element; returns max(scale, |(Bᵀλ)_e · w|)."""
+def scatter_constraint(Phe, Be, le, dofs, lamidx, active, Phi, r, wext, scale):
+    """Φ rows and r += Bᵀλ per element (free coordinates: d < nv = len(r)); returns
+    max(scale, |(Bᵀλ)_e · w|)."""
+    nv = r.shape[0]
     for e in range(dofs.shape[0]):
         for j in range(lamidx.shape[1]):
             c = lamidx[e, j]

@@ -8,12 +8,40 @@ On models with rotation nodes the update is q ∘ exp(Δ) (Brüls & Cardona 2010
 The index-2 form adds the velocity constraint B q̇ + Φ_t = 0 with multipliers η (Gear, Gupta &
 Leimkuhler 1985; docs/method.md §7; :func:`ggl_matrix`, :func:`velocity_residual`).
 
+**Index 3** (``ip[IP_GGL] == 0``): Algorithm 1 of Arnold & Brüls (2007), Newton on
+(Δq, Δλ) for r_q(q, q̇, q̈, λ) = 0 and Φ(q, t) = 0 at t_{n+1}, with the scaled iteration
+matrix [[c(Mβ' + C_tγ' + K_t), Bᵀ], [B, 0]] (c = βh², β' = (1 − α_m)/(h²β(1 − α_f)),
+γ' = γ/(hβ); Bottasso, Dopico & Trainelli 2008).
+
+**Stabilized index 2** (``ip[IP_GGL] != 0``): Gear, Gupta & Leimkuhler (1985) with the
+generalized-α discretization of Arnold & Brüls (2007, §5): with the Newmark increment
+Δ = h q̇_n + h²(½ − β) a_n + h²β a_{n+1} and nc more unknowns η,
+
+    q_{n+1} = q_n + Δ + B(q_n)ᵀ η,   q̇_{n+1}, q̈_{n+1} from Δ as in Algorithm 1,
+    r_q(q_{n+1}, q̇_{n+1}, q̈_{n+1}, λ) = 0,  Φ(q_{n+1}, t) = 0,  B(q_{n+1}) q̇_{n+1} + Φ_t = 0.
+
+Newton on (δΔ, δλ, δη) with the scaled matrix
+
+    [ c(Mβ' + C_tγ' + K_t)   Bᵀ   0      ]   [δΔ     ]     [ c r_q    ]
+    [ B                      0    B B_nᵀ ] · [δλ / c ] = − [ Φ        ]
+    [ B                      0    0      ]   [δη     ]     [ g / γ'   ]
+
+(g = B q̇ + Φ_t; unscaled runs: c = 1 and the velocity rows γ'B, g). It drops
+c K_t B_nᵀ (O(h²)) and ∂(B q̇)/∂q (O(h) after the row scaling): Newton converges
+linearly at a rate O(h), to the solution of the exact equations. The constraint test
+holds for Φ and for g/γ' (a position-sized velocity residual).
+
+**Rotation nodes** (Lie group, docs/spatial.md §2; Brüls & Cardona 2010): q = q_n ∘ exp(D)
+with D = Δ (+ B_nᵀη), additive entries updated in place, rotations rebuilt from q_n and D
+(:func:`lie_update`); B T(D) in the Φ rows.
+
 References
 ----------
 M. Arnold, O. Brüls, Multibody Syst. Dyn. 18 (2007) 185–202, Algorithm 1.
 O. Brüls, A. Cardona, J. Comput. Nonlinear Dyn. 5 (2010) 031002 (Lie-group generalized-α).
 C. L. Bottasso, D. Dopico, L. Trainelli, Multibody Syst. Dyn. 19 (2008) 3–20 (scaling).
 C. W. Gear, B. Leimkuhler, G. K. Gupta, J. Comput. Appl. Math. 12–13 (1985) 77–90 (index 2).
+
 """
 
 import math
@@ -95,35 +123,21 @@ def newton_first_accept(eta0, size, phi_ratio, fresh):
 def newton_step(G, C, P, S, N, t1, h, h_prev, wq):
     """One step t1 − h → t1 of the generalized-α scheme, in place: index 3 or stabilized index 2.
 
-    **Index 3** (``ip[IP_GGL] == 0``): Algorithm 1 of Arnold & Brüls (2007), Newton on
-    (Δq, Δλ) for r_q(q, q̇, q̈, λ) = 0 and Φ(q, t) = 0 at t_{n+1}, with the scaled iteration
-    matrix [[c(Mβ' + C_tγ' + K_t), Bᵀ], [B, 0]] (c = βh², β' = (1 − α_m)/(h²β(1 − α_f)),
-    γ' = γ/(hβ); Bottasso, Dopico & Trainelli 2008).
-
-    **Stabilized index 2** (``ip[IP_GGL] != 0``): Gear, Gupta & Leimkuhler (1985) with the
-    generalized-α discretization of Arnold & Brüls (2007, §5): with the Newmark increment
-    Δ = h q̇_n + h²(½ − β) a_n + h²β a_{n+1} and nc more unknowns η,
-
-        q_{n+1} = q_n + Δ + B(q_n)ᵀ η,   q̇_{n+1}, q̈_{n+1} from Δ as in Algorithm 1,
-        r_q(q_{n+1}, q̇_{n+1}, q̈_{n+1}, λ) = 0,  Φ(q_{n+1}, t) = 0,  B(q_{n+1}) q̇_{n+1} + Φ_t = 0.
-
-    Newton on (δΔ, δλ, δη) with the scaled matrix
-
-        [ c(Mβ' + C_tγ' + K_t)   Bᵀ   0      ]   [δΔ     ]     [ c r_q    ]
-        [ B                      0    B B_nᵀ ] · [δλ / c ] = − [ Φ        ]
-        [ B                      0    0      ]   [δη     ]     [ g / γ'   ]
-
-    (g = B q̇ + Φ_t; unscaled runs: c = 1 and the velocity rows γ'B, g). It drops
-    c K_t B_nᵀ (O(h²)) and ∂(B q̇)/∂q (O(h) after the row scaling): Newton converges
-    linearly at a rate O(h), to the solution of the exact equations. The constraint test
-    holds for Φ and for g/γ' (a position-sized velocity residual).
-
-    **Rotation nodes** (Lie group, docs/spatial.md §2; Brüls & Cardona 2010): q = q_n ∘ exp(D)
-    with D = Δ (+ B_nᵀη), additive entries updated in place, rotations rebuilt from q_n and D
-    (:func:`lie_update`); B T(D) in the Φ rows.
-
+    Index 3 (``ip[IP_GGL] == 0``), stabilized index 2 (``ip[IP_GGL] != 0``) and the Lie-group
+    update of rotation nodes: their equations and iteration matrices are in the module docstring.
     Stopping rules (``ip[IP_NTEST]``), :func:`correction_test`: 0 the residual rule of the seed
     reproduction, 1 the correction rule (default, stepsize.md §5).
+
+    Parameters
+    ----------
+    G, C : pack
+        The element batches and the model constants (:func:`femb.jit.pack`).
+    P, S, N : Par, StepState, NewtonArrays
+        Parameters and run state; the state at t_n, in place: at t_{n+1}; Newton's arrays.
+    t1, h, h_prev : float
+        t_{n+1}, the step, the previous step (the predictor's ratio).
+    wq : ndarray (nv,)
+        The q tolerance of each coordinate for the correction rule.
 
     Returns
     -------
@@ -131,21 +145,6 @@ def newton_step(G, C, P, S, N, t1, h, h_prev, wq):
         Newton iterations (≥ 0) on success, then the state ``S`` (``StepState``) holds the new
         step; a negative status code otherwise, with ``N.info`` = (t1, ‖r_q‖, ‖Φ‖, iteration,
         index of the largest |Φ_i|, tolerance of r_q, tolerance of Φ).
-
-    Parameters
-    ----------
-    G, C : pack
-        The element batches and the model constants (:func:`femb.jit.pack`).
-    P : Par
-        ``ip``, ``fp``, ``si``, ``sf``, ``stats`` (:mod:`femb.engine.layout`).
-    S : StepState
-        The state at t_n, in place: the state at t_{n+1}.
-    N : NewtonArrays
-        The iteration matrix, its pivots, r, Φ, the right-hand side, a_base, ``info``.
-    t1, h, h_prev : float
-        t_{n+1}, the step, the previous step (the predictor's ratio).
-    wq : ndarray (nv,)
-        The q tolerance of each coordinate for the correction rule.
     """
     ip, fp, si, sf, stats = P
     ggl = ip[IP_GGL] != 0
@@ -154,29 +153,18 @@ def newton_step(G, C, P, S, N, t1, h, h_prev, wq):
     bp, gp, c, sg, sr = step_coefficients(fp, h)
     full = ip[IP_FULL] != 0
     tol_phi = fp[FP_PHITOL] * fp[FP_L]
-    rtol = fp[FP_RTOL]
-    atol = fp[FP_ATOL]
     ntest = ip[IP_NTEST]
     g = fview2(C, C_GGLW)[1]         # index 2: g = B q̇ + Φ_t
     eta0, carry, carried = newton_begin(G, C, P, S, N.x, t1, h, h_prev, ggl, lie)
-    F_ref = sf[SF_FREF]
-    theta_first = -1.0
-    prev_norm = -1.0
-    theta_prev_bad = 0
-    k = 0
-    F = F_ref
+    F_ref = F = sf[SF_FREF]
+    theta_first = prev_norm = -1.0
+    theta_prev_bad = k = 0
     have_lu = carried
-    err_f = 0.0
-    err_phi = 0.0
+    err_f = err_phi = 0.0
     redo = False
     while True:
-        if redo:
-            jac = True
-        elif ntest == 0:
-            jac = (full and k == 0) or si[SI_LUVALID] == 0
-        else:
-            jac = not have_lu
-        scale = evaluate(G, C, t1, S.q, S.qd, S.qdd, S.lam, jac, c * bp, c * gp, c, N.AB, N.r, N.Phi)
+        jac = redo or (((full and k == 0) or si[SI_LUVALID] == 0) if ntest == 0 else not have_lu)
+        scale = evaluate(G, C, t1, (S.q, S.qd, S.qdd, S.lam), jac, (c * bp, c * gp, c), (N.AB, N.r, N.Phi))
         stats[NS_EVAL] += 1
         if ggl:
             velocity_residual(G, C, t1, S.q, S.qd, jac, lie, g)
@@ -205,7 +193,7 @@ def newton_step(G, C, P, S, N, t1, h, h_prev, wq):
         if ntest == 0:
             # round-off floor: a correction at the level of the coordinates' own round-off
             # cannot improve the iterate (stiff elements nearly at rest)
-            if (err_phi <= tol_phi and err_f <= 1e4 * (rtol * F + atol)
+            if (err_phi <= tol_phi and err_f <= 1e4 * (fp[FP_RTOL] * F + fp[FP_ATOL])
                     and m[0] <= fp[FP_XTOL] * (m[1] + fp[FP_L])):
                 stats[NS_ROUNDOFF] += 1
                 break
@@ -216,8 +204,7 @@ def newton_step(G, C, P, S, N, t1, h, h_prev, wq):
             # ‖Φ‖ up to half the tolerance, 2e-4 of it with fresh matrices)
             action, size, theta = correction_test(P, k, jac, carried and nc == 0, m, bp,
                                                   (eta0, prev_norm), err_phi / tol_phi, theta_prev_bad)
-            if theta_first < 0.0 and theta >= 0.0:
-                theta_first = theta
+            theta_first = theta if (theta_first < 0.0 and theta >= 0.0) else theta_first
             if action == NT_ROUNDOFF:
                 stats[NS_ROUNDOFF] += 1
                 break
