@@ -76,65 +76,48 @@ class Compiled:
         self.layout = layout
         ggl = layout == "index2"
         nv, nc = model.nq, model.nc
-        N = nv + 2 * nc if ggl else nv + nc
-        self.N = N
+        self.N = N = nv + 2 * nc if ggl else nv + nc
         active = np.ones(nc, dtype=np.int8) if getattr(model, "active_constraints", None) is None \
             else np.asarray(model.active_constraints, dtype=np.int8)
-        # ---- structural pattern of S (original numbering) and the band ordering
-        R, Cc = [], []
         Mc = model.M_const.tocsr()
         Mc.sort_indices()
-        Mcoo = Mc.tocoo()
-        R.append(Mcoo.row)
-        Cc.append(Mcoo.col)
-        for g in model.force_groups + model.constraint_groups:
-            R.append(g.nn_rows)
-            Cc.append(g.nn_cols)
-        for g in model.constraint_groups:
-            R += [nv + g.cq_rows, g.cq_cols]
-            Cc += [g.cq_cols, nv + g.cq_rows]
-        inactive = np.nonzero(active == 0)[0]
-        R.append(nv + inactive)
-        Cc.append(nv + inactive)
-        if ggl:
-            # flat element blocks of B (batch, element, row, column) and their positions
-            fl_c, fl_d = [], []
-            for g in model.constraint_groups:
-                nel, nd = g.dofs.shape
-                cc = np.broadcast_to(g.lam[:, :, None], (nel, g.nc, nd)).reshape(-1)
-                dd = np.broadcast_to(g.dofs[:, None, :], (nel, g.nc, nd)).reshape(-1)
-                ok = (dd < nv) & (active[cc] != 0)
-                fl_c.append(np.where(ok, cc, -1))
-                fl_d.append(np.where(ok, dd, -1))
-            fl_c = np.concatenate(fl_c).astype(np.int64) if fl_c else np.zeros(0, dtype=np.int64)
-            fl_d = np.concatenate(fl_d).astype(np.int64) if fl_d else np.zeros(0, dtype=np.int64)
-            valid = np.nonzero(fl_c >= 0)[0]
-            # velocity rows: B in the q̇ columns
-            R.append(nv + nc + fl_c[valid])
-            Cc.append(fl_d[valid])
-            # Φ rows, η columns: B(q) B(q_n)ᵀ, one product per pair of entries in the same column
-            order = valid[np.argsort(fl_d[valid], kind="stable")]
-            dsort = fl_d[order]
-            starts = np.flatnonzero(np.r_[True, dsort[1:] != dsort[:-1]]) if order.size else np.zeros(0, int)
-            ends = np.r_[starts[1:], order.size]
-            k1, k2 = [], []
-            for a_, b_ in zip(starts, ends):
-                ks = order[a_:b_]
-                k1.append(np.repeat(ks, ks.size))
-                k2.append(np.tile(ks, ks.size))
-            k1 = np.concatenate(k1).astype(np.int64) if k1 else np.zeros(0, dtype=np.int64)
-            k2 = np.concatenate(k2).astype(np.int64) if k2 else np.zeros(0, dtype=np.int64)
-            R.append(nv + fl_c[k1])
-            Cc.append(nv + nc + fl_c[k2])
-        R.append(np.arange(N))       # the diagonal, so that every unknown is in the graph
-        Cc.append(np.arange(N))
-        rows = np.concatenate(R).astype(np.int64)
-        cols = np.concatenate(Cc).astype(np.int64)
+        flat = _index2_entries(model, active) if ggl else None
+        rows, cols = _pattern(model, Mc, active, flat, N)
+        perm, iperm = self._order(rows, cols, ordering)
+        target = self._storage(iperm)
+        _check_parameters(model)
+        self.G, self.Gv = pack(_batch_arrays(model, target, active))
+        index2 = _index2_targets(target, flat, active, nv, nc)
+        C = _constants(model, Mc, perm, iperm, active, index2, target)
+        C.update(env=self.env, gglw=np.zeros((4, nc if ggl else 0)), batches=self.batch_table(model))
+        #: the constants as one pack (F, I, L) for the compiled code, and as numpy views (Cv[k]),
+        #: in the order of C_FIELDS (femb/engine/layout.py), by name
+        self.C, self.Cv = pack(_S.named_arrays(_S.C_FIELDS, C, "C"))
+        self.tfv = self.Cv[_S.C_TFV]
+        self.python_tf = model.time_function_table["python"]
+        from femb import engine
+        from femb.jit import cache_writable
+        if engine.ensure_engine() and cache_writable():
+            # compiled now: the built-in element types' kernels follow in the background
+            from femb.cache import start_background_build
+            start_background_build()
+        #: the engine (femb/engine/): entry points ``run``, ``evaluate``, ``rates``, ...
+        self.mod = engine
+        self.setup_time = time.perf_counter() - t0
+
+    def _order(self, rows, cols, ordering):
+        """The bandwidth-reducing ordering of the iteration matrix and its storage kind.
+
+        Sets ``kl``, ``ku`` (band), ``env`` (:func:`_envelope`), ``dense`` and ``ordering``.
+
+        Returns
+        -------
+        perm, iperm : ndarray (N,) int64
+            Unknown ``perm[k]`` is row k of the ordered matrix; ``iperm`` the inverse.
+        """
+        N, nv = self.N, self.model.nq
         pat = sp.csr_matrix((np.ones(rows.size), (rows, cols)), shape=(N, N))
-        if ordering == "rcm":
-            perm = _band_ordering(pat, nv)
-        else:
-            perm = np.arange(N, dtype=np.int64)
+        perm = _band_ordering(pat, nv) if ordering == "rcm" else np.arange(N, dtype=np.int64)
         iperm = np.empty(N, dtype=np.int64)
         iperm[perm] = np.arange(N)
         pr, pc = iperm[rows], iperm[cols]
@@ -158,136 +141,22 @@ class Compiled:
             perm = np.asarray(reverse_cuthill_mckee((pat + pat.T).tocsr(), symmetric_mode=True), dtype=np.int64)
             iperm = np.empty(N, dtype=np.int64)
             iperm[perm] = np.arange(N)
+        return perm, iperm
+
+    def _storage(self, iperm):
+        """Sizes of the matrix storage and its pivots (``ldab``, ``storage_size``, ``piv_size``);
+        returns the map of matrix entries to storage positions (:class:`_Targets`)."""
+        N = self.N
         if self.dense:
-            self.ldab = ldab = N
+            self.ldab = N
             self.storage_size = N * N
             # pivots and the nonzero pattern of the factors (femb/engine/linalg.py, dense_lu)
             self.piv_size = 3 * N + 2 * N * N
-
-            def target(r_, c_):
-                r_ = np.asarray(r_, dtype=np.int64)
-                c_ = np.asarray(c_, dtype=np.int64)
-                return iperm[r_] * N + iperm[c_]
         else:
-            self.ldab = ldab = 2 * kl + ku + 1
-            self.storage_size = N * ldab
+            self.ldab = 2 * self.kl + self.ku + 1
+            self.storage_size = N * self.ldab
             self.piv_size = 2 * N
-            d = kl + ku
-
-            def target(r_, c_):
-                r_ = np.asarray(r_, dtype=np.int64)
-                c_ = np.asarray(c_, dtype=np.int64)
-                return iperm[c_] * ldab + d + iperm[r_] - iperm[c_]
-
-        def nn_targets(g):
-            dofs = g.dofs
-            nel, nd = dofs.shape
-            Rr = np.broadcast_to(dofs[:, :, None], (nel, nd, nd))
-            Cr = np.broadcast_to(dofs[:, None, :], (nel, nd, nd))
-            t = np.full((nel, nd, nd), -1, dtype=np.int64)
-            ok = (Rr < nv) & (Cr < nv)
-            t[ok] = target(Rr[ok], Cr[ok])
-            return t
-
-        # rotation blocks: T(Δθ) of each free rotation multiplies the element columns of its
-        # rotation vector in the Newton matrix (tblk[e, k] = (first column in the element, block))
-        rot = getattr(model, "rot_blocks", np.zeros((0, 2), dtype=np.int64))
-        block_of = {int(vs): b for b, (_, vs) in enumerate(rot)}
-
-        def tangent_blocks(g):
-            rows = [[(i, block_of[int(d)]) for i, d in enumerate(e) if int(d) in block_of] for e in g.dofs]
-            k = max([len(r_) for r_ in rows] + [0])
-            out = np.full((len(rows), k, 2), -1, dtype=np.int64)
-            for e, r_ in enumerate(rows):
-                for j, pair in enumerate(r_):
-                    out[e, j] = pair
-            return out
-
-        def xdofs_of(g):
-            return _i64(g.xdofs if getattr(g, "xdofs", None) is not None else g.dofs)
-
-        if ggl:
-            tG = np.full(fl_c.size, -1, dtype=np.int64)
-            tG[valid] = target(nv + nc + fl_c[valid], fl_d[valid])
-            pairs = np.stack((k1, k2, target(nv + fl_c[k1], nv + nc + fl_c[k2])), axis=1).astype(np.int64)
-            eta_diag = target(nv + nc + np.arange(nc), nv + nc + np.arange(nc))
-            tEta = np.where(active != 0, eta_diag, -1).astype(np.int64)
-            tI = np.concatenate((target(nv + inactive, nv + inactive), eta_diag))
-            nB = fl_c.size
-        else:
-            fl_c = fl_d = tG = tEta = np.zeros(0, dtype=np.int64)
-            pairs = np.zeros((0, 3), dtype=np.int64)
-            tI = target(nv + inactive, nv + inactive)
-            nB = 0
-        for g in model.force_groups + model.constraint_groups:
-            if g.P.ndim != 2:
-                raise ModelError(f"{g.name}: its parameter array P must have shape (elements, parameters), "
-                                 f"got shape {g.P.shape}")
-        G_force = []
-        for g in model.force_groups:
-            nel, nd = g.dofs.shape
-            ndx = xdofs_of(g).shape[1]
-            ntf = g.tf_index.shape[1]
-            G_force.append((g.P, _i64(g.dofs), _i64(g.tf_index), nn_targets(g),
-                            np.zeros((nel, ndx)), np.zeros((nel, nd)), np.zeros((nel, ntf, 3)),
-                            np.zeros((nel, nd)), np.zeros((nel, nd, nd)), np.zeros((nel, nd, nd)),
-                            xdofs_of(g), tangent_blocks(g)))
-        G_con = []
-        for g in model.constraint_groups:
-            nel, nd = g.dofs.shape
-            ndx = xdofs_of(g).shape[1]
-            ncg = g.nc
-            ntf = g.tf_index.shape[1]
-            tB = np.full((nel, ncg, nd), -1, dtype=np.int64)
-            tBt = np.full((nel, ncg, nd), -1, dtype=np.int64)
-            Rr = np.broadcast_to(g.lam[:, :, None], (nel, ncg, nd))
-            Cr = np.broadcast_to(g.dofs[:, None, :], (nel, ncg, nd))
-            ok = (Cr < nv) & (active[Rr] != 0)
-            tB[ok] = target(nv + Rr[ok], Cr[ok])
-            tBt[ok] = target(Cr[ok], nv + Rr[ok])
-            G_con.append((g.P, _i64(g.dofs), _i64(g.lam), _i64(g.tf_index), nn_targets(g), tB, tBt,
-                          np.zeros((nel, ndx)), np.zeros((nel, nd)), np.zeros((nel, ncg)),
-                          np.zeros((nel, ntf, 3)), np.zeros((nel, ncg)), np.zeros((nel, ncg, nd)),
-                          np.zeros((nel, nd, nd)), np.zeros((nel, ncg)), np.zeros((nel, ncg)),
-                          xdofs_of(g), tangent_blocks(g)))
-        arrays = [a for batch in G_force + G_con for a in batch]
-        self.G, self.Gv = pack(arrays)
-        tf = model.time_function_table
-        C = dict(mp=_i64(Mc.indptr), perm=perm, iperm=iperm, w=_f64(model.force_weight),
-                 wext=_f64(model.force_weight_ext), qfix=_f64(model.q_fixed), fconst=_f64(model.f_const),
-                 mi=_i64(Mc.indices), tfkind=_i64(tf["kind"]), tfoff=_i64(tf["off"]), tfcoef=_f64(tf["coef"]),
-                 mx=_f64(Mc.data), tm=_i64(target(Mcoo.row, Mcoo.col)),
-                 tfv=np.zeros((max(1, len(tf["kind"])), 3)),
-                 scale0=np.array([float(np.abs(model.f_const * model.force_weight).max(initial=0.0))]),
-                 active=active, ti=_i64(tI), env=self.env,
-                 # rotation nodes: T(Δθ) per free rotation (identity between steps), x index of each
-                 # additive v entry (−1 on rotations), (x start, v start) of each free rotation, the
-                 # quaternions at the start of the step, the step's increment Δ on rotation entries
-                 tn=np.tile(np.eye(3), (len(rot), 1, 1)), xmap=_i64(getattr(model, "xmap", np.arange(nv))),
-                 rot=_i64(rot).reshape(-1, 2), pn=np.zeros((len(rot), 4)), d=np.zeros(nv),
-                 # index-2 layout (empty otherwise): per flat entry of B (constraint, coordinate, target
-                 # in the velocity rows), the products of B(q) B(q_n)ᵀ (entry, entry, target), the η
-                 # diagonal of active constraints, work: B(q_n), B(q) and B(q) T(D) flat, and η, g, Φ_t, γ
-                 fl=np.ascontiguousarray(np.stack((fl_c, fl_d, tG), axis=1).astype(np.int64)), pairs=pairs,
-                 teta=_i64(tEta), bw=np.zeros((3, nB)), gglw=np.zeros((4, nc if ggl else 0)),
-                 # the batch table (femb/engine/layout.py, B_ROLE ...): role, first array in G, 1 if the
-                 # forces depend on q̇, the addresses of the batch's kernels
-                 batches=self.batch_table(model),
-                 lie=np.array([1 if getattr(model, "lie", False) else 0], dtype=np.int64))
-        #: the constants as one pack (F, I, L) for the compiled code, and as numpy views (Cv[k]),
-        #: in the order of C_FIELDS (femb/engine/layout.py), by name
-        self.C, self.Cv = pack(_S.named_arrays(_S.C_FIELDS, C, "C"))
-        self.tfv = self.Cv[_S.C_TFV]
-        self.python_tf = tf["python"]
-        from femb import engine
-        from femb.jit import cache_writable
-        if engine.ensure_engine() and cache_writable():
-            # compiled now: the built-in element types' kernels follow in the background
-            from femb.cache import start_background_build
-            start_background_build()
-        #: the engine (femb/engine/): entry points ``run``, ``evaluate``, ``rates``, ...
-        self.mod = engine
-        self.setup_time = time.perf_counter() - t0
+        return _Targets(iperm, N, self.dense, self.kl + self.ku, self.ldab)
 
     @staticmethod
     def batch_table(model):
@@ -309,6 +178,208 @@ class Compiled:
             row[_S.B_KERNEL] = compiled_kernel(g.cls.__name__, "constraint", g.cls.kernels["constraint"])[1]
             row[_S.B_RATES] = compiled_kernel(g.cls.__name__, "rates", g.cls.kernels["rates"])[1]
         return table
+
+
+class _Targets:
+    """Position of entry (r, c) of the iteration matrix (original numbering) in its storage: the
+    dense row-major array or the band (LAPACK gbtrf layout, transposed; ``d`` = kl + ku)."""
+
+    def __init__(self, iperm, N, dense, d, ldab):
+        self.iperm, self.N, self.dense, self.d, self.ldab = iperm, N, dense, d, ldab
+
+    def __call__(self, r_, c_):
+        r_ = np.asarray(r_, dtype=np.int64)
+        c_ = np.asarray(c_, dtype=np.int64)
+        iperm = self.iperm
+        if self.dense:
+            return iperm[r_] * self.N + iperm[c_]
+        return iperm[c_] * self.ldab + self.d + iperm[r_] - iperm[c_]
+
+
+def _index2_entries(model, active):
+    """The index-2 layout's flat element blocks of B (batch, element, row, column).
+
+    Returns
+    -------
+    (fl_c, fl_d, valid, k1, k2)
+        Constraint and coordinate of each flat entry (−1 when fixed or inactive), the valid
+        entries, and the pairs of entries in the same column (the products of B(q) B(q_n)ᵀ).
+    """
+    nv = model.nq
+    fl_c, fl_d = [], []
+    for g in model.constraint_groups:
+        nel, nd = g.dofs.shape
+        cc = np.broadcast_to(g.lam[:, :, None], (nel, g.nc, nd)).reshape(-1)
+        dd = np.broadcast_to(g.dofs[:, None, :], (nel, g.nc, nd)).reshape(-1)
+        ok = (dd < nv) & (active[cc] != 0)
+        fl_c.append(np.where(ok, cc, -1))
+        fl_d.append(np.where(ok, dd, -1))
+    fl_c = np.concatenate(fl_c).astype(np.int64) if fl_c else np.zeros(0, dtype=np.int64)
+    fl_d = np.concatenate(fl_d).astype(np.int64) if fl_d else np.zeros(0, dtype=np.int64)
+    valid = np.nonzero(fl_c >= 0)[0]
+    order = valid[np.argsort(fl_d[valid], kind="stable")]
+    dsort = fl_d[order]
+    starts = np.flatnonzero(np.r_[True, dsort[1:] != dsort[:-1]]) if order.size else np.zeros(0, int)
+    ends = np.r_[starts[1:], order.size]
+    k1, k2 = [], []
+    for a_, b_ in zip(starts, ends):
+        ks = order[a_:b_]
+        k1.append(np.repeat(ks, ks.size))
+        k2.append(np.tile(ks, ks.size))
+    k1 = np.concatenate(k1).astype(np.int64) if k1 else np.zeros(0, dtype=np.int64)
+    k2 = np.concatenate(k2).astype(np.int64) if k2 else np.zeros(0, dtype=np.int64)
+    return fl_c, fl_d, valid, k1, k2
+
+
+def _pattern(model, Mc, active, flat, N):
+    """Rows and columns of the structural nonzeros of the iteration matrix (original numbering):
+    M, the element blocks, B and Bᵀ, the inactive constraints' diagonal, the index-2 rows and
+    columns (``flat`` from :func:`_index2_entries`, or None) and the whole diagonal."""
+    nv, nc = model.nq, model.nc
+    Mcoo = Mc.tocoo()
+    R, Cc = [Mcoo.row], [Mcoo.col]
+    for g in model.force_groups + model.constraint_groups:
+        R.append(g.nn_rows)
+        Cc.append(g.nn_cols)
+    for g in model.constraint_groups:
+        R += [nv + g.cq_rows, g.cq_cols]
+        Cc += [g.cq_cols, nv + g.cq_rows]
+    inactive = np.nonzero(active == 0)[0]
+    R.append(nv + inactive)
+    Cc.append(nv + inactive)
+    if flat is not None:
+        fl_c, fl_d, valid, k1, k2 = flat
+        # velocity rows: B in the q̇ columns; Φ rows, η columns: B(q) B(q_n)ᵀ
+        R += [nv + nc + fl_c[valid], nv + fl_c[k1]]
+        Cc += [fl_d[valid], nv + nc + fl_c[k2]]
+    R.append(np.arange(N))       # the diagonal, so that every unknown is in the graph
+    Cc.append(np.arange(N))
+    return np.concatenate(R).astype(np.int64), np.concatenate(Cc).astype(np.int64)
+
+
+def _index2_targets(target, flat, active, nv, nc):
+    """Storage positions of the index-2 layout (empty arrays for index 3) and of the diagonal
+    entries set to 1 (inactive constraints; the η block).
+
+    Returns
+    -------
+    dict
+        fl (nB, 3): constraint, coordinate and velocity-row target of each flat entry of B;
+        pairs (np, 3): entry, entry and target of each product of B(q) B(q_n)ᵀ; teta: the η
+        diagonal of active constraints (−1 otherwise); ti: the unit diagonal; bw (3, nB) work.
+    """
+    inactive = np.nonzero(active == 0)[0]
+    if flat is None:
+        z = np.zeros(0, dtype=np.int64)
+        return dict(fl=np.zeros((0, 3), dtype=np.int64), pairs=np.zeros((0, 3), dtype=np.int64), teta=z,
+                    ti=_i64(target(nv + inactive, nv + inactive)), bw=np.zeros((3, 0)))
+    fl_c, fl_d, valid, k1, k2 = flat
+    tG = np.full(fl_c.size, -1, dtype=np.int64)
+    tG[valid] = target(nv + nc + fl_c[valid], fl_d[valid])
+    pairs = np.stack((k1, k2, target(nv + fl_c[k1], nv + nc + fl_c[k2])), axis=1).astype(np.int64)
+    eta_diag = target(nv + nc + np.arange(nc), nv + nc + np.arange(nc))
+    return dict(fl=np.ascontiguousarray(np.stack((fl_c, fl_d, tG), axis=1).astype(np.int64)), pairs=pairs,
+                teta=_i64(np.where(active != 0, eta_diag, -1)),
+                ti=_i64(np.concatenate((target(nv + inactive, nv + inactive), eta_diag))),
+                bw=np.zeros((3, fl_c.size)))
+
+
+def _check_parameters(model):
+    """Every batch's parameter array P is (elements, parameters)."""
+    for g in model.force_groups + model.constraint_groups:
+        if g.P.ndim != 2:
+            raise ModelError(f"{g.name}: its parameter array P must have shape (elements, parameters), "
+                             f"got shape {g.P.shape}")
+
+
+def _nn_targets(g, target, nv):
+    """Storage position of each entry of the batch's element matrices (−1: a fixed coordinate)."""
+    dofs = g.dofs
+    nel, nd = dofs.shape
+    Rr = np.broadcast_to(dofs[:, :, None], (nel, nd, nd))
+    Cr = np.broadcast_to(dofs[:, None, :], (nel, nd, nd))
+    t = np.full((nel, nd, nd), -1, dtype=np.int64)
+    ok = (Rr < nv) & (Cr < nv)
+    t[ok] = target(Rr[ok], Cr[ok])
+    return t
+
+
+def _tangent_blocks(g, block_of):
+    """Rotation blocks: T(Δθ) of each free rotation multiplies the element columns of its rotation
+    vector in the Newton matrix (tblk[e, k] = (first column in the element, block))."""
+    rows = [[(i, block_of[int(d)]) for i, d in enumerate(e) if int(d) in block_of] for e in g.dofs]
+    k = max([len(r_) for r_ in rows] + [0])
+    out = np.full((len(rows), k, 2), -1, dtype=np.int64)
+    for e, r_ in enumerate(rows):
+        for j, pair in enumerate(r_):
+            out[e, j] = pair
+    return out
+
+
+def _xdofs_of(g):
+    return _i64(g.xdofs if getattr(g, "xdofs", None) is not None else g.dofs)
+
+
+def _batch_arrays(model, target, active):
+    """The arrays of every batch, forces then constraints, each in the order of
+    :data:`FORCE_FIELDS` / :data:`CONSTRAINT_FIELDS` (the contents of the pack G)."""
+    nv = model.nq
+    rot = getattr(model, "rot_blocks", np.zeros((0, 2), dtype=np.int64))
+    block_of = {int(vs): b for b, (_, vs) in enumerate(rot)}
+    arrays = []
+    for g in model.force_groups:
+        nel, nd = g.dofs.shape
+        ndx = _xdofs_of(g).shape[1]
+        ntf = g.tf_index.shape[1]
+        arrays += [g.P, _i64(g.dofs), _i64(g.tf_index), _nn_targets(g, target, nv),
+                   np.zeros((nel, ndx)), np.zeros((nel, nd)), np.zeros((nel, ntf, 3)),
+                   np.zeros((nel, nd)), np.zeros((nel, nd, nd)), np.zeros((nel, nd, nd)),
+                   _xdofs_of(g), _tangent_blocks(g, block_of)]
+    for g in model.constraint_groups:
+        nel, nd = g.dofs.shape
+        ndx = _xdofs_of(g).shape[1]
+        ncg = g.nc
+        ntf = g.tf_index.shape[1]
+        tB = np.full((nel, ncg, nd), -1, dtype=np.int64)
+        tBt = np.full((nel, ncg, nd), -1, dtype=np.int64)
+        Rr = np.broadcast_to(g.lam[:, :, None], (nel, ncg, nd))
+        Cr = np.broadcast_to(g.dofs[:, None, :], (nel, ncg, nd))
+        ok = (Cr < nv) & (active[Rr] != 0)
+        tB[ok] = target(nv + Rr[ok], Cr[ok])
+        tBt[ok] = target(Cr[ok], nv + Rr[ok])
+        arrays += [g.P, _i64(g.dofs), _i64(g.lam), _i64(g.tf_index), _nn_targets(g, target, nv), tB, tBt,
+                   np.zeros((nel, ndx)), np.zeros((nel, nd)), np.zeros((nel, ncg)),
+                   np.zeros((nel, ntf, 3)), np.zeros((nel, ncg)), np.zeros((nel, ncg, nd)),
+                   np.zeros((nel, nd, nd)), np.zeros((nel, ncg)), np.zeros((nel, ncg)),
+                   _xdofs_of(g), _tangent_blocks(g, block_of)]
+    return arrays
+
+
+def _constants(model, Mc, perm, iperm, active, index2, target):
+    """The model constants of the pack C by name (``C_FIELDS``; without ``env``, ``gglw`` and
+    ``batches``, which the caller adds)."""
+    nv = model.nq
+    tf = model.time_function_table
+    rot = getattr(model, "rot_blocks", np.zeros((0, 2), dtype=np.int64))
+    Mcoo = Mc.tocoo()
+    C = dict(mp=_i64(Mc.indptr), perm=perm, iperm=iperm, w=_f64(model.force_weight),
+             wext=_f64(model.force_weight_ext), qfix=_f64(model.q_fixed), fconst=_f64(model.f_const),
+             mi=_i64(Mc.indices), tfkind=_i64(tf["kind"]), tfoff=_i64(tf["off"]), tfcoef=_f64(tf["coef"]),
+             mx=_f64(Mc.data), tm=_i64(target(Mcoo.row, Mcoo.col)),
+             tfv=np.zeros((max(1, len(tf["kind"])), 3)),
+             scale0=np.array([float(np.abs(model.f_const * model.force_weight).max(initial=0.0))]),
+             active=active,
+             # rotation nodes: T(Δθ) per free rotation (identity between steps), x index of each
+             # additive v entry (−1 on rotations), (x start, v start) of each free rotation, the
+             # quaternions at the start of the step, the step's increment Δ on rotation entries
+             tn=np.tile(np.eye(3), (len(rot), 1, 1)), xmap=_i64(getattr(model, "xmap", np.arange(nv))),
+             rot=_i64(rot).reshape(-1, 2), pn=np.zeros((len(rot), 4)), d=np.zeros(nv),
+             lie=np.array([1 if getattr(model, "lie", False) else 0], dtype=np.int64))
+    # index-2 layout (empty otherwise): per flat entry of B (constraint, coordinate, target in the
+    # velocity rows), the products of B(q) B(q_n)ᵀ (entry, entry, target), the η diagonal of active
+    # constraints, work: B(q_n), B(q) and B(q) T(D) flat
+    C.update(index2)
+    return C
 
 
 def _envelope(pr, pc, N, kl, ku):

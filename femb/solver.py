@@ -333,7 +333,7 @@ class GeneralizedAlphaSolver:
             self.cp.tfv[k, 0] = fn.f(t)
             self.cp.tfv[k, 1] = fn.df(t)
             self.cp.tfv[k, 2] = fn.ddf(t)
-        self.sf[1] = t
+        self.sf[S.SF_TFTIME] = t
 
     def _qpp(self, t, q, qd, KB, kpiv):
         """Constrained accelerations q̈ᵖᵖ at (t, q, q̇) (compiled KKT solve)."""
@@ -374,7 +374,7 @@ class GeneralizedAlphaSolver:
         cp = self.cp
         t0 = self.t0
         self._tf_at(t0)
-        self.sf[0] = cp.mod.evaluate(cp.G, cp.C, t0, (self.q, self.qd, self.qdd, self.lam), False,
+        self.sf[S.SF_FREF] = cp.mod.evaluate(cp.G, cp.C, t0, (self.q, self.qd, self.qdd, self.lam), False,
                                      (0.0, 0.0, 0.0), (self.AB, self.r, self.Phi))
         if self.newton_test == "residual":
             # deformable elements: their internal forces carry round-off ε K L far above ε times the loads;
@@ -402,7 +402,7 @@ class GeneralizedAlphaSolver:
             qpp0 = self._qpp(t0, self.q, self.qd, self.Wv[S.W_KBACC], self.Wv[S.W_KPIVACC])
             self.Wv[S.W_QPP][:] = qpp0
             self.Wv[S.W_JN][:] = j0
-            self.si[8] = 1
+            self.si[S.SI_HAVEJ] = 1
             self.si[cp.mod.SI_PROJ] = 2        # that factorization serves the first re-synchronisation
             if self.adaptive:
                 if self.h0 is not None:
@@ -413,8 +413,8 @@ class GeneralizedAlphaSolver:
                     expo = -0.5 if self.error_per == "unit_step" else -1.0 / 3.0
                     h0 = 0.5 * min(nrm ** expo if nrm > 0 else math.inf, 0.1)
                 h0 = min(h0, 0.05 * (self.t_end - t0), self.h_max)
-                self.sf[3] = h0
-                self.sf[4] = h0
+                self.sf[S.SF_HNEXT] = h0
+                self.sf[S.SF_HPREV] = h0
             self.start_used = self.start
             if self.start == "consistent" and not self.adaptive and not start_is_resolved(h0, self.qd, j0):
                 # the jerk is that of a motion the step does not resolve (a stiff element set moving
@@ -428,7 +428,7 @@ class GeneralizedAlphaSolver:
         elif not self.adaptive and self.check_every:
             pass
         if not self.adaptive:
-            self.sf[4] = self.h
+            self.sf[S.SF_HPREV] = self.h
 
     def _buffers(self, n):
         b = self._bufs
@@ -460,29 +460,29 @@ class GeneralizedAlphaSolver:
         """
         cp = self.cp
         bt, bq, bqd, bqdd, bl, bh, bit, berr = self._buffers(max(1, n_chunk))
-        before = int(self.si[0])
+        before = int(self.si[S.SI_STEP])
         m = 0
         while True:
-            k = int(self.si[0]) - before
+            k = int(self.si[S.SI_STEP]) - before
             try:
                 out = S.Out(bt[m:], bq[m:], bqd[m:], bqdd[m:], bl[m:], bh[k:], bit[k:], berr[k:])
                 status = cp.mod.run(cp.G, cp.C, self.W, self.par, self.step_state, self.newton_arrays, out, n_chunk - k)
             except IndexError as exc:      # a kernel's bounds check (FEMB_DEBUG=1)
                 raise self._kernel_bounds_error(exc) from None
-            m += int(self.si[3])
-            if status == 2:                      # Python time functions needed at info[0]
+            m += int(self.si[S.SI_STORED])
+            if status == S.ST_NEED_TF:            # Python time functions needed at info[0]
                 self._fill_python_tf(float(self.info[0]))
                 continue
-            return status, m, int(self.si[0]) - before
+            return status, m, int(self.si[S.SI_STEP]) - before
 
     def _kernel_bounds_error(self, exc):
         """The ModelError of an index out of bounds in a kernel during the run: which element type."""
         from femb import kernels as _k
-        t = float(self.sf[2])
-        n = int(self.si[0]) + 1
+        t = float(self.sf[S.SF_T])
+        n = int(self.si[S.SI_STEP]) + 1
         model = self.model
         xq, xv = model.ext(self.q), model.ext_velocity(self.qd)
-        h = float(self.sf[3]) if self.adaptive else float(self.h)
+        h = float(self.sf[S.SF_HNEXT]) if self.adaptive else float(self.h)
         for tt in (t, t + h):
             for g in model.groups:
                 try:
@@ -500,29 +500,30 @@ class GeneralizedAlphaSolver:
         """Raise the femb error of a negative status of the compiled loop."""
         info = self.info
         t1, err_f, err_phi, k, iphi = float(info[0]), float(info[1]), float(info[2]), int(info[3]), int(info[4])
-        n = int(self.si[0]) + 1
+        n = int(self.si[S.SI_STEP]) + 1
         res = {"r_q": err_f, "Phi": err_phi}
-        if status == -5:
-            last = int(self.si[7])
+        if status == S.ST_HMIN:
+            last = int(self.si[S.SI_LASTFAIL])
             what = {-1: "non-finite residuals", -2: "Newton did not converge", -3: "Newton diverged",
                     -4: "singular iteration matrix"}.get(last, "rejected steps")
             msg = (f"step size fell below h_min = {self.h_min:.3g} s at t = {t1:.6g} s (step {n}) after "
-                   f"{int(self.si[5])} Newton failures and {int(self.si[4])} rejected steps; last failure: {what}")
-            if last == -4:
+                   f"{int(self.si[S.SI_NFAIL])} Newton failures and {int(self.si[S.SI_REJECTED])} rejected steps; "
+                   f"last failure: {what}")
+            if last == S.ST_SINGULAR:
                 raise SingularMatrixError(f"{msg}; {singular_hint(self.model, self.q, t1)}", t=t1, step=n,
                                           residuals=res)
             raise ConvergenceError(msg + "; the motion may be singular here, or tighten phi_tol/rtol",
                                    t=t1, step=n, residuals=res)
-        if status == -6:
+        if status == S.ST_KKT_SINGULAR:
             raise SingularMatrixError(
                 f"the matrix [[M, Φ_qᵀ], [Φ_q, 0]] of the constrained accelerations is singular at "
                 f"t = {t1:.6g} s (step {n}); {singular_hint(self.model, self.q, t1)}", t=t1, step=n,
                 residuals=res)
-        if status == -1:
+        if status == S.ST_NONFINITE:
             raise ConvergenceError(
                 f"non-finite residual at t = {t1:.6g} s (step {n}, iteration {k}): the step diverged; "
                 f"{self._newton_hint(n)}", t=t1, step=n, residuals=res)
-        if status == -2:
+        if status == S.ST_MAXITER:
             where = f"; largest constraint residual in '{self.owner[iphi]}'" if iphi >= 0 else ""
             if self.newton_test == "residual":
                 detail = (f"‖r_q‖∞ = {err_f:.3e} N (moments / L; tolerance {info[5]:.3e}), ‖Φ‖∞ = {err_phi:.3e} m "
@@ -533,12 +534,12 @@ class GeneralizedAlphaSolver:
             raise ConvergenceError(
                 f"Newton did not converge at t = {t1:.6g} s (step {n}) within {self.max_iter} iterations: "
                 f"{detail}{where}; {self._newton_hint(n)}", t=t1, step=n, residuals=res)
-        if status == -3:
+        if status == S.ST_DIVERGED_SINGULAR:
             raise ConvergenceError(
                 f"Newton diverged at t = {t1:.6g} s (step {n}): the iteration matrix became singular at "
                 f"iteration {k} with ‖r_q‖∞ = {err_f:.3e} N, ‖Φ‖∞ = {err_phi:.3e} m; {SINGULAR_HINT_DIVERGED}",
                 t=t1, step=n, residuals=res)
-        if status == -4:
+        if status == S.ST_SINGULAR:
             raise SingularMatrixError(
                 f"singular iteration matrix at t = {t1:.6g} s (step {n}); "
                 f"{singular_hint(self.model, self.q, t1)}", t=t1, step=n, residuals=res)
@@ -547,15 +548,15 @@ class GeneralizedAlphaSolver:
     # ------------------------------------------------------------------ public
     @property
     def step_index(self):
-        return int(self.si[0])
+        return int(self.si[S.SI_STEP])
 
     @property
     def t(self):
-        return float(self.sf[2])
+        return float(self.sf[S.SF_T])
 
     @property
     def F_ref(self):
-        return float(self.sf[0])
+        return float(self.sf[S.SF_FREF])
 
     @property
     def stats(self):
@@ -563,7 +564,7 @@ class GeneralizedAlphaSolver:
         return {"steps": int(s[0]), "evaluations": int(s[1]), "factorizations": int(s[2]),
                 "solves": int(s[3]), "roundoff_accepts": int(s[4]), "kkt_solves": int(s[5]),
                 "kkt_refinements": int(s[6]),
-                "rejected": int(self.si[4]), "newton_failures": int(self.si[5])}
+                "rejected": int(self.si[S.SI_REJECTED]), "newton_failures": int(self.si[S.SI_NFAIL])}
 
     @property
     def state(self):
@@ -582,7 +583,7 @@ class GeneralizedAlphaSolver:
 
     def max_error_estimate(self):
         """(largest local error estimate seen, its time); fixed steps only check every ``check_every``."""
-        return float(self.sf[6]), float(self.sf[7])
+        return float(self.sf[S.SF_ERRMAX]), float(self.sf[S.SF_ERRMAX_T])
 
     def settings(self):
         a = self.alpha

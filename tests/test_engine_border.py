@@ -87,6 +87,44 @@ def test_every_engine_field_is_written_once_by_name(osc, h):
     np.testing.assert_array_equal(s.cp.Cv[S.C_QFIX], osc.q_fixed)
 
 
+def test_named_packs_are_the_solver_arrays_and_the_engine_types(osc):
+    """The packs P, S, N hold the solver's arrays themselves (what the engine writes, Python
+    reads), one per field name; their numba types are those of the engine's signature of run."""
+    from numba import typeof
+    s = GeneralizedAlphaSolver(osc, 1e-3, t_end=0.01)
+    attr = {"stats": "stats_arr", "tfv": None}
+    for pack, cls in ((s.par, S.Par), (s.step_state, S.StepState), (s.newton_arrays, S.NewtonArrays)):
+        assert type(pack) is cls and pack._fields == cls._fields
+        for name in cls._fields:
+            own = s.cp.tfv if name == "tfv" else getattr(s, attr.get(name) or name)
+            assert getattr(pack, name) is own, name
+    b = s._buffers(3)
+    out = S.Out(*b)
+    sig = S.engine_signatures()[S.run]
+    assert [typeof(x) for x in (s.cp.G, s.cp.C, s.W, s.par, s.step_state, s.newton_arrays, out)] == list(sig[:7])
+    # a step through the packs moves the solver's own state
+    q0 = s.q.copy()
+    status, m, k = s.advance(2)
+    assert k == 2 and int(s.par.si[S.SI_STEP]) == 2 and not np.array_equal(s.step_state.q, q0)
+    assert s.step_state.q is s.q and b[0][m - 1] == pytest.approx(0.002)
+
+
+def test_engine_functions_are_short_with_few_arguments():
+    """No function of femb/engine has more than 10 arguments or more than about 100 lines."""
+    import ast
+    from pathlib import Path
+    root = Path(S.__file__).parent
+    long = []
+    for path in sorted(root.glob("*.py")):
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            if isinstance(node, ast.FunctionDef):
+                n_args = len(node.args.args) + len(node.args.kwonlyargs)
+                n_lines = node.end_lineno - node.lineno + 1
+                if n_args > 10 or n_lines > 105:
+                    long.append(f"{path.name}:{node.name} ({n_args} arguments, {n_lines} lines)")
+    assert not long, long
+
+
 # ---- SolverOptions --------------------------------------------------------------------------
 def test_solver_options_validate_by_name():
     o = SolverOptions.create(1e-3, rho_inf=0.8, max_iter=7)

@@ -1,8 +1,8 @@
 """Stage: error estimate and step-size control.
 
 The local error estimate of the generalized-α scheme, e_q = C_q h² Δq̈ᵖᵖ from the constrained
-accelerations q̈ᵖᵖ of two steps (:func:`kkt_solve`, :func:`kkt_estimate`, [[M, Bᵀ], [B, 0]] [q̈; λ] = [f; −γ]),
-its weighted norm (:func:`error_norm`), the step-size factor of the controller
+accelerations q̈ᵖᵖ of two steps ([[M, Bᵀ], [B, 0]] [q̈; λ] = [f; −γ]: :func:`kkt_solve`,
+:func:`kkt_estimate`), its weighted norm (:func:`error_norm`), the step-size factor of the controller
 (:func:`step_factor`), the re-synchronisation of a and q̇ after a change of h
 (:func:`resynchronise`, :func:`project_normal_velocity`) and the Newton weights: docs/stepsize.md
 §1–§4.
