@@ -21,6 +21,10 @@ ENTRY = dict(OPTIONS, no_cfunc_wrapper=True)
 #: functions called from compiled code only: no Python wrapper either, and no cache entry of
 #: their own (their code is compiled into, and cached with, every entry point that calls them)
 INNER = dict(ENTRY, no_cpython_wrapper=True)
+#: the stages of a step that take the named packs (``Par``, ``StepState``, ``NewtonArrays``, ...):
+#: inlined into their caller by numba (``inline="always"``), so that a pack's arrays are not
+#: passed as separate machine arguments at every call (docs/engine.md, "The named packs")
+STAGE = dict(INNER, inline="always")
 
 # ---- the model constants in the pack C (built by name in femb/codegen.py, Compiled) ----------
 #: (name, kind) of each array of C, in pack order; C_<NAME> is its number. Kind: f/i (float64 or

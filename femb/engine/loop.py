@@ -9,7 +9,7 @@ state into the caller's buffers. It returns a status code (``ST_*``); Python rai
 from numba import njit
 
 from femb.jit import (engine, fview1, iview1)
-from femb.engine.layout import (C_TFCOEF, C_TFKIND, C_TFOFF, ENTRY, FP_CQ, FP_CV, FP_EPUS, FP_H, FP_HMAX,
+from femb.engine.layout import (STAGE, C_TFCOEF, C_TFKIND, C_TFOFF, ENTRY, FP_CQ, FP_CV, FP_EPUS, FP_H, FP_HMAX,
     FP_HMIN, FP_KEXP, FP_T0, FP_TEND, FP_WARN, INNER, IP_CHECK, IP_GGL, IP_MODE, IP_NC, IP_NSTEPS, IP_NV,
     IP_PYTF, IP_STORE, IP_STRIDE, NS_STEPS, SF_ERRMAX, SF_ERRMAX_T, SF_FREF, SF_FREF_S, SF_HNEXT, SF_HPREV,
     SF_T, SF_TFTIME, SF_WARN_ERR, SF_WARN_T, SI_CARRY, SI_HASPREV, SI_HASPREV_S, SI_HAVEJ, SI_LASTFAIL,
@@ -102,7 +102,7 @@ def run(G, C, W, P, S, N, O, n_chunk):
     return ST_CHUNK
 
 
-@njit(**INNER)
+@njit(**STAGE)
 def step_size(ip, fp, sf, info, n, t, adaptive):
     """The next step: (``ST_GO``, h, t_{n+1}), or (``ST_DONE``, ...) at the end, or (``ST_HMIN``,
     ...) with ``info`` = (t, h) when an adaptive step falls below ``FP_HMIN``.
@@ -132,7 +132,7 @@ def step_size(ip, fp, sf, info, n, t, adaptive):
     return ST_GO, h, (t_end if last else t + h)
 
 
-@njit(**INNER)
+@njit(**STAGE)
 def begin_trial(G, C, P, S, N, W, t, t1, h, adaptive):
     """Before a trial step t → t1: save the accepted state (adaptive), re-synchronise a and q̇
     after a change of h, and the time functions at t1. Returns ``ST_GO``, or ``ST_NEED_TF``
@@ -165,7 +165,7 @@ def begin_trial(G, C, P, S, N, W, t, t1, h, adaptive):
     return ST_GO
 
 
-@njit(**INNER)
+@njit(**STAGE)
 def adaptive_error(G, C, P, S, N, W, t1, h, h_prev):
     """The local error estimate of an adaptive step (stepsize.md §3): e_q = C_q h² Δq̈ᵖᵖ,
     e_v = C_v h³ Δj / h̄, its weighted RMS norm (per unit step with ``FP_EPUS``).
@@ -194,7 +194,7 @@ def adaptive_error(G, C, P, S, N, W, t1, h, h_prev):
     return ST_GO, err
 
 
-@njit(**INNER)
+@njit(**STAGE)
 def fixed_step_check(G, C, P, S, N, W, n, t1, h):
     """Fixed steps: q̈ᵖᵖ at two consecutive steps every ``IP_CHECK`` steps, e_q only, per step
     (the threshold of stepsize.md §9); the largest estimate and the first one above ``FP_WARN``
@@ -231,7 +231,7 @@ def fixed_step_check(G, C, P, S, N, W, n, t1, h):
     return ST_GO, err
 
 
-@njit(**INNER)
+@njit(**STAGE)
 def accept_adaptive(P, S, W, t1, h, err):
     """Accept or reject an adaptive step by its error estimate; the next step size (PI
     controller, or a smaller retry from the accepted state). Returns True when accepted."""
@@ -262,7 +262,7 @@ def accept_adaptive(P, S, W, t1, h, err):
     return True
 
 
-@njit(**INNER)
+@njit(**STAGE)
 def record_step(ip, fp, si, S, O, done, n, t1, h, rec):
     """Row ``done`` of the per-step records (h, Newton iterations, error estimate: ``rec``, with the
     adaptive flag), and the state into the next stored row every ``IP_STRIDE`` steps and at the
@@ -281,7 +281,7 @@ def record_step(ip, fp, si, S, O, done, n, t1, h, rec):
     return final
 
 
-@njit(**INNER)
+@njit(**STAGE)
 def save_state(S, W):
     """The accepted state into work arrays 0 to 6 of W (a rejected trial restarts from it)."""
     copy_into(fview1(W, W_Q_S), S.q)
@@ -293,7 +293,7 @@ def save_state(S, W):
     copy_into(fview1(W, W_PLAM_S), S.plam)
 
 
-@njit(**INNER)
+@njit(**STAGE)
 def back_to_accepted(si, sf, S, W):
     """After a rejected or failed trial: the accepted state, its predictor history and force
     scale; the Newton matrix of the accepted step is gone."""
@@ -305,7 +305,7 @@ def back_to_accepted(si, sf, S, W):
         si[SI_PROJ] = 0
 
 
-@njit(**INNER)
+@njit(**STAGE)
 def store_state(m, S, O):
     """Row m of the output buffers = the current state."""
     copy_into(O.q[m], S.q)
@@ -314,7 +314,7 @@ def store_state(m, S, O):
     copy_into(O.lam[m], S.lam)
 
 
-@njit(**INNER)
+@njit(**STAGE)
 def restore_state(S, W):
     """Back to the accepted state saved at the start of the trial step (work arrays 0 to 6 of W)."""
     copy_into(S.q, fview1(W, W_Q_S))

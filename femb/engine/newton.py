@@ -50,7 +50,7 @@ from numba import njit
 
 from femb.jit import (engine, fview1, fview2, fview3, iview1, iview2)
 from femb.rotations import (s2, s3, s7)
-from femb.engine.layout import (C_BW, C_D, C_ENV, C_FL, C_GGLW, C_IPERM, C_LIE, C_PAIRS, C_PN, C_ROT, C_TETA,
+from femb.engine.layout import (STAGE, C_BW, C_D, C_ENV, C_FL, C_GGLW, C_IPERM, C_LIE, C_PAIRS, C_PN, C_ROT, C_TETA,
     C_TN, C_W, C_XMAP, ENTRY, FP_AF, FP_AM, FP_ATOL, FP_BETA, FP_GAMMA, FP_L, FP_NEWTC, FP_PHITOL, FP_RTOL,
     FP_SCALED, FP_SINGTOL, FP_XTOL, INNER, IP_CARRY, IP_FULL, IP_GGL, IP_MAXIT, IP_MINIT, IP_NC, IP_NTEST,
     IP_NV, IP_PRED, NEWTON_CARRY_ETA, NEWTON_ETA_EXP, NEWTON_FROZEN_MAX, NS_EVAL, NS_FACT, NS_ROUNDOFF,
@@ -222,7 +222,7 @@ def newton_step(G, C, P, S, N, t1, h, h_prev, wq):
     return k
 
 
-@njit(**INNER)
+@njit(**STAGE)
 def step_coefficients(fp, h):
     """(β', γ', c, s_g, s_r) of a step h: β' = (1 − α_m)/(h²β(1 − α_f)), γ' = γ/(hβ) (Arnold &
     Brüls 2007, eq. 6), the scaling c = βh² (Bottasso, Dopico & Trainelli 2008; 1 unscaled) and
@@ -237,7 +237,7 @@ def step_coefficients(fp, h):
     return bp, gp, c, sg, sr
 
 
-@njit(**INNER)
+@njit(**STAGE)
 def newton_begin(G, C, P, S, x, t1, h, h_prev, ggl, lie):
     """Before the first iterate: B(q_n) (index 2), the predictor, the carried contraction estimate
     η₀ and whether the factorized matrix of an earlier step is used again.
@@ -268,7 +268,7 @@ def newton_begin(G, C, P, S, x, t1, h, h_prev, ggl, lie):
     return eta0, carry, carried
 
 
-@njit(**INNER)
+@njit(**STAGE)
 def measure_residual(C, P, N, t1, k, F, gp, ggl):
     """‖W r_q‖∞ and ‖Φ‖∞ of the iterate k into ``N.info``, and the residual rule's verdict.
 
@@ -301,7 +301,7 @@ def measure_residual(C, P, N, t1, k, F, gp, ggl):
     return err_f, err_phi, 0
 
 
-@njit(**INNER)
+@njit(**STAGE)
 def residual_rule_redo(si, full, prev_norm, err_f, err_phi, F, tol_phi):
     """The residual rule needs the iteration matrix at this iterate: full Newton always, modified
     Newton when the contraction was poor (the relative residual fell by less than 4)."""
@@ -314,7 +314,7 @@ def residual_rule_redo(si, full, prev_norm, err_f, err_phi, F, tol_phi):
     return False
 
 
-@njit(**INNER)
+@njit(**STAGE)
 def factor_matrix(C, P, N, h, sg, ggl, k):
     """Factorize the iteration matrix ``N.AB`` (index 2: with the rows of :func:`ggl_matrix`).
 
@@ -334,7 +334,7 @@ def factor_matrix(C, P, N, h, sg, ggl, k):
     return 0
 
 
-@njit(**INNER)
+@njit(**STAGE)
 def solve_correction(C, P, N, g, c, sr, ggl):
     """The Newton correction into ``N.rhs``: S_t [Δq; Δλ/c (; δη)] = −[c r_q; Φ (; s_r g)] (eq. 8)."""
     ip = P.ip
@@ -355,7 +355,7 @@ def solve_correction(C, P, N, g, c, sr, ggl):
     P.stats[NS_SOLVE] += 1
 
 
-@njit(**INNER)
+@njit(**STAGE)
 def newton_end(P, S, x, F, F_ref, eta0, theta_first, carry, ggl):
     """After the accepted iterate: a += (1 − α_f)/(1 − α_m) q̈ (eq. 3, a_base kept in ``x``), the
     force scale, the contraction estimate for the next step and the carry flag."""
@@ -486,7 +486,7 @@ def constraint_norm(Phi, g, gp, ggl):
     return err, iphi
 
 
-@njit(**INNER)
+@njit(**STAGE)
 def apply_correction(C, ip, S, rhs, wq, bp, gp, c, lie, ggl):
     """The solved Newton correction ``rhs`` into the iterate, in place.
 
@@ -546,7 +546,7 @@ def apply_correction(C, ip, S, rhs, wq, bp, gp, c, lie, ggl):
     return dqmax, qmax, dqw, qddmax
 
 
-@njit(**INNER)
+@njit(**STAGE)
 def correction_test(P, k, jac, carried, m, bp, rates, phi_ratio, theta_prev_bad):
     """The correction rule (stepsize.md §5) after correction k: what Newton does next.
 
