@@ -49,7 +49,6 @@ ALLOWED = {
     "femb/io/vtk.py:merge_blocks": "not split yet",
     "femb/model.py:compile_model": "not split yet",
     "femb/solver.py:simulate": "not split yet",
-    "femb/static.py:solve_static": "not split yet",
     "femb/sweep.py:sweep": "not split yet",
     "femb/sweep.py:_run_on_dask": "not split yet",
     "femb/sweep.py:plot_results": "not split yet",

@@ -1,0 +1,36 @@
+"""Options grouped in dataclasses: ``options=`` and the keywords give the same run, unknown names
+are named in a ParameterError."""
+import numpy as np
+import pytest
+
+from femb import Mechanism
+from femb.elements import Gravity, PointMass, SpringDamper
+from femb.errors import ParameterError
+from femb.static import StaticOptions, solve_static
+
+
+def _hanging():
+    m = Mechanism("hanging")
+    p = m.add(PointMass("p", 1.0, position=(0.0, -1.0)))
+    m.add(SpringDamper("s", "ground", p, 100.0), Gravity((0.0, -10.0)))
+    return m.compile()
+
+
+def test_static_options_and_keywords_agree():
+    model = _hanging()
+    a = solve_static(model, load_steps=3, rtol=1e-11)
+    b = solve_static(model, options=StaticOptions.create(load_steps=3, rtol=1e-11))
+    c = solve_static(model, options=StaticOptions.create(load_steps=5), load_steps=3, rtol=1e-11)
+    for r in (b, c):
+        np.testing.assert_array_equal(r.q, a.q)
+        assert r.settings == a.settings and r.strategy == a.strategy == "load steps"
+    assert len(a.t) == 4
+
+
+def test_static_unknown_option_is_named():
+    with pytest.raises(ParameterError, match="unknown option.*load_stepz"):
+        solve_static(_hanging(), load_stepz=3)
+    with pytest.raises(ParameterError, match="options must be a StaticOptions"):
+        solve_static(_hanging(), options={"load_steps": 3})
+    with pytest.raises(ParameterError, match="load_steps must be at least 1"):
+        StaticOptions.create(load_steps=0)
