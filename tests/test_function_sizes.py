@@ -47,7 +47,6 @@ ALLOWED = {
     "femb/contact/simulate.py:_split_at_impact": "not split yet",
     "femb/io/mechanism.py:read_frame": "not split yet",
     "femb/io/vtk.py:merge_blocks": "not split yet",
-    "femb/model.py:compile_model": "not split yet",
     "femb/solver.py:simulate": "not split yet",
     "femb/sweep.py:sweep": "not split yet",
     "femb/sweep.py:_run_on_dask": "not split yet",
