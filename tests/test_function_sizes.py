@@ -41,7 +41,6 @@ ALLOWED = {
     "femb/jit.py:call_force": "engine: being split in separate work",
     "femb/jit.py:call_constraint": "engine: being split in separate work",
     # not split yet
-    "femb/solver.py:simulate": "not split yet",
     "femb/cli.py:cmd_run": "not split yet",
     "femb/cli.py:build_parser": "not split yet",
     "femb/io/mechanism.py:read_frame": "not split yet",

@@ -34,3 +34,36 @@ def test_static_unknown_option_is_named():
         solve_static(_hanging(), options={"load_steps": 3})
     with pytest.raises(ParameterError, match="load_steps must be at least 1"):
         StaticOptions.create(load_steps=0)
+
+
+def test_simulate_options_and_keywords_agree():
+    import femb
+    from femb.options import SolverOptions
+
+    model = _hanging()
+    a = femb.simulate(model, 0.05, 0.01, rho_inf=0.5, max_iter=12, stride=2)
+    b = femb.simulate(model, 0.05, options=SolverOptions.create(0.01, rho_inf=0.5, max_iter=12), stride=2)
+    c = femb.simulate(model, 0.05, 0.01, options=SolverOptions.create(0.02, rho_inf=0.9, max_iter=12),
+                      rho_inf=0.5, stride=2)
+    for r in (b, c):
+        np.testing.assert_array_equal(r.t, a.t)
+        np.testing.assert_array_equal(r.q, a.q)
+    d = femb.simulate(model, 0.05, rtol=1e-4, rho_inf=0.5)
+    e = femb.simulate(model, 0.05, options=SolverOptions.create(None, rtol=1e-4, rho_inf=0.5))
+    np.testing.assert_array_equal(e.t, d.t)
+    np.testing.assert_array_equal(e.q, d.q)
+    with pytest.raises(ParameterError, match="unknown solver option.*max_iterz"):
+        femb.simulate(model, 0.05, 0.01, max_iterz=3)
+    with pytest.raises(ParameterError, match="options must be"):
+        femb.simulate(model, 0.05, 0.01, options={"rho_inf": 0.5})
+
+
+def test_sweep_plan_names_unknown_options():
+    from femb.sweep import SweepPlan, sweep
+
+    with pytest.raises(ParameterError, match="unknown option.*gird"):
+        sweep("slider_crank", gird={"k": [1.0]})
+    with pytest.raises(ParameterError, match="plan must be a SweepPlan"):
+        sweep("slider_crank", plan={"grid": {}})
+    p = SweepPlan.create(grid={"k": [1.0]}, h=0.01)
+    assert SweepPlan.create(p, h=0.02).h == 0.02 and SweepPlan.create(p, h=0.02).grid == {"k": [1.0]}
