@@ -41,8 +41,6 @@ ALLOWED = {
     "femb/jit.py:call_force": "engine: being split in separate work",
     "femb/jit.py:call_constraint": "engine: being split in separate work",
     # not split yet
-    "femb/io/mechanism.py:read_frame": "not split yet",
-    "femb/io/vtk.py:merge_blocks": "not split yet",
     "femb/checks.py:check_jacobians": "not split yet",
     "femb/contact/simulate.py:_split_at_impact": "not split yet",
 }
