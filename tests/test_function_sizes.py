@@ -41,7 +41,6 @@ ALLOWED = {
     "femb/jit.py:call_force": "engine: being split in separate work",
     "femb/jit.py:call_constraint": "engine: being split in separate work",
     # not split yet
-    "femb/checks.py:check_jacobians": "not split yet",
     "femb/contact/simulate.py:_split_at_impact": "not split yet",
 }
 
