@@ -40,8 +40,6 @@ ALLOWED = {
     "femb/engine/newton.py:correction_test": "engine: being split in separate work",
     "femb/jit.py:call_force": "engine: being split in separate work",
     "femb/jit.py:call_constraint": "engine: being split in separate work",
-    # not split yet
-    "femb/contact/simulate.py:_split_at_impact": "not split yet",
 }
 
 
