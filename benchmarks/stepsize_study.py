@@ -77,9 +77,17 @@ class StepControlUnavailable(RuntimeError):
 
 
 def simulate_keywords():
-    """Names of the keyword parameters that ``femb.simulate`` declares explicitly (set of str)."""
+    """Names of the keyword parameters that ``femb.simulate`` declares (set of str): those of its
+    signature and, when it takes ``**kwargs``, the solver options and run settings it forwards
+    (``femb.options.SolverOptions.NAMES``, ``femb.solver.RUN_SETTINGS``)."""
     sig = inspect.signature(femb.simulate)
-    return {p.name for p in sig.parameters.values() if p.kind in (p.KEYWORD_ONLY, p.POSITIONAL_OR_KEYWORD)}
+    names = {p.name for p in sig.parameters.values() if p.kind in (p.KEYWORD_ONLY, p.POSITIONAL_OR_KEYWORD)}
+    if any(p.kind == p.VAR_KEYWORD for p in sig.parameters.values()):
+        from femb.options import SolverOptions
+        from femb.solver import RUN_SETTINGS
+
+        names |= set(SolverOptions.NAMES) | set(RUN_SETTINGS)
+    return names
 
 
 def require(*names):

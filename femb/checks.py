@@ -112,14 +112,37 @@ def check_jacobians(model: Model, state: State | None = None, t: float | None = 
         q = model.compose(q, d)
     qd = rng.uniform(-1.0, 1.0, nv) if perturb or state is None else np.array(st.qd, dtype=float)
     lam = rng.uniform(-1.0, 1.0, model.nc)
-    h = (1e-6 * L) if eps is None else float(eps)
-    report = JacobianReport(rtol=rtol)
+    fd = _FiniteDifferences(model, t, q, qd, (1e-6 * L) if eps is None else float(eps), rtol)
+    for g in model.force_groups:
+        fd.check_force(g)
+    for g in model.constraint_groups:
+        fd.check_constraint(g, lam[g.lam])
+    mu = rng.uniform(-1.0, 1.0, getattr(model, "nn", 0))
+    for g in getattr(model, "velocity_constraint_groups", []):
+        _check_velocity_constraint(g, mu[g.mu], t, fd.gather(g, q, qd), fd.gather, fd.columns, fd.add)
+    return fd.report
 
-    def gather(group, qq, vv):
-        return model.ext(qq)[group.xdofs], model.ext_velocity(vv)[group.dofs]
 
-    def columns(group, fun, what, wrt):
+class _FiniteDifferences:
+    """The kernels of one model checked against central differences at (t, q, q̇) (step h in
+    coordinates), the results collected in ``report``."""
+
+    def __init__(self, model, t, q, qd, h, rtol):
+        self.model, self.t, self.q, self.qd, self.h, self.rtol = model, t, q, qd, h, rtol
+        self.nv = model.nq
+        self.report = JacobianReport(rtol=rtol)
+        # an absolute floor for force Jacobians: 1e-9 of the largest mass-matrix entry (per s or s²),
+        # below which a difference is round-off of a force that vanishes (e.g. the gyroscopic force
+        # of a body with equal principal inertias), not a wrong Jacobian
+        Mc = getattr(model, "M_const", None)
+        self.f_floor = 1e-9 * (float(np.max(np.abs(Mc.data), initial=0.0)) if Mc is not None else 0.0)
+
+    def gather(self, group, qq, vv):
+        return self.model.ext(qq)[group.xdofs], self.model.ext_velocity(vv)[group.dofs]
+
+    def columns(self, group, fun, what, wrt):
         """FD of fun(q or v) per free global coordinate, mapped to the element columns."""
+        model, q, qd, nv = self.model, self.q, self.qd, self.nv
         dofs = group.dofs
         nel, nd = dofs.shape
         f0 = fun(q, qd)
@@ -129,7 +152,7 @@ def check_jacobians(model: Model, state: State | None = None, t: float | None = 
             e_ = np.zeros(nv)
             e_[d_] = 1.0
             if wrt == "x":
-                step = h if (getattr(model, "xmap", None) is None or model.xmap[d_] >= 0) else 1e-6
+                step = self.h if (getattr(model, "xmap", None) is None or model.xmap[d_] >= 0) else 1e-6
                 fp_, fm_ = fun(model.compose(q, step * e_), qd), fun(model.compose(q, -step * e_), qd)
             else:
                 step = 1e-6
@@ -143,91 +166,91 @@ def check_jacobians(model: Model, state: State | None = None, t: float | None = 
         noise = FD_NOISE * float(np.max(np.abs(f0), initial=0.0)) / (smallest if np.isfinite(smallest) else 1.0)
         return J, noise
 
-    def free_cols(group, A):
-        mask = group.dofs < nv
+    def free_cols(self, group, A):
+        mask = group.dofs < self.nv
         return np.where(mask[:, None, :], A, 0.0) if A.ndim == 3 else A
 
-    # an absolute floor for force Jacobians: 1e-9 of the largest mass-matrix entry (per s or s²),
-    # below which a difference is round-off of a force that vanishes (e.g. the gyroscopic force
-    # of a body with equal principal inertias), not a wrong Jacobian
-    Mc = getattr(model, "M_const", None)
-    f_floor = 1e-9 * (float(np.max(np.abs(Mc.data), initial=0.0)) if Mc is not None else 0.0)
-
-    def add(group, what, A, B, note="", noise=0.0):
+    def add(self, group, what, A, B, note="", noise=0.0):
         if isinstance(B, tuple):
             B, noise = B
         if what.startswith("force"):
-            noise = max(noise, f_floor)
-        err, scale = _rel(free_cols(group, A), free_cols(group, B), noise, rtol)
-        ok = err <= rtol
-        report.checks.append(JacobianCheck(group.cls.__name__, group.name, what, err, scale, ok,
-                                           note if not ok else ""))
+            noise = max(noise, self.f_floor)
+        err, scale = _rel(self.free_cols(group, A), self.free_cols(group, B), noise, self.rtol)
+        ok = err <= self.rtol
+        self.report.checks.append(JacobianCheck(group.cls.__name__, group.name, what, err, scale, ok,
+                                                note if not ok else ""))
 
-    for g in model.force_groups:
-        xe, ve = gather(g, q, qd)
+    def check_force(self, g):
+        """fq and fv of a force group (or that its force does not depend on v, when it says so)."""
+        t, rtol = self.t, self.rtol
+        xe, ve = self.gather(g, self.q, self.qd)
         fe, fq, fv = K.force(g, t, xe, ve, jac=True, raw=True)
 
-        def f_of(qq, vv, g=g):
-            x_, v_ = gather(g, qq, vv)
+        def f_of(qq, vv):
+            x_, v_ = self.gather(g, qq, vv)
             return K.force(g, t, x_, v_, jac=False)[0]
 
-        add(g, "force: df/dx (fq)", fq, columns(g, f_of, "fq", "x"),
-            "the force kernel's fq disagrees with finite differences of fe")
-        fd_v, noise_v = columns(g, f_of, "fv", "v")
+        self.add(g, "force: df/dx (fq)", fq, self.columns(g, f_of, "fq", "x"),
+                 "the force kernel's fq disagrees with finite differences of fe")
+        fd_v, noise_v = self.columns(g, f_of, "fv", "v")
         if g.traits.get("force_depends_on_qd", False):
-            add(g, "force: df/dv (fv)", fv, fd_v, "the force kernel's fv disagrees with finite differences of fe",
-                noise=noise_v)
-        else:
-            big = float(np.max(np.abs(free_cols(g, fd_v)), initial=0.0))
-            fscale = max(float(np.max(np.abs(fe), initial=0.0)), 1e-300)
-            ok = big <= rtol * max(fscale, 1.0) or big <= max(noise_v, f_floor)
-            report.checks.append(JacobianCheck(
-                g.cls.__name__, g.name, "force: depends on v?", big / max(fscale, 1.0), big, ok,
-                "" if ok else "the force depends on the velocities but the element type does not declare "
-                              "force_depends_on_qd = True: its damping is left out of the iteration matrix"))
-    for g in model.constraint_groups:
-        xe, ve = gather(g, q, qd)
-        le = lam[g.lam]
+            self.add(g, "force: df/dv (fv)", fv, fd_v, "the force kernel's fv disagrees with finite differences "
+                     "of fe", noise=noise_v)
+            return
+        big = float(np.max(np.abs(self.free_cols(g, fd_v)), initial=0.0))
+        fscale = max(float(np.max(np.abs(fe), initial=0.0)), 1e-300)
+        ok = big <= rtol * max(fscale, 1.0) or big <= max(noise_v, self.f_floor)
+        self.report.checks.append(JacobianCheck(
+            g.cls.__name__, g.name, "force: depends on v?", big / max(fscale, 1.0), big, ok,
+            "" if ok else "the force depends on the velocities but the element type does not declare "
+                          "force_depends_on_qd = True: its damping is left out of the iteration matrix"))
+
+    def check_constraint(self, g, le):
+        """B and H of a constraint group (multipliers ``le``), then its rates."""
+        t = self.t
+        xe, _ = self.gather(g, self.q, self.qd)
         Phi, B, H = K.constraint(g, t, xe, le, jac=True)
 
-        def phi_of(qq, vv, g=g):
-            x_, _ = gather(g, qq, vv)
+        def phi_of(qq, vv):
+            x_, _ = self.gather(g, qq, vv)
             return K.constraint(g, t, x_, None, jac=False)[0]
 
-        def btl_of(qq, vv, g=g, le=le):
-            x_, _ = gather(g, qq, vv)
+        def btl_of(qq, vv):
+            x_, _ = self.gather(g, qq, vv)
             _, B_, _ = K.constraint(g, t, x_, le, jac=False)
             return np.einsum("ejd,ej->ed", B_, le)
 
-        add(g, "constraint: dPhi/dx (B)", B, columns(g, phi_of, "B", "x"),
-            "the constraint kernel's B disagrees with finite differences of Phi")
-        add(g, "constraint: d(B^T lam)/dx (H)", H, columns(g, btl_of, "H", "x"),
-            "the constraint kernel's H disagrees with finite differences of B^T lam")
+        self.add(g, "constraint: dPhi/dx (B)", B, self.columns(g, phi_of, "B", "x"),
+                 "the constraint kernel's B disagrees with finite differences of Phi")
+        self.add(g, "constraint: d(B^T lam)/dx (H)", H, self.columns(g, btl_of, "H", "x"),
+                 "the constraint kernel's H disagrees with finite differences of B^T lam")
+        self.check_rates(g)
+
+    def check_rates(self, g):
+        """Φ_t and γ of a constraint group's rates kernel."""
+        t, model, q, qd = self.t, self.model, self.q, self.qd
+        xe, ve = self.gather(g, q, qd)
         Pt, gam = K.rates(g, t, xe, ve)
         ht = 1e-6 * max(1.0, abs(t))
         Pp = K.constraint(g, t + ht, xe, None, jac=False)[0]
         Pm = K.constraint(g, t - ht, xe, None, jac=False)[0]
-        add(g, "rates: dPhi/dt (Phi_t)", Pt, (Pp - Pm) / (2.0 * ht),
-            "the rates kernel's Phi_t disagrees with finite differences of Phi in t",
-            noise=FD_NOISE * float(np.max(np.abs(Pp), initial=0.0)) / ht)
+        self.add(g, "rates: dPhi/dt (Phi_t)", Pt, (Pp - Pm) / (2.0 * ht),
+                 "the rates kernel's Phi_t disagrees with finite differences of Phi in t",
+                 noise=FD_NOISE * float(np.max(np.abs(Pp), initial=0.0)) / ht)
 
-        def psi(s, g=g):
+        def psi(s):
             # ψ(s) = B(x(s), t + s) v + Φ_t(x(s), t + s) along x(s) = x ∘ exp(s v): dψ/ds = γ
             qs = model.compose(q, s * qd)
-            x_, v_ = gather(g, qs, qd)
+            x_, v_ = self.gather(g, qs, qd)
             _, B_, _ = K.constraint(g, t + s, x_, None, jac=False)
             Pt_, _ = K.rates(g, t + s, x_, v_)
             return np.einsum("ejd,ed->ej", B_, v_) + Pt_
 
         hs = 1e-5
         pp = psi(hs)
-        add(g, "rates: gamma", gam, (pp - psi(-hs)) / (2.0 * hs),
-            "the rates kernel's gam disagrees with d/dt (B v + Phi_t) along the motion",
-            noise=FD_NOISE * float(np.max(np.abs(pp), initial=0.0)) / hs)
-    mu = rng.uniform(-1.0, 1.0, getattr(model, "nn", 0))
-    for g in getattr(model, "velocity_constraint_groups", []):
-        _check_velocity_constraint(g, mu[g.mu], t, gather(g, q, qd), gather, columns, add)
-    return report
+        self.add(g, "rates: gamma", gam, (pp - psi(-hs)) / (2.0 * hs),
+                 "the rates kernel's gam disagrees with d/dt (B v + Phi_t) along the motion",
+                 noise=FD_NOISE * float(np.max(np.abs(pp), initial=0.0)) / hs)
 
 
 def _check_velocity_constraint(g, me, t, xv, gather, columns, add):

@@ -317,19 +317,7 @@ def cmd_list(args):
 
 def cmd_run(args):
     """femb run: build a scene, integrate it, report its outputs at t_end."""
-    import numpy as np
-
-    from femb.solver import simulate
-
-    if args.every is not None and args.vtk is None:
-        raise UsageError("--every needs --vtk DIR")
-    if args.dt is not None and args.vtk is None:
-        raise UsageError("--dt needs --vtk DIR")
-    if args.dt is not None and args.every is not None:
-        raise UsageError("give --every or --dt, not both")
-    if args.atol is not None and args.rtol is None:
-        raise UsageError("--atol needs --rtol (adaptive steps)")
-    _check_json_dest(args.json)
+    _check_run_args(args)
     scene = _load_scene(args.scene)
     params = parse_sets(args.set)
     if callable(getattr(scene.module, "solve", None)):
@@ -342,15 +330,42 @@ def cmd_run(args):
     missing = [opt for opt, v in (("--t-end", t_end), ("--h", h)) if v is None and not (adaptive and opt == "--h")]
     if missing:
         raise UsageError(f"scene '{scene.name}' has no DEFAULTS for {' and '.join(missing)}: give them")
+    model = _build_scene_model(scene, params)
+    result, total = _integrate(model, args, t_end, h, rho_inf)
+    _report_run(scene, params, args, result, rho_inf, total)
+    return 0
+
+
+def _check_run_args(args):
+    """The option combinations ``femb run`` refuses, and the --json destination."""
+    if args.every is not None and args.vtk is None:
+        raise UsageError("--every needs --vtk DIR")
+    if args.dt is not None and args.vtk is None:
+        raise UsageError("--dt needs --vtk DIR")
+    if args.dt is not None and args.every is not None:
+        raise UsageError("give --every or --dt, not both")
+    if args.atol is not None and args.rtol is None:
+        raise UsageError("--atol needs --rtol (adaptive steps)")
+    _check_json_dest(args.json)
+
+
+def _build_scene_model(scene, params):
+    """The scene's model for ``params``; a UsageError when build() rejects them."""
     from femb.benchmarks.registry import SceneError
 
     try:
-        model = scene.model(**params)
+        return scene.model(**params)
     except SceneError as exc:
         raise UsageError(str(exc)) from None
     except (FembError, ValueError, TypeError) as exc:
         raise UsageError(f"scene '{scene.name}': build() rejected the parameters: {exc}") from None
 
+
+def _integrate(model, args, t_end, h, rho_inf):
+    """Run the simulation of ``femb run`` (with its VTK stream and progress bar): (result, seconds)."""
+    from femb.solver import simulate
+
+    adaptive = args.rtol is not None
     n_steps = 0
     if not adaptive:
         from femb.options import fixed_steps
@@ -386,7 +401,14 @@ def cmd_run(args):
             if observer is not None and (type(exc).__name__ == "OutputError" or isinstance(exc, OSError)):
                 raise _OutputFailure(f"writing output failed: {str(exc).splitlines()[0]}") from exc
             raise
-    total = time.perf_counter() - t0
+    return result, time.perf_counter() - t0
+
+
+def _report_run(scene, params, args, result, rho_inf, total):
+    """The outputs at t_end and the cost of ``femb run``: printed, and as JSON with --json."""
+    import numpy as np
+
+    adaptive = args.rtol is not None
     outs = scene.outputs(result)
     final = {k: _json_value(np.asarray(v)[-1]) for k, v in outs.items()}
     iters = int(result.newton_iterations.sum())
@@ -426,7 +448,6 @@ def cmd_run(args):
         width = max((len(k) for k in final), default=0)
         for k, v in final.items():
             print(f"  {k:<{width}s} = {v:.12g}" if isinstance(v, float) else f"  {k:<{width}s} = {v}")
-    return 0
 
 
 def _run_static(scene, params, args):
@@ -591,6 +612,22 @@ def build_parser():
     p.add_argument("--debug", action="store_true", help="show full tracebacks on errors")
     sub = p.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
 
+    _add_list_parser(sub)
+    _add_run_parser(sub)
+    _add_render_parser(sub)
+    _add_bench_parser(sub)
+    from femb.cli_sweep import add_parser as add_sweep_parser
+
+    add_sweep_parser(sub)
+    from femb.cli_cache import add_parser as add_cache_parser
+
+    add_cache_parser(sub, _Parser)
+    return p
+
+
+
+def _add_list_parser(sub):
+    """The subcommand ``femb list``."""
     sp = sub.add_parser("list", help="list the built-in scenes, their parameters and outputs",
                         description="List the built-in scenes: the parameters of their build() "
                         "functions (settable with 'femb run --set') with meaning and unit, their "
@@ -600,6 +637,9 @@ def build_parser():
                     help="describe only this scene (" + SCENE_HELP + ")")
     sp.set_defaults(func=cmd_list)
 
+
+def _add_run_parser(sub):
+    """The subcommand ``femb run``."""
     sp = sub.add_parser("run", help="run one scene and report its outputs at the final time",
                         description="Build a scene from femb elements, integrate it with the "
                         "generalized-alpha scheme at fixed step h, and print its named outputs at "
@@ -630,6 +670,9 @@ def build_parser():
                     help="progress bar on stderr (auto: for runs of 5000 steps or more, or with --vtk)")
     sp.set_defaults(func=cmd_run)
 
+
+def _add_render_parser(sub):
+    """The subcommand ``femb render``."""
     rp = sub.add_parser("render", help="render a written VTK series to a GIF, MP4 or PNG",
                         description="Render the .pvd series written by 'femb run --vtk DIR' off-screen: "
                         "an animation (GIF, or MP4 with the femb[mp4] extra), a snapshot at a time, or a "
@@ -658,6 +701,9 @@ def build_parser():
                     "data, else 3d")
     rp.set_defaults(func=cmd_render)
 
+
+def _add_bench_parser(sub):
+    """The subcommand ``femb bench (the suite, convergence, figures)``."""
     bp = sub.add_parser("bench", help="benchmarks: convergence studies and the paper's figures",
                         description="Benchmarks of the seed paper (Arnold & Bruls 2007). "
                         "'femb bench' alone is reserved for the benchmark suite.")
@@ -693,14 +739,6 @@ def build_parser():
     fp.add_argument("--h", type=_positive("h"), nargs="+", metavar="H",
                     help="step sizes of the convergence study (default: the scene's)")
     fp.set_defaults(func=cmd_bench_figures)
-
-    from femb.cli_sweep import add_parser as add_sweep_parser
-
-    add_sweep_parser(sub)
-    from femb.cli_cache import add_parser as add_cache_parser
-
-    add_cache_parser(sub, _Parser)
-    return p
 
 
 def _version():

@@ -324,287 +324,350 @@ def _is_body(obj):
 
 
 def compile_model(mech, *, length_scale=None):
-    """Compile a :class:`~femb.mechanism.Mechanism` (see :meth:`Mechanism.compile`)."""
+    """Compile a :class:`~femb.mechanism.Mechanism` (see :meth:`Mechanism.compile`).
+
+    The stages, in order: resolve and validate the elements (:func:`_resolve_elements`),
+    number the coordinates (:func:`_number_coordinates`), batch the elements by type
+    (:func:`_build_groups`), compile their kernels (:func:`_compile_kernels`), the constant
+    mass and forces (:func:`_constant_terms`) and the length scale (:func:`_length_scale`).
+    """
     elements = mech.elements
-    members = set(id(e) for e in elements) | {id(mech.ground)}
-
-    def lookup_for(owner):
-        def lookup(ref, role):
-            if isinstance(ref, str):
-                if ref not in mech:
-                    raise ModelError(f"{type(owner).__name__} '{owner.name}': {role} refers to '{ref}', "
-                                     f"which is not in mechanism '{mech.name}'")
-                ref = mech[ref]
-            if not _is_body(ref):
-                raise ModelError(f"{type(owner).__name__} '{owner.name}': {role} must be a body, got {ref!r}")
-            if id(ref) not in members:
-                raise ModelError(f"{type(owner).__name__} '{owner.name}': {role} refers to body "
-                                 f"'{ref.name}', which was not added to mechanism '{mech.name}'")
-            if not _spatial_element(owner) and getattr(getattr(ref, "node", None), "rotation_blocks", ()):
-                raise ModelError(
-                    f"{type(owner).__name__} '{owner.name}': {role} = '{ref.name}' is a spatial body "
-                    f"({type(ref).__name__}); {type(owner).__name__} is a planar element (it acts on x, y, θ) "
-                    "and cannot be attached to a spatial body: planar and spatial elements cannot be joined. "
-                    "Use the spatial element types (SphericalJoint, RevoluteJoint, PointSpringDamper, "
-                    "SpatialForce, SpatialTorque, ...; docs/spatial.md)")
-            return ref
-        return lookup
-
-    gravity = [e for e in elements if getattr(type(e), "gravity_field", False)]
-    if len(gravity) > 1:
-        raise ModelError(f"mechanism '{mech.name}' has {len(gravity)} Gravity elements; give one")
-    others = [e for e in elements if not getattr(type(e), "gravity_field", False)]
-    for e in others:
-        e.resolve(lookup_for(e))
-        e.validate()
-
-    # ---- nodes and coordinate numbering
-    nodes, seen = [mech.ground.node], {id(mech.ground.node)}
-    for e in others:
-        for nd in e.nodes():
-            if id(nd) not in seen:
-                seen.add(id(nd))
-                nodes.append(nd)
-    names = {}
-    for nd in nodes:
-        if nd.name in names:
-            raise ModelError(f"duplicate node name '{nd.name}'")
-        names[nd.name] = nd
-    # configuration entries x (nx per node; a frame node stores a quaternion) and velocity /
-    # tangent entries v (nv per node) are numbered apart: free ones first, fixed ones after.
-    # Nodes without rotations (planar) have x ≡ v, and both numberings agree on them when the
-    # model has no rotation nodes.
-    def _nx(nd):
-        return int(getattr(nd, "nx", nd.ncoord))
-
-    def _fixed_v(nd):
-        return np.asarray(getattr(nd, "fixed_v", nd.fixed), dtype=bool)
-
-    nx = sum(int((~nd.fixed).sum()) for nd in nodes)
-    nfix = sum(int(nd.fixed.sum()) for nd in nodes)
-    nq = sum(int((~_fixed_v(nd)).sum()) for nd in nodes)
-    nfix_v = sum(int(_fixed_v(nd).sum()) for nd in nodes)
-    q0 = np.empty(nx)
-    qd0 = np.empty(nq)
-    q_fixed = np.empty(nfix)
-    node_index = {}
-    node_vindex = {}
-    labels = []
-    vlabels = []
-    xmap = np.full(nq, -1, dtype=np.int64)     # x index of each additive free v entry, −1 for rotations
-    rot_blocks = []                            # (x start of the quaternion, v start of its rotation vector)
-    kq = kf = kv = kfv = 0
-    for nd in nodes:
-        fx = nd.fixed
-        fv = _fixed_v(nd)
-        nvn = fv.size
-        idx = np.empty(_nx(nd), dtype=np.int64)
-        for c in range(idx.size):
-            if fx[c]:
-                idx[c] = nx + kf
-                q_fixed[kf] = nd.q0[c]
-                kf += 1
-            else:
-                idx[c] = kq
-                q0[kq] = nd.q0[c]
-                labels.append(f"{nd.name}.{nd.coord_names[c]}")
-                kq += 1
-        vidx = np.empty(nvn, dtype=np.int64)
-        vnames = getattr(nd, "velocity_names", nd.coord_names)
-        for c in range(nvn):
-            if fv[c]:
-                vidx[c] = nq + kfv
-                kfv += 1
-            else:
-                vidx[c] = kv
-                qd0[kv] = nd.qd0[c]
-                vlabels.append(f"{nd.name}.{vnames[c]}")
-                kv += 1
-        blocks = tuple(getattr(nd, "rotation_blocks", ()))
-        in_rot = np.zeros(nvn, dtype=bool)
-        for xs, vs in blocks:
-            in_rot[vs:vs + 3] = True
-            if not fv[vs]:
-                rot_blocks.append((int(idx[xs]), int(vidx[vs])))
-        # additive entries: the i-th non-rotation x entry goes with the i-th non-rotation v entry
-        xs_add = [c for c in range(idx.size) if not any(b[0] <= c < b[0] + 4 for b in blocks)]
-        vs_add = [c for c in range(nvn) if not in_rot[c]]
-        if len(xs_add) != len(vs_add):
-            raise ModelError(f"node '{nd.name}': {len(xs_add)} additive coordinates but {len(vs_add)} "
-                             "additive velocities")
-        for cx, cv in zip(xs_add, vs_add):
-            if fx[cx] != fv[cv]:
-                raise ModelError(f"node '{nd.name}': coordinate {nd.coord_names[cx]} and its velocity must "
-                                 "be both free or both fixed")
-            if not fv[cv]:
-                xmap[vidx[cv]] = idx[cx]
-        node_index[nd.name] = idx
-        node_vindex[nd.name] = vidx
-    if nq == 0:
-        raise ModelError(f"mechanism '{mech.name}' has no free coordinates (add a body)")
-    next_ = nq + nfix_v
-    lie = bool(rot_blocks) or nx != nq
-
-    # ---- batches
-    batches = {}
-    for e in others:
-        batches.setdefault(_group_key(e), []).append(e)
-    groups = []
-    nc = 0
-    nn = 0
-    n_N = n_F = 0                  # unilateral contacts and their tangent directions (docs/contact.md)
-    lam_index = {}
-    mu_index = {}
-    tf_all = []
-    for (cls, key), els in batches.items():
-        dofs = np.array([np.concatenate([node_vindex[n.name] for n in e.nodes()]) for e in els],
-                        dtype=np.int64).reshape(len(els), -1)
-        xdofs = (np.array([np.concatenate([node_index[n.name] for n in e.nodes()]) for e in els],
-                          dtype=np.int64).reshape(len(els), -1) if lie else dofs)
-        tr = cls.traits(els)
-        ncon = int(tr["n_constraints"])
-        lam = (nc + np.arange(len(els) * ncon)).reshape(len(els), ncon)
-        nc += len(els) * ncon
-        for e, row in zip(els, lam):
-            lam_index[e.name] = row.copy()
-        nvc = int(tr.get("n_velocity_constraints", 0) or 0)
-        mu = (nn + np.arange(len(els) * nvc)).reshape(len(els), nvc)
-        nn += len(els) * nvc
-        if nvc:
-            for e, row in zip(els, mu):
-                mu_index[e.name] = row.copy()
-        kN, kF = int(tr.get("n_contacts", 0)), int(tr.get("n_friction", 0))
-        cN = (n_N + np.arange(len(els) * kN)).reshape(len(els), kN)
-        cF = (n_F + np.arange(len(els) * kF)).reshape(len(els), kF)
-        n_N += len(els) * kN
-        n_F += len(els) * kF
-        params = cls.pack(els)
-        if not isinstance(params, dict):
-            raise ModelError(f"{cls.__name__}.pack must return a dict, got {type(params).__name__}")
-        if "P" not in params and not _kernel_roles(tr):
-            params = dict(params, P=np.zeros((len(els), 1)))   # a batch without kernels (nodes)
-        _check_kernels(cls, tr, params, len(els))
-        fns = [list(cls.time_functions(e)) for e in els]
-        ntf = {len(f) for f in fns}
-        if len(ntf) != 1:
-            raise ModelError(f"{cls.__name__}: elements of one batch must have the same number of time "
-                             f"functions (split them with group_key), got {sorted(ntf)}")
-        tf_index = np.empty((len(els), ntf.pop()), dtype=np.int64)
-        for e, row in enumerate(fns):
-            for k, fn in enumerate(row):
-                tf_index[e, k] = len(tf_all)
-                tf_all.append(fn)
-        g = Group(cls=cls, key=key, elements=els, names=[e.name for e in els],
-                  params=params, dofs=dofs, xdofs=xdofs, traits=tr, lam=lam,
-                  P=np.ascontiguousarray(params["P"], dtype=np.float64), tf_index=tf_index,
-                  time_functions=fns, mu=mu if nvc else None, cN=cN, cF=cF)
-        _index_group(g, nq)
-        groups.append(g)
+    gravity, others = _resolve_elements(mech)
+    num = _number_coordinates(mech, others)
+    groups, counts = _build_groups(others, num)
     for e in gravity:
-        lam_index[e.name] = np.zeros(0, dtype=np.int64)
-
+        counts["lam_index"][e.name] = np.zeros(0, dtype=np.int64)
     mass_groups = [g for g in groups if g.traits["has_mass"]]
     const_force_groups = [g for g in groups if g.traits["has_force"] and g.traits["constant_force"]]
     force_groups = [g for g in groups if g.traits["has_force"] and not g.traits["constant_force"]]
     constraint_groups = [g for g in groups if g.nc > 0]
-    velocity_constraint_groups = [g for g in groups if g.nn > 0]
-    contact_groups = [g for g in groups if g.cN.shape[1] > 0]
     if not mass_groups:
         raise ModelError(f"mechanism '{mech.name}' has no mass (add a RigidBody, PointMass or beam)")
     for g in mass_groups:
         if not g.traits["constant_mass"]:
             raise ModelError(f"{g.name}: a configuration-dependent mass matrix is not supported by the "
                              "compiled time loop (every femb element has constant mass)")
+    qx0 = np.concatenate((num.q0, num.q_fixed))
+    qdx0 = np.concatenate((num.qd0, np.zeros(num.nfix_v)))
+    _compile_kernels(groups, qx0, qdx0)
+    g_hat, M_const, f_const = _constant_terms(num, gravity, mass_groups, const_force_groups, qx0, qdx0)
+    length_scale = _length_scale(mech, others, num.nodes, length_scale)
+    w_ext = np.full(num.next_, 1.0 / length_scale)
+    for nd in num.nodes:
+        w_ext[num.node_vindex[nd.name][list(nd.translational)]] = 1.0
+    model = Model(
+        name=mech.name, nq=num.nq, nx=num.nx, nc=counts["nc"], nfix=num.nfix, nfix_v=num.nfix_v, q0=num.q0,
+        qd0=num.qd0, q_fixed=num.q_fixed, node_index=num.node_index, node_vindex=num.node_vindex,
+        node_names=[nd.name for nd in num.nodes], coord_labels=num.labels, velocity_labels=num.vlabels,
+        lie=num.lie, xmap=num.xmap, rot_blocks=np.array(num.rot_blocks, dtype=np.int64).reshape(-1, 2),
+        groups=groups, mass_groups=mass_groups, force_groups=force_groups,
+        const_force_groups=const_force_groups, constraint_groups=constraint_groups,
+        contact_groups=[g for g in groups if g.cN.shape[1] > 0], n_contacts=counts["n_N"],
+        n_friction=counts["n_F"], constant_mass=all(g.traits["constant_mass"] for g in mass_groups), M_const=M_const, f_const=f_const[:num.nq].copy(),
+        g_hat=g_hat, gravity=None if not gravity else gravity[0].g.copy(),
+        needs_C=any(g.traits["force_depends_on_qd"] for g in force_groups),
+        rheonomic=any(g.traits["rheonomic"] for g in constraint_groups),
+        lam_index=counts["lam_index"], length_scale=length_scale, nn=counts["nn"],
+        velocity_constraint_groups=[g for g in groups if g.nn > 0], mu_index=counts["mu_index"],
+        time_function_table=_time_function_table(counts["tf_all"]),
+        force_weight=w_ext[:num.nq].copy(), force_weight_ext=w_ext,
+        bodies={e.name: e for e in [mech.ground] + others if _is_body(e)},
+        element_types={e.name: type(e).__name__ for e in elements},
+    )
+    for arr in (num.q0, num.qd0, num.q_fixed):
+        arr.flags.writeable = False
+    return model
 
-    # ---- every kernel of every batch, compiled once per element type for its role's signature
-    # (or loaded from the disk cache): a kernel that breaks its contract is refused here, naming
-    # its element type, and nothing compiles later, unannounced
+
+def _body_lookup(mech, owner, members):
+    """The function ``lookup(ref, role)`` that ``owner.resolve`` calls: a name or body → the body."""
+    def lookup(ref, role):
+        if isinstance(ref, str):
+            if ref not in mech:
+                raise ModelError(f"{type(owner).__name__} '{owner.name}': {role} refers to '{ref}', "
+                                 f"which is not in mechanism '{mech.name}'")
+            ref = mech[ref]
+        if not _is_body(ref):
+            raise ModelError(f"{type(owner).__name__} '{owner.name}': {role} must be a body, got {ref!r}")
+        if id(ref) not in members:
+            raise ModelError(f"{type(owner).__name__} '{owner.name}': {role} refers to body "
+                             f"'{ref.name}', which was not added to mechanism '{mech.name}'")
+        if not _spatial_element(owner) and getattr(getattr(ref, "node", None), "rotation_blocks", ()):
+            raise ModelError(
+                f"{type(owner).__name__} '{owner.name}': {role} = '{ref.name}' is a spatial body "
+                f"({type(ref).__name__}); {type(owner).__name__} is a planar element (it acts on x, y, θ) "
+                "and cannot be attached to a spatial body: planar and spatial elements cannot be joined. "
+                "Use the spatial element types (SphericalJoint, RevoluteJoint, PointSpringDamper, "
+                "SpatialForce, SpatialTorque, ...; docs/spatial.md)")
+        return ref
+    return lookup
+
+
+def _resolve_elements(mech):
+    """Resolve every element's references and validate it: (gravity elements, the others)."""
+    elements = mech.elements
+    members = set(id(e) for e in elements) | {id(mech.ground)}
+    gravity = [e for e in elements if getattr(type(e), "gravity_field", False)]
+    if len(gravity) > 1:
+        raise ModelError(f"mechanism '{mech.name}' has {len(gravity)} Gravity elements; give one")
+    others = [e for e in elements if not getattr(type(e), "gravity_field", False)]
+    for e in others:
+        e.resolve(_body_lookup(mech, e, members))
+        e.validate()
+    return gravity, others
+
+
+@dataclass
+class _Numbering:
+    """The coordinate numbering of a model (built by :func:`_number_coordinates`).
+
+    Configuration entries x (nx per node; a frame node stores a quaternion) and velocity /
+    tangent entries v (nv per node) are numbered apart: free ones first, fixed ones after.
+    Nodes without rotations (planar) have x ≡ v, and both numberings agree on them when the
+    model has no rotation nodes.
+    """
+
+    nodes: list
+    nx: int
+    nfix: int
+    nq: int
+    nfix_v: int
+    q0: np.ndarray
+    qd0: np.ndarray
+    q_fixed: np.ndarray
+    xmap: np.ndarray                            # x index of each additive free v entry, −1 for rotations
+    node_index: dict = None
+    node_vindex: dict = None
+    labels: list = None
+    vlabels: list = None
+    rot_blocks: list = None                     # (x start of the quaternion, v start of its rotation vector)
+
+    @property
+    def next_(self):
+        return self.nq + self.nfix_v
+
+    @property
+    def lie(self):
+        return bool(self.rot_blocks) or self.nx != self.nq
+
+
+def _nx(nd):
+    return int(getattr(nd, "nx", nd.ncoord))
+
+
+def _fixed_v(nd):
+    return np.asarray(getattr(nd, "fixed_v", nd.fixed), dtype=bool)
+
+
+def _number_coordinates(mech, others):
+    """The nodes of the elements (ground first, each once) and their coordinate numbering."""
+    nodes, seen = [mech.ground.node], {id(mech.ground.node)}
+    for e in others:
+        for nd in e.nodes():
+            if id(nd) not in seen:
+                seen.add(id(nd))
+                nodes.append(nd)
+    names = set()
+    for nd in nodes:
+        if nd.name in names:
+            raise ModelError(f"duplicate node name '{nd.name}'")
+        names.add(nd.name)
+    nx = sum(int((~nd.fixed).sum()) for nd in nodes)
+    nq = sum(int((~_fixed_v(nd)).sum()) for nd in nodes)
+    num = _Numbering(nodes=nodes, nx=nx, nfix=sum(int(nd.fixed.sum()) for nd in nodes), nq=nq,
+                     nfix_v=sum(int(_fixed_v(nd).sum()) for nd in nodes), q0=np.empty(nx), qd0=np.empty(nq),
+                     q_fixed=np.empty(0), xmap=np.full(nq, -1, dtype=np.int64), node_index={}, node_vindex={},
+                     labels=[], vlabels=[], rot_blocks=[])
+    num.q_fixed = np.empty(num.nfix)
+    counters = [0, 0, 0, 0]                    # free x, fixed x, free v, fixed v numbered so far
+    for nd in nodes:
+        idx, vidx = _number_node(num, nd, counters)
+        _additive_map(num, nd, idx, vidx)
+        num.node_index[nd.name] = idx
+        num.node_vindex[nd.name] = vidx
+    if nq == 0:
+        raise ModelError(f"mechanism '{mech.name}' has no free coordinates (add a body)")
+    return num
+
+
+def _number_node(num, nd, counters):
+    """The x and v indices of one node (free ones counted on, fixed ones after all free ones)."""
+    fx, fv = nd.fixed, _fixed_v(nd)
+    idx = np.empty(_nx(nd), dtype=np.int64)
+    for c in range(idx.size):
+        if fx[c]:
+            idx[c] = num.nx + counters[1]
+            num.q_fixed[counters[1]] = nd.q0[c]
+            counters[1] += 1
+        else:
+            idx[c] = counters[0]
+            num.q0[counters[0]] = nd.q0[c]
+            num.labels.append(f"{nd.name}.{nd.coord_names[c]}")
+            counters[0] += 1
+    vidx = np.empty(fv.size, dtype=np.int64)
+    vnames = getattr(nd, "velocity_names", nd.coord_names)
+    for c in range(fv.size):
+        if fv[c]:
+            vidx[c] = num.nq + counters[3]
+            counters[3] += 1
+        else:
+            vidx[c] = counters[2]
+            num.qd0[counters[2]] = nd.qd0[c]
+            num.vlabels.append(f"{nd.name}.{vnames[c]}")
+            counters[2] += 1
+    return idx, vidx
+
+
+def _additive_map(num, nd, idx, vidx):
+    """Rotation blocks and the x index of each additive v entry of one node (``num.xmap``)."""
+    fx, fv = nd.fixed, _fixed_v(nd)
+    blocks = tuple(getattr(nd, "rotation_blocks", ()))
+    in_rot = np.zeros(fv.size, dtype=bool)
+    for xs, vs in blocks:
+        in_rot[vs:vs + 3] = True
+        if not fv[vs]:
+            num.rot_blocks.append((int(idx[xs]), int(vidx[vs])))
+    # additive entries: the i-th non-rotation x entry goes with the i-th non-rotation v entry
+    xs_add = [c for c in range(idx.size) if not any(b[0] <= c < b[0] + 4 for b in blocks)]
+    vs_add = [c for c in range(fv.size) if not in_rot[c]]
+    if len(xs_add) != len(vs_add):
+        raise ModelError(f"node '{nd.name}': {len(xs_add)} additive coordinates but {len(vs_add)} "
+                         "additive velocities")
+    for cx, cv in zip(xs_add, vs_add):
+        if fx[cx] != fv[cv]:
+            raise ModelError(f"node '{nd.name}': coordinate {nd.coord_names[cx]} and its velocity must "
+                             "be both free or both fixed")
+        if not fv[cv]:
+            num.xmap[vidx[cv]] = idx[cx]
+
+
+def _build_groups(others, num):
+    """One :class:`Group` per batch of elements (:func:`_group_key`), with its multipliers, contact
+    rows and time functions numbered: (groups, counts) with counts the dict of ``nc``, ``nn``,
+    ``n_N``, ``n_F``, ``lam_index``, ``mu_index`` and ``tf_all`` (every time function, in order)."""
+    batches = {}
+    for e in others:
+        batches.setdefault(_group_key(e), []).append(e)
+    counts = {"nc": 0, "nn": 0, "n_N": 0, "n_F": 0, "lam_index": {}, "mu_index": {}, "tf_all": []}
+    groups = []
+    for (cls, key), els in batches.items():
+        dofs = np.array([np.concatenate([num.node_vindex[n.name] for n in e.nodes()]) for e in els],
+                        dtype=np.int64).reshape(len(els), -1)
+        xdofs = (np.array([np.concatenate([num.node_index[n.name] for n in e.nodes()]) for e in els],
+                          dtype=np.int64).reshape(len(els), -1) if num.lie else dofs)
+        tr = cls.traits(els)
+        lam = _number_rows(counts, "nc", els, int(tr["n_constraints"]), counts["lam_index"])
+        nvc = int(tr.get("n_velocity_constraints", 0) or 0)
+        mu = _number_rows(counts, "nn", els, nvc, counts["mu_index"] if nvc else None)
+        cN = _number_rows(counts, "n_N", els, int(tr.get("n_contacts", 0)), None)
+        cF = _number_rows(counts, "n_F", els, int(tr.get("n_friction", 0)), None)
+        params = cls.pack(els)
+        if not isinstance(params, dict):
+            raise ModelError(f"{cls.__name__}.pack must return a dict, got {type(params).__name__}")
+        if "P" not in params and not _kernel_roles(tr):
+            params = dict(params, P=np.zeros((len(els), 1)))   # a batch without kernels (nodes)
+        _check_kernels(cls, tr, params, len(els))
+        fns, tf_index = _time_functions(cls, els, counts["tf_all"])
+        g = Group(cls=cls, key=key, elements=els, names=[e.name for e in els],
+                  params=params, dofs=dofs, xdofs=xdofs, traits=tr, lam=lam,
+                  P=np.ascontiguousarray(params["P"], dtype=np.float64), tf_index=tf_index,
+                  time_functions=fns, mu=mu if nvc else None, cN=cN, cF=cF)
+        _index_group(g, num.nq)
+        groups.append(g)
+    return groups, counts
+
+
+def _number_rows(counts, key, els, per_element, index):
+    """Rows ``counts[key] + 0, 1, ...``, ``per_element`` per element (shape (len(els), per_element));
+    counts on ``counts[key]``; each element's rows into ``index`` (by name) unless it is None."""
+    rows = (counts[key] + np.arange(len(els) * per_element)).reshape(len(els), per_element)
+    counts[key] += len(els) * per_element
+    if index is not None:
+        for e, row in zip(els, rows):
+            index[e.name] = row.copy()
+    return rows
+
+
+def _time_functions(cls, els, tf_all):
+    """The time functions of a batch and their indices in ``tf_all`` (appended to)."""
+    fns = [list(cls.time_functions(e)) for e in els]
+    ntf = {len(f) for f in fns}
+    if len(ntf) != 1:
+        raise ModelError(f"{cls.__name__}: elements of one batch must have the same number of time "
+                         f"functions (split them with group_key), got {sorted(ntf)}")
+    tf_index = np.empty((len(els), ntf.pop()), dtype=np.int64)
+    for e, row in enumerate(fns):
+        for k, fn in enumerate(row):
+            tf_index[e, k] = len(tf_all)
+            tf_all.append(fn)
+    return fns, tf_index
+
+
+def _compile_kernels(groups, qx0, qdx0):
+    """Every kernel of every batch, compiled once per element type for its role's signature (or
+    loaded from the disk cache): a kernel that breaks its contract is refused here, naming its
+    element type, and nothing compiles later, unannounced. Element types that are not femb's own
+    run their kernels once, bounds-checked, on this model's shapes (an out-of-bounds write is a
+    ModelError here, not a crash later)."""
     for g in groups:
         for role, fn in (getattr(g.cls, "kernels", None) or {}).items():
             if role in ("mass", "force", "constraint", "rates", "contact") or (role == "velocity_constraint" and g.nn):
                 _kernels.compiled_kernel(g.cls.__name__, role, fn)
     _kernels.announce_compiled()
-
-    # ---- residual weights: moments (rows of non-translational coordinates) are
-    # divided by the length scale so the force-residual test mixes N with N, not
-    # N with N·m (unit-invariant Newton stopping); computed after the length scale.
-    qx0 = np.concatenate((q0, q_fixed))
-    qdx0 = np.concatenate((qd0, np.zeros(nfix_v)))
-    # ---- element types that are not femb's own: their kernels run once, bounds-checked, on
-    # this model's shapes (an out-of-bounds write is a ModelError here, not a crash later)
     for g in groups:
         if not _kernels.is_builtin(g.cls) or _kernels.debug_mode():
             _kernels.contract_check(g, qx0[g.xdofs], qdx0[g.dofs])
 
-    # ---- constant mass and constant forces
-    constant_mass = all(g.traits["constant_mass"] for g in mass_groups)
+
+def _constant_terms(num, gravity, mass_groups, const_force_groups, qx0, qdx0):
+    """The gravity direction field ĝ (or None), the constant mass matrix M (nq, nq) and the
+    constant forces (next,): gravity M ĝ and the constant-force elements at t = 0."""
+    next_ = num.next_
     g_hat = None
     if gravity:
         g_hat = np.zeros(next_)
-        for nd in nodes:
-            idx = node_vindex[nd.name]
+        for nd in num.nodes:
+            idx = num.node_vindex[nd.name]
             for c, comp in zip(nd.translational, gravity[0].g):
                 g_hat[idx[c]] = comp
     f_const = np.zeros(next_)
-    M_const = None
-    if constant_mass:
-        rows, cols, vals = [], [], []
-        for g in mass_groups:
-            Me = _kernels.mass(g, qx0[g.xdofs])
-            rows.append(g.nn_rows)
-            cols.append(g.nn_cols)
-            vals.append(Me.reshape(-1)[g.nn_sel])
-            if g_hat is not None:
-                fe = np.einsum("eij,ej->ei", Me, g_hat[g.dofs])
-                f_const += np.bincount(g.dofs.ravel(), fe.ravel(), minlength=next_)
-        M_const = sp.csr_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
-                                shape=(nq, nq))
-        M_const.sum_duplicates()
+    rows, cols, vals = [], [], []
+    for g in mass_groups:
+        Me = _kernels.mass(g, qx0[g.xdofs])
+        rows.append(g.nn_rows)
+        cols.append(g.nn_cols)
+        vals.append(Me.reshape(-1)[g.nn_sel])
+        if g_hat is not None:
+            fe = np.einsum("eij,ej->ei", Me, g_hat[g.dofs])
+            f_const += np.bincount(g.dofs.ravel(), fe.ravel(), minlength=next_)
+    M_const = sp.csr_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
+                            shape=(num.nq, num.nq))
+    M_const.sum_duplicates()
     for g in const_force_groups:
         fe, _, _ = _kernels.force(g, 0.0, qx0[g.xdofs], qdx0[g.dofs], False)
         f_const += np.bincount(g.dofs.ravel(), fe.ravel(), minlength=next_)
+    return g_hat, M_const, f_const
 
-    # ---- length scale
-    if length_scale is None:
-        pts = [np.pad(nd.q0[list(nd.translational)], (0, 3 - len(nd.translational)))
-               for nd in nodes if len(nd.translational)]
-        pts = np.array(pts) if pts else np.zeros((1, 3))
-        L = float(np.max(np.ptp(pts, axis=0))) if len(pts) > 1 else 0.0
-        for e in [mech.ground] + others:
-            for s in getattr(e, "points", {}).values():
-                L = max(L, float(np.linalg.norm(s)))
-        length_scale = L if L > 0.0 else 1.0
-    else:
+
+def _length_scale(mech, others, nodes, length_scale):
+    """The model's length scale: given, or the extent of the initial node positions and of the
+    elements' attachment points (1 if both are zero).
+
+    Residual weights: moments (rows of non-translational coordinates) are divided by it so the
+    force-residual test mixes N with N, not N with N·m (unit-invariant Newton stopping)."""
+    if length_scale is not None:
         length_scale = float(length_scale)
         if not (length_scale > 0.0 and np.isfinite(length_scale)):
             raise ModelError(f"length_scale must be a positive finite number, got {length_scale!r}")
-
-    w_ext = np.full(next_, 1.0 / length_scale)
-    for nd in nodes:
-        w_ext[node_vindex[nd.name][list(nd.translational)]] = 1.0
-
-    model = Model(
-        name=mech.name, nq=nq, nx=nx, nc=nc, nfix=nfix, nfix_v=nfix_v, q0=q0, qd0=qd0, q_fixed=q_fixed,
-        node_index=node_index, node_vindex=node_vindex, node_names=[nd.name for nd in nodes],
-        coord_labels=labels, velocity_labels=vlabels, lie=lie, xmap=xmap,
-        rot_blocks=np.array(rot_blocks, dtype=np.int64).reshape(-1, 2),
-        groups=groups, mass_groups=mass_groups, force_groups=force_groups,
-        const_force_groups=const_force_groups, constraint_groups=constraint_groups,
-        contact_groups=contact_groups, n_contacts=n_N, n_friction=n_F,
-        constant_mass=constant_mass, M_const=M_const, f_const=f_const[:nq].copy(),
-        g_hat=g_hat, gravity=None if not gravity else gravity[0].g.copy(),
-        needs_C=any(g.traits["force_depends_on_qd"] for g in force_groups),
-        rheonomic=any(g.traits["rheonomic"] for g in constraint_groups),
-        lam_index=lam_index, length_scale=length_scale,
-        nn=nn, velocity_constraint_groups=velocity_constraint_groups, mu_index=mu_index,
-        time_function_table=_time_function_table(tf_all),
-        force_weight=w_ext[:nq].copy(), force_weight_ext=w_ext,
-        bodies={e.name: e for e in [mech.ground] + others if _is_body(e)},
-        element_types={e.name: type(e).__name__ for e in elements},
-    )
-    for arr in (q0, qd0, q_fixed):
-        arr.flags.writeable = False
-    return model
+        return length_scale
+    pts = [np.pad(nd.q0[list(nd.translational)], (0, 3 - len(nd.translational)))
+           for nd in nodes if len(nd.translational)]
+    pts = np.array(pts) if pts else np.zeros((1, 3))
+    L = float(np.max(np.ptp(pts, axis=0))) if len(pts) > 1 else 0.0
+    for e in [mech.ground] + others:
+        for s in getattr(e, "points", {}).values():
+            L = max(L, float(np.linalg.norm(s)))
+    return L if L > 0.0 else 1.0
 
 
 def _index_group(g, nq):

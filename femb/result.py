@@ -621,58 +621,73 @@ class Result:
             if rest.endswith(suffix):
                 base, deriv = rest[:-len(suffix)], d
                 break
+        found = None
         if owner in m.node_index:
-            nd = self._nodes().get(owner)
-            body = m.bodies.get(owner)
-            coord_names = tuple(getattr(nd, "coord_names", ("x", "y", "theta")))
-            blocks = tuple(getattr(nd, "rotation_blocks", ()))
-            quat = {coord_names[c] for xs, _ in blocks for c in range(xs, xs + 4)}
-            if base in quat:
-                if deriv:
-                    raise ModelError(f"output '{name}': quaternion components have no stored derivatives; "
-                                     f"read the angular velocity '{owner}.Omega_x' … or '{owner}.omega_x' …")
-                i = coord_names.index(base)
-                return m.node_coordinates(owner, self.q)[:, i], "1"
-            if blocks and base[:-1] in ("Omega_", "omega_") and base[-1] in "xyz" and deriv < 2:
-                xs, vs = blocks[0]
-                arr = self.qd if deriv == 0 else self.qdd
-                W = m.node_velocities(owner, arr)[:, vs:vs + 3]
-                if base.startswith("omega"):
-                    from femb.elements._spatial_geometry import rotate, rotation_matrices
-                    W = rotate(rotation_matrices(m.node_coordinates(owner, self.q)[:, xs:xs + 4]), W)
-                return W[:, "xyz".index(base[-1])].copy(), ("rad/s", "rad/s²")[deriv]
-            if base in coord_names:
-                i = coord_names.index(base)
-                if deriv == 0:
-                    vals = m.node_coordinates(owner, self.q)[:, i]
-                else:
-                    tr = list(getattr(nd, "translational", range(len(coord_names))))
-                    j = i if not blocks else getattr(nd, "translational")[tr.index(i)]
-                    vals = m.node_velocities(owner, (self.qd, self.qdd)[deriv - 1])[:, j]
-                unit = ("rad" if base == "theta" else "m") + ("", "/s", "/s²")[deriv]
-                return vals, unit
-            if body is not None and "." in base:
-                pt, comp = base.rsplit(".", 1)
-                axes = "xyz" if blocks else "xy"
-                if pt in body.points and comp in axes:
-                    f = (self.point, self.point_velocity, self.point_acceleration)[deriv]
-                    return f(owner, pt)[:, axes.index(comp)], ("m", "m/s", "m/s²")[deriv]
-        if owner in m.lam_index and deriv == 0:
-            idx = m.lam_index[owner]
-            if idx.size:
-                from femb.initial import constraint_labels
-                labels = constraint_labels(m)
-                for i in idx:
-                    if labels[i][1] == base:
-                        return self.lam[:, i].copy(), _multiplier_unit(m, i)
-                comps = self._reaction_joints().get(owner, ())
-                if base in comps:
-                    k = comps.index(base)
-                    return self.reaction_at(owner)[:, k].copy(), ("N·m" if base.startswith("M") else "N")
-                if base in PLANAR_REACTIONS + SPATIAL_REACTIONS:
-                    raise ModelError(f"output '{name}': the reaction of '{owner}' has the components "
-                                     f"{', '.join(comps) or 'none'} (see Result.outputs())")
+            found = self._node_series(name, owner, base, deriv)
+        if found is None and owner in m.lam_index and deriv == 0:
+            found = self._multiplier_series(name, owner, base)
+        if found is not None:
+            return found
         raise ModelError(f"output '{name}': '{owner}' has no output '{rest}' (see Result.outputs())")
+
+    def _node_series(self, name, owner, base, deriv):
+        """:meth:`series` of a node's coordinate, angular velocity or body point; None if not one."""
+        m = self.model
+        nd = self._nodes().get(owner)
+        body = m.bodies.get(owner)
+        coord_names = tuple(getattr(nd, "coord_names", ("x", "y", "theta")))
+        blocks = tuple(getattr(nd, "rotation_blocks", ()))
+        quat = {coord_names[c] for xs, _ in blocks for c in range(xs, xs + 4)}
+        if base in quat:
+            if deriv:
+                raise ModelError(f"output '{name}': quaternion components have no stored derivatives; "
+                                 f"read the angular velocity '{owner}.Omega_x' … or '{owner}.omega_x' …")
+            i = coord_names.index(base)
+            return m.node_coordinates(owner, self.q)[:, i], "1"
+        if blocks and base[:-1] in ("Omega_", "omega_") and base[-1] in "xyz" and deriv < 2:
+            xs, vs = blocks[0]
+            arr = self.qd if deriv == 0 else self.qdd
+            W = m.node_velocities(owner, arr)[:, vs:vs + 3]
+            if base.startswith("omega"):
+                from femb.elements._spatial_geometry import rotate, rotation_matrices
+                W = rotate(rotation_matrices(m.node_coordinates(owner, self.q)[:, xs:xs + 4]), W)
+            return W[:, "xyz".index(base[-1])].copy(), ("rad/s", "rad/s²")[deriv]
+        if base in coord_names:
+            i = coord_names.index(base)
+            if deriv == 0:
+                vals = m.node_coordinates(owner, self.q)[:, i]
+            else:
+                tr = list(getattr(nd, "translational", range(len(coord_names))))
+                j = i if not blocks else getattr(nd, "translational")[tr.index(i)]
+                vals = m.node_velocities(owner, (self.qd, self.qdd)[deriv - 1])[:, j]
+            unit = ("rad" if base == "theta" else "m") + ("", "/s", "/s²")[deriv]
+            return vals, unit
+        if body is not None and "." in base:
+            pt, comp = base.rsplit(".", 1)
+            axes = "xyz" if blocks else "xy"
+            if pt in body.points and comp in axes:
+                f = (self.point, self.point_velocity, self.point_acceleration)[deriv]
+                return f(owner, pt)[:, axes.index(comp)], ("m", "m/s", "m/s²")[deriv]
+        return None
+
+    def _multiplier_series(self, name, owner, base):
+        """:meth:`series` of a joint's multiplier or reaction; None if not one."""
+        m = self.model
+        idx = m.lam_index[owner]
+        if idx.size:
+            from femb.initial import constraint_labels
+            labels = constraint_labels(m)
+            for i in idx:
+                if labels[i][1] == base:
+                    return self.lam[:, i].copy(), _multiplier_unit(m, i)
+            comps = self._reaction_joints().get(owner, ())
+            if base in comps:
+                k = comps.index(base)
+                return self.reaction_at(owner)[:, k].copy(), ("N·m" if base.startswith("M") else "N")
+            if base in PLANAR_REACTIONS + SPATIAL_REACTIONS:
+                raise ModelError(f"output '{name}': the reaction of '{owner}' has the components "
+                                 f"{', '.join(comps) or 'none'} (see Result.outputs())")
+        return None
 
     def to_pandas(self, outputs: Sequence[str] | None = None) -> Any:
         """The outputs as a ``pandas.DataFrame`` indexed by time (column names as in :meth:`series`).

@@ -30,7 +30,6 @@ import warnings
 from typing import Any, Callable
 
 import numpy as np
-from numpy.typing import ArrayLike
 
 from femb.alpha import GeneralizedAlpha  # noqa: F401  (in the annotations of simulate)
 from femb.errors import SINGULAR_HINT_DIVERGED, ConvergenceError, ModelError, ParameterError, SingularMatrixError
@@ -601,13 +600,9 @@ class GeneralizedAlphaSolver:
 
 
 # --------------------------------------------------------------------------
-def simulate(model: Model | Mechanism, t_end: float, h: float | None = None, *, rtol: float | None = None,
-             atol: float | ArrayLike | None = None, h0: float | None = None, h_max: float | None = None,
-             t_eval: ArrayLike | None = None, start: str = "consistent", formulation: str = "index3",
-             rho_inf: float | None = None, alpha: GeneralizedAlpha | None = None, scaling: bool = True,
-             t0: float = 0.0, state: State | None = None, stride: int = 1, store: bool = True,
-             observer: Callable[..., Any] | None = None, initialize: bool = True, progress: bool = False,
-             check_convergence: bool = False, **options: Any) -> Result:
+def simulate(model: Model | Mechanism, t_end: float, h: float | None = None, *, state: State | None = None,
+             t0: float = 0.0, observer: Callable[..., Any] | None = None, options: SolverOptions | None = None,
+             **kwargs: Any) -> Result:
     """Integrate a model from t0 to t_end, with fixed steps (``h``) or adaptive steps (``rtol``).
 
     Parameters
@@ -650,11 +645,15 @@ def simulate(model: Model | Mechanism, t_end: float, h: float | None = None, *, 
         velocity constraints must be accurate, or to run at ρ∞ = 1 (no numerical
         damping; the heavy top keeps E and L_z to O(h²)); see docs/method.md §7
         and docs/spatial.md.
-    rho_inf, alpha, scaling, initialize, **options
-        See :class:`GeneralizedAlphaSolver` (error_per, newton_test, phi_tol,
-        max_iter, newton, linear_solver, predictor, check_every, ...).
+    rho_inf, alpha, scaling, initialize
+        See :class:`GeneralizedAlphaSolver`, as are the further solver options
+        (error_per, newton_test, phi_tol, max_iter, newton, linear_solver,
+        predictor, check_every, ...: :data:`femb.options.SolverOptions.NAMES`).
     t0 : float
     state : State, optional
+    options : SolverOptions, optional
+        The solver options at once (:meth:`femb.options.SolverOptions.create`; its
+        ``h`` when ``h`` is not given); solver options given as keywords change them.
     stride : int
         Store every ``stride``-th accepted step (the initial and the final
         state are always stored).
@@ -686,7 +685,7 @@ def simulate(model: Model | Mechanism, t_end: float, h: float | None = None, *, 
     Raises
     ------
     ParameterError
-        Bad h, t_end, stride, rho_inf, ...
+        Bad h, t_end, stride, rho_inf, ..., or an unknown option name.
     ConvergenceError, SingularMatrixError
         A step failed (fixed steps), or the step size fell below its floor
         (adaptive); ``err.result`` holds what was stored until then.
@@ -694,18 +693,24 @@ def simulate(model: Model | Mechanism, t_end: float, h: float | None = None, *, 
     from femb.mechanism import Mechanism
     if isinstance(model, Mechanism):
         model = model.compile()
+    run, solver_kw = _split_keywords(options, kwargs)
+    if h is None and options is not None:
+        h = options.h
+    t_eval, store, progress = run["t_eval"], run["store"], run["progress"]
     t0 = float(state.t) if state is not None else float(t0)
     t_end = _check_t_end(t_end, t0)
-    stride = _check_stride(stride)
-    opts, n_steps, h_fixed = _run_options(h, rtol, atol, h0, t0, t_end, dict(
-        h_max=h_max, start=start, formulation=formulation, rho_inf=rho_inf, alpha=alpha, scaling=scaling,
-        **options))
+    stride = _check_stride(run["stride"])
+    # a SolverOptions with a fixed step holds the tolerances of its step-size check (resolved,
+    # never None): they do not make the run adaptive, an rtol keyword does
+    fixed = options is not None and options.h is not None and "rtol" not in kwargs
+    opts, n_steps, h_fixed = _run_options(h, solver_kw.pop("rtol", None), solver_kw.pop("atol", None),
+                                          solver_kw.pop("h0", None), (t0, t_end, fixed), solver_kw)
     if t_eval is not None:
         t_eval = _check_t_eval(t_eval, t0, t_end)
         stride, store = 1, True
     storage = Storage(model, n_steps, stride, store)
     solver = GeneralizedAlphaSolver(model, h_fixed, options=opts, state=state, t0=t0, t_end=t_end,
-                                    initialize=initialize, n_steps=n_steps)
+                                    initialize=run["initialize"], n_steps=n_steps)
     solver.ip[S.IP_STRIDE] = stride
     solver.ip[S.IP_STORE] = 1 if store else 0
     st = solver.initial_state
@@ -721,7 +726,7 @@ def simulate(model: Model | Mechanism, t_end: float, h: float | None = None, *, 
         return res
 
     _drive(solver, storage, observer, progress, result)
-    _after_run_checks(solver, opts, h_fixed, check_convergence)
+    _after_run_checks(solver, opts, h_fixed, run["check_convergence"])
     n = solver.step_index
     how = "adaptive steps" if opts.adaptive else "steps"
     res = result("success", f"reached t = {storage.t_last:.6g} s in {n} {how}"
@@ -735,6 +740,31 @@ def simulate(model: Model | Mechanism, t_end: float, h: float | None = None, *, 
 
 
 # ---- the parts of simulate ----------------------------------------------------------------------
+#: simulate's run settings (the keywords that are not solver options) and their defaults
+RUN_SETTINGS = {"t_eval": None, "stride": 1, "store": True, "progress": False, "check_convergence": False,
+                "initialize": True}
+
+
+def _split_keywords(options, kwargs):
+    """simulate's keywords: (run settings, the keywords of :meth:`SolverOptions.create` but h).
+
+    ``options`` (a SolverOptions or None) gives the solver options that ``kwargs`` do not."""
+    kwargs = dict(kwargs)
+    run = {k: kwargs.pop(k, v) for k, v in RUN_SETTINGS.items()}
+    if options is None:
+        return run, kwargs
+    if not isinstance(options, SolverOptions):
+        raise ParameterError(f"options must be a femb.options.SolverOptions, got {type(options).__name__}")
+    base = options.as_kwargs()
+    base.pop("h")
+    if base["h_max"] == math.inf:
+        base["h_max"] = None
+    if "rho_inf" in kwargs:
+        base.pop("alpha")
+    base.update(kwargs)
+    return run, base
+
+
 def _check_t_end(t_end, t0):
     try:
         t_end = float(t_end)
@@ -763,15 +793,17 @@ def _check_t_eval(t_eval, t0, t_end):
     return t_eval
 
 
-def _run_options(h, rtol, atol, h0, t0, t_end, options):
+def _run_options(h, rtol, atol, h0, span, options):
     """simulate's options: ``(SolverOptions, n_steps or None, fixed h or None)``.
 
-    Adaptive steps when rtol is given or h is not (h is then the first step); fixed steps
-    follow :func:`femb.options.fixed_steps` (never longer than h, ending on t_end).
+    Adaptive steps when rtol is given or h is not (h is then the first step), unless ``span``
+    = (t0, t_end, fixed) says fixed; fixed steps follow :func:`femb.options.fixed_steps` (never
+    longer than h, ending on t_end).
     """
+    t0, t_end, fixed = span
     if h is not None:
         h = check_positive("h", h)
-    if rtol is not None or h is None:
+    if not fixed and (rtol is not None or h is None):
         return SolverOptions.create(None, rtol=rtol, atol=atol, h0=h if h0 is None else h0, **options), None, None
     n_steps, h_fixed = fixed_steps(h, t0, t_end)
     if h > t_end - t0:

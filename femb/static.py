@@ -89,7 +89,7 @@ from __future__ import annotations
 
 import math
 import warnings
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields, replace
 from typing import Any, Callable, Sequence
 
 import numpy as np
@@ -724,15 +724,135 @@ def stability(model, q, lam, t=0.0, max_size=1500):
     return float(e.min() / big) if big > 0.0 else 0.0
 
 
-def solve_static(model: Model, *, load_steps: int | None = None, load_factors: Sequence[float] | None = None,
-                 t: float = 0.0, state: State | None = None, load_types: tuple[type, ...] | None = None,
-                 rtol: float = 1e-10, atol: float = 0.0, phi_tol: float = 1e-12, xtol: float = 1e-12,
-                 max_iter: int = 30, min_step: float = 1e-4, fallback_steps: int = 10, predictor: str = "secant",
-                 observer: Callable[..., Any] | None = None, method: str = "load_control",
-                 arc_length: float | None = None, arc_length_min: float | None = None,
-                 arc_length_max: float | None = None, load_weight: float | None = None,
-                 target_load_factor: float = 1.0, max_steps: int | None = None,
-                 max_limit_points: int | None = None, desired_iterations: int = 6) -> StaticResult:
+_ARC_ONLY = ("arc_length", "arc_length_min", "arc_length_max", "load_weight", "max_steps", "max_limit_points")
+
+
+@dataclass(frozen=True)
+class StaticOptions:
+    """The options of :func:`solve_static` (see there for each), validated by :meth:`create`.
+
+    The fields hold the values as given (``settings`` of the result records them so);
+    :func:`solve_static` accepts ``options=StaticOptions.create(...)``, keywords, or both
+    (the keywords then change the given options).
+    """
+
+    load_steps: int | None = None
+    load_factors: Sequence[float] | None = None
+    t: float = 0.0
+    load_types: tuple | None = None
+    rtol: float = 1e-10
+    atol: float = 0.0
+    phi_tol: float = 1e-12
+    xtol: float = 1e-12
+    max_iter: int = 30
+    min_step: float = 1e-4
+    fallback_steps: int = 10
+    predictor: str = "secant"
+    method: str = "load_control"
+    arc_length: float | None = None
+    arc_length_min: float | None = None
+    arc_length_max: float | None = None
+    load_weight: float | None = None
+    target_load_factor: float | None = 1.0
+    max_steps: int | None = None
+    max_limit_points: int | None = None
+    desired_iterations: int = 6
+
+    @classmethod
+    def create(cls, options: StaticOptions | None = None, **changes: Any) -> StaticOptions:
+        """Validated options: ``options`` (default: the defaults) with ``changes`` applied.
+
+        Raises
+        ------
+        ParameterError
+            An unknown option name, or a value out of its range (naming the option).
+        """
+        names = [f.name for f in fields(cls)]
+        unknown = sorted(k for k in changes if k not in names)
+        if unknown:
+            raise ParameterError(f"solve_static: unknown option(s) {', '.join(unknown)}; the options are "
+                                 f"{', '.join(names)}")
+        if options is not None and not isinstance(options, StaticOptions):
+            raise ParameterError(f"options must be a StaticOptions, got {type(options).__name__}")
+        o = replace(options, **changes) if options is not None else cls(**changes)
+        if o.method not in ("load_control", "arc_length"):
+            raise ParameterError(f"method must be 'load_control' or 'arc_length', got {o.method!r}")
+        if o.method == "arc_length":
+            _check_arc_options(o)
+        elif o.arc_given():
+            raise ParameterError(f"{', '.join(o.arc_given())}: only for method='arc_length' (method is {o.method!r})")
+        _check_load_control(o)
+        return o
+
+    def arc_given(self):
+        """{name: value} of the arc-length-only options given (not None)."""
+        return {k: getattr(self, k) for k in _ARC_ONLY if getattr(self, k) is not None}
+
+    def targets(self):
+        """The load levels μ of load control, in order (list of float)."""
+        if self.load_factors is not None:
+            return [float(x) for x in np.atleast_1d(self.load_factors)]
+        if self.load_steps is not None:
+            n = int(self.load_steps)
+            return [k / n for k in range(1, n + 1)]
+        return [1.0]
+
+    def settings(self):
+        """The ``settings`` dict of the result."""
+        s = {k: getattr(self, k) for k in ("t", "rtol", "atol", "phi_tol", "xtol", "max_iter", "min_step",
+                                            "predictor", "method")}
+        if self.method == "arc_length":
+            s.update({k: getattr(self, k) for k in _ARC_ONLY + ("target_load_factor", "desired_iterations")})
+        return s
+
+
+def _check_arc_options(o):
+    """The options of ``method="arc_length"``."""
+    if o.load_steps is not None or o.load_factors is not None:
+        raise ParameterError("method='arc_length' chooses its own load factors: do not give load_steps "
+                             "or load_factors")
+    for k, v in o.arc_given().items():
+        if k in ("max_steps", "max_limit_points"):
+            if int(v) != v or int(v) < 1:
+                raise ParameterError(f"{k} must be a positive integer, got {v!r}")
+        elif k == "load_weight":
+            if not (math.isfinite(float(v)) and float(v) >= 0.0):
+                raise ParameterError(f"load_weight must be a finite number ≥ 0, got {v!r}")
+        elif not (math.isfinite(float(v)) and float(v) > 0.0):
+            raise ParameterError(f"{k} must be a positive finite number, got {v!r}")
+    s, s_min, s_max = o.arc_length, o.arc_length_min, o.arc_length_max
+    if s_min is not None and s_max is not None and s_min > s_max:
+        raise ParameterError(f"arc_length_min ({s_min!r}) exceeds arc_length_max ({s_max!r})")
+    if s is not None and ((s_min is not None and s < s_min) or (s_max is not None and s > s_max)):
+        raise ParameterError(f"arc_length ({s!r}) is outside [arc_length_min, arc_length_max]")
+    target = o.target_load_factor
+    if target is not None and not math.isfinite(float(target)):
+        raise ParameterError(f"target_load_factor must be a finite number or None, got {target!r}")
+    if target is not None and float(target) == 0.0:
+        raise ParameterError("target_load_factor must not be 0 (the path starts there); give None to "
+                             "stop after max_steps")
+    if int(o.desired_iterations) != o.desired_iterations or int(o.desired_iterations) < 1:
+        raise ParameterError(f"desired_iterations must be a positive integer, got {o.desired_iterations!r}")
+
+
+def _check_load_control(o):
+    """load_steps, load_factors, fallback_steps and predictor."""
+    if o.load_steps is not None and o.load_factors is not None:
+        raise ParameterError("give either load_steps or load_factors, not both")
+    if o.load_factors is not None:
+        targets = o.targets()
+        if not targets or not all(math.isfinite(x) for x in targets):
+            raise ParameterError(f"load_factors must be finite numbers, got {o.load_factors!r}")
+    elif o.load_steps is not None and int(o.load_steps) < 1:
+        raise ParameterError(f"load_steps must be at least 1, got {o.load_steps!r}")
+    if int(o.fallback_steps) < 1:
+        raise ParameterError(f"fallback_steps must be at least 1, got {o.fallback_steps!r}")
+    if o.predictor not in ("secant", "previous"):
+        raise ParameterError(f"predictor must be 'secant' or 'previous', got {o.predictor!r}")
+
+
+def solve_static(model: Model, *, state: State | None = None, observer: Callable[..., Any] | None = None,
+                 options: StaticOptions | None = None, **kwargs: Any) -> StaticResult:
     """Static equilibrium: full load at once, load stepping, or arc-length continuation.
 
     ``method="load_control"`` (default): full load at once, load stepping when
@@ -745,6 +865,14 @@ def solve_static(model: Model, *, load_steps: int | None = None, load_factors: S
     Parameters
     ----------
     model : Model
+    state : State, optional
+        Starting configuration (default: the model's initial coordinates).
+        Its multipliers are replaced by the least-squares reactions to the loads.
+    observer : callable(mu, q, lam, iterations), optional
+        Called after each converged level (each point of the path with arc length).
+    options : StaticOptions, optional
+        The options below at once (:meth:`StaticOptions.create`); keywords given as
+        well change them. Every option is also a keyword of its own:
     load_steps : int, optional
         Ask for load stepping with this many equal increments from μ = 0 to 1.
         Default: none, solve at μ = 1 directly (see the module notes).
@@ -753,9 +881,6 @@ def solve_static(model: Model, *, load_steps: int | None = None, load_factors: S
         ``[0.5, 1.0, 2.0]``); the first is solved from the given configuration.
     t : float
         Time at which loads and (frozen) rheonomic constraints are evaluated.
-    state : State, optional
-        Starting configuration (default: the model's initial coordinates).
-        Its multipliers are replaced by the least-squares reactions to the loads.
     load_types : tuple of element classes, optional
         Force element types scaled by μ (default: the types that declare
         ``work = "load"``, e.g. Force, Torque, SpatialForce, SpatialTorque); the
@@ -781,8 +906,6 @@ def solve_static(model: Model, *, load_steps: int | None = None, load_factors: S
     predictor : {"secant", "previous"}
         In load stepping, start each level from a linear extrapolation of the
         last two converged levels, or from the last one.
-    observer : callable(mu, q, lam, iterations), optional
-        Called after each converged level (each point of the path with arc length).
     method : {"load_control", "arc_length"}
         Load control (the load factor prescribed: direct solve or load stepping)
         or arc-length continuation (the load factor an unknown).
@@ -843,7 +966,7 @@ def solve_static(model: Model, *, load_steps: int | None = None, load_factors: S
         is undefined there, and neither load stepping nor cut-backs help);
         raised at once, ``err.path`` holds the attempts.
     ParameterError
-        Bad parameters (the message names the parameter), or
+        Bad parameters or an unknown option name (the message names it), or
         ``method="arc_length"`` on a model without applied loads.
 
     Notes
@@ -885,132 +1008,121 @@ def solve_static(model: Model, *, load_steps: int | None = None, load_factors: S
     >>> round(float(res.load_factor[-1]), 12), round(float(res.body("p")[-1, 1]), 4), res.strategy
     (1.0, -1.0999, 'arc length')
     """
-    if method not in ("load_control", "arc_length"):
-        raise ParameterError(f"method must be 'load_control' or 'arc_length', got {method!r}")
-    arc_given = {k: v for k, v in (("arc_length", arc_length), ("arc_length_min", arc_length_min),
-                                   ("arc_length_max", arc_length_max), ("load_weight", load_weight),
-                                   ("max_steps", max_steps), ("max_limit_points", max_limit_points))
-                 if v is not None}
-    if method == "arc_length":
-        if load_steps is not None or load_factors is not None:
-            raise ParameterError("method='arc_length' chooses its own load factors: do not give load_steps "
-                                 "or load_factors")
-        for k, v in arc_given.items():
-            if k in ("max_steps", "max_limit_points"):
-                if int(v) != v or int(v) < 1:
-                    raise ParameterError(f"{k} must be a positive integer, got {v!r}")
-            elif k == "load_weight":
-                if not (math.isfinite(float(v)) and float(v) >= 0.0):
-                    raise ParameterError(f"load_weight must be a finite number ≥ 0, got {v!r}")
-            elif not (math.isfinite(float(v)) and float(v) > 0.0):
-                raise ParameterError(f"{k} must be a positive finite number, got {v!r}")
-        if arc_length_min is not None and arc_length_max is not None and arc_length_min > arc_length_max:
-            raise ParameterError(f"arc_length_min ({arc_length_min!r}) exceeds arc_length_max ({arc_length_max!r})")
-        if arc_length is not None and ((arc_length_min is not None and arc_length < arc_length_min)
-                                       or (arc_length_max is not None and arc_length > arc_length_max)):
-            raise ParameterError(f"arc_length ({arc_length!r}) is outside [arc_length_min, arc_length_max]")
-        if target_load_factor is not None and not math.isfinite(float(target_load_factor)):
-            raise ParameterError(f"target_load_factor must be a finite number or None, got {target_load_factor!r}")
-        if target_load_factor is not None and float(target_load_factor) == 0.0:
-            raise ParameterError("target_load_factor must not be 0 (the path starts there); give None to "
-                                 "stop after max_steps")
-        if int(desired_iterations) != desired_iterations or int(desired_iterations) < 1:
-            raise ParameterError(f"desired_iterations must be a positive integer, got {desired_iterations!r}")
-    elif arc_given:
-        raise ParameterError(f"{', '.join(arc_given)}: only for method='arc_length' (method is {method!r})")
-    asked = load_steps is not None or load_factors is not None
-    if load_steps is not None and load_factors is not None:
-        raise ParameterError("give either load_steps or load_factors, not both")
-    if load_factors is not None:
-        targets = [float(x) for x in np.atleast_1d(load_factors)]
-        if not targets or not all(math.isfinite(x) for x in targets):
-            raise ParameterError(f"load_factors must be finite numbers, got {load_factors!r}")
-    elif load_steps is not None:
-        n = int(load_steps)
-        if n < 1:
-            raise ParameterError(f"load_steps must be at least 1, got {load_steps!r}")
-        targets = [k / n for k in range(1, n + 1)]
-    else:
-        targets = [1.0]
-    if int(fallback_steps) < 1:
-        raise ParameterError(f"fallback_steps must be at least 1, got {fallback_steps!r}")
-    if predictor not in ("secant", "previous"):
-        raise ParameterError(f"predictor must be 'secant' or 'previous', got {predictor!r}")
-    nq, nc = model.nq, model.nc
-    groups = _load_groups(model, load_types)
-    newton = _Newton(model, t, groups, rtol, atol, phi_tol * model.length_scale, xtol, int(max_iter))
-    st = state.copy() if state is not None else model.initial_state(t)
-    q0 = np.asarray(st.q, dtype=float).copy()
-    lam0 = np.asarray(st.lam, dtype=float).copy() if st.lam.size == nc else np.zeros(nc)
-    path = []
-    mus, Q, L, its = [], [], [], []
-    last_singular = [False]
+    o = StaticOptions.create(options, **kwargs)
+    run = _StaticRun(model, o, state, observer)
+    if o.method == "arc_length":
+        return run.result("arc length", run.arc())
+    if o.load_steps is None and o.load_factors is None:
+        return run.result(run.direct(), "")
+    run.stepping(o.targets(), run.q0, run.lam0, o.load_steps is not None)
+    return run.result("load steps", "")
 
-    def attempt(mu, q, lam, start):
-        sol, recs, singular = newton(mu, q, lam, start)
-        path.extend(recs)
-        last_singular[0] = singular
+
+class _StaticRun:
+    """One static solve: its Newton solver, the attempts (``path``) and the converged levels.
+
+    The strategies of :func:`solve_static` are methods: :meth:`direct` (full load, load
+    stepping as the fallback), :meth:`stepping` (load control through given levels) and
+    :meth:`arc` (arc-length continuation).
+    """
+
+    def __init__(self, model, o, state, observer):
+        self.model, self.o, self.observer = model, o, observer
+        self.newton = _Newton(model, o.t, _load_groups(model, o.load_types), o.rtol, o.atol,
+                              o.phi_tol * model.length_scale, o.xtol, int(o.max_iter))
+        st = state.copy() if state is not None else model.initial_state(o.t)
+        self.q0 = np.asarray(st.q, dtype=float).copy()
+        self.lam0 = np.asarray(st.lam, dtype=float).copy() if st.lam.size == model.nc else np.zeros(model.nc)
+        self.path = []
+        self.mus, self.Q, self.L, self.its = [], [], [], []
+        self.singular = False                 # the last Newton solve failed on a singular matrix
+        self.S, self.T = [], []               # arc-length path parameter and dμ/ds per stored state
+
+    def attempt(self, mu, q, lam, start):
+        sol, recs, singular = self.newton(mu, q, lam, start)
+        self.path.extend(recs)
+        self.singular = singular
         return sol, recs[-1]
 
-    def accept(mu, sol, rec):
-        mus.append(mu), Q.append(sol[0].copy()), L.append(sol[1].copy()), its.append(rec["iterations"])
-        if observer is not None:
-            observer(mu, sol[0], sol[1], rec["iterations"])
+    def accept(self, mu, sol, rec):
+        self.mus.append(mu), self.Q.append(sol[0].copy()), self.L.append(sol[1].copy())
+        self.its.append(rec["iterations"])
+        if self.observer is not None:
+            self.observer(mu, sol[0], sol[1], rec["iterations"])
 
-    def fail(msg, mu):
+    def fail(self, msg, mu):
+        """The error to raise: SingularMatrixError after a singular solve, else ConvergenceError."""
+        model, t = self.model, self.o.t
         text = f"{msg}\n" + StaticResult.describe_path(
-            StaticResult(model=model, t=np.zeros(0), q=np.zeros((0, nq)), qd=None, qdd=None, lam=None,
-                         newton_iterations=np.zeros(0), path=path, strategy="failed"))
-        if last_singular[0]:
+            StaticResult(model=model, t=np.zeros(0), q=np.zeros((0, model.nq)), qd=None, qdd=None, lam=None,
+                         newton_iterations=np.zeros(0), path=self.path, strategy="failed"))
+        if self.singular:
             err = SingularMatrixError(
                 f"singular static stiffness matrix at load factor {mu:.6g}: the constrained system has a "
                 "motion without stiffness (a free body or an unloaded mechanism degree of freedom), or "
-                f"redundant constraints; statics is undefined there. {text}", t=t, step=len(mus))
+                f"redundant constraints; statics is undefined there. {text}", t=t, step=len(self.mus))
         else:
-            err = ConvergenceError(text, t=t, step=len(mus))
-        err.path = path
+            err = ConvergenceError(text, t=t, step=len(self.mus))
+        err.path = self.path
         return err
 
-    def stepping(targets, q, lam, include_zero):
+    # ---- load control ------------------------------------------------------------------------
+    def direct(self):
+        """Full load from the given configuration; load stepping when that fails or is unstable.
+
+        Returns the strategy ("direct" or "continuation")."""
+        model, t = self.model, self.o.t
+        sol, rec = self.attempt(1.0, self.q0, self.lam0, "given")
+        if sol is None:
+            if self.singular:
+                raise self.fail(f"static Newton failed at full load from the given configuration on a singular "
+                                f"stiffness matrix: {rec['reason']}", 1.0)
+            self.stepping(self._fallback_levels(), self.q0, self.lam0, True)
+            return "continuation"
+        lam_min = stability(model, sol[0], sol[1], t)
+        rec["stability"] = lam_min
+        if lam_min is None or lam_min >= -1e-10:
+            self.accept(1.0, sol, rec)
+            return "direct"
+        # an unstable equilibrium reached directly (e.g. an inverted pendulum from a start
+        # near horizontal): prefer the one load stepping leads to, if that is stable
+        rec["reason"] = "converged to an unstable equilibrium; trying load stepping"
+        try:
+            self.stepping(self._fallback_levels(), self.q0, self.lam0, True)
+            lam_min = stability(model, self.Q[-1], self.L[-1], t)
+            ok = lam_min is None or lam_min >= -1e-10
+        except (ConvergenceError, SingularMatrixError):
+            ok = False
+        if ok:
+            return "continuation"
+        self.mus.clear(), self.Q.clear(), self.L.clear(), self.its.clear()
+        self.accept(1.0, sol, rec)
+        warnings.warn(f"model '{model.name}': the static equilibrium found is unstable (the reduced "
+                      "stiffness has a negative eigenvalue); load stepping found no stable one", stacklevel=3)
+        return "direct"
+
+    def _fallback_levels(self):
+        n = int(self.o.fallback_steps)
+        return [k / n for k in range(1, n + 1)]
+
+    def stepping(self, targets, q, lam, include_zero):
         """Load stepping from μ = 0 (the given configuration) through ``targets``."""
         mu = 0.0
         if include_zero:
-            sol, rec = attempt(0.0, q, lam, "given")
+            sol, rec = self.attempt(0.0, q, lam, "given")
             if sol is not None:
-                accept(0.0, sol, rec)
+                self.accept(0.0, sol, rec)
                 q, lam = sol
             else:
                 rec["reason"] += " (zero load skipped: the stepping starts from the given configuration)"
+        mus, Q, model = self.mus, self.Q, self.model
         for target in targets:
             step = None                        # increment that worked after a cut-back
             while mu != target:
                 dmu = target - mu
                 if step is not None and abs(step) < abs(dmu):
                     dmu = math.copysign(2.0 * abs(step), dmu) if 2.0 * abs(step) < abs(dmu) else dmu
-                while True:
-                    trial = mu + dmu
-                    if predictor == "secant" and len(mus) >= 2 and mus[-1] != mus[-2]:
-                        s = (trial - mus[-1]) / (mus[-1] - mus[-2])
-                        # Q[-1] ∘ exp(s log(Q[-2]⁻¹Q[-1])): the secant on the group (Q[-1] + s(Q[-1] − Q[-2])
-                        # on vector spaces)
-                        qs = model.compose(Q[-1], s * model.difference(Q[-1], Q[-2]))
-                        sol, rec = attempt(trial, qs, L[-1] + s * (L[-1] - L[-2]), "secant")
-                        if sol is None:
-                            sol, rec = attempt(trial, q, lam, "previous")
-                    else:
-                        sol, rec = attempt(trial, q, lam, "previous" if mus else "given")
-                    if sol is not None:
-                        break
-                    if last_singular[0]:
-                        # a singular tangent where Newton stalls (no stiffness against the loads, or a
-                        # limit point): smaller increments do not remove it
-                        raise fail(f"static Newton failed at load factor {trial:.6g} (last converged {mu:.6g}) "
-                                   f"on a singular stiffness matrix: {rec['reason']}", trial)
-                    if abs(dmu) <= min_step:
-                        raise fail(f"static Newton failed at load factor {trial:.6g} with increment "
-                                   f"{dmu:.3g} (last converged {mu:.6g}): {rec['reason']}", trial)
-                    dmu *= 0.5
-                    step = dmu
+                trial, sol, rec, step = self._increment(mu, dmu, q, lam, step)
                 if len(mus) >= 2 and mus[-1] != mus[-2]:
                     # the secant continuation of the path, whichever start converged
                     s_ = (trial - mus[-1]) / (mus[-1] - mus[-2])
@@ -1018,68 +1130,105 @@ def solve_static(model: Model, *, load_steps: int | None = None, load_factors: S
                                 mus[-1], trial)
                 q, lam = sol
                 mu = trial if abs(trial - target) > 1e-15 else target
-                accept(mu, sol, rec)
+                self.accept(mu, sol, rec)
 
-    def arc():
-        """Arc-length continuation from μ = 0 (see the notes of solve_static); returns the stop reason."""
-        sol, rec = attempt(0.0, q0, lam0, "given")
+    def _increment(self, mu, dmu, q, lam, step):
+        """Solve at μ + dμ, halving dμ until Newton converges; returns (μ + dμ, solution, record, step)."""
+        while True:
+            trial = mu + dmu
+            sol, rec = self._predicted(trial, q, lam)
+            if sol is not None:
+                return trial, sol, rec, step
+            if self.singular:
+                # a singular tangent where Newton stalls (no stiffness against the loads, or a
+                # limit point): smaller increments do not remove it
+                raise self.fail(f"static Newton failed at load factor {trial:.6g} (last converged {mu:.6g}) "
+                                f"on a singular stiffness matrix: {rec['reason']}", trial)
+            if abs(dmu) <= self.o.min_step:
+                raise self.fail(f"static Newton failed at load factor {trial:.6g} with increment "
+                                f"{dmu:.3g} (last converged {mu:.6g}): {rec['reason']}", trial)
+            dmu *= 0.5
+            step = dmu
+
+    def _predicted(self, trial, q, lam):
+        """Newton at load factor ``trial`` from the predictor (secant, else the last level)."""
+        mus, Q, L, model = self.mus, self.Q, self.L, self.model
+        if self.o.predictor == "secant" and len(mus) >= 2 and mus[-1] != mus[-2]:
+            s = (trial - mus[-1]) / (mus[-1] - mus[-2])
+            # Q[-1] ∘ exp(s log(Q[-2]⁻¹Q[-1])): the secant on the group (Q[-1] + s(Q[-1] − Q[-2])
+            # on vector spaces)
+            qs = model.compose(Q[-1], s * model.difference(Q[-1], Q[-2]))
+            sol, rec = self.attempt(trial, qs, L[-1] + s * (L[-1] - L[-2]), "secant")
+            if sol is None:
+                sol, rec = self.attempt(trial, q, lam, "previous")
+            return sol, rec
+        return self.attempt(trial, q, lam, "previous" if mus else "given")
+
+    # ---- arc length --------------------------------------------------------------------------
+    def _arc_start(self):
+        """Equilibrium at μ = 0, the scaled norm and the first tangent: (q, λ, _ArcLength, tangent)."""
+        model = self.model
+        sol, rec = self.attempt(0.0, self.q0, self.lam0, "given")
         if sol is None:
-            raise fail(f"static Newton failed at zero load from the given configuration: {rec['reason']}", 0.0)
-        accept(0.0, sol, rec)
-        q, lam, mu = sol[0], sol[1], 0.0
+            raise self.fail(f"static Newton failed at zero load from the given configuration: {rec['reason']}", 0.0)
+        self.accept(0.0, sol, rec)
+        q, lam = sol
         s2 = 1.0 / (model.force_weight * model.length_scale) ** 2
-        al = _ArcLength(model, newton, s2, 1.0)
-        fe = al.fext(q)
-        if not np.any(fe != 0.0):
+        al = _ArcLength(model, self.newton, s2, 1.0)
+        if not np.any(al.fext(q) != 0.0):
             raise ParameterError(f"model '{model.name}': method='arc_length' needs applied loads (the scaled "
                                  "loads f_ext are zero: no Force/Torque of load_types, no gravity)")
         raw = al.tangent(0.0, q, lam, None)              # with ψ = 1; only its displacement part is used
         if raw is None:
-            last_singular[0] = True
-            raise fail("singular static stiffness matrix at zero load: no tangent to start the path", 0.0)
+            self.singular = True
+            raise self.fail("singular static stiffness matrix at zero load: no tangent to start the path", 0.0)
         vq = raw[0] / raw[2]                              # dq/dμ
         vnorm = math.sqrt(float(np.sum(s2 * vq * vq)))
-        psi = float(load_weight) if load_weight is not None else (vnorm if vnorm > 0.0 else 1.0)
+        w = self.o.load_weight
+        psi = float(w) if w is not None else (vnorm if vnorm > 0.0 else 1.0)
         al.psi2 = psi * psi
         tan = al.normalized(vq, raw[1] / raw[2], 1.0)
         if tan is None:
-            raise fail("no tangent to start the path (zero load weight and no displacement under the loads)", 0.0)
-        target = None if target_load_factor is None else float(target_load_factor)
-        ds = float(arc_length) if arc_length is not None else \
+            raise self.fail("no tangent to start the path (zero load weight and no displacement under the loads)",
+                            0.0)
+        return q, lam, al, tan
+
+    def _arc_bounds(self, target, tan):
+        """The first arc length and its bounds (ds, ds_min, ds_max)."""
+        o = self.o
+        ds = float(o.arc_length) if o.arc_length is not None else \
             0.05 * (abs(target) if target is not None else 1.0) / tan[2]
-        ds_min = float(arc_length_min) if arc_length_min is not None else ds / 1024.0
-        ds_max = float(arc_length_max) if arc_length_max is not None else 10.0 * ds
+        ds_min = float(o.arc_length_min) if o.arc_length_min is not None else ds / 1024.0
+        ds_max = float(o.arc_length_max) if o.arc_length_max is not None else 10.0 * ds
         ds_min, ds_max = min(ds_min, ds_max), max(ds_min, ds_max)      # one bound given, beyond the other's default
-        ds = min(max(ds, ds_min), ds_max)
-        nmax = int(max_steps) if max_steps is not None else 200
+        return min(max(ds, ds_min), ds_max), ds_min, ds_max
+
+    def arc(self):
+        """Arc-length continuation from μ = 0 (see the notes of solve_static); returns the stop reason."""
+        o, S, T = self.o, self.S, self.T
+        q, lam, al, tan = self._arc_start()
+        mu = 0.0
+        target = None if o.target_load_factor is None else float(o.target_load_factor)
+        ds, ds_min, ds_max = self._arc_bounds(target, tan)
+        nmax = int(o.max_steps) if o.max_steps is not None else 200
         steps = passed = 0
         S.append(0.0), T.append(float(tan[2]))
         while steps < nmax:
             rec = {"mu": float(mu), "start": "tangent", "newton": "arc length", "converged": False,
                    "iterations": 0, "residuals": [], "damped": 0, "reason": "", "arc_length": ds}
             out = al.step(mu, q, lam, tan, ds, rec)
-            path.append(rec)
+            self.path.append(rec)
             if out is None:
-                last_singular[0] = rec["reason"].startswith("singular")
+                self.singular = rec["reason"].startswith("singular")
                 if ds <= ds_min * (1.0 + 1e-12):
-                    raise fail(f"arc-length step failed at load factor {rec['mu']:.6g} (last converged {mu:.6g}) "
-                               f"with the smallest arc length {ds:.3g}: {rec['reason']}", rec["mu"])
+                    raise self.fail(f"arc-length step failed at load factor {rec['mu']:.6g} (last converged "
+                                    f"{mu:.6g}) with the smallest arc length {ds:.3g}: {rec['reason']}", rec["mu"])
                 ds = max(0.5 * ds, ds_min)
                 continue
             mu1, q1, lam1, Dq, Dmu = out
             if target is not None and (mu - target) * (mu1 - target) < 0.0:
-                # crossed the target: the last point at exactly μ = target, from the interpolation
-                frac = (target - mu) / (mu1 - mu)
-                sol, rec2 = attempt(target, model.compose(q, frac * Dq), lam + frac * (lam1 - lam), "secant")
-                if sol is not None:
-                    accept(target, sol, rec2)
-                    S.append(S[-1] + al.norm(model.difference(sol[0], q), target - mu)), T.append(float("nan"))
-                    return f"reached the target load factor {target:.6g}"
-                rec2["reason"] += " (landing on the target failed: the crossing point is kept)"
-                accept(mu1, (q1, lam1), rec)
-                S.append(S[-1] + al.norm(Dq, Dmu)), T.append(float("nan"))
-                return f"crossed the target load factor {target:.6g} at {mu1:.6g}"
-            accept(mu1, (q1, lam1), rec)
+                return self._land(al, target, (mu, q, lam), out, rec)
+            self.accept(mu1, (q1, lam1), rec)
             S.append(S[-1] + al.norm(Dq, Dmu))
             steps += 1
             new = al.tangent(mu1, q1, lam1, (tan[0], tan[2]))
@@ -1092,72 +1241,37 @@ def solve_static(model: Model, *, load_steps: int | None = None, load_factors: S
                 return f"reached the target load factor {target:.6g}"
             if math.isfinite(T[-1]) and T[-1] * tan[2] < 0.0:
                 passed += 1
-                if max_limit_points is not None and passed >= int(max_limit_points):
+                if o.max_limit_points is not None and passed >= int(o.max_limit_points):
                     return f"passed {passed} limit point(s); stopped at load factor {mu1:.6g}"
             mu, q, lam, tan = mu1, q1, lam1, new
-            grow = math.sqrt(int(desired_iterations) / max(rec["iterations"], 1))
+            grow = math.sqrt(int(o.desired_iterations) / max(rec["iterations"], 1))
             ds = min(max(ds * min(max(grow, 0.5), 2.0), ds_min), ds_max)
         return f"stopped after max_steps = {nmax} steps at load factor {mu:.6g}"
 
-    stop = ""
-    S, T = [], []                                         # arc-length path parameter and dμ/ds per stored state
-    if method == "arc_length":
-        strategy = "arc length"
-        stop = arc()
-    elif not asked:
-        sol, rec = attempt(1.0, q0, lam0, "given")
-        unstable = False
+    def _land(self, al, target, last, out, rec):
+        """The step crossed the target: the last point at exactly μ = target, from the interpolation."""
+        mu, q, lam = last
+        mu1, q1, lam1, Dq, Dmu = out
+        frac = (target - mu) / (mu1 - mu)
+        sol, rec2 = self.attempt(target, self.model.compose(q, frac * Dq), lam + frac * (lam1 - lam), "secant")
         if sol is not None:
-            lam_min = stability(model, sol[0], sol[1], t)
-            unstable = lam_min is not None and lam_min < -1e-10
-            rec["stability"] = lam_min
-        if sol is not None and not unstable:
-            accept(1.0, sol, rec)
-            strategy = "direct"
-        elif sol is not None:
-            # an unstable equilibrium reached directly (e.g. an inverted pendulum from a start
-            # near horizontal): prefer the one load stepping leads to, if that is stable
-            rec["reason"] = "converged to an unstable equilibrium; trying load stepping"
-            direct = (sol, rec)
-            try:
-                n = int(fallback_steps)
-                stepping([k / n for k in range(1, n + 1)], q0, lam0, True)
-                lam_min = stability(model, Q[-1], L[-1], t)
-                ok = lam_min is None or lam_min >= -1e-10
-            except (ConvergenceError, SingularMatrixError):
-                ok = False
-            if ok:
-                strategy = "continuation"
-            else:
-                mus.clear(), Q.clear(), L.clear(), its.clear()
-                accept(1.0, *direct)
-                strategy = "direct"
-                warnings.warn(f"model '{model.name}': the static equilibrium found is unstable (the reduced "
-                              "stiffness has a negative eigenvalue); load stepping found no stable one",
-                              stacklevel=2)
-        elif last_singular[0]:
-            raise fail(f"static Newton failed at full load from the given configuration on a singular "
-                       f"stiffness matrix: {rec['reason']}", 1.0)
-        else:
-            strategy = "continuation"
-            n = int(fallback_steps)
-            stepping([k / n for k in range(1, n + 1)], q0, lam0, True)
-    else:
-        strategy = "load steps"
-        stepping(targets, q0, lam0, load_steps is not None)
-    Qa = np.array(Q)
-    return StaticResult(model=model, t=np.array(mus), q=Qa, qd=np.zeros_like(Qa), qdd=np.zeros_like(Qa),
-                        lam=np.array(L).reshape(len(mus), nc), newton_iterations=np.array(its, dtype=np.int32),
-                        status="success",
-                        message=(f"{stop} ({strategy}, {len(path)} Newton solves)" if stop else
-                                 f"reached load factor {mus[-1]:.6g} ({strategy}, {len(path)} Newton solves)"),
-                        settings={"t": t, "rtol": rtol, "atol": atol, "phi_tol": phi_tol, "xtol": xtol,
-                                  "max_iter": max_iter, "min_step": min_step, "predictor": predictor,
-                                  "method": method, **({"arc_length": arc_length, "arc_length_min": arc_length_min,
-                                                        "arc_length_max": arc_length_max, "load_weight": load_weight,
-                                                        "target_load_factor": target_load_factor,
-                                                        "max_steps": max_steps, "max_limit_points": max_limit_points,
-                                                        "desired_iterations": desired_iterations}
-                                                       if method == "arc_length" else {})},
-                        time=float(t), strategy=strategy, path=path,
-                        arc={"s": np.array(S), "dmu_ds": np.array(T)} if method == "arc_length" else None)
+            self.accept(target, sol, rec2)
+            self.S.append(self.S[-1] + al.norm(self.model.difference(sol[0], q), target - mu))
+            self.T.append(float("nan"))
+            return f"reached the target load factor {target:.6g}"
+        rec2["reason"] += " (landing on the target failed: the crossing point is kept)"
+        self.accept(mu1, (q1, lam1), rec)
+        self.S.append(self.S[-1] + al.norm(Dq, Dmu)), self.T.append(float("nan"))
+        return f"crossed the target load factor {target:.6g} at {mu1:.6g}"
+
+    # ---- the result --------------------------------------------------------------------------
+    def result(self, strategy, stop):
+        mus, o, n = self.mus, self.o, len(self.path)
+        Qa = np.array(self.Q)
+        arc = {"s": np.array(self.S), "dmu_ds": np.array(self.T)} if o.method == "arc_length" else None
+        return StaticResult(model=self.model, t=np.array(mus), q=Qa, qd=np.zeros_like(Qa), qdd=np.zeros_like(Qa),
+                            lam=np.array(self.L).reshape(len(mus), self.model.nc),
+                            newton_iterations=np.array(self.its, dtype=np.int32), status="success",
+                            message=(f"{stop} ({strategy}, {n} Newton solves)" if stop else
+                                     f"reached load factor {mus[-1]:.6g} ({strategy}, {n} Newton solves)"),
+                            settings=o.settings(), time=float(o.t), strategy=strategy, path=self.path, arc=arc)

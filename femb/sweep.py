@@ -79,7 +79,7 @@ import types
 import uuid
 import warnings
 from collections import OrderedDict
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields, replace
 from pathlib import Path
 from typing import Any, Callable, Mapping, Sequence
 
@@ -92,7 +92,7 @@ except ImportError:     # pragma: no cover - without pandas, sweep() says which 
 
 from femb.errors import FembError, OutputError, ParameterError
 
-__all__ = ["sweep", "read_results", "make_design", "full_factorial", "sample_design",
+__all__ = ["sweep", "SweepPlan", "read_results", "make_design", "full_factorial", "sample_design",
            "parse_grid_spec", "parse_range_spec", "run_batch", "plot_results", "output_columns",
            "RUN_KEYS", "SOLVER_KEYS"]
 
@@ -863,18 +863,63 @@ def _simulate_needs_h():
     return p is not None and p.default is inspect.Parameter.empty
 
 
-def sweep(scene: str | os.PathLike | Callable[..., Any], *, grid: Mapping[str, Sequence[Any]] | None = None,
-          cases: Sequence[Mapping[str, Any]] | None = None, samples: int | None = None,
-          ranges: Mapping[str, tuple] | None = None, sampling: str = "lhs", seed: int | None = None,
-          params: Mapping[str, Any] | None = None, t_end: float | None = None, h: float | None = None,
-          rtol: float | None = None, atol: float | None = None, rho_inf: float | None = None,
-          solver_options: Mapping[str, Any] | None = None, outputs: Sequence[str] | None = None,
-          outputs_fn: Callable[..., Any] | None = None, t_eval: Sequence[float] | None = None,
-          client: Any = None, n_workers: int | None = None, batch_size: int | None = None,
-          out: str | os.PathLike | None = None, resume: bool = False,
-          trajectories: str | os.PathLike | None = None, progress: bool | Callable[..., Any] | None = None,
-          flush_rows: int = 2000, flush_interval: float = 10.0, max_attempts: int = 3,
-          cache_dir: str | None = None) -> DataFrame:
+@dataclass(frozen=True)
+class SweepPlan:
+    """What :func:`sweep` runs and how: the design, the run settings, the outputs and the
+    execution (see :func:`sweep` for each field). Build it with :meth:`create`; the values
+    are checked by :func:`sweep` as it uses them."""
+
+    grid: Mapping[str, Sequence[Any]] | None = None
+    cases: Sequence[Mapping[str, Any]] | None = None
+    samples: int | None = None
+    ranges: Mapping[str, tuple] | None = None
+    sampling: str = "lhs"
+    seed: int | None = None
+    params: Mapping[str, Any] | None = None
+    t_end: float | None = None
+    h: float | None = None
+    rtol: float | None = None
+    atol: float | None = None
+    rho_inf: float | None = None
+    solver_options: Mapping[str, Any] | None = None
+    outputs: Sequence[str] | None = None
+    outputs_fn: Callable[..., Any] | None = None
+    t_eval: Sequence[float] | None = None
+    client: Any = None
+    n_workers: int | None = None
+    batch_size: int | None = None
+    out: str | os.PathLike | None = None
+    resume: bool = False
+    trajectories: str | os.PathLike | None = None
+    progress: bool | Callable[..., Any] | None = None
+    flush_rows: int = 2000
+    flush_interval: float = 10.0
+    max_attempts: int = 3
+    cache_dir: str | None = None
+
+    @classmethod
+    def create(cls, plan: SweepPlan | None = None, **changes: Any) -> SweepPlan:
+        """``plan`` (default: the defaults) with ``changes`` applied.
+
+        Raises
+        ------
+        ParameterError
+            An unknown name (naming it and the known ones), or a ``plan`` that is not a SweepPlan.
+        """
+        names = [f.name for f in fields(cls)]
+        unknown = sorted(k for k in changes if k not in names)
+        if unknown:
+            raise ParameterError(f"sweep: unknown option(s) {', '.join(unknown)}; the options are "
+                                 f"{', '.join(names)}")
+        if plan is None:
+            return cls(**changes)
+        if not isinstance(plan, SweepPlan):
+            raise ParameterError(f"plan must be a SweepPlan, got {type(plan).__name__}")
+        return replace(plan, **changes)
+
+
+def sweep(scene: str | os.PathLike | Callable[..., Any], *, plan: SweepPlan | None = None,
+          **options: Any) -> DataFrame:
     """Run a scene for every case of a design on a Dask cluster; one table row per case.
 
     Parameters
@@ -884,6 +929,9 @@ def sweep(scene: str | os.PathLike | Callable[..., Any], *, grid: Mapping[str, S
         ``build()``), a loaded :class:`~femb.benchmarks.registry.Scene`, or a
         callable ``build(**params) -> Mechanism | Model`` (pickled to the
         workers; define it in an importable module or in ``__main__``).
+    plan : SweepPlan, optional
+        The options below at once (:meth:`SweepPlan.create`); keywords given as
+        well change them. Every option is also a keyword of its own:
     grid : dict of str to sequence, optional
         Full-factorial grid, e.g. ``{"k": [1e3, 1e4], "rho_inf": [0.5, 0.9]}``.
     cases : sequence of dict, optional
@@ -953,16 +1001,18 @@ def sweep(scene: str | os.PathLike | Callable[..., Any], *, grid: Mapping[str, S
     Raises
     ------
     ParameterError
-        Bad design, unknown parameter or output, output directory already used
+        Bad design, unknown option, parameter or output, output directory already used
         without ``resume``, ``h`` missing while femb needs it.
     """
     import pandas as pd
 
-    ref = scene_ref(scene, outputs_fn)
-    if samples is not None and seed is None:
+    o = SweepPlan.create(plan, **options)
+    ref = scene_ref(scene, o.outputs_fn)
+    seed = o.seed
+    if o.samples is not None and seed is None:
         seed = int(np.random.SeedSequence().entropy % (2 ** 63))
-    design = make_design(grid, cases, samples, ranges, sampling, seed)
-    params = dict(params or {})
+    design = make_design(o.grid, o.cases, o.samples, o.ranges, o.sampling, seed)
+    params = dict(o.params or {})
     for name in params:
         _check_name(name, "params")
     varied = list(design[0])
@@ -970,112 +1020,153 @@ def sweep(scene: str | os.PathLike | Callable[..., Any], *, grid: Mapping[str, S
     if overlap:
         raise ParameterError(f"parameter(s) {', '.join(map(repr, overlap))} are both fixed (params) and varied")
     _check_names(ref, varied + list(params))
-    solver_options = _check_solver_options(solver_options)
-    d = ref.defaults
-    run = {"t_end": t_end if t_end is not None else d.get("t_end"),
-           "h": h, "rtol": rtol, "atol": atol,
-           "rho_inf": rho_inf if rho_inf is not None else d.get("rho_inf")}
-    if run["h"] is None and rtol is None:
-        run["h"] = d.get("h")
-    run.update(solver_options)
     all_names = set(varied) | set(params)
-    if run["t_end"] is None and "t_end" not in all_names:
-        raise ParameterError(f"scene '{ref.name}' has no default t_end: give t_end")
-    if run["h"] is None and "h" not in all_names:
-        if rtol is None and "rtol" not in all_names:
-            raise ParameterError(f"scene '{ref.name}' has no default h: give h (or rtol)")
-        if _simulate_needs_h():
-            raise ParameterError("this version of femb.simulate needs a step size h "
-                                 "(adaptive steps with rtol alone are not available): give h")
-    if outputs is not None:
-        if isinstance(outputs, str):
-            outputs = [outputs]
-        outputs = list(outputs)
-        clash = [n for n in outputs if n in RESERVED or n in all_names]
-        if clash:
-            raise ParameterError(f"output name(s) {', '.join(map(repr, clash))} clash with parameter or result columns")
-    teval = None
-    if t_eval is not None:
-        times = [float(t) for t in np.atleast_1d(np.asarray(t_eval, dtype=float))]
-        t_ends = [c.get("t_end", params.get("t_end", run["t_end"])) for c in design]
-        t_min = min(float(t) for t in t_ends)
-        for t in times:
-            if not (math.isfinite(t) and 0.0 <= t <= t_min):
-                raise ParameterError(f"t_eval: {t!r} lies outside [0, t_end = {t_min!r}]")
-        teval = [(t, "%s@" + format(t, ".10g")) for t in times]
-        if len({c for _, c in teval}) != len(teval):
-            raise ParameterError("t_eval: two times give the same column name")
-    # a local cluster's workers get this process's FEMB_CACHE_DIR (or cache_dir) in their
-    # environment; a user's cluster keeps its workers' own unless cache_dir is given
-    local_cache = cache_dir or os.environ.get("FEMB_CACHE_DIR") or None
+    run = _run_settings(ref, o, all_names)
+    outputs = _check_outputs(o.outputs, all_names)
+    teval = _check_t_eval(o.t_eval, design, params, run["t_end"])
     job = {"run": run, "outputs": outputs, "t_eval": teval,
-           "trajectories": str(Path(trajectories).resolve()) if trajectories is not None else None,
-           "cache_dir": cache_dir if client is not None else None}
+           "trajectories": str(Path(o.trajectories).resolve()) if o.trajectories is not None else None,
+           "cache_dir": o.cache_dir if o.client is not None else None}
     run_for_id = {k: v for k, v in run.items() if v is not None}
     todo = []
     for i, c in enumerate(design):
         p = dict(params)
         p.update(c)
-        todo.append({"case": i, "case_id": _case_id(ref, p, run_for_id, outputs, t_eval and [t for t, _ in teval]),
-                     "params": p})
+        todo.append({"case": i, "case_id": _case_id(ref, p, run_for_id, outputs,
+                                                    o.t_eval and [t for t, _ in teval]), "params": p})
     ids = [c["case_id"] for c in todo]
     if len(set(ids)) != len(ids):
         raise ParameterError("the design lists the same case twice")
-
     record = _record(ref, varied, params, run_for_id)
-    done_rows = []
-    if out is not None:
-        out = Path(out)
-        if out.exists() and not out.is_dir():
-            raise ParameterError(f"out: {out} exists and is not a directory (sweep output is a directory of Parquet files)")
-        existing = _part_files(out) if out.is_dir() else []
-        if existing and not resume:
-            raise ParameterError(f"out: {out} already holds sweep results: resume them (resume=True, --resume) or choose another directory")
-        if existing:
-            prev = read_results(out)
-            position = {cid: i for i, cid in enumerate(ids)}
-            done_rows = [r for r in prev.to_dict("records") if r["case_id"] in position]
-            for r in done_rows:             # the case's position in this design (a grid may have grown)
-                r["case"] = position[r["case_id"]]
-            done = {r["case_id"] for r in done_rows}
-            todo = [c for c in todo if c["case_id"] not in done]
-        try:
-            out.mkdir(parents=True, exist_ok=True)
-        except OSError as exc:
-            raise OutputError(f"out: cannot create {out} ({exc.strerror or exc}); nothing was run") from None
-        manifest = {"scene": ref.name, "scene_key": ref.key, "femb_version": record["femb_version"],
-                    "parameters": varied, "fixed": params, "run": run_for_id,
-                    "params": record["params"], "units": record["units"], "outputs": outputs,
-                    "t_eval": [t for t, _ in teval] if teval else None,
-                    "grid": {k: list(v) for k, v in (grid or {}).items()}, "samples": samples,
-                    "ranges": ranges, "sampling": sampling if samples else None, "seed": seed,
-                    "cases": len(design)}
-        try:               # the first write: a read-only or full place fails here, before any case runs
-            (out / MANIFEST).write_text(json.dumps(manifest, indent=2, default=repr) + "\n")
-        except OSError as exc:
-            raise OutputError(f"out: cannot write into {out} ({exc.strerror or exc}); nothing was run") from None
-
-    writer = _Writer(out, flush_rows, flush_interval)
-    total = len(design)
-    bar = None
-    callback = progress if callable(progress) else None
-    if progress is True:
-        from femb.io.progress import progress as _progress
-
-        bar = _progress(total, desc=f"sweep {ref.name}", enabled=True)
-        if done_rows:
-            bar.update(len(done_rows))
+    done_rows, out = [], None
+    if o.out is not None:
+        out = Path(o.out)
+        done_rows, todo = _resumed(out, o.resume, ids, todo)
+        _write_manifest(out, {
+            "scene": ref.name, "scene_key": ref.key, "femb_version": record["femb_version"],
+            "parameters": varied, "fixed": params, "run": run_for_id, "params": record["params"],
+            "units": record["units"], "outputs": outputs, "t_eval": [t for t, _ in teval] if teval else None,
+            "grid": {k: list(v) for k, v in (o.grid or {}).items()}, "samples": o.samples, "ranges": o.ranges,
+            "sampling": o.sampling if o.samples else None, "seed": seed, "cases": len(design)})
+    writer = _Writer(out, o.flush_rows, o.flush_interval)
+    report = _Progress(o.progress, f"sweep {ref.name}", len(design), len(done_rows))
     if todo:
-        _run_on_dask(ref, job, todo, client, n_workers, batch_size, writer, bar, callback,
-                     len(done_rows), total, max_attempts, local_cache)
-    if bar is not None:
-        bar.close()
+        # a local cluster's workers get this process's FEMB_CACHE_DIR (or cache_dir) in their
+        # environment; a user's cluster keeps its workers' own unless cache_dir is given
+        local_cache = o.cache_dir or os.environ.get("FEMB_CACHE_DIR") or None
+        _run_on_dask(ref, job, todo, o, writer, report, local_cache)
+    report.close()
     rows = done_rows + writer.rows
     df = _frame(rows, pd) if rows else pd.DataFrame(columns=["case", "case_id"])
     df = df.drop_duplicates("case_id", keep="first").sort_values("case", kind="stable").reset_index(drop=True)
     df.attrs.update(parameters=varied, fixed=list(params), outputs=outputs, seed=seed, out=str(out) if out else None,
                     n_new=len(writer.rows), **record)
     return df
+
+
+def _run_settings(ref, o, all_names):
+    """The run settings of every case (the scene's defaults where not given) and the solver options."""
+    solver_options = _check_solver_options(o.solver_options)
+    d = ref.defaults
+    run = {"t_end": o.t_end if o.t_end is not None else d.get("t_end"),
+           "h": o.h, "rtol": o.rtol, "atol": o.atol,
+           "rho_inf": o.rho_inf if o.rho_inf is not None else d.get("rho_inf")}
+    if run["h"] is None and o.rtol is None:
+        run["h"] = d.get("h")
+    run.update(solver_options)
+    if run["t_end"] is None and "t_end" not in all_names:
+        raise ParameterError(f"scene '{ref.name}' has no default t_end: give t_end")
+    if run["h"] is None and "h" not in all_names:
+        if o.rtol is None and "rtol" not in all_names:
+            raise ParameterError(f"scene '{ref.name}' has no default h: give h (or rtol)")
+        if _simulate_needs_h():
+            raise ParameterError("this version of femb.simulate needs a step size h "
+                                 "(adaptive steps with rtol alone are not available): give h")
+    return run
+
+
+def _check_outputs(outputs, all_names):
+    """The output names as a list (None: all of the scene's), none clashing with other columns."""
+    if outputs is None:
+        return None
+    outputs = [outputs] if isinstance(outputs, str) else list(outputs)
+    clash = [n for n in outputs if n in RESERVED or n in all_names]
+    if clash:
+        raise ParameterError(f"output name(s) {', '.join(map(repr, clash))} clash with parameter or result columns")
+    return outputs
+
+
+def _check_t_eval(t_eval, design, params, t_end):
+    """[(t, column pattern "%s@t")] for the output times within every case's [0, t_end], or None."""
+    if t_eval is None:
+        return None
+    times = [float(t) for t in np.atleast_1d(np.asarray(t_eval, dtype=float))]
+    t_ends = [c.get("t_end", params.get("t_end", t_end)) for c in design]
+    t_min = min(float(t) for t in t_ends)
+    for t in times:
+        if not (math.isfinite(t) and 0.0 <= t <= t_min):
+            raise ParameterError(f"t_eval: {t!r} lies outside [0, t_end = {t_min!r}]")
+    teval = [(t, "%s@" + format(t, ".10g")) for t in times]
+    if len({c for _, c in teval}) != len(teval):
+        raise ParameterError("t_eval: two times give the same column name")
+    return teval
+
+
+def _resumed(out, resume, ids, todo):
+    """Check the output directory and create it: (rows of cases already there, cases still to run)."""
+    if out.exists() and not out.is_dir():
+        raise ParameterError(f"out: {out} exists and is not a directory (sweep output is a directory of Parquet files)")
+    existing = _part_files(out) if out.is_dir() else []
+    if existing and not resume:
+        raise ParameterError(f"out: {out} already holds sweep results: resume them (resume=True, --resume) or choose another directory")
+    done_rows = []
+    if existing:
+        prev = read_results(out)
+        position = {cid: i for i, cid in enumerate(ids)}
+        done_rows = [r for r in prev.to_dict("records") if r["case_id"] in position]
+        for r in done_rows:             # the case's position in this design (a grid may have grown)
+            r["case"] = position[r["case_id"]]
+        done = {r["case_id"] for r in done_rows}
+        todo = [c for c in todo if c["case_id"] not in done]
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise OutputError(f"out: cannot create {out} ({exc.strerror or exc}); nothing was run") from None
+    return done_rows, todo
+
+
+def _write_manifest(out, manifest):
+    try:               # the first write: a read-only or full place fails here, before any case runs
+        (out / MANIFEST).write_text(json.dumps(manifest, indent=2, default=repr) + "\n")
+    except OSError as exc:
+        raise OutputError(f"out: cannot write into {out} ({exc.strerror or exc}); nothing was run") from None
+
+
+class _Progress:
+    """The progress of a sweep: a bar on stderr (``progress=True``) or the user's callable
+    ``progress(done, total, rows)``, called after every batch."""
+
+    def __init__(self, progress, desc, total, n_done):
+        self.callback = progress if callable(progress) else None
+        self.total, self.done = total, n_done
+        self.bar = None
+        if progress is True:
+            from femb.io.progress import progress as _progress
+
+            self.bar = _progress(total, desc=desc, enabled=True)
+            if n_done:
+                self.bar.update(n_done)
+
+    def update(self, rows):
+        self.done += len(rows)
+        if self.bar is not None:
+            self.bar.update(len(rows))
+        if self.callback is not None:
+            self.callback(self.done, self.total, rows)
+
+    def close(self):
+        if self.bar is not None:
+            self.bar.close()
 
 
 def _record(ref, varied, fixed, run):
@@ -1102,11 +1193,13 @@ def _default_batch(n_cases, n_threads):
     return max(1, min(100, math.ceil(n_cases / (8 * max(1, n_threads)))))
 
 
-def _run_on_dask(ref, job, todo, client, n_workers, batch_size, writer, bar, callback, n_done,
-                 total, max_attempts, cache_dir):
+def _run_on_dask(ref, job, todo, plan, writer, report, cache_dir):
+    """Run the cases ``todo`` in batches on Dask (``plan``: client, n_workers, batch_size,
+    max_attempts), writing their rows through ``writer`` and reporting them to ``report``."""
     from dask.distributed import as_completed
 
-    cl, owned = _open_client(client, n_workers, cache_dir)
+    n_workers, batch_size, max_attempts = plan.n_workers, plan.batch_size, plan.max_attempts
+    cl, owned = _open_client(plan.client, n_workers, cache_dir)
     futures = {}
     try:
         n_threads = sum(cl.nthreads().values()) or (n_workers or 1)
@@ -1127,7 +1220,6 @@ def _run_on_dask(ref, job, todo, client, n_workers, batch_size, writer, bar, cal
 
         while pending and len(futures) < max_inflight:
             submit(pending.pop(), 1)
-        done = n_done
         for f in ac:
             _, batch, attempt = futures.pop(f.key)
             rows = None
@@ -1147,11 +1239,7 @@ def _run_on_dask(ref, job, todo, client, n_workers, batch_size, writer, bar, cal
             if rows and "fatal" in rows[0]:
                 raise ParameterError(rows[0]["fatal"])
             writer.add(rows)
-            done += len(rows)
-            if bar is not None:
-                bar.update(len(rows))
-            if callback is not None:
-                callback(done, total, rows)
+            report.update(rows)
             while pending and len(futures) < max_inflight:
                 submit(pending.pop(), 1)
     finally:
@@ -1246,9 +1334,6 @@ def plot_results(df, path, parameters=None, outputs=None, title=None, max_output
     sampled parameters: the samples in the parameter plane coloured by the
     output. More parameters: each output against each parameter (scatter).
     """
-    from matplotlib.backends.backend_agg import FigureCanvasAgg
-    from matplotlib.figure import Figure
-
     params = list(parameters if parameters is not None else df.attrs.get("parameters") or [])
     varied = [p for p in params if p in df.columns and df[p].nunique(dropna=False) > 1]
     outs = list(outputs) if outputs is not None else output_columns(df, params)[:max_outputs]
@@ -1257,106 +1342,135 @@ def plot_results(df, path, parameters=None, outputs=None, title=None, max_output
     ok = (df["status"] == "success").to_numpy() if "status" in df else np.ones(len(df), bool)
     n_fail = int((~ok).sum())
     heading = title or (f"{len(df)} cases, {n_fail} failed" if n_fail else f"{len(df)} cases")
-
     if len(varied) <= 1:
-        nc = min(3, len(outs))
-        nr = math.ceil(len(outs) / nc)
-        fig = Figure(figsize=(4.0 * nc, 3.0 * nr + 0.4), layout="constrained")
-        FigureCanvasAgg(fig)
-        p = varied[0] if varied else None
-        for k, name in enumerate(outs):
-            ax = fig.add_subplot(nr, nc, k + 1)
-            ax.grid(True, lw=0.4, alpha=0.6)
-            if p is None:
-                ax.plot(np.arange(len(df))[ok], df[name].to_numpy()[ok], "o")
-                ax.set_xlabel("case")
-            else:
-                x = df[p].tolist()
-                numeric = all(_is_number(v) for v in x)
-                xs = np.asarray(x, dtype=float) if numeric else np.arange(len(x), dtype=float)
-                order = np.argsort(xs, kind="stable")
-                y = df[name].to_numpy(dtype=float)
-                good = order[ok[order]]
-                ax.plot(xs[good], y[good], "o-", ms=4)
-                bad = order[~ok[order]]
-                if bad.size:
-                    lo = ax.get_ylim()[0]
-                    ax.plot(xs[bad], np.full(bad.size, lo), "x", color="tab:red", ms=7, label="failed")
-                    ax.legend(fontsize=8)
-                if numeric and _log_axis(x):
-                    ax.set_xscale("log")
-                if not numeric:
-                    ax.set_xticks(xs, [str(v) for v in x])
-                ax.set_xlabel(p)
-            ax.set_ylabel(name)
+        fig = _plot_against_one(df, varied[0] if varied else None, outs, ok)
     elif len(varied) == 2 and len(df) == df[varied[0]].nunique() * df[varied[1]].nunique() \
             and not df.duplicated(varied).any():
-        a, b = varied
-        va = sorted(df[a].unique(), key=lambda v: (not _is_number(v), v if _is_number(v) else str(v)))
-        vb = sorted(df[b].unique(), key=lambda v: (not _is_number(v), v if _is_number(v) else str(v)))
-        ia = {v: i for i, v in enumerate(va)}
-        ib = {v: i for i, v in enumerate(vb)}
-        nc = min(3, len(outs))
-        nr = math.ceil(len(outs) / nc)
-        fig = Figure(figsize=(4.3 * nc, 3.4 * nr + 0.4), layout="constrained")
-        FigureCanvasAgg(fig)
-        rows_a, rows_b = df[a].map(ia).to_numpy(), df[b].map(ib).to_numpy()
-        for k, name in enumerate(outs):
-            ax = fig.add_subplot(nr, nc, k + 1)
-            grid = np.full((len(va), len(vb)), np.nan)
-            vals = df[name].to_numpy(dtype=float)
-            grid[rows_a[ok], rows_b[ok]] = vals[ok]
-            im = ax.imshow(grid, origin="lower", aspect="auto", cmap="viridis")
-            fig.colorbar(im, ax=ax, shrink=0.9)
-            for i, j in zip(rows_a[~ok], rows_b[~ok]):
-                ax.text(j, i, "×", ha="center", va="center", color="tab:red", fontsize=12)
-            ax.set_yticks(range(len(va)), [_fmt(v) for v in va])
-            ax.set_xticks(range(len(vb)), [_fmt(v) for v in vb], rotation=45 if len(vb) > 6 else 0)
-            ax.set_ylabel(a)
-            ax.set_xlabel(b)
-            ax.set_title(name, fontsize=10)
+        fig = _plot_heat_maps(df, varied, outs, ok)
     elif len(varied) == 2:
-        a, b = varied
-        nc = min(3, len(outs))
-        nr = math.ceil(len(outs) / nc)
-        fig = Figure(figsize=(4.3 * nc, 3.4 * nr + 0.4), layout="constrained")
-        FigureCanvasAgg(fig)
-        xa, xb = df[a].to_numpy(dtype=float), df[b].to_numpy(dtype=float)
-        for k, name in enumerate(outs):
-            ax = fig.add_subplot(nr, nc, k + 1)
-            sc = ax.scatter(xa[ok], xb[ok], c=df[name].to_numpy(dtype=float)[ok], s=18, cmap="viridis")
-            fig.colorbar(sc, ax=ax, shrink=0.9)
-            if (~ok).any():
-                ax.plot(xa[~ok], xb[~ok], "x", color="tab:red", label="failed")
-                ax.legend(fontsize=8)
-            if _log_axis(list(xa)):
-                ax.set_xscale("log")
-            if _log_axis(list(xb)):
-                ax.set_yscale("log")
-            ax.set_xlabel(a)
-            ax.set_ylabel(b)
-            ax.set_title(name, fontsize=10)
+        fig = _plot_plane(df, varied, outs, ok)
     else:
-        ps, os_ = varied[:4], outs[:4]
-        fig = Figure(figsize=(3.2 * len(ps), 2.6 * len(os_) + 0.4), layout="constrained")
-        FigureCanvasAgg(fig)
-        for i, name in enumerate(os_):
-            for j, p in enumerate(ps):
-                ax = fig.add_subplot(len(os_), len(ps), i * len(ps) + j + 1)
-                ax.grid(True, lw=0.4, alpha=0.6)
-                x = df[p].to_numpy(dtype=float)
-                ax.plot(x[ok], df[name].to_numpy(dtype=float)[ok], ".", ms=4)
-                if _log_axis(list(x)):
-                    ax.set_xscale("log")
-                if i == len(os_) - 1:
-                    ax.set_xlabel(p)
-                if j == 0:
-                    ax.set_ylabel(name)
+        fig = _plot_matrix(df, varied, outs, ok)
     fig.suptitle(heading, fontsize=11)
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path, dpi=90)
     return path
+
+
+def _panels(n, width, height):
+    """A figure for ``n`` panels, at most three a row: (figure, rows, columns)."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    nc = min(3, n)
+    nr = math.ceil(n / nc)
+    fig = Figure(figsize=(width * nc, height * nr + 0.4), layout="constrained")
+    FigureCanvasAgg(fig)
+    return fig, nr, nc
+
+
+def _plot_against_one(df, p, outs, ok):
+    """One panel per output against the parameter ``p`` (None: against the case index); failed
+    cases as red crosses on the axis."""
+    fig, nr, nc = _panels(len(outs), 4.0, 3.0)
+    for k, name in enumerate(outs):
+        ax = fig.add_subplot(nr, nc, k + 1)
+        ax.grid(True, lw=0.4, alpha=0.6)
+        ax.set_ylabel(name)
+        if p is None:
+            ax.plot(np.arange(len(df))[ok], df[name].to_numpy()[ok], "o")
+            ax.set_xlabel("case")
+            continue
+        x = df[p].tolist()
+        numeric = all(_is_number(v) for v in x)
+        xs = np.asarray(x, dtype=float) if numeric else np.arange(len(x), dtype=float)
+        order = np.argsort(xs, kind="stable")
+        y = df[name].to_numpy(dtype=float)
+        good = order[ok[order]]
+        ax.plot(xs[good], y[good], "o-", ms=4)
+        bad = order[~ok[order]]
+        if bad.size:
+            lo = ax.get_ylim()[0]
+            ax.plot(xs[bad], np.full(bad.size, lo), "x", color="tab:red", ms=7, label="failed")
+            ax.legend(fontsize=8)
+        if numeric and _log_axis(x):
+            ax.set_xscale("log")
+        if not numeric:
+            ax.set_xticks(xs, [str(v) for v in x])
+        ax.set_xlabel(p)
+    return fig
+
+
+def _plot_heat_maps(df, varied, outs, ok):
+    """Two parameters on a full grid: one heat map per output (failed cells blank, marked "×")."""
+    a, b = varied
+    va = sorted(df[a].unique(), key=lambda v: (not _is_number(v), v if _is_number(v) else str(v)))
+    vb = sorted(df[b].unique(), key=lambda v: (not _is_number(v), v if _is_number(v) else str(v)))
+    ia = {v: i for i, v in enumerate(va)}
+    ib = {v: i for i, v in enumerate(vb)}
+    fig, nr, nc = _panels(len(outs), 4.3, 3.4)
+    rows_a, rows_b = df[a].map(ia).to_numpy(), df[b].map(ib).to_numpy()
+    for k, name in enumerate(outs):
+        ax = fig.add_subplot(nr, nc, k + 1)
+        grid = np.full((len(va), len(vb)), np.nan)
+        vals = df[name].to_numpy(dtype=float)
+        grid[rows_a[ok], rows_b[ok]] = vals[ok]
+        im = ax.imshow(grid, origin="lower", aspect="auto", cmap="viridis")
+        fig.colorbar(im, ax=ax, shrink=0.9)
+        for i, j in zip(rows_a[~ok], rows_b[~ok]):
+            ax.text(j, i, "×", ha="center", va="center", color="tab:red", fontsize=12)
+        ax.set_yticks(range(len(va)), [_fmt(v) for v in va])
+        ax.set_xticks(range(len(vb)), [_fmt(v) for v in vb], rotation=45 if len(vb) > 6 else 0)
+        ax.set_ylabel(a)
+        ax.set_xlabel(b)
+        ax.set_title(name, fontsize=10)
+    return fig
+
+
+def _plot_plane(df, varied, outs, ok):
+    """Two sampled parameters: the samples in the parameter plane coloured by each output."""
+    a, b = varied
+    fig, nr, nc = _panels(len(outs), 4.3, 3.4)
+    xa, xb = df[a].to_numpy(dtype=float), df[b].to_numpy(dtype=float)
+    for k, name in enumerate(outs):
+        ax = fig.add_subplot(nr, nc, k + 1)
+        sc = ax.scatter(xa[ok], xb[ok], c=df[name].to_numpy(dtype=float)[ok], s=18, cmap="viridis")
+        fig.colorbar(sc, ax=ax, shrink=0.9)
+        if (~ok).any():
+            ax.plot(xa[~ok], xb[~ok], "x", color="tab:red", label="failed")
+            ax.legend(fontsize=8)
+        if _log_axis(list(xa)):
+            ax.set_xscale("log")
+        if _log_axis(list(xb)):
+            ax.set_yscale("log")
+        ax.set_xlabel(a)
+        ax.set_ylabel(b)
+        ax.set_title(name, fontsize=10)
+    return fig
+
+
+def _plot_matrix(df, varied, outs, ok):
+    """More parameters: each output (at most four) against each parameter (at most four)."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+    from matplotlib.figure import Figure
+
+    ps, os_ = varied[:4], outs[:4]
+    fig = Figure(figsize=(3.2 * len(ps), 2.6 * len(os_) + 0.4), layout="constrained")
+    FigureCanvasAgg(fig)
+    for i, name in enumerate(os_):
+        for j, p in enumerate(ps):
+            ax = fig.add_subplot(len(os_), len(ps), i * len(ps) + j + 1)
+            ax.grid(True, lw=0.4, alpha=0.6)
+            x = df[p].to_numpy(dtype=float)
+            ax.plot(x[ok], df[name].to_numpy(dtype=float)[ok], ".", ms=4)
+            if _log_axis(list(x)):
+                ax.set_xscale("log")
+            if i == len(os_) - 1:
+                ax.set_xlabel(p)
+            if j == 0:
+                ax.set_ylabel(name)
+    return fig
 
 
 class _CallableModule(types.ModuleType):

@@ -303,7 +303,7 @@ def _step(stepper, s, h, n, rec, vel_tol, locate, depth=0):
         return _accept(stepper, s, x, ev, sets, info, n, rec, vel_tol)
     mark = (len(rec.events), len(rec.iterations), len(rec.methods))
     try:
-        out = _split_at_impact(stepper, s, h, tau, d, gap_tol, n, rec, vel_tol, locate, depth)
+        out = _split_at_impact(stepper, s, h, (tau, d, gap_tol), n, rec, vel_tol, locate, depth)
     except StepFailure:
         # the substeps around the impact found no solution (e.g. a second contact closing within d):
         # keep the unsplit step, whose impact comes at its end (the paper's scheme, first order there)
@@ -314,8 +314,12 @@ def _step(stepper, s, h, n, rec, vel_tol, locate, depth=0):
     return out
 
 
-def _split_at_impact(stepper, s, h, tau, d, gap_tol, n, rec, vel_tol, locate, depth):
-    """Free flight to just before the impact at tau (if it is not imminent), the impact, the rest."""
+def _split_at_impact(stepper, s, h, impact, n, rec, vel_tol, locate, depth):
+    """Free flight to just before the impact at tau (if it is not imminent), the impact, the rest.
+
+    ``impact`` = (tau, d, gap_tol): the impact time within the step, the substep margin d and
+    the gap tolerance (see :func:`_step`)."""
+    tau, d, gap_tol = impact
     if tau > 2 * d:
         free = _free_flight(stepper, s, tau - 1e-3 * d, gap_tol)
         if free is not None:                            # free flight, then the impact from closer by

@@ -133,79 +133,113 @@ def read_frame(mesh, time=0.0):
                     break
     g = fd.get("gravity")
     g = None if g is None else np.asarray(g, dtype=float).reshape(-1)[:3]
-    n = mesh.n_cells
-    if n == 0:
+    if mesh.n_cells == 0:
         return Frame(time, {}, names, {}, [], [], np.zeros((0, 3)), g, points)
-    et = np.asarray(mesh.cell_data["element_type"]).astype(int)
-    ctype = np.asarray(mesh.celltypes)
-    conn = np.asarray(mesh.cell_connectivity)
-    off = np.asarray(mesh.cell_offsets if hasattr(type(mesh), "cell_offsets") else mesh.offset)
-    P = np.asarray(mesh.points, dtype=float)
-    cd, pd = mesh.cell_data, mesh.point_data
-
-    def first_point(cells):
-        return conn[off[cells]]
-
-    bodies, centres, joints, springs, ground = {}, {}, [], [], []
+    c = _Cells(mesh)
     by_kind = {}
     for tid, tname in types.items():
         kind = glyphs.get(tname)
-        cells = np.nonzero(et == tid)[0]
+        cells = np.nonzero(c.et == tid)[0]
         if cells.size:
             by_kind.setdefault(kind, []).append((tname, cells))
+    bodies, centres = _frame_bodies(c, by_kind)
+    joints, springs = _frame_connectors(c, by_kind)
+    ground = []
+    for tname, cells in by_kind.get("ground", []):
+        ground.extend(c.P[c.first_point(cells)])
+    ground = np.array(ground, dtype=float).reshape(-1, 3)
+    beams = []
+    for tname, cells in by_kind.get("beam", []):
+        lines = cells[c.ctype[cells] == 3]
+        if lines.size:
+            beams.append((tname, mesh.extract_cells(lines)))
+    planar = bool(bodies) and "body_frame" not in by_kind
+    return Frame(time, bodies, names, centres, joints, springs, ground, g, points, _frame_loads(c, by_kind), beams,
+                 planar)
+
+
+class _Cells:
+    """The cells of a frame mesh as arrays: types, connectivity, offsets, points, cell and point data."""
+
+    def __init__(self, mesh):
+        self.mesh = mesh
+        self.et = np.asarray(mesh.cell_data["element_type"]).astype(int)
+        self.ctype = np.asarray(mesh.celltypes)
+        self.conn = np.asarray(mesh.cell_connectivity)
+        self.off = np.asarray(mesh.cell_offsets if hasattr(type(mesh), "cell_offsets") else mesh.offset)
+        self.P = np.asarray(mesh.points, dtype=float)
+        self.cd, self.pd = mesh.cell_data, mesh.point_data
+
+    def first_point(self, cells):
+        return self.conn[self.off[cells]]
+
+
+def _frame_bodies(c, by_kind):
+    """{body id: its picture} and {body id: (centre (3,), axes (3, 3))} of a frame."""
+    bodies, centres = {}, {}
+    cd, P = c.cd, c.P
     for tname, cells in by_kind.get("body", []):
         bid = np.asarray(cd["body"])[cells].astype(int) if "body" in cd else np.zeros(cells.size, int)
         look = np.asarray(cd["body_look"])[cells].astype(int) if "body_look" in cd else np.zeros(cells.size, int)
         for b in np.unique(bid):
             sel = cells[bid == b]
-            bodies[int(b)] = {"mesh": mesh.extract_cells(sel), "look": int(look[bid == b][0]), "type": tname}
+            bodies[int(b)] = {"mesh": c.mesh.extract_cells(sel), "look": int(look[bid == b][0]), "type": tname}
     for tname, cells in by_kind.get("point_mass", []):
         bid = np.asarray(cd["body"])[cells].astype(int)
-        for c, b in zip(cells, bid):
-            bodies[int(b)] = {"mesh": None, "look": 0, "type": tname, "point": P[first_point(c)]}
-            centres[int(b)] = (P[first_point(c)], np.eye(3))
+        for cell, b in zip(cells, bid):
+            bodies[int(b)] = {"mesh": None, "look": 0, "type": tname, "point": P[c.first_point(cell)]}
+            centres[int(b)] = (P[c.first_point(cell)], np.eye(3))
     for tname, cells in by_kind.get("body_frame", []):
         bid = np.asarray(cd["body"])[cells].astype(int)
-        ids = first_point(cells)
-        E = np.stack([np.asarray(pd[f"e{k}"], dtype=float)[ids] for k in (1, 2, 3)], axis=2)
+        ids = c.first_point(cells)
+        E = np.stack([np.asarray(c.pd[f"e{k}"], dtype=float)[ids] for k in (1, 2, 3)], axis=2)
         E = E / np.maximum(np.linalg.norm(E, axis=1, keepdims=True), 1e-300)
         for j, b in enumerate(bid):
             centres[int(b)] = (P[ids[j]], E[j])
+    return bodies, centres
+
+
+def _frame_connectors(c, by_kind):
+    """The joints and the springs (spring, bushing, torsion) of a frame."""
+    joints, springs = [], []
+    conn, off, P, cd, pd = c.conn, c.off, c.P, c.cd, c.pd
     zero3 = np.zeros(3)
     for kind in JOINT_KINDS + ("spring", "bushing", "torsion"):
         for tname, cells in by_kind.get(kind, []):
-            verts = cells[ctype[cells] == 1]
-            lines = cells[ctype[cells] == 3]
+            verts = cells[c.ctype[cells] == 1]
+            lines = cells[c.ctype[cells] == 3]
             if kind == "spring":
                 # one line per spring, or a chain of lines (a planar spring's zigzag): its two ends
                 prev = None
-                for c in lines:
-                    a, b = conn[off[c]:off[c] + 2]
+                for cell in lines:
+                    a, b = conn[off[cell]:off[cell] + 2]
                     if prev is not None and a == prev:
                         springs[-1] = ("spring", springs[-1][1], P[b])
                     else:
                         springs.append(("spring", P[a], P[b]))
                     prev = b
                 continue
-            ids = first_point(verts)
-            ends = [P[conn[off[c] + 1]] for c in lines]
-            for j, (c, i) in enumerate(zip(verts, ids)):
+            ids = c.first_point(verts)
+            ends = [P[conn[off[cell] + 1]] for cell in lines]
+            for j, (cell, i) in enumerate(zip(verts, ids)):
                 def vec(name):
                     return np.asarray(pd[name], dtype=float)[i] if name in pd else zero3.copy()
-                ba = int(np.asarray(cd["body_a"])[c]) if "body_a" in cd else -1
-                bb = int(np.asarray(cd["body_b"])[c]) if "body_b" in cd else -1
+                ba = int(np.asarray(cd["body_a"])[cell]) if "body_a" in cd else -1
+                bb = int(np.asarray(cd["body_b"])[cell]) if "body_b" in cd else -1
                 pb = vec("joint_pb") if "joint_pb" in pd else (ends[j] if j < len(ends) else P[i])
                 if kind in ("bushing", "torsion"):
                     springs.append((kind, P[i], vec("joint_axis")))
                     continue
                 joints.append(Joint(kind, tname, j, P[i].copy(), pb.copy(), vec("joint_axis"),
                                     vec("joint_pin_a"), vec("joint_pin_b"), ba, bb))
-    for tname, cells in by_kind.get("ground", []):
-        ground.extend(P[first_point(cells)])
-    ground = np.array(ground, dtype=float).reshape(-1, 3)
-    loads = []
+    return joints, springs
+
+
+def _frame_loads(c, by_kind):
+    """[("force" or "torque", point (3,), vector (3,))]: the applied loads of a frame."""
+    loads, P, pd = [], c.P, c.pd
     for tname, cells in by_kind.get("load", []):
-        ids = first_point(cells)
+        ids = c.first_point(cells)
         for what in ("force", "torque"):
             src = "load" if what == "force" and "force" not in pd else what    # planar: "load" (N)
             if src in pd:
@@ -214,13 +248,7 @@ def read_frame(mesh, time=0.0):
                     V = np.column_stack((np.zeros((V.size, 2)), V))
                 keep = np.linalg.norm(V, axis=1) > 0.0
                 loads += [(what, P[i], v) for i, v in zip(ids[keep], V[keep])]
-    beams = []
-    for tname, cells in by_kind.get("beam", []):
-        lines = cells[ctype[cells] == 3]
-        if lines.size:
-            beams.append((tname, mesh.extract_cells(lines)))
-    planar = bool(bodies) and "body_frame" not in by_kind
-    return Frame(time, bodies, names, centres, joints, springs, ground, g, points, loads, beams, planar)
+    return loads
 
 
 # ---------------------------------------------------------------------------

@@ -150,6 +150,21 @@ def merge_blocks(blocks, field_data=None):
             names.append(b.name)
     type_id = {n: i for i, n in enumerate(names)}
 
+    points, cells, cell_src, npts_per_block = _stack_blocks(blocks)
+    point_data = _merged_point_data(blocks, npts_per_block)
+    cell_data = _merged_cell_data(blocks, cells, cell_src, type_id)
+    fd = {}
+    for name in names:
+        fd[ELEMENT_TYPE_PREFIX + str(name)] = np.array([type_id[name]], dtype=np.int32)
+    for key, val in (field_data or {}).items():
+        fd[str(key)] = np.atleast_1d(np.asarray(val))
+    return meshio.Mesh(points, cells, point_data=point_data, cell_data=cell_data, field_data=fd)
+
+
+def _stack_blocks(blocks):
+    """The points of all blocks stacked, (sum k, 3); the cell blocks [(cell type, connectivity)] with
+    connectivity shifted by each block's point offset; per output cell block (block index, cell
+    block index or None, rows or None); the number of points per block."""
     all_points = []
     cells = []  # list of (ctype, conn)
     cell_src = []  # per output cell block: (block index, cell block index, rows)
@@ -184,8 +199,11 @@ def merge_blocks(blocks, field_data=None):
                 cell_src.append((bi, ci, rows))
         offset += k
     points = np.concatenate(all_points) if all_points else np.zeros((0, 3))
+    return points, cells, cell_src, npts_per_block
 
-    # --- point data -------------------------------------------------------
+
+def _merged_point_data(blocks, npts_per_block):
+    """{name: (sum k, ...)}: each point data field of any block, zeros where a block lacks it."""
     point_data = {}
     pd_names: list[str] = []
     for b in blocks:
@@ -219,8 +237,33 @@ def merge_blocks(blocks, field_data=None):
             for bi in range(len(blocks))
         ]
         point_data[name] = np.concatenate(parts)
+    return point_data
 
-    # --- cell data --------------------------------------------------------
+
+def _block_cell_array(bi, b, name, ci):
+    """Cell data ``name`` of cell block ``ci`` of block ``bi``, its length checked."""
+    arrays = b.cell_data[name]
+    if len(arrays) != len(b.cells):
+        raise OutputError(
+            f"geometry block {bi} ({b.name!r}) cell data {name!r}: expected one "
+            f"array per cell block ({len(b.cells)}), got {len(arrays)}"
+        )
+    a = _check_dtype(
+        np.asarray(arrays[ci]),
+        f"geometry block {bi} ({b.name!r}) cell data {name!r}",
+    )
+    ncell = len(b.cells[ci][1])
+    if a.shape[:1] != (ncell,):
+        raise OutputError(
+            f"geometry block {bi} ({b.name!r}) cell data {name!r}, cell block "
+            f"{ci}: expected {ncell} values, got shape {a.shape}"
+        )
+    return a
+
+
+def _merged_cell_data(blocks, cells, cell_src, type_id):
+    """{name: [array per output cell block]}: each cell data field of any block (zeros where a
+    block lacks it) and ``element_type``; {} without cells."""
     cell_data = {}
     cd_names: list[str] = []
     for b in blocks:
@@ -229,32 +272,12 @@ def merge_blocks(blocks, field_data=None):
                 cd_names.append(n)
     if "element_type" in cd_names:
         raise OutputError("cell data name 'element_type' is reserved for the block id")
-
-    def block_cell_array(bi, b, name, ci):
-        arrays = b.cell_data[name]
-        if len(arrays) != len(b.cells):
-            raise OutputError(
-                f"geometry block {bi} ({b.name!r}) cell data {name!r}: expected one "
-                f"array per cell block ({len(b.cells)}), got {len(arrays)}"
-            )
-        a = _check_dtype(
-            np.asarray(arrays[ci]),
-            f"geometry block {bi} ({b.name!r}) cell data {name!r}",
-        )
-        ncell = len(b.cells[ci][1])
-        if a.shape[:1] != (ncell,):
-            raise OutputError(
-                f"geometry block {bi} ({b.name!r}) cell data {name!r}, cell block "
-                f"{ci}: expected {ncell} values, got shape {a.shape}"
-            )
-        return a
-
     for name in cd_names:
         present = []
         for bi, b in enumerate(blocks):
             if name in b.cell_data:
                 for ci in range(len(b.cells)):
-                    present.append(block_cell_array(bi, b, name, ci))
+                    present.append(_block_cell_array(bi, b, name, ci))
         trailing = {a.shape[1:] for a in present}
         if len(trailing) > 1:
             raise OutputError(
@@ -267,7 +290,7 @@ def merge_blocks(blocks, field_data=None):
         for (bi, ci, rows), (_, arr) in zip(cell_src, cells):
             b = blocks[bi]
             if name in b.cell_data and ci is not None:
-                a = block_cell_array(bi, b, name, ci).astype(dtype, copy=False)
+                a = _block_cell_array(bi, b, name, ci).astype(dtype, copy=False)
                 out.append(a if rows is None else a[rows])
             else:
                 out.append(np.zeros((len(arr),) + tshape, dtype))
@@ -277,14 +300,8 @@ def merge_blocks(blocks, field_data=None):
         for (bi, _, _), (_, arr) in zip(cell_src, cells)
     ]
     if not cells:
-        cell_data = {}
-
-    fd = {}
-    for name in names:
-        fd[ELEMENT_TYPE_PREFIX + str(name)] = np.array([type_id[name]], dtype=np.int32)
-    for key, val in (field_data or {}).items():
-        fd[str(key)] = np.atleast_1d(np.asarray(val))
-    return meshio.Mesh(points, cells, point_data=point_data, cell_data=cell_data, field_data=fd)
+        return {}
+    return cell_data
 
 
 # ---------------------------------------------------------------------------
