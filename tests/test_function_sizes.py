@@ -23,23 +23,9 @@ MAX_PARAMS = 10
 
 #: {"file:qualified name": reason}, one line each (mirrored in docs/engine.md)
 ALLOWED = {
-    # the compiled engine (femb/engine, femb/jit.py, femb/codegen.py): being split stage by stage in separate work
-    "femb/codegen.py:Compiled.__init__": "engine: being split in separate work",
-    "femb/engine/control.py:kkt_accelerations": "engine: being split in separate work",
-    "femb/engine/control.py:project_normal_velocity": "engine: being split in separate work",
-    "femb/engine/control.py:error_norm": "engine: being split in separate work",
-    "femb/engine/control.py:resynchronise": "engine: being split in separate work",
-    "femb/engine/evaluate.py:evaluate": "engine: being split in separate work",
-    "femb/engine/evaluate.py:force_batch": "engine: being split in separate work",
-    "femb/engine/evaluate.py:constraint_batch": "engine: being split in separate work",
-    "femb/engine/evaluate.py:scatter_constraint": "engine: being split in separate work",
-    "femb/engine/loop.py:run": "engine: being split in separate work",
-    "femb/engine/newton.py:newton_step": "engine: being split in separate work",
-    "femb/engine/newton.py:predict": "engine: being split in separate work",
-    "femb/engine/newton.py:apply_correction": "engine: being split in separate work",
-    "femb/engine/newton.py:correction_test": "engine: being split in separate work",
-    "femb/jit.py:call_force": "engine: being split in separate work",
-    "femb/jit.py:call_constraint": "engine: being split in separate work",
+    # the compiled call of a user or built-in kernel: its arguments are the element contract's
+    "femb/jit.py:call_force": "the element contract's 10 kernel arguments plus the kernel's address (packing them changes every element type)",
+    "femb/jit.py:call_constraint": "the element contract's 10 kernel arguments plus the kernel's address (packing them changes every element type)",
 }
 
 
