@@ -1,8 +1,9 @@
 """The built documentation site: every internal link and image resolves; headless-Chromium screenshots.
 
 The site is built once for this module with ``-W`` (``python -m sphinx -W --keep-going -b html
-docs BUILD``), or an existing build is reused: set ``FEMB_DOCS_BUILD`` to its folder (``.ci/run``
-does, right after its own build). Building needs the ``docs`` extra; the screenshots need
+docs docs/_build/html``, incremental when that folder holds an earlier build), or an existing
+build is reused as it is: set ``FEMB_DOCS_BUILD`` to its folder (``.ci/run`` does, right after
+its own build). Building needs the ``docs`` extra; the screenshots need
 Chromium (``apt-get install chromium``) and are skipped with a reason without it. Equations are
 typeset by MathJax, which the site loads from its CDN; offline, the screenshot test serves a
 copy of the site whose MathJax script points at a local MathJax (Debian's ``libjs-mathjax``,
@@ -47,7 +48,7 @@ def site(tmp_path_factory):
         if not (out / "index.html").is_file():
             pytest.fail(f"FEMB_DOCS_BUILD={given}: no index.html there (build the site first)")
         return out
-    out = tmp_path_factory.mktemp("site")
+    out = ROOT / "docs" / "_build" / "html"          # the README's build folder: later builds are incremental
     env = dict(os.environ, FEMB_BACKGROUND_BUILD="0", MPLBACKEND="Agg")
     proc = subprocess.run([sys.executable, "-m", "sphinx", "-W", "--keep-going", "-q", "-b", "html",
                            str(ROOT / "docs"), str(out)], cwd=ROOT, env=env, capture_output=True, text=True)

@@ -1,9 +1,11 @@
 """Sphinx extension: the element catalogue, pictured by femb itself.
 
-For every element type of :mod:`femb.elements` a tiny mechanism (a builder
-function below) is compiled, simulated for a moment with
-:func:`femb.simulate`, written as a VTK time series and rendered off-screen
-with :func:`femb.io.render.render_png`. The pictures and the catalogue text
+For every element type of :mod:`femb.elements` (planar, spatial, spatial
+beams, rolling, contact) a tiny mechanism (a builder function below) is
+compiled, simulated for a moment with :func:`femb.simulate` (contact:
+:func:`femb.contact.simulate`; rolling constraints, which the time loop
+refuses: no run, the initial configuration), written as a VTK time series and
+rendered off-screen with :func:`femb.io.render.render_png`. The pictures and the catalogue text
 (``catalogue.inc``, with each builder's source) go to ``_generated/``.
 
 The build fails (a Sphinx warning, an error under ``-W``) when an element

@@ -6,8 +6,9 @@ carries a thin steel blade welded to its tip: eight geometrically exact
 SE(3) beam elements (Sonneville, Cardona & Brüls 2014) meshed by
 :func:`~femb.elements.spatial_beam.spatial_beam`. The mechanism starts
 spinning as one rigid body (:func:`femb.set_rigid_velocity`) under gravity:
-the blade sags, and the centrifugal force stiffens it. The example prints the
-tip's sag and the bending moment at the blade's root, and pictures the motion.
+the blade sags and vibrates about its sagged shape while it turns. The example
+prints the tip's sag and the bending moment at the blade's root, and pictures
+the motion.
 """
 import tempfile
 from pathlib import Path
