@@ -4,7 +4,7 @@ Arc of radius R = 100 and 45° in the x–y plane, root at the origin with tange
 centre (100, 0, 0), tip at (29.29, 70.71, 0); A = 1, I₂ = I₃ = 1/12, E = 1e7, ν = 0
 (G = E/2), polar J = 1/6 (as GXBeam, BeamDyn and Kynema; St-Venant would be 0.141),
 shear factor 1; clamped root, dead tip force F e_z up to F = 600, solved statically
-by load steps. Data: ``../shared/docs/spatial.md`` §7.4.
+by load steps. Data: ``docs/beams.md``, "Spatial beam scenes".
 
 References (tip, F = 600)
 -------------------------

@@ -4,7 +4,7 @@ Two straight members (0, 0, 0) → (10, 0, 0) → (10, 10, 0) with a rigid elbow
 frame node), clamped at the origin; EA = GA = 1e6, GJ = EI = 1e3, ρA = 1, ρJ = diag(20, 10, 10)
 (section axes: 1 along the member). Out-of-plane elbow force F_z = 50 t on [0, 1],
 50 (2 − t) on [1, 2], then 0; 30 s of free large-amplitude flexural–torsional vibration.
-Data: ``../shared/docs/spatial.md`` §7.5 (Simo & Vu-Quoc 1988; Brüls, Cardona & Arnold 2012,
+Data: ``docs/beams.md``, "Validation (spatial)" (Simo & Vu-Quoc 1988; Brüls, Cardona & Arnold 2012,
 Ex. 7.2; vspsonn/mb_sef_py:examples/beam_rightangle, 10 elements per member, ρ∞ = 0.95).
 Published references are plots only: the scene reports the tip and elbow displacements; the
 convergence study (:func:`study`, ``--study``) measures the order over the whole 30 s in h and

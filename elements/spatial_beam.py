@@ -1,6 +1,6 @@
 """Spatial geometrically exact beam: the two-node SE(3) element on frame nodes.
 
-Formulation (Sonneville, Cardona & Brüls 2014; ``../shared/docs/spatial.md`` §6).
+Formulation (Sonneville, Cardona & Brüls 2014; ``docs/beams.md``, "Spatial beams").
 Each end of an element carries a *section frame* H = (R R̄, x) ∈ SE(3): the
 frame node's rotation R (body to space) times a constant offset rotation R̄
 (node axes to section axes, fixed at t0), and the node position x (the

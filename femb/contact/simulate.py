@@ -37,7 +37,7 @@ def _solve_kkt(lu, model, rhs_q, rhs_c):
 
 def initial_contact_forces(model, lay, st, gap_tol, vel_tol, max_iter=5000):
     """Accelerations and contact forces at t₀ for the contacts that are closed (g_N ≤ gap_tol and
-    |ġ_N| ≤ vel_tol): the acceleration-level contact problem (Signorini on g̈_N, Coulomb on γ̇_F
+    abs(ġ_N) ≤ vel_tol): the acceleration-level contact problem (Signorini on g̈_N, Coulomb on γ̇_F
     or the slip law on γ_F), solved by a projected Jacobi fixed point with prox parameters
     1/(W M⁻¹ Wᵀ)_ii (Studer 2009, §3.4).
 

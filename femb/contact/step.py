@@ -9,7 +9,7 @@ accelerations, U the velocity jump, Q the position correction; λ forces, Λ per
 friction (contact forces act as +W_Nᵀλ_N + W_Fᵀλ_F).
 
 Unknowns of a step (eq. (126)), x = (u̇, U, Q, κ_g, Λ_g, λ_g, κ_N, Λ_N, λ_N, Λ_F, λ_F), and
-the residual R = (R_s, R_c) of eq. (127):
+the residual R = (R_s, R_c) of eq. (127)::
 
     M u̇ − f + Φ_qᵀλ_g − W_Nᵀλ_N − W_Fᵀλ_F = 0
     M U + Φ_qᵀΛ_g − W_NᵀΛ_N − W_FᵀΛ_F = 0

@@ -1,4 +1,5 @@
 """A driven spatial linkage (RSSR)
+===============================
 
 A crank turning about the vertical axis drives, through a coupler with a
 ball joint at each end, a rocker hinged about a horizontal axis: the
@@ -10,6 +11,10 @@ the motor torque (−λ of the drive), checks that the motor's power is the
 rate of change of the linkage's energy, and renders small multiples of one
 turn with the path of the coupler's middle.
 """
+import tempfile
+from pathlib import Path
+
+import matplotlib.pyplot as plt
 import numpy as np
 
 import femb
@@ -65,6 +70,13 @@ inner = slice(2, -2)
 print(f"rocker swings {np.ptp(phi):.1f} deg; max |power - dE/dt| = "
       f"{np.max(np.abs(power[inner] - dEdt[inner])):.1e} W (power up to {np.max(np.abs(power)):.3f} W)")
 
-pvd = result.write_vtk("vtk", every=20)
-render_png(pvd, "rssr.png", time=0.4, window_size=(800, 560), trace=["coupler:mid"])
-render_strip(pvd, "rssr_strip.png", n=5, window_size=(5 * 260 + 170, 280), trace=["coupler:mid"])
+out = Path(tempfile.mkdtemp())
+pvd = result.write_vtk(out / "vtk", every=20)
+render_png(pvd, out / "rssr.png", time=0.4, window_size=(800, 560), trace=["coupler:mid"])
+render_strip(pvd, out / "rssr_strip.png", n=5, window_size=(5 * 260 + 170, 280), trace=["coupler:mid"])
+
+for png in ("rssr.png", "rssr_strip.png"):
+    fig, ax = plt.subplots(figsize=(8, 5.6) if png == "rssr.png" else (10, 2.0))
+    ax.imshow(plt.imread(out / png))
+    ax.set_axis_off()
+plt.show()

@@ -1,4 +1,5 @@
 """A four-bar linkage driven by a motor
+====================================
 
 A crank turned at a constant rate by a :class:`~femb.elements.DrivenAngle`
 drives a coupler and a rocker under gravity. The torque the motor delivers
@@ -7,6 +8,10 @@ equal the rate of change of the mechanism's energy, which the example checks.
 It also renders a few instants of the motion into one picture with
 :func:`femb.io.render.render_strip`.
 """
+import tempfile
+from pathlib import Path
+
+import matplotlib.pyplot as plt
 import numpy as np
 
 import femb
@@ -54,5 +59,11 @@ inner = slice(1, -1)                               # central differences only
 print(f"max |power - dE/dt| = {np.max(np.abs(power[inner] - dEdt[inner])):.1e} W "
       f"(energy changes by {np.ptp(energy):.3f} J)")
 
-pvd = result.write_vtk("vtk", every=25)
-render_strip(pvd, "fourbar.png", n=6, window_size=(800, 500))
+out = Path(tempfile.mkdtemp())
+pvd = result.write_vtk(out / "vtk", every=25)
+render_strip(pvd, out / "fourbar.png", n=6, window_size=(800, 500))
+
+fig, ax = plt.subplots(figsize=(8, 5))
+ax.imshow(plt.imread(out / "fourbar.png"))
+ax.set_axis_off()
+plt.show()

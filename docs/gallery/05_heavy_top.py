@@ -1,4 +1,5 @@
 """The heavy top
+=============
 
 The heavy top of Brüls & Cardona (2010) as written in the README: a
 :class:`~femb.elements.spatial_bodies.SpatialRigidBody` on a ball joint to
@@ -8,6 +9,10 @@ spin about the symmetry axis and the energy (constant: nothing dissipates),
 and renders the top with the path of its centre of mass — precession and
 nutation — and a strip of instants.
 """
+import tempfile
+from pathlib import Path
+
+import matplotlib.pyplot as plt
 import numpy as np
 
 import femb
@@ -34,6 +39,13 @@ for i in np.linspace(0, r.t.size - 1, 6).astype(int):
 print(f"energy drift {np.ptp(energy) / abs(energy[0]):.1e} (relative); "
       f"support force at t = 0: {np.round(r.reaction_at('support')[0, :3], 3)} N")
 
-pvd = r.write_vtk("vtk", every=32)
-render_png(pvd, "heavy_top.png", window_size=(800, 560), trace=["top"])
-render_strip(pvd, "heavy_top_strip.png", n=4, window_size=(4 * 280 + 150, 300), trace=["top"])
+out = Path(tempfile.mkdtemp())
+pvd = r.write_vtk(out / "vtk", every=32)
+render_png(pvd, out / "heavy_top.png", window_size=(800, 560), trace=["top"])
+render_strip(pvd, out / "heavy_top_strip.png", n=4, window_size=(4 * 280 + 150, 300), trace=["top"])
+
+for png in ("heavy_top.png", "heavy_top_strip.png"):
+    fig, ax = plt.subplots(figsize=(8, 5.6) if png == "heavy_top.png" else (10, 2.4))
+    ax.imshow(plt.imread(out / png))
+    ax.set_axis_off()
+plt.show()

@@ -1,9 +1,11 @@
 """Sphinx extension: the element catalogue, pictured by femb itself.
 
-For every element type of :mod:`femb.elements` a tiny mechanism (a builder
-function below) is compiled, simulated for a moment with
-:func:`femb.simulate`, written as a VTK time series and rendered off-screen
-with :func:`femb.io.render.render_png`. The pictures and the catalogue text
+For every element type of :mod:`femb.elements` (planar, spatial, spatial
+beams, rolling, contact) a tiny mechanism (a builder function below) is
+compiled, simulated for a moment with :func:`femb.simulate` (contact:
+:func:`femb.contact.simulate`; rolling constraints, which the time loop
+refuses: no run, the initial configuration), written as a VTK time series and
+rendered off-screen with :func:`femb.io.render.render_png`. The pictures and the catalogue text
 (``catalogue.inc``, with each builder's source) go to ``_generated/``.
 
 The build fails (a Sphinx warning, an error under ``-W``) when an element
@@ -364,6 +366,91 @@ def spatial_loads():
     return mech
 
 
+def spatial_beam():
+    import femb
+    from femb.elements.spatial_beam import SpatialSection, spatial_beam as mesh_beam
+    from femb.elements.spatial_bodies import SpatialRigidBody, box_inertia
+    from femb.elements.spatial_forces import SpatialGravity
+
+    mech = femb.Mechanism("cantilever_3d")
+    steel = SpatialSection.rectangle(E=2.1e11, G=8.1e10, width=0.02, height=0.01, density=7850.0)
+    tip = mech.add(SpatialRigidBody("tip_mass", 0.5, box_inertia(0.5, 0.06, 0.06, 0.06), position=(0.8, 0.3, 0.5),
+                                    shape={"type": "box", "size": (0.06, 0.06, 0.06)}))
+    mesh_beam(mech, "arm", steel, [(0.0, 0.0, 0.5), (0.5, 0.0, 0.5), (0.8, 0.3, 0.5)], (5, 3),  # an L: a rigid elbow
+              start="clamp", end=tip)                                                       # welded to the mass
+    mech.add(SpatialGravity((0.0, 0.0, -9.81)))
+    return mech
+
+
+def rolling_disc():
+    import numpy as np
+
+    import femb
+    from femb.elements.rolling import RollingDisc, SpinRate
+    from femb.elements.spatial_bodies import SpatialRigidBody
+    from femb.elements.spatial_forces import SpatialGravity
+    from femb.rotations import expm
+
+    mech = femb.Mechanism("rolling_coin")
+    R0 = expm(np.array([0.3, 0.0, 0.2]))                     # tilted by 0.3 rad, heading 0.2 rad
+    a, n = R0 @ np.array([0.0, 1.0, 0.0]), np.array([0.0, 0.0, 1.0])
+    d = (n - (n @ a) * a) / np.linalg.norm(n - (n @ a) * a)  # from the contact point to the centre
+    mech.add(SpatialRigidBody("coin", 1.0, (0.25, 0.5, 0.25), position=0.5 * d, rotation=R0,
+                              shape={"type": "cylinder", "radius": 0.5, "length": 0.05, "axis": (0.0, 1.0, 0.0)}),
+             RollingDisc("roll", "coin", 0.5, (0.0, 1.0, 0.0)),
+             SpatialRigidBody("frame", 2.0, (0.3, 0.4, 0.5), position=(0.0, 0.0, 1.2),
+                              shape={"type": "box", "size": (0.3, 0.2, 0.1)}),
+             SpinRate("drive", "frame", "coin", (0.0, 1.0, 0.0), 3.0),
+             SpatialGravity())
+    return mech
+
+
+def planar_rolling():
+    import femb
+    from femb.elements import RigidBody
+    from femb.elements.rolling import KnifeEdge, PlanarWheel
+
+    mech = femb.Mechanism("wheel_and_sled")
+    mech.add(RigidBody("wheel", 1.0, 0.045, position=(0.0, 0.3), angle=0.2, shape={"type": "disc", "radius": 0.3}),
+             PlanarWheel("rolls", "wheel", 0.3),
+             RigidBody("sled", 1.0, 0.1, position=(1.0, 0.3), angle=0.2,
+                       shape={"type": "box", "size": (0.5, 0.2)}),
+             KnifeEdge("blade", "sled", 0.0, (0.2, 0.0)))
+    return mech
+
+
+def planar_contact():
+    import femb
+    from femb.elements import Gravity, Hinge, RigidBody
+    from femb.elements.contact import DiscOnDisc, PinInHole, SphereOnPlane
+
+    mech = femb.Mechanism("contacts")
+    ball = mech.add(RigidBody("ball", 1.0, 0.004, (0.0, 0.3), shape={"type": "disc", "radius": 0.1}))
+    puck = mech.add(RigidBody("puck", 1.0, 0.004, (0.05, 0.7), shape={"type": "disc", "radius": 0.1}))
+    mech.ground.add_point("P", (0.8, 0.5))
+    arm = mech.add(RigidBody("arm", 1.0, 0.03, (0.8, 0.3), 1.5707963267948966, points={"hole": (0.2, 0.0)},
+                             velocity=(0.3, 0.0), shape={"type": "bar", "width": 0.05}))
+    mech.add(SphereOnPlane("floor", ball, radius=0.1, e_N=0.5),           # a ball on the floor y = 0
+             DiscOnDisc("stack", ball, puck, 0.1, 0.1, e_N=0.3, mu=0.2),   # a puck falling on it
+             PinInHole("clearance", arm, "ground", 0.03, 0.02, point_a="hole", point_b="P"),
+             Gravity((0.0, -9.81)))
+    return mech
+
+
+def spatial_contact():
+    import femb
+    from femb.elements.contact import SpatialSphereOnPlane
+    from femb.elements.spatial_bodies import SpatialRigidBody
+    from femb.elements.spatial_forces import SpatialGravity
+
+    mech = femb.Mechanism("ball_3d")
+    mech.add(SpatialRigidBody("ball", 1.0, (0.004, 0.004, 0.004), position=(0.0, 0.0, 0.4), velocity=(0.5, 0.2, 0.0),
+                              omega=(0.0, 20.0, 0.0), shape={"type": "sphere", "radius": 0.1}),
+             SpatialSphereOnPlane("floor", "ball", radius=0.1, e_N=0.5, mu=0.3),
+             SpatialGravity((0.0, 0.0, -9.81)))
+    return mech
+
+
 @dataclass
 class Entry:
     key: str
@@ -373,6 +460,7 @@ class Entry:
     text: str
     t_end: float = 0.3
     h: float = 1e-2
+    run: str = "simulate"   # "simulate" (femb.simulate), "contact" (femb.contact.simulate), "initial" (no run)
 
 
 ENTRIES = [
@@ -453,6 +541,35 @@ ENTRIES = [
           spatial_loads,
           "A rod on a ball joint pushed at its tip by a follower force and twisted by a follower torque "
           "(red arrows; the torque's arrow has a second head).", t_end=0.5, h=2e-3),
+    Entry("spatial_beam", "Spatial geometrically exact beam (SE(3))",
+          ("femb.elements.spatial_beam.SpatialBeam", "femb.elements.spatial_beam.SpatialBeamNode",
+           "femb.elements.spatial_beam.SpatialSection"), spatial_beam,
+          "An L-shaped steel cantilever meshed by ``spatial_beam`` along a polyline (five and three "
+          "two-node SE(3) elements of Sonneville, Cardona & Brüls 2014 on frame nodes; the corner is a "
+          "rigid elbow), clamped at its start and welded to a tip mass, sagging and twisting under "
+          "gravity. Beam nodes are frame nodes: every spatial joint attaches to them.", t_end=0.1, h=1e-3),
+    Entry("rolling_disc", "Rolling disc and spin rate (non-holonomic)",
+          ("femb.elements.rolling.RollingDisc", "femb.elements.rolling.SpinRate"), rolling_disc,
+          "A coin rolling without slip on the plane z = 0 (one holonomic and two velocity constraints) "
+          "and a spin-rate drive between a frame and the coin. Velocity constraints are for "
+          ":func:`femb.linearize.linearize` (the Whipple bicycle); the time loop refuses them, so the "
+          "picture shows the initial configuration.", run="initial"),
+    Entry("planar_rolling", "Planar wheel and knife edge (non-holonomic)",
+          ("femb.elements.rolling.PlanarWheel", "femb.elements.rolling.KnifeEdge"), planar_rolling,
+          "A wheel rolling without slip on the line y = 0 and a sled on a knife edge (no velocity "
+          "across the blade): planar velocity constraints, for linearization; initial configuration.",
+          run="initial"),
+    Entry("planar_contact", "Contact in the plane: sphere on plane, disc on disc, pin in hole",
+          ("femb.elements.contact.SphereOnPlane", "femb.elements.contact.DiscOnDisc",
+           "femb.elements.contact.PinInHole", "femb.elements.contact.ContactElement"), planar_contact,
+          "Unilateral contact with restitution and Coulomb friction, integrated by "
+          ":func:`femb.contact.simulate` (nonsmooth generalized-α): a ball bouncing on the floor, a puck "
+          "falling on it (disc on disc) and a bar hanging from a ground pin through a hole with "
+          "clearance (pin in hole).", t_end=0.4, h=2e-3, run="contact"),
+    Entry("spatial_contact", "Contact in space: sphere on plane",
+          ("femb.elements.contact.SpatialSphereOnPlane",), spatial_contact,
+          "A spinning ball thrown onto the floor: impacts with restitution, sliding and rolling with "
+          "Coulomb friction, integrated by :func:`femb.contact.simulate`.", t_end=0.5, h=2e-3, run="contact"),
 ]
 
 
@@ -461,7 +578,12 @@ ENTRIES = [
 # ---------------------------------------------------------------------------
 def element_types():
     """Fully qualified names of the element types (and bodies) that femb.elements and its spatial modules export."""
+    import inspect as _inspect
+
     import femb.elements as el
+    import femb.elements.contact as ct
+    import femb.elements.rolling as rl
+    import femb.elements.spatial_beam as sbm
     import femb.elements.spatial_bodies as sb
     import femb.elements.spatial_forces as sf
     import femb.elements.spatial_joints as sj
@@ -469,8 +591,10 @@ def element_types():
     from femb.elements.bodies import Body
 
     out = set()
-    for mod in (el, sb, sj, sf):
-        for name in mod.__all__:
+    for mod in (el, sb, sj, sf, sbm, rl, ct):
+        public = getattr(mod, "__all__", None) or [n for n, o in vars(mod).items() if not n.startswith("_")
+                                                    and _inspect.isclass(o) and o.__module__ == mod.__name__]
+        for name in public:
             obj = getattr(mod, name)
             if isinstance(obj, type) and (issubclass(obj, (Element, Body)) or obj in (sb.FrameNode, sb.SpatialBody)) \
                     and obj is not Body:
@@ -481,13 +605,34 @@ def element_types():
 def render_entry(entry, png):
     """Simulate the entry's mechanism and render its last frame to ``png``."""
     import femb
+    import femb.contact
     from femb.io.render import render_png
 
     model = entry.build().compile()
-    res = femb.simulate(model, t_end=entry.t_end, h=entry.h, rho_inf=0.8)
     with tempfile.TemporaryDirectory() as tmp:
-        pvd = res.write_vtk(Path(tmp) / "vtk")
+        if entry.run == "initial":
+            pvd = _initial_frame(model, Path(tmp) / "vtk")
+        else:
+            run = femb.contact.simulate if entry.run == "contact" else femb.simulate
+            pvd = run(model, t_end=entry.t_end, h=entry.h, rho_inf=0.8).write_vtk(Path(tmp) / "vtk")
         render_png(pvd, png, window_size=PICTURE_SIZE)
+
+
+def _initial_frame(model, directory):
+    """A one-frame time series of the model's initial state (for elements the time loop refuses)."""
+    import numpy as np
+
+    from femb.io.frames import model_blocks, scene_field_data
+    from femb.io.vtk import TimeSeriesWriter
+
+    with TimeSeriesWriter(directory) as w:
+        blocks = model_blocks(model, 0.0, model.q0, model.qd0, np.zeros(model.nc))
+        w.write(0.0, blocks, field_data=scene_field_data(model, blocks))
+    return w.path
+
+
+def _is_spatial(entry):
+    return any(".spatial_" in c or "Spatial" in c or c.endswith(("RollingDisc", "SpinRate")) for c in entry.classes)
 
 
 def _rst(entry, png_rel):
@@ -496,10 +641,12 @@ def _rst(entry, png_rel):
     lines = [entry.title, "-" * len(entry.title), "", entry.text, "", f"Reference: {refs}.", "",
              f".. image:: {png_rel}", f"   :alt: {entry.title}, rendered by femb", "", ".. code-block:: python", ""]
     lines += ["   " + ln if ln.strip() else "" for ln in src.rstrip().splitlines()]
-    how = ("a 3-D mechanism: bodies in their colours, joints and ground drawn"
-           if entry.key.startswith("spatial") else "colours by element type")
-    lines += ["", f"Rendered at t = {entry.t_end:g} s (h = {entry.h:g} s) with "
-              f":func:`femb.io.render.render_png`, {how}.", ""]
+    how = "a 3-D mechanism" if _is_spatial(entry) else "a planar mechanism"
+    when = ("its initial configuration" if entry.run == "initial"
+            else f"t = {entry.t_end:g} s (h = {entry.h:g} s)")
+    files = sorted({f"``elements/{c.split('.')[2]}.py``" for c in entry.classes})
+    lines += ["", f"Rendered at {when} with :func:`femb.io.render.render_png`: {how}, each body in its "
+              f"colour with its name in the legend. Source: {', '.join(files)}.", ""]
     return "\n".join(lines)
 
 
@@ -528,7 +675,7 @@ def generate(srcdir):
     missing = sorted(element_types() - covered)
     if missing:
         logger.warning("femb_catalogue: element types without a catalogue entry: %s "
-                       "(add a mechanism to docs/api/_ext/femb_catalogue.py)", ", ".join(missing))
+                       "(add a mechanism to docs/_ext/femb_catalogue.py)", ", ".join(missing))
     (out / "catalogue.inc").write_text("\n".join(parts), encoding="utf-8")
     logger.info("femb_catalogue: %d pictures in %.1f s", len(ENTRIES), time.perf_counter() - t0)
 
