@@ -9,9 +9,10 @@ The folder (default ``bench-report/``) holds ``report.md`` (tables, verdicts,
 figures embedded), ``results.json`` (every number) and the PNG figures. Every
 figure in it is produced by that one command. ``--quick`` (about a minute on
 2 cores) runs a small set at reduced size (:data:`QUICK_SCENES`, :data:`QUICK_PARTS`:
-the work–precision study of the pendulum, whose reference is exact, and the four
-cheapest stress tests) with fewer step sizes, one timing repeat and shorter long
-runs, and the report says what it ran and what it left out; ``--quick --only
+the work–precision study of one scene per family (planar and spatial rigid bodies,
+beams), the spatial per-step timing and the four cheapest stress
+tests) with fewer step sizes, one timing repeat and shorter long runs; it prints what
+it leaves out when it starts, and the report says it again; ``--quick --only
 PART,...`` runs any parts at the reduced size. The full suite takes well under
 30 minutes.
 
@@ -58,10 +59,13 @@ from .work_precision import clean, first_line
 #: Parts of the suite, in run order (stress tests follow).
 PARTS = ("work_precision", "headline", "spatial_per_step") + tuple(stress.TESTS)
 
-#: what ``--quick`` runs without ``--only``: one scene's work–precision study (the pendulum: an exact
-#: reference, a few seconds) and the four cheapest stress tests (a few seconds each on 2 cores)
-QUICK_SCENES = ("pendulum",)
-QUICK_PARTS = ("work_precision", "dead_centre", "long_runs", "units", "tolerance_proportionality")
+#: what ``--quick`` runs without ``--only``: the work–precision study of one scene of each family (planar
+#: rigid bodies: the pendulum, whose reference is exact; spatial rigid bodies: the heavy top; beams: the
+#: flexible slider–crank; 4–6 s of CPU time each, figures included), the spatial per-step timing of
+#: the 400-brick chain and the four cheapest stress tests (1–4 s of CPU time each)
+QUICK_SCENES = ("pendulum", "heavy_top", "flexible_slider_crank")
+QUICK_PARTS = ("work_precision", "spatial_per_step", "dead_centre", "long_runs", "units",
+               "tolerance_proportionality")
 
 #: spatial per-step part: (bricks, t_end in s) per mode, h = 1e-3 s, ρ∞ = 0.8, 3 timed runs
 SPATIAL_PER_STEP = {"full": (400, 1.0), "quick": (400, 0.05)}
@@ -185,13 +189,19 @@ def run_suite(quick=False, out="bench-report", progress=True, only=None):
                "work_precision": {}, "headline": None, "spatial_per_step": None, "stress": {}}
     results["suite"]["left_out"] = {"parts": [p for p in PARTS if p not in parts],
                                     "scenes": [s for s in names() if s not in scenes]}
+    if quick and not only:
+        left = results["suite"]["left_out"]
+        log(f"femb bench --quick: work-precision of {', '.join(scenes)}; parts {', '.join(parts)}. Left out: "
+            f"parts {', '.join(left['parts'])}; the work-precision studies of {', '.join(left['scenes'])} "
+            "(`femb bench` runs everything, `python -m femb.benchmarks.suite --quick --only PART,...` "
+            "any part at this size)")
     tasks = [("wp", s) for s in scenes] + ([("headline", None)] if "headline" in parts else []) + \
             ([("spatial", None)] if "spatial_per_step" in parts else []) + \
             [("stress", p) for p in parts if p in stress.TESTS]
     ctx = stress.Context(quick=quick, out=out, log=log, progress=make_progress)
     with make_progress(len(tasks), "femb bench") as bar:
         for i, (kind, arg) in enumerate(tasks, 1):
-            t0 = time.perf_counter()
+            t0, c0 = time.perf_counter(), time.process_time()
             label = {"wp": f"work-precision: {arg}", "headline": "headline: time to 1e-6 rad on Andrews",
                      "spatial": "spatial per step: Exudyn's 400-brick chain",
                      "stress": f"stress test: {arg}"}[kind]
@@ -243,7 +253,7 @@ def run_suite(quick=False, out="bench-report", progress=True, only=None):
                 v = [c["verdict"] for c in results["stress"][arg]["criteria"]]
                 log(f"  {arg}: " + ", ".join(f"{k} {v.count(k)}" for k in (stress.PASS, stress.FINDING, stress.FAIL)
                                              if v.count(k)))
-            log(f"  ({time.perf_counter() - t0:.1f} s)")
+            log(f"  ({time.perf_counter() - t0:.1f} s, CPU {time.process_time() - c0:.1f} s)")
             bar.update(1)
     counts = {stress.PASS: 0, stress.FAIL: 0, stress.FINDING: 0}
     for r in results["stress"].values():

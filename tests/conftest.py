@@ -93,3 +93,68 @@ def renderer():
     if not ok:
         pytest.skip(f"off-screen rendering unavailable: {reason}")
     return reason
+
+
+# --- CPU time per test -------------------------------------------------------------------------
+# Wall times (``--durations``) are disturbed by other processes on a shared machine; the CPU time
+# of the process running a test is much less so. ``--cpu-durations=N`` lists the N tests that used
+# the most CPU time (setup + call + teardown, in the worker that ran them, so it works with xdist;
+# the subprocesses a test waited for included), and the sum per test module.
+
+def pytest_addoption(parser):
+    parser.addoption("--cpu-durations", type=int, default=None, metavar="N",
+                     help="list the N tests with the most CPU time (os.times, finished subprocesses included), 0 for all, "
+                          "and the CPU time per test module")
+
+
+def _cpu_seconds():
+    """CPU time of this process and of its finished child processes (a test's subprocesses), in s."""
+    t = os.times()
+    return t.user + t.system + t.children_user + t.children_system
+
+
+def _timed_phase(item):
+    t0 = _cpu_seconds()
+    yield
+    item.user_properties.append(("cpu_time", _cpu_seconds() - t0))
+
+
+@pytest.hookimpl(hookwrapper=True)
+def pytest_runtest_setup(item):
+    yield from _timed_phase(item)
+
+
+@pytest.hookimpl(hookwrapper=True)
+def pytest_runtest_call(item):
+    yield from _timed_phase(item)
+
+
+@pytest.hookimpl(hookwrapper=True)
+def pytest_runtest_teardown(item):
+    yield from _timed_phase(item)
+
+
+_CPU_TIMES = {}
+
+
+def pytest_runtest_logreport(report):
+    if report.when == "teardown":
+        _CPU_TIMES[report.nodeid] = sum(v for k, v in report.user_properties if k == "cpu_time")
+
+
+def pytest_terminal_summary(terminalreporter, config):
+    n = config.getoption("--cpu-durations")
+    if n is None or not _CPU_TIMES:
+        return
+    tr = terminalreporter
+    ranked = sorted(_CPU_TIMES.items(), key=lambda kv: -kv[1])
+    tr.write_sep("=", f"CPU time per test ({len(ranked)} tests, {sum(_CPU_TIMES.values()):.1f} s in all)")
+    for nodeid, cpu in ranked[:n] if n else ranked:
+        tr.write_line(f"{cpu:9.2f}s  {nodeid}")
+    per_module = {}
+    for nodeid, cpu in _CPU_TIMES.items():
+        module = nodeid.split("::")[0]
+        per_module[module] = per_module.get(module, 0.0) + cpu
+    tr.write_sep("=", "CPU time per test module")
+    for module, cpu in sorted(per_module.items(), key=lambda kv: -kv[1]):
+        tr.write_line(f"{cpu:9.2f}s  {module}")

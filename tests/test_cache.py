@@ -271,16 +271,34 @@ def _damage(path, how):
         Path(path).write_bytes(b"")
 
 
-@pytest.mark.skipif(jit.jit_disabled(), reason="no compilation without the JIT")
-@pytest.mark.parametrize("which, how", [("nbi", "truncated"), ("nbi", "garbage"), ("nbc", "truncated"),
-                                        ("nbc", "garbage"), ("nbc", "empty")])
-def test_a_damaged_kernel_entry_is_discarded_and_compiled_again_with_one_warning(tmp_path, which, how):
-    cache = _engine_only_cache(tmp_path / "cache")
-    folder = _write_user_package(tmp_path / "pkg", "f")
+@pytest.fixture(scope="module")
+def compiled_user_kernel(tmp_path_factory):
+    """A cache holding the engine and the compiled kernels of a user package, made once per module.
+
+    Every damaged-entry case starts from a copy of it: the first run that compiles and saves the
+    user kernel is the same in each case, so it runs once (and its result is checked here).
+    Returns (cache, script, stdout of the first run).
+    """
+    if jit.jit_disabled():
+        pytest.skip("no compilation without the JIT")
+    root = tmp_path_factory.mktemp("damaged-kernel")
+    cache = _engine_only_cache(root / "cache")
+    folder = _write_user_package(root / "pkg", "f")
     script = "import warnings\nwarnings.simplefilter('always')\n" + RUN.format(folder=str(folder), module="user_f")
     first = subprocess.run([sys.executable, "-c", script], env=_env(cache), capture_output=True, text=True,
                            timeout=600)
     assert first.returncode == 0, first.stderr
+    assert "x =" in first.stdout
+    return cache, script, first.stdout
+
+
+@pytest.mark.skipif(jit.jit_disabled(), reason="no compilation without the JIT")
+@pytest.mark.parametrize("which, how", [("nbi", "truncated"), ("nbi", "garbage"), ("nbc", "truncated"),
+                                        ("nbc", "garbage"), ("nbc", "empty")])
+def test_a_damaged_kernel_entry_is_discarded_and_compiled_again_with_one_warning(tmp_path, which, how,
+                                                                                 compiled_user_kernel):
+    template, script, first_stdout = compiled_user_kernel
+    cache = Path(shutil.copytree(template, tmp_path / "cache"))
     files = sorted((cache / "numba").glob(f"user_f-*/*pull_force*.{which}"))
     assert files, sorted(p.name for p in (cache / "numba").rglob("*"))
     for f in files:
@@ -288,14 +306,14 @@ def test_a_damaged_kernel_entry_is_discarded_and_compiled_again_with_one_warning
     out = subprocess.run([sys.executable, "-c", script], env=_env(cache), capture_output=True, text=True,
                          timeout=600)
     assert out.returncode == 0, out.stderr
-    assert out.stdout == first.stdout
+    assert out.stdout == first_stdout
     assert out.stderr.count("CacheWarning") == 1, out.stderr
     assert "damaged" in out.stderr and "compiling again" in out.stderr
     assert "Traceback" not in out.stderr
     # the entry was rewritten: the next run loads it, silently
     again = subprocess.run([sys.executable, "-c", script], env=_env(cache), capture_output=True, text=True,
                            timeout=600)
-    assert again.returncode == 0 and again.stdout == first.stdout
+    assert again.returncode == 0 and again.stdout == first_stdout
     assert "CacheWarning" not in again.stderr and "compiled" not in again.stderr, again.stderr
 
 

@@ -222,8 +222,10 @@ def test_spring_geometry_reports_the_kernel_tension():
 def test_the_same_checks_pass_as_plain_python():
     """NUMBA_DISABLE_JIT=1 runs the kernels as plain Python: every other test of this file must pass."""
     env = dict(os.environ, NUMBA_DISABLE_JIT="1")
-    r = subprocess.run([sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider", str(Path(__file__)),
-                        "-k", "not plain_python"], env=env, capture_output=True, text=True, cwd=HERE.parent)
+    # one process: xdist workers (pyproject addopts) would each import femb again for this short file
+    r = subprocess.run([sys.executable, "-m", "pytest", "-q", "-n", "0", "-p", "no:cacheprovider",
+                        str(Path(__file__)), "-k", "not plain_python"],
+                       env=env, capture_output=True, text=True, cwd=HERE.parent)
     assert r.returncode == 0, r.stdout[-3000:] + r.stderr[-3000:]
     assert " passed" in r.stdout and "failed" not in r.stdout
 
