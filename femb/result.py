@@ -845,8 +845,8 @@ class Result:
 
         Returns
         -------
-        None or trame layout
-            In a Jupyter notebook the player, shown inline; elsewhere the call serves until
+        None
+            In a Jupyter notebook the player is shown inline; elsewhere the call serves until
             interrupted (Ctrl-C).
         """
         from femb.io.view import view as _view

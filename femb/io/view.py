@@ -260,6 +260,28 @@ def _in_notebook():
     return shell is not None and shell.__class__.__name__ == "ZMQInteractiveShell"
 
 
+_NOTEBOOK_SESSIONS = []      # players shown in a notebook live as long as the kernel
+
+
+def _notebook(session, port, host, height=600):
+    """Show the player inline: its server starts as a task in the kernel's event loop, then an iframe."""
+    from IPython.display import HTML, display
+
+    _NOTEBOOK_SESSIONS.append(session)
+    layout = session.layout
+    handle = display(HTML("<div>femb view: starting the player ...</div>"), display_id=True)
+
+    session.server.start(exec_mode="task", port=port, host=host, open_browser=False, show_connection_info=False,
+                         disable_logging=True, timeout=0)
+
+    async def _show():
+        await session.server.ready
+        session.html = f'<iframe src="{layout.url}" style="border: none; width: 100%; height: {height}px;"></iframe>'
+        handle.update(HTML(session.html))
+
+    asyncio.get_event_loop().create_task(_show())
+
+
 def _check_port(port):
     if port is None:
         return 0
@@ -290,9 +312,9 @@ def view(source, *, port=None, open_browser=True, view=None, fps=_FPS, host="loc
 
     Returns
     -------
-    None or trame layout
-        In a Jupyter notebook the page's layout, which shows the player inline (the server
-        runs in the kernel); elsewhere the call serves until interrupted (Ctrl-C).
+    None
+        In a Jupyter notebook the player is shown inline, in the cell's output (its server
+        runs in the kernel's event loop); elsewhere the call serves until interrupted (Ctrl-C).
 
     Raises
     ------
@@ -315,8 +337,8 @@ def view(source, *, port=None, open_browser=True, view=None, fps=_FPS, host="loc
     session = _Session(source, view, float(fps))
     session.tmp = tmp                      # the temporary series lives as long as the session
     if _in_notebook():
-        session.layout._femb_session = session
-        return session.layout
+        _notebook(session, port, host)
+        return None
     server = session.server
 
     def _announce(**_):
