@@ -32,11 +32,9 @@ from cdp_browser import Browser, chromium_path  # noqa: E402
 from femb.io.view import viewer_available  # noqa: E402
 
 _OK, _WHY = viewer_available()
-pytestmark = [
-    pytest.mark.skipif(not _OK, reason=_WHY),
-    pytest.mark.skipif(chromium_path() is None,
-                       reason="no chromium on this machine (apt-get install chromium) for the browser test"),
-]
+pytestmark = pytest.mark.skipif(not _OK, reason=_WHY)
+needs_chromium = pytest.mark.skipif(
+    chromium_path() is None, reason="no chromium on this machine (apt-get install chromium) for the browser test")
 
 FEMB = [sys.executable, "-c", "import sys; from femb.cli import main; sys.exit(main())"]
 
@@ -179,6 +177,7 @@ def _frames(source):
     return len(list(Path(source).glob("*.vtu")))
 
 
+@needs_chromium
 def test_view_spatial_mechanism_in_chromium(tmp_path):
     src = _series(tmp_path, "bricard", "--t-end", "0.3", "--h", "0.01")
     server = _Server(src)
@@ -188,6 +187,7 @@ def test_view_spatial_mechanism_in_chromium(tmp_path):
         server.close()
 
 
+@needs_chromium
 def test_view_planar_mechanism_in_chromium(tmp_path):
     src = _series(tmp_path, "andrews", "--t-end", "0.01", "--every", "10")
     server = _Server(src)
@@ -205,6 +205,37 @@ def test_view_bad_source_is_one_line(tmp_path):
     res = subprocess.run([*FEMB, "view", str(tmp_path), "--no-browser"], capture_output=True, text=True,
                          timeout=300)
     assert res.returncode == 1 and "holds no .pvd collection" in res.stderr
+
+
+def test_player_frames_legend_and_errors(tmp_path):
+    """The scene behind the page, without a browser: one set of actors per frame, the legend, bad input."""
+    import femb
+    from femb.errors import OutputError
+    from femb.io.view import Player
+
+    src = _series(tmp_path, "bricard", "--t-end", "0.05", "--h", "0.01")
+    p = Player(src)
+    try:
+        assert p.n_frames == _frames(src) == 6 and p.view == "3d"
+        assert [lb for lb, _ in p.labels][:5] == ["rod1", "rod2", "rod3", "rod4", "rod5"]
+        assert all(re.fullmatch(r"#[0-9a-f]{6}", c) for _, c in p.labels)
+        first = {k: np.asarray(a.GetBounds()) for k, a in p.plotter.actors.items()}
+        p.show(p.n_frames - 1)
+        last = {k: np.asarray(a.GetBounds()) for k, a in p.plotter.actors.items()}
+        assert set(first) == set(last)                  # the same things drawn, moved
+        assert any(not np.allclose(first[k], last[k]) for k in first)
+        assert p.time_text(p.n_frames - 1) == "t = 0.05 s"
+        with pytest.raises(OutputError, match="frames 0 to 5"):
+            p.show(6)
+    finally:
+        p.close()
+    with pytest.raises(OutputError, match="port=70000"):
+        femb.view(src, port=70000)
+    with pytest.raises(OutputError, match="fps"):
+        femb.view(src, fps=0)
+    (tmp_path / "bricard" / "copy.pvd").write_text((src / "frame.pvd").read_text())
+    with pytest.raises(OutputError, match="several .pvd collections"):
+        femb.view(src)
 
 
 if __name__ == "__main__":            # the documentation's screenshot
