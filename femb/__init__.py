@@ -28,6 +28,7 @@ _LAZY = {
     "JacobianReport": "femb.checks",
     "sweep": "femb.sweep",
     "set_rigid_velocity": "femb.motion",
+    "view": "femb.io.view",
 }
 
 __all__ = [
@@ -36,6 +37,7 @@ __all__ = [
     "InitializationError", "SolverError", "ConvergenceError", "SingularMatrixError", "OutputError",
     "ParameterWarning", "AccuracyWarning", "InitialMoveWarning", "InitialVelocityWarning",
     "RedundantConstraintWarning", "sweep", "check_jacobians", "JacobianReport", "set_rigid_velocity",
+    "view",
 ]
 
 

@@ -591,6 +591,19 @@ def cmd_render(args):
     return 0
 
 
+def cmd_view(args):
+    """femb view: an interactive 3-D player of a written VTK series in the browser."""
+    from femb.errors import OutputError
+    from femb.io.view import view
+
+    try:
+        view(args.source, port=args.port, open_browser=not args.no_browser, view=args.view, fps=args.fps,
+             host=args.host)
+    except OutputError as exc:
+        raise _OutputFailure(str(exc).splitlines()[0]) from None
+    return 0
+
+
 def cmd_bench_suite(args):
     """femb bench [--quick] [--out DIR]: the benchmark suite."""
     if args.bench_command is not None:      # pragma: no cover (subcommands set their own func)
@@ -615,6 +628,7 @@ def build_parser():
     _add_list_parser(sub)
     _add_run_parser(sub)
     _add_render_parser(sub)
+    _add_view_parser(sub)
     _add_bench_parser(sub)
     from femb.cli_sweep import add_parser as add_sweep_parser
 
@@ -700,6 +714,23 @@ def _add_render_parser(sub):
                     "yz (parallel along an axis); default plane for planar mechanisms, xy for other planar "
                     "data, else 3d")
     rp.set_defaults(func=cmd_render)
+
+
+def _add_view_parser(sub):
+    """The subcommand ``femb view DIR_OR_PVD``."""
+    vp = sub.add_parser("view", help="an interactive 3-D player of a written VTK series in the browser",
+                        description="Serve a web page showing the .pvd series written by 'femb run --vtk DIR' "
+                        "(bodies, joints, ground and legend as in the pictures) with a time slider and "
+                        "play/pause; drag to turn, wheel to zoom. Needs the femb[view] extra. Ctrl-C stops.")
+    vp.add_argument("source", metavar="DIR_OR_PVD", help="folder written by --vtk (or a .pvd file)")
+    vp.add_argument("--port", type=int, default=0, metavar="P", help="port of the local server (default: a free one)")
+    vp.add_argument("--host", default="localhost", metavar="HOST",
+                    help="interface to listen on (default localhost; reach a remote machine by SSH port forwarding)")
+    vp.add_argument("--no-browser", action="store_true", help="do not open a browser; print the address")
+    vp.add_argument("--fps", type=_count, default=20, metavar="N", help="frames per second when playing (default 20)")
+    vp.add_argument("--view", type=_view, default=None, metavar="VIEW",
+                    help="initial camera, as for femb render (default plane for planar mechanisms, else 3d)")
+    vp.set_defaults(func=cmd_view)
 
 
 def _add_bench_parser(sub):

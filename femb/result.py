@@ -842,6 +842,32 @@ class Result:
             n = getattr(im, "n_frames", 1)
         return Animation(data, n)
 
+    def view(self, *, port: int | None = None, open_browser: bool = True, view: str | None = None):
+        """The motion in an interactive 3-D player in the browser (:func:`femb.io.view.view`).
+
+        Writes the stored steps to a temporary VTK series (at most about 400 frames) and serves
+        the player: rotate, zoom, a time slider, play/pause, the bodies, joints, ground and
+        legend of the pictures. Needs the ``view`` extra (``pip install "femb[view]"``).
+
+        Parameters
+        ----------
+        port : int, optional
+            Port of the local server (default any free port).
+        open_browser : bool, default True
+            Outside a notebook: open the system's browser (else print the address).
+        view : str, optional
+            Initial camera, as for :func:`femb.io.render.render_png`.
+
+        Returns
+        -------
+        None
+            In a Jupyter notebook the player is shown inline; elsewhere the call serves until
+            interrupted (Ctrl-C).
+        """
+        from femb.io.view import view as _view
+
+        return _view(self, port=port, open_browser=open_browser, view=view)
+
 
 def _multiplier_unit(model, i):
     """Unit of multiplier i: the joint type's ``constraint_units`` entry, or ``"λ"`` when it declares none."""
