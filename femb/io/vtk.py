@@ -6,14 +6,12 @@ This module is the only place that turns those records into files:
 * :func:`merge_blocks` joins the blocks of one instant into a single
   :class:`meshio.Mesh` (one unstructured grid per instant);
 * :func:`write_vtu` writes such a mesh as a VTK XML ``.vtu`` file, atomically,
-  with VTK's own XML writer (``vtkmodules.vtkIOXML``), field data included
-  (meshio's writer, up to 5.3.5 at least, drops field data);
+  including field data (which meshio's own writer drops);
 * :class:`TimeSeriesWriter` streams one ``.vtu`` per frame and keeps a ParaView
   ``.pvd`` collection up to date;
 * :func:`read_pvd` and :func:`read_frame` read the results back.
 
-Nothing here imports pyvista or VTK's rendering (writing needs no OpenGL and no
-display); meshio reads the files back. Pictures are made by :mod:`femb.io.render`.
+Nothing here imports pyvista; pictures are made by :mod:`femb.io.render`.
 """
 from __future__ import annotations
 
@@ -310,78 +308,58 @@ def _merged_cell_data(blocks, cells, cell_src, type_id):
 # writing a single .vtu
 # ---------------------------------------------------------------------------
 
-#: meshio cell type -> VTK cell type id, for the linear types whose node order VTK shares
-VTK_CELL_TYPES = {
-    "vertex": 1,
-    "line": 3,
-    "triangle": 5,
-    "polygon": 7,
-    "quad": 9,
-    "tetra": 10,
-    "hexahedron": 12,
-    "pyramid": 14,
+_VTK_TYPES = {
+    np.dtype(np.int8): "Int8",
+    np.dtype(np.int16): "Int16",
+    np.dtype(np.int32): "Int32",
+    np.dtype(np.int64): "Int64",
+    np.dtype(np.uint8): "UInt8",
+    np.dtype(np.uint16): "UInt16",
+    np.dtype(np.uint32): "UInt32",
+    np.dtype(np.uint64): "UInt64",
+    np.dtype(np.float32): "Float32",
+    np.dtype(np.float64): "Float64",
 }
 
-_COMPRESSORS = {"zlib": "vtkZLibDataCompressor", "lzma": "vtkLZMADataCompressor", None: None}
+
+def _field_data_xml(field_data):
+    """ASCII ``<FieldData>`` element; floats are written with ``repr`` (exact)."""
+    if not field_data:
+        return b""
+    lines = ["<FieldData>"]
+    for name, val in field_data.items():
+        a = np.asarray(val)
+        if a.dtype == bool:
+            a = a.astype(np.uint8)
+        a = a.astype(a.dtype.newbyteorder("="), copy=False)
+        if a.dtype not in _VTK_TYPES:
+            raise OutputError(f"field data {name!r}: data type {a.dtype} cannot be written")
+        flat = a.reshape(a.shape[0] if a.ndim else 1, -1)
+        ncomp = flat.shape[1]
+        if a.dtype.kind == "f":
+            text = " ".join(repr(float(x)) for x in flat.ravel())
+        else:
+            text = " ".join(str(int(x)) for x in flat.ravel())
+        comps = f' NumberOfComponents="{ncomp}"' if ncomp != 1 else ""
+        lines.append(
+            f'<DataArray type="{_VTK_TYPES[a.dtype]}" Name={quoteattr(str(name))} '
+            f'NumberOfTuples="{flat.shape[0]}"{comps} format="ascii">{text}</DataArray>'
+        )
+    lines.append("</FieldData>\n")
+    return "\n".join(lines).encode()
 
 
 _XML_ATTR_ESC = {'"': "&quot;", "\n": "&#10;", "\t": "&#9;", "\r": "&#13;"}
 
 
-def _vtk_array(name, a, what):
-    """A named VTK data array of a numpy array: one tuple per row, the other axes as components."""
-    from vtkmodules.util.numpy_support import numpy_to_vtk
-
-    a = np.asarray(a)
-    if a.dtype == bool:
-        a = a.astype(np.uint8)
-    if a.dtype.kind not in "iuf":
-        raise OutputError(f"{what} {name!r}: data type {a.dtype} cannot be written to VTK")
-    a = a.astype(a.dtype.newbyteorder("="), copy=False)
-    flat = np.ascontiguousarray(a.reshape(a.shape[0] if a.ndim else 1, -1))
-    arr = numpy_to_vtk(flat, deep=True)
-    # VTK's XML writer puts names into attributes verbatim: escape them here, so any
-    # name round-trips through a reader that unescapes (ParaView, meshio, pyvista)
-    arr.SetName(escape(str(name), _XML_ATTR_ESC))
-    return arr
-
-
-def _vtk_grid(mesh):
-    """A ``vtkUnstructuredGrid`` holding a meshio mesh: points, cells, point, cell and field data."""
-    from vtkmodules.util.numpy_support import numpy_to_vtk, numpy_to_vtkIdTypeArray
-    from vtkmodules.vtkCommonCore import vtkPoints
-    from vtkmodules.vtkCommonDataModel import vtkCellArray, vtkUnstructuredGrid
-
-    grid = vtkUnstructuredGrid()
-    pts = vtkPoints()
-    pts.SetData(numpy_to_vtk(np.ascontiguousarray(mesh.points, dtype=np.float64).reshape(-1, 3), deep=True))
-    grid.SetPoints(pts)
-    types, conn, offsets = [], [], [np.zeros(1, dtype=np.int64)]
-    end = 0
-    for c in mesh.cells:
-        if c.type not in VTK_CELL_TYPES:
-            raise OutputError(f"cell type {c.type!r} cannot be written (known: {', '.join(VTK_CELL_TYPES)})")
-        d = np.asarray(c.data, dtype=np.int64)
-        types.append(np.full(len(d), VTK_CELL_TYPES[c.type], dtype=np.uint8))
-        conn.append(d.ravel())
-        offsets.append(end + d.shape[1] * np.arange(1, len(d) + 1, dtype=np.int64))
-        end += d.size
-    if types:
-        cells = vtkCellArray()
-        cells.SetData(numpy_to_vtkIdTypeArray(np.concatenate(offsets), deep=True),
-                      numpy_to_vtkIdTypeArray(np.concatenate(conn), deep=True))
-        grid.SetCells(numpy_to_vtk(np.concatenate(types), deep=True), cells)
-    for name, a in mesh.point_data.items():
-        grid.GetPointData().AddArray(_vtk_array(name, a, "point data"))
-    for name, parts in mesh.cell_data.items():
-        grid.GetCellData().AddArray(_vtk_array(name, np.concatenate([np.asarray(p) for p in parts]), "cell data"))
-    for name, a in (getattr(mesh, "field_data", None) or {}).items():
-        grid.GetFieldData().AddArray(_vtk_array(name, np.atleast_1d(np.asarray(a)), "field data"))
-    return grid
+def _escaped(d):
+    # meshio's XML writer puts names into attributes verbatim; escape them here
+    # so any name round-trips through a reader that unescapes.
+    return {escape(str(k), _XML_ATTR_ESC): v for k, v in d.items()}
 
 
 def write_vtu(path, mesh, *, compression="zlib"):
-    """Write a mesh as a VTK XML unstructured grid (``.vtu``), atomically, with VTK's own writer.
+    """Write a mesh as a VTK XML unstructured grid (``.vtu``), atomically.
 
     Parameters
     ----------
@@ -389,57 +367,64 @@ def write_vtu(path, mesh, *, compression="zlib"):
         Target file; written under a temporary name in the same directory and
         renamed, so readers never see a partial file.
     mesh : meshio.Mesh
-        The mesh: points, cells (linear types: :data:`VTK_CELL_TYPES`), point
-        and cell data, and its ``field_data`` (whole-mesh values such as the
-        time and the scene description), all written as binary arrays
-        (``vtkXMLUnstructuredGridWriter``: inline base64 binary, 64-bit headers).
+        The mesh; its ``field_data`` is written too (as exact ASCII values),
+        which ``meshio.write`` alone would drop.
     compression : {"zlib", "lzma", None}
-        Compression of the arrays.
+        Compression of the binary arrays.
 
     Raises
     ------
     OutputError
-        If the directory does not exist, a cell type or data type cannot be
-        written, or the file cannot be written.
+        If the directory does not exist or the mesh cannot be written.
     """
     path = Path(path)
     if path.suffix != ".vtu":
         raise OutputError(f"{path}: unknown output suffix {path.suffix!r}; expected '.vtu'")
     if not path.parent.is_dir():
         raise OutputError(f"{path}: directory {path.parent} does not exist")
-    if compression not in _COMPRESSORS:
-        raise OutputError(f"compression={compression!r}: expected 'zlib', 'lzma' or None")
-    try:
-        grid = _vtk_grid(mesh)
-    except OutputError as exc:
-        raise OutputError(f"{path}: {exc}") from None
-    import vtkmodules.vtkIOCore as io_core
-    from vtkmodules.vtkIOXML import vtkXMLUnstructuredGridWriter
-
-    w = vtkXMLUnstructuredGridWriter()
-    w.SetInputData(grid)
-    w.SetDataModeToBinary()       # inline base64, as before (raw appended bytes trip some readers, meshio's)
-    w.SetHeaderTypeToUInt64()
-    if compression is None:
-        w.SetCompressorTypeToNone()
-    else:
-        w.SetCompressor(getattr(io_core, _COMPRESSORS[compression])())
-    w.WriteToOutputStringOn()      # one write of the whole text below (VTK's own file output is slower)
-    if w.Write() != 1:
-        raise OutputError(f"{path}: cannot write mesh (VTK's XML writer failed)")
-    text = w.GetOutputString()
-    # A temporary name in the same directory (so os.replace is atomic), created
+    out = meshio.Mesh(
+        mesh.points,
+        [(c.type, c.data) for c in mesh.cells],
+        point_data=_escaped(mesh.point_data),
+        cell_data=_escaped({k: list(v) for k, v in mesh.cell_data.items()}),
+    )
+    fd_xml = _field_data_xml(getattr(mesh, "field_data", None))
+    # Temporary names in the same directory (so os.replace is atomic), created
     # with plain open() so the final file gets the usual permissions.
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    raw = path.with_name(f".{path.name}.{os.getpid()}.raw")
+    final_tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
     try:
-        with open(tmp, "w", encoding="utf-8") as f:
-            f.write(text)
-        os.replace(tmp, path)
-    except OSError as exc:
-        raise OutputError(f"{path}: cannot write mesh ({exc.strerror or exc})") from exc
+        try:
+            meshio.vtu.write(raw, out, binary=True, compression=compression)
+        except Exception as exc:  # meshio raises assorted errors
+            raise OutputError(f"{path}: cannot write mesh ({exc})") from exc
+        if fd_xml:
+            _insert_after_grid_tag(raw, final_tmp, fd_xml)
+            os.replace(final_tmp, path)
+        else:
+            os.replace(raw, path)
     finally:
-        if tmp.exists():
-            tmp.unlink()
+        for p in (raw, final_tmp):
+            if p.exists():
+                p.unlink()
+
+
+def _insert_after_grid_tag(src, dst, payload, chunk=1 << 20):
+    tag = b"<UnstructuredGrid>\n"
+    with open(src, "rb") as fin, open(dst, "wb") as fout:
+        head = fin.read(4096)
+        pos = head.find(tag)
+        if pos < 0:  # pragma: no cover - meshio always writes the tag early
+            raise OutputError(f"{src}: unexpected VTU layout from meshio")
+        pos += len(tag)
+        fout.write(head[:pos])
+        fout.write(payload)
+        fout.write(head[pos:])
+        while True:
+            buf = fin.read(chunk)
+            if not buf:
+                break
+            fout.write(buf)
 
 
 # ---------------------------------------------------------------------------
@@ -765,28 +750,18 @@ def read_frame(path):
 
 
 def _read_empty_vtu(path):
-    """A frame with no points (which meshio cannot read) and its field data, else None."""
+    """A frame with no points (which meshio cannot read), else None."""
     try:
         if path.stat().st_size > 1 << 16:
             return None
-        head = path.read_bytes()[:4096]
-    except OSError:
+        root = ET.parse(path).getroot()
+    except (OSError, ET.ParseError):
         return None
-    if b'NumberOfPoints="0"' not in head:
+    pieces = root.findall("./UnstructuredGrid/Piece")
+    if not pieces or any(p.get("NumberOfPoints") != "0" for p in pieces):
         return None
-    from vtkmodules.util.numpy_support import vtk_to_numpy
-    from vtkmodules.vtkIOXML import vtkXMLUnstructuredGridReader
-
-    r = vtkXMLUnstructuredGridReader()
-    r.SetFileName(str(path))
-    r.Update()
-    grid = r.GetOutput()
-    if grid is None or grid.GetNumberOfPoints() != 0:
-        return None
-    fd = grid.GetFieldData()
     field_data = {}
-    for i in range(fd.GetNumberOfArrays()):
-        a = fd.GetArray(i)
-        if a is not None:
-            field_data[a.GetName()] = vtk_to_numpy(a).copy()
+    for da in root.findall("./UnstructuredGrid/FieldData/DataArray"):
+        dtype = np.float64 if da.get("type", "").startswith("Float") else np.int64
+        field_data[da.get("Name")] = np.array((da.text or "").split(), dtype=dtype)
     return meshio.Mesh(np.zeros((0, 3)), [], field_data=field_data)
