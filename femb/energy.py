@@ -377,7 +377,15 @@ def _select(model, of):
     """The set of element names that ``of`` selects (None: all)."""
     if of is None:
         return None
-    of = [of] if isinstance(of, str) else list(of)
+    if isinstance(of, str):
+        of = [of]
+    elif isinstance(of, (list, tuple, set, frozenset)) and all(isinstance(n, str) for n in of):
+        of = list(of)
+    else:
+        raise ModelError(f"momentum: of must be a name or a sequence of names of bodies or beams, got {of!r}")
+    if not of or not all(of):
+        raise ModelError(f"momentum: of names nothing ({of!r}); give a body, a beam element or the name of a "
+                         f"meshed beam, or leave it out for the whole model")
     known = [n for g in model.mass_groups for n in g.names]
     out = set()
     for name in of:
@@ -419,7 +427,10 @@ def momentum(result, about=None, of=None):
     dim = 3 if lay.spatial else 2
     o = np.zeros(3)
     if about is not None:
-        a = np.asarray(about, dtype=float).reshape(-1)
+        try:
+            a = np.asarray(about, dtype=float).reshape(-1)
+        except (TypeError, ValueError):
+            a = np.array([np.nan])
         if a.size not in (dim, 3) or not np.all(np.isfinite(a)):
             raise ModelError(f"momentum: about must be a finite point of {dim} coordinates, got {about!r}")
         o[:a.size] = a

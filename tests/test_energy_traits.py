@@ -293,6 +293,21 @@ def test_free_flying_spinning_body_conserves_momentum():
     np.testing.assert_allclose(H1, H)
 
 
+def test_momentum_arguments_that_name_nothing_are_errors():
+    # before: about="x" a raw ValueError, of=3 a raw TypeError, of=[] zero momenta without a word
+    mech = femb.Mechanism("one")
+    mech.add(SpatialRigidBody("b", 1.0, (0.1, 0.2, 0.3), velocity=(1.0, 0.0, 0.0)))
+    r = femb.simulate(mech.compile(), 0.01, 1e-3)
+    with pytest.raises(femb.ModelError, match="about must be a finite point of 3 coordinates, got 'x'"):
+        r.momentum(about="x")
+    with pytest.raises(femb.ModelError, match="of must be a name or a sequence of names.*got 3"):
+        r.momentum(of=3)
+    for of in ([], "", ["b", ""]):
+        with pytest.raises(femb.ModelError, match="of names nothing"):
+            r.momentum(of=of)
+    np.testing.assert_allclose(r.momentum(of=("b",))[0], r.momentum()[0])
+
+
 def test_planar_momentum_by_hand_and_by_name():
     mech = femb.Mechanism("planar_free")
     mech.add(RigidBody("a", 2.0, 0.3, position=(1.0, 2.0), velocity=(0.5, -1.0), omega=3.0))
