@@ -1492,8 +1492,17 @@ def _node_velocities(owner, pts, node_frames, velocity, omega, about):
     """Initial (ṙ, Ω) of the n + 1 nodes: a rigid field v₀ + ω × (r − p), or per-node values
     (space axes; Ω in node axes = section axes at t0)."""
     n1 = len(pts)
-    V = np.zeros((n1, 3)) if velocity is None else np.asarray(velocity, dtype=float)
-    W = np.zeros((n1, 3)) if omega is None else np.asarray(omega, dtype=float)
+
+    def numbers(what, value):
+        if value is None:
+            return np.zeros((n1, 3))
+        try:
+            return np.asarray(value, dtype=float)
+        except (TypeError, ValueError):
+            raise ModelError(f"{owner}: {what} must be three finite numbers or one row of three per node "
+                             f"({n1}, 3), got {value!r}") from None
+
+    V, W = numbers("velocity", velocity), numbers("omega", omega)
     for what, A in (("velocity", V), ("omega", W)):
         if A.shape not in ((3,), (n1, 3)) or not np.all(np.isfinite(A)):
             raise ModelError(f"{owner}: {what} must be three finite numbers or one row of three per node "

@@ -314,12 +314,18 @@ def energies(result):
 def balance_ratio(e):
     """Largest |balance| of the energies ``e`` (:func:`energies`) relative to the run's energy scale.
 
-    The scale is the largest of the ranges (max − min) of T, V_g, V_el and of
-    the work and dissipation integrals; a relative balance error of order h²
-    (ρ∞ = 1) or the numerical dissipation (ρ∞ < 1) is expected.
+    The scale is the largest of: the kinetic energy T at any stored step (the
+    energy of the motion, whatever part of it stays constant: a body spinning
+    steadily about a principal axis has its whole T in it), and the ranges
+    (max − min) of T, V_g, V_el and of the work and dissipation integrals (the
+    energy that changes form; the gravity datum does not enter). A relative
+    balance error of order h² (ρ∞ = 1) or the numerical dissipation (ρ∞ < 1) is
+    expected. With the ranges alone a steady spin would read ≈ 1 for any h: its
+    T is constant, so the range of T is the scheme's error itself.
     """
-    scale = max(float(np.ptp(e[k])) for k in ("kinetic", "gravitational", "elastic", "work_loads",
-                                              "work_drives", "dissipated"))
+    scale = max([float(np.abs(e["kinetic"]).max())]
+                + [float(np.ptp(e[k])) for k in ("kinetic", "gravitational", "elastic", "work_loads",
+                                                 "work_drives", "dissipated")])
     err = float(np.abs(e["balance"]).max())
     return err / scale if scale > 0.0 else err
 
@@ -371,7 +377,15 @@ def _select(model, of):
     """The set of element names that ``of`` selects (None: all)."""
     if of is None:
         return None
-    of = [of] if isinstance(of, str) else list(of)
+    if isinstance(of, str):
+        of = [of]
+    elif isinstance(of, (list, tuple, set, frozenset)) and all(isinstance(n, str) for n in of):
+        of = list(of)
+    else:
+        raise ModelError(f"momentum: of must be a name or a sequence of names of bodies or beams, got {of!r}")
+    if not of or not all(of):
+        raise ModelError(f"momentum: of names nothing ({of!r}); give a body, a beam element or the name of a "
+                         f"meshed beam, or leave it out for the whole model")
     known = [n for g in model.mass_groups for n in g.names]
     out = set()
     for name in of:
@@ -413,7 +427,10 @@ def momentum(result, about=None, of=None):
     dim = 3 if lay.spatial else 2
     o = np.zeros(3)
     if about is not None:
-        a = np.asarray(about, dtype=float).reshape(-1)
+        try:
+            a = np.asarray(about, dtype=float).reshape(-1)
+        except (TypeError, ValueError):
+            a = np.array([np.nan])
         if a.size not in (dim, 3) or not np.all(np.isfinite(a)):
             raise ModelError(f"momentum: about must be a finite point of {dim} coordinates, got {about!r}")
         o[:a.size] = a

@@ -63,6 +63,9 @@ START_STIFFNESS = 0.1
 #: step of the difference in StartWeights.curvature: the fastest body turns by this angle (rad)
 CURVATURE_STEP = 1e-3
 
+#: the consistent start needs h ω ≤ this for the fastest motion its jerk shows (start_is_resolved)
+START_RESOLUTION = 1.0
+
 #: Newton failures up to this step get the start's hint (newton_hint)
 START_STEPS = 5
 
@@ -533,31 +536,48 @@ def deformable_groups(model, t, q, qd):
 
 @dataclass
 class StartWeights:
-    """The weight A = M + c_K K_el of a flexible model's start.
+    """The weight A = M + c_K (K_el + C_elᵀ M_l⁻¹ C_el) of a flexible model's start.
 
-    K_el = −∂f/∂q of the deformable batches at zero velocity
-    (:func:`deformable_groups`), c_K = :data:`START_STIFFNESS` h² for the step h.
-    A mode of frequency ω weighs (1 + (hω)²/10) times its kinetic energy: modes
-    with h ω ≳ 3 (fewer than about two steps per period, which the scheme damps
-    towards ρ∞ rather than follows) are started quasi-statically, modes the step
-    resolves keep the start of Gauss's principle up to O((hω)²). (The Newton
-    matrix of the first step divided by β′ has c_K = 1/β′ ≈ 0.26 h² at ρ∞ = 0.8;
-    that weight changed the start of modes at h ω ≈ 1.6 enough to lower the
-    step-halving order of the damped flexible slider-crank from above 1.2 to 1.14;
-    0.025 h² left the undamped flexible four-bar failing Newton at h = 1 ms.)
-    The damping matrix is left out: its weight would be first order in h, and the
-    damping forces of a rigid motion's centripetal accelerations in space axes
-    would need their own correction (:meth:`curvature` makes that of K_el).
+    K_el = −∂f/∂q and C_el = −∂f/∂q̇ of the deformable batches at zero velocity
+    (:func:`deformable_groups`; at zero velocity C_el is the material damping
+    alone, without gyroscopic terms), M_l the lumped (diagonal) mass, c_K =
+    :data:`START_STIFFNESS` h² for the step h. A mode of frequency ω whose
+    damping takes its velocity off at the rate d (d = η ω² for a section with
+    stiffness-proportional damping η) weighs about 1 + c_K (ω² + d²) times its
+    kinetic energy: modes with h ω ≳ 3 (fewer than about two steps per period,
+    which the scheme damps towards ρ∞ rather than follows) and modes whose
+    damping settles them within a step (h d ≳ 3) are started quasi-statically;
+    modes the step resolves keep the start of Gauss's principle up to
+    O((hω)², (hd)²). (The Newton matrix of the first step divided by β′ has
+    c_K = 1/β′ ≈ 0.26 h² at ρ∞ = 0.8; that weight changed the start of modes at
+    h ω ≈ 1.6 enough to lower the step-halving order of the damped flexible
+    slider-crank from above 1.2 to 1.14; 0.025 h² left the undamped flexible
+    four-bar failing Newton at h = 1 ms. The damping enters squared, and only
+    where the start without it is not resolved by h (:func:`flexible_start`):
+    a weight √c_K C_el, that of a backward-Euler step, changed the start of the
+    resolved damped modes at first order in h, and even squared it lowered the
+    step-halving order of the damped flexible slider-crank, whose start is
+    resolved without it, from 1.27 to 1.19. Without it a coupler with
+    η = 10⁻³ s kept the strain rates of the mass-weighted start in its
+    overdamped modes, whose damping forces made the start's jerk one that h
+    does not resolve, and the solver fell
+    back to the seed's start.) :meth:`curvature` supplies the rates of the forces
+    along a rigid motion, so that its centripetal accelerations are not taken
+    for strain or strain rate.
 
     Attributes
     ----------
     groups : list of Group
     c_K : float
         In s².
+    damped : bool
+        Whether C_el enters (:func:`flexible_start` sets it only where the start
+        without it is not resolved by h).
     """
 
     groups: list
     c_K: float
+    damped: bool = False
 
     @classmethod
     def for_step(cls, model, state, h):
@@ -567,33 +587,60 @@ class StartWeights:
             return None
         return cls(groups, START_STIFFNESS * float(h) ** 2)
 
+    def _jacobians(self, model, t, q, qd):
+        """(∂f/∂q, ∂f/∂q̇) of the deformable batches at (t, q, q̇), csr (nq, nq) each (∂f/∂q̇ None
+        when no batch's force depends on q̇)."""
+        qx, qdx = assembly._ext(model, q, qd)
+        parts = [kernels.force(g, t, qx[g.xdofs], qdx[g.dofs], True) for g in self.groups]
+        shape = (model.nq, model.nq)
+        fq = assembly._coo(self.groups, "nn", [p[1] for p in parts], shape)
+        damped = [(g, p[2]) for g, p in zip(self.groups, parts) if p[2] is not None]
+        fv = assembly._coo([g for g, _ in damped], "nn", [v for _, v in damped], shape) if damped else None
+        return fq, fv
+
     def stiffness(self, model, t, q, qd):
         """∂f_el/∂q = −K_el of the deformable batches at (t, q) and zero velocity, csr (nq, nq).
 
         At zero velocity: the q-derivatives of damping forces (which are proportional to
         the velocity, and do not vanish on rigid motions in space axes) are not stiffness.
         """
-        qx, qdx = assembly._ext(model, q, np.zeros_like(qd))
-        fq = [kernels.force(g, t, qx[g.xdofs], qdx[g.dofs], True)[1] for g in self.groups]
-        return assembly._coo(self.groups, "nn", fq, (model.nq, model.nq))
+        return self._jacobians(model, t, q, np.zeros_like(qd))[0]
 
-    def matrix(self, model, t, q, qd):
-        """A = M + c_K K_el at (t, q, q̇), csr (nq, nq)."""
-        return (assembly.mass_matrix(model, q) - self.c_K * self.stiffness(model, t, q, qd)).tocsr()
+    def _damping(self, model, t, q, qd):
+        """(C_el, 1/diag(M)): C_el = −∂f/∂q̇ of the deformable batches at zero velocity (csr, or None
+        without material damping) and the inverse lumped mass (nq,) (0 on massless coordinates)."""
+        fv = self._jacobians(model, t, q, np.zeros_like(qd))[1] if self.damped else None
+        if fv is None or fv.nnz == 0 or not np.any(fv.data != 0.0):
+            return None, None
+        m = assembly.mass_matrix(model, q).diagonal()
+        return (-fv).tocsr(), np.where(m > 0.0, 1.0 / np.where(m > 0.0, m, 1.0), 0.0)
+
+    def matrix(self, model, t, q, qd, damping=True):
+        """A = M + c_K (K_el + C_elᵀ M_l⁻¹ C_el) at (t, q), csr (nq, nq); M + c_K K_el if not
+        ``damped`` or ``damping=False``."""
+        fq = self._jacobians(model, t, q, np.zeros_like(qd))[0]
+        A = assembly.mass_matrix(model, q) - self.c_K * fq
+        C, m_inv = self._damping(model, t, q, qd) if damping else (None, None)
+        if C is not None:
+            A = A + self.c_K * (C.T @ sp.diags(m_inv) @ C)
+        return A.tocsr()
 
     def curvature(self, model, t, q, qd):
-        """c_K f̈_el at q̈ = 0: c_K d/ds [∂f_el/∂q (q ∘ s q̇) q̇] at s = 0, shape (nq,).
+        """c_K (f̈_el + C_elᵀ M_l⁻¹ ḟ_d) at q̈ = 0, shape (nq,).
 
-        The second derivative of the deformable elements' forces along the motion
-        q ∘ s q̇ (on a Lie group the right-trivialized tangent of that path is q̇, so
-        that f̈_el = f_el,q q̈ + this term exactly), by a five-point central difference
+        f̈_el: c_K d/ds [∂f_el/∂q (q ∘ s q̇) q̇] at s = 0, the second derivative of the
+        deformable elements' forces at zero velocity along the motion q ∘ s q̇ (on a
+        Lie group the right-trivialized tangent of that path is q̇, so that
+        f̈_el = f_el,q q̈ + this term exactly), by a five-point central difference
         of ∂f_el/∂q q̇ over steps s that turn or move the fastest body by
         :data:`CURVATURE_STEP` of the length scale: the c_K-weighted terms are large
         (c_K K_el q̈ ≈ 5·10⁵ N on the four-bar with E × 10⁶) and cancel to the reactions'
         size, so the difference must be accurate to about 10⁻⁸ (the truncation error of
-        the five-point rule, (10⁻³)⁴, and its round-off, ε/10⁻³, both are). With it, the
-        accelerations of a rigid motion leave the strains unchanged to second order:
-        the centripetal accelerations of a turning beam are not taken for strain.
+        the five-point rule, (10⁻³)⁴, and its round-off, ε/10⁻³, both are). ḟ_d: the
+        rate of the velocity-dependent forces at q̈ = 0, (∂f/∂q (q, q̇) − ∂f/∂q (q, 0)) q̇
+        (exact; on a rigid motion C_el q̈ = ḟ_d). With them, the accelerations of a rigid motion leave the strains and
+        strain rates unchanged: the centripetal accelerations of a turning beam are
+        not taken for strain.
         """
         L = model.length_scale
         speed = float(np.abs(qd).max(initial=0.0)) * max(L, 1.0)
@@ -604,7 +651,12 @@ class StartWeights:
         def g(k):
             return self.stiffness(model, t, model.compose(q, k * ds * qd), qd) @ qd
 
-        return self.c_K * (8.0 * (g(1) - g(-1)) - (g(2) - g(-2))) / (12.0 * ds)
+        out = self.c_K * (8.0 * (g(1) - g(-1)) - (g(2) - g(-2))) / (12.0 * ds)
+        C, m_inv = self._damping(model, t, q, qd)
+        if C is not None:
+            fq = self._jacobians(model, t, q, qd)[0]
+            out += self.c_K * (C.T @ (m_inv * ((fq - self.stiffness(model, t, q, qd)) @ qd)))
+        return out
 
 
 @dataclass
@@ -780,6 +832,64 @@ def start_weights(model, state, t0, h, t_end):
     return w if _factor_augmented(w.matrix(model, st.t, st.q, st.qd), B) is not None else None
 
 
+def start_is_resolved(h, v0, j0):
+    """Whether the step h resolves the motion that the initial jerk j₀ shows (fixed steps).
+
+    The consistent start a₀ = q̈₀ + (α_m − α_f) h j₀ (Arnold & Brüls 2007, stepsize.md §2) is the
+    leading term of an expansion in h: it needs h ω ≪ 1 for the motions present at t₀. For an
+    oscillation of frequency ω, j₀ ≈ −ω² q̇₀, so ω ≈ √(‖j₀‖/‖q̇₀‖) estimates the fastest one the start
+    sets going. A start at rest (q̇₀ = 0) counts as resolved: its jerk comes from drivers and loads.
+
+    Parameters
+    ----------
+    h : float
+    v0, j0 : (nq,) ndarray
+        Initial velocities and the jerk (central differences of the constrained accelerations).
+
+    Returns
+    -------
+    bool
+        ``h · ω ≤ START_RESOLUTION``.
+    """
+    nv = float(np.linalg.norm(v0))
+    nj = float(np.linalg.norm(j0))
+    if nv == 0.0 or nj == 0.0:
+        return math.isfinite(nj)
+    return h * math.sqrt(nj / nv) <= START_RESOLUTION
+
+
+def flexible_start(model, state, t0, h, t_end, adaptive, **options):
+    """The start weights and the consistent initial state the solver begins with.
+
+    :func:`start_weights` and :func:`consistent_initial_state` (``options`` passed on).
+    With fixed steps, a model whose deformable elements are damped and whose start
+    is not resolved by h (:func:`start_is_resolved` of :func:`start_jerk`: overdamped
+    modes that the mass-weighted start leaves straining) is started again with the
+    damping in the weights (:class:`StartWeights`, ``damped``), which starts those
+    modes quasi-statically; where that does not resolve it either, the first start
+    stays (and the solver uses the seed's start).
+
+    Returns
+    -------
+    weights : StartWeights or None
+    state : State
+    """
+    w = start_weights(model, state, t0, h, t_end)
+    st = consistent_initial_state(model, state, t0=t0, weights=w, **options)
+    if w is None or adaptive or w.damped:
+        return w, st
+    wd = StartWeights(w.groups, w.c_K, damped=True)
+    if wd._damping(model, st.t, st.q, st.qd)[0] is None:
+        return w, st
+    dl = min(1e-4, 1e-2 * h)
+    if start_is_resolved(h, st.qd, start_jerk(model, w, st.t, st.q, st.qd, st.qdd, dl)):
+        return w, st
+    sd = consistent_initial_state(model, state, t0=t0, weights=wd, **options)
+    if start_is_resolved(h, sd.qd, start_jerk(model, wd, sd.t, sd.q, sd.qd, sd.qdd, dl)):
+        return wd, sd
+    return w, st
+
+
 def start_accelerations(model, weights, t, q, qd, what="initial accelerations"):
     """Accelerations and multipliers of a start that does not ring: (q̈, λ) from
     [[A, Φ_qᵀ], [Φ_q, 0]] [q̈; λ] = [f; −γ].
@@ -851,8 +961,8 @@ def settle(model, weights, t, q, qd, sweeps=None):
     the strain of the stiff elements, O(E/EA) (1e-8 m on the aluminium four-bar),
     and O(h⁴) in the modes h resolves. The accelerations and multipliers returned
     are those of :func:`start_accelerations` (the quasi-static motion; λ a rigid
-    coupler's in the stiff limit): with the settled positions they satisfy
-    M q̈ + Φ_qᵀλ = f to the round-off of the internal forces. (Gauss's principle
+    coupler's in the stiff limit): with the settled positions
+    they satisfy M q̈ + Φ_qᵀλ = f to the round-off of the internal forces. (Gauss's principle
     at the settled positions would have to recover E from strains of O(E/EA),
     which a stiff beam's positions carry to few digits: its rocker acceleration
     was 0.25 % off with E × 10⁶ and 4 % with E × 10⁸.)
@@ -869,7 +979,7 @@ def settle(model, weights, t, q, qd, sweeps=None):
     B = assembly.constraint_jacobian(model, t, q).tocsr()[rows]
     M = assembly.mass_matrix(model, q)
     E = weights.c_K * (assembly.force_vector(model, t, q, qd) - M @ qdd - B.T @ lam[rows])
-    solve = _factor_augmented(weights.matrix(model, t, q, qd), B)
+    solve = _factor_augmented(weights.matrix(model, t, q, qd, damping=False), B)
     if solve is None:
         raise InitializationError(f"the start of the deformable elements: singular matrix [[A, Φ_qᵀ], [Φ_q, 0]]; "
                                   f"{SINGULAR_HINT}")

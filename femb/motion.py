@@ -103,10 +103,12 @@ def set_rigid_velocity(items, velocity=None, omega=None, about=None):
     Raises
     ------
     ModelError
-        Unknown items, vectors of the wrong size or not finite, planar and spatial nodes
-        mixed, or a non-zero velocity of a fixed coordinate (naming the node).
+        Unknown items, items that hold no body or node, vectors of the wrong size or not
+        finite, planar and spatial nodes mixed, or a non-zero velocity of a fixed coordinate (naming the node).
     """
     nodes = _nodes_of(items, [])
+    if not nodes:
+        raise ModelError(f"set_rigid_velocity: {items!r} holds no body or node to set")
     kinds = {n.kind for n in nodes}
     if len(kinds) > 1:
         raise ModelError(f"set_rigid_velocity: planar and spatial nodes in one call ({sorted(kinds)}); "

@@ -35,6 +35,7 @@ from femb.alpha import GeneralizedAlpha  # noqa: F401  (in the annotations of si
 from femb.errors import SINGULAR_HINT_DIVERGED, ConvergenceError, ModelError, ParameterError, SingularMatrixError
 from femb import initial
 from femb.initial import consistent_initial_state, singular_hint  # noqa: F401  (re-exported)
+from femb.initial import START_RESOLUTION, start_is_resolved  # noqa: F401  (re-exported)
 from femb import engine as S
 from femb.jit import pack
 from femb.options import MAX_STEPS, SolverOptions, check_positive, error_constants, fixed_steps  # noqa: F401
@@ -77,37 +78,6 @@ def _integer_steps(n_steps):
     if n != n_steps or not 1 <= n <= MAX_STEPS:
         raise ParameterError(f"n_steps must be an integer from 1 to {MAX_STEPS:.0e}, got {n_steps!r}")
     return n
-
-
-#: largest h·ω (ω² ≈ ‖j₀‖/‖q̇₀‖, the fastest motion the start sets going) for which the consistent
-#: start's expansion in h is used
-START_RESOLUTION = 1.0
-
-
-def start_is_resolved(h, v0, j0):
-    """Whether the step h resolves the motion that the initial jerk j₀ shows (fixed steps).
-
-    The consistent start a₀ = q̈₀ + (α_m − α_f) h j₀ (Arnold & Brüls 2007, stepsize.md §2) is the
-    leading term of an expansion in h: it needs h ω ≪ 1 for the motions present at t₀. For an
-    oscillation of frequency ω, j₀ ≈ −ω² q̇₀, so ω ≈ √(‖j₀‖/‖q̇₀‖) estimates the fastest one the start
-    sets going. A start at rest (q̇₀ = 0) counts as resolved: its jerk comes from drivers and loads.
-
-    Parameters
-    ----------
-    h : float
-    v0, j0 : (nq,) ndarray
-        Initial velocities and the jerk (central differences of the constrained accelerations).
-
-    Returns
-    -------
-    bool
-        ``h · ω ≤ START_RESOLUTION``.
-    """
-    nv = float(np.linalg.norm(v0))
-    nj = float(np.linalg.norm(j0))
-    if nv == 0.0 or nj == 0.0:
-        return math.isfinite(nj)
-    return h * math.sqrt(nj / nv) <= START_RESOLUTION
 
 
 class GeneralizedAlphaSolver:
@@ -240,9 +210,8 @@ class GeneralizedAlphaSolver:
         self.start_weights = None
         if initialize:
             t_start = float(t0 if state is None else state.t)
-            self.start_weights = initial.start_weights(self.model, state, t_start, self.h or self.h0, t_end)
-            st = consistent_initial_state(self.model, state, t0=t_start, phi_tol=self.phi_tol,
-                                          weights=self.start_weights)
+            self.start_weights, st = initial.flexible_start(self.model, state, t_start, self.h or self.h0, t_end,
+                                                            self.adaptive, phi_tol=self.phi_tol)
         else:
             st = (state or self.model.initial_state(t0)).copy()
         self.init_time = time.perf_counter() - t_init

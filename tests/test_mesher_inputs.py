@@ -205,3 +205,20 @@ def test_set_rigid_velocity_refuses_what_it_cannot_do():
         set_rigid_velocity([mesh.nodes[1], RigidBody("rb", 1.0, 0.1, (0, 0), 0.0)])
     with pytest.raises(ModelError, match="not a body"):
         set_rigid_velocity(42)
+
+
+def test_velocity_arguments_that_are_not_numbers_are_named():
+    # before: a raw ValueError from numpy ("could not convert string to float")
+    sec = SpatialSection.circle(2e11, 8e10, 0.01, density=7850.0)
+    for kw in (dict(omega="fast"), dict(velocity=[1.0, "a", 0.0]), dict(velocity={"x": 1.0})):
+        what = next(iter(kw))
+        with pytest.raises(ModelError, match=rf"spatial_beam 'b': {what} must be three finite numbers"):
+            spatial_beam(Mechanism("m"), "b", sec, [(0, 0, 0), (1, 0, 0)], 4, **kw)
+
+
+def test_set_rigid_velocity_of_nothing_is_an_error():
+    # before: [] (or an empty mechanism) was accepted and set nothing
+    with pytest.raises(ModelError, match="holds no body or node"):
+        set_rigid_velocity([], velocity=(1.0, 0.0, 0.0))
+    with pytest.raises(ModelError, match="holds no body or node"):
+        set_rigid_velocity(Mechanism("empty"), omega=(0.0, 0.0, 1.0))
