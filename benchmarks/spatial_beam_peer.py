@@ -117,7 +117,7 @@ import warnings
 import numpy as np
 
 # the rod (SI units), its step and ρ∞ are those of the scaling benchmark
-from .spatial_beam_scaling import DATA, H, RHO_INF, build
+from .spatial_rod import DATA, H, RHO_INF, build
 
 
 #: Exudyn's settings timed (generalized-α, sparse LU, one thread; node type ``"node"``, the

@@ -31,23 +31,7 @@ import time
 
 import numpy as np
 
-DATA = dict(L=1.0, d=0.02, E=2.1e11, G=8.08e10, rho=7850.0, g=(0.0, 0.0, -9.81))
-H = 1e-4
-RHO_INF = 0.7
-
-
-def build(n, mass="consistent"):
-    """The cantilever with n SpatialBeam elements (nodes ``rod.n0`` clamped … ``rod.n{n}``)."""
-    from femb import Mechanism
-    from femb.elements.spatial_beam import SpatialSection, spatial_beam
-    from femb.elements.spatial_forces import SpatialGravity
-
-    D = DATA
-    m = Mechanism(f"rod{n}")
-    sec = SpatialSection.circle(D["E"], D["G"], D["d"], density=D["rho"])
-    spatial_beam(m, "rod", sec, [(0, 0, 0), (D["L"], 0, 0)], int(n), start="clamp", mass=mass)
-    m.add(SpatialGravity(D["g"]))
-    return m
+from .spatial_rod import DATA, H, RHO_INF, build  # noqa: F401  (the rod; re-exported)
 
 
 def steps_for(n):
