@@ -51,6 +51,9 @@ def test_every_note_is_on_the_site(tmp_path):
     (tmp_path / "docs" / "new-note.md").write_text("# A new note\n")
     assert notes.generate(tmp_path / "docs") == ["new-note"]
     assert "/new-note" in (tmp_path / "docs" / "_generated" / "more_notes.md").read_text()
+    assert "{toctree}" in (tmp_path / "docs" / "_generated" / "viewer_slot.md").read_text()   # docs/view.md exists
+    (tmp_path / "docs" / "view.md").unlink()                                  # without it: a sentence, no link
+    notes.generate(tmp_path / "docs")
     assert "{toctree}" not in (tmp_path / "docs" / "_generated" / "viewer_slot.md").read_text()
     (tmp_path / "docs" / "view.md").write_text("# femb view\n")
     notes.generate(tmp_path / "docs")
