@@ -91,8 +91,8 @@ def exudyn_scenes():
 # scipy peers
 # --------------------------------------------------------------------------
 def _scipy_andrews(t, method, tol):
-    from femb.benchmarks.andrews import ANGLE_NAMES, LAMBDA_NAMES
     from femb.benchmarks.references import andrews as ref
+    from femb.benchmarks.scenes.planar.andrews import ANGLE_NAMES, LAMBDA_NAMES
 
     t0 = time.perf_counter()
     sol = ref.solve(t, rtol=tol, atol=tol, method=method)
@@ -291,7 +291,7 @@ def _on_grid(arr, t, tol):
 
 
 def _exudyn_andrews(t_end, n_steps, rho_inf, n_samples):
-    from femb.benchmarks import andrews as A
+    from femb.benchmarks.scenes.planar import andrews as A
 
     D = A.DATA
     X = _ExudynModel()
@@ -327,7 +327,7 @@ def _exudyn_andrews(t_end, n_steps, rho_inf, n_samples):
 
 
 def _exudyn_slider_crank(t_end, n_steps, rho_inf, n_samples):
-    from femb.benchmarks.slider_crank import PARAMS as P
+    from femb.benchmarks.scenes.planar.slider_crank import PARAMS as P
 
     l1, l2, th0 = P["l1"], P["l2"], P["theta0"]
     c, s = math.cos(th0), math.sin(th0)
@@ -362,7 +362,7 @@ def _exudyn_slider_crank(t_end, n_steps, rho_inf, n_samples):
 
 
 def _exudyn_pendulum(t_end, n_steps, rho_inf, n_samples):
-    from femb.benchmarks.pendulum import PARAMS as P
+    from femb.benchmarks.scenes.planar.pendulum import PARAMS as P
 
     L, m, g, psi0 = P["length"], P["mass"], P["g"], P["psi0"]
     phi = psi0 - math.pi / 2

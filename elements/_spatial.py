@@ -23,8 +23,8 @@ x ∘ exp(εw) in ``tests/test_spatial_kernels.py``.
 """
 from __future__ import annotations
 
-from femb.jit import kernel
-from femb.rotations import quat_to_matrix_t
+from femb.base.jit import kernel
+from femb.base.rotations import quat_to_matrix_t
 
 XA, EA, XB, EB, NPAR_FRAME = 0, 3, 12, 15, 24
 Z3 = (0.0, 0.0, 0.0)

@@ -87,11 +87,11 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from femb.element import Element
+from femb.base.geometry import GeometryBlock
+from femb.base.jit import kernel
 from femb.errors import ModelError
-from femb.geometry import GeometryBlock
-from femb.jit import kernel
-from femb.nodes import PlanarNode
+from femb.system.element import Element
+from femb.system.nodes import PlanarNode
 
 from ._meshing import check_model_size, element_count
 from ._planar import rot
@@ -793,7 +793,7 @@ def add_beam(mech, name, section, start, end, n_elements, *, sweep=0.0, start_jo
     be made by fixing the node's coordinates (``BeamNode(fixed=...)``), at the
     price of losing the reaction as a multiplier.
     """
-    from femb.mechanism import Mechanism
+    from femb.system.mechanism import Mechanism
     if not isinstance(name, str) or not name:
         raise ModelError(f"add_beam: name must be a non-empty string, got {name!r}")
     owner = f"add_beam '{name}'"

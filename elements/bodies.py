@@ -1,6 +1,6 @@
 """Bodies: rigid bodies, point masses and the ground (planar).
 
-A rigid body owns a :class:`~femb.nodes.PlanarNode` at its centre of mass,
+A rigid body owns a :class:`~femb.system.nodes.PlanarNode` at its centre of mass,
 (x, y, θ) in the inertial frame, so its mass matrix is the constant
 diag(m, m, J) (Géradin & Cardona 2001, Ch. 5). A point mass owns a planar node
 whose θ is fixed. The ground owns a fully fixed node at the origin.
@@ -15,11 +15,11 @@ import math
 
 import numpy as np
 
-from femb.element import Element
+from femb.base.geometry import GeometryBlock
+from femb.base.jit import kernel
 from femb.errors import ModelError
-from femb.geometry import GeometryBlock
-from femb.jit import kernel
-from femb.nodes import PlanarNode
+from femb.system.element import Element
+from femb.system.nodes import PlanarNode
 
 from ._planar import perp, rot
 
@@ -62,7 +62,7 @@ class Body:
         ``{"type": "polygon", "points": [...]}`` or ``{"type": "mesh", "file": path}``.
     """
 
-    #: a body: joints attach to it, it owns a node (femb.model reads this trait)
+    #: a body: joints attach to it, it owns a node (femb.system.model reads this trait)
     is_body = True
 
     def __init__(self, name, node, points=None, shape=None):

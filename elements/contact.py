@@ -33,10 +33,10 @@ import math
 
 import numpy as np
 
-from femb.element import Element
+from femb.base.jit import kernel
+from femb.base.rotations import quat_to_matrix_t
 from femb.errors import ModelError
-from femb.jit import kernel
-from femb.rotations import quat_to_matrix_t
+from femb.system.element import Element
 
 from ._spatial import cross3, dot3, mtv
 

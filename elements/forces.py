@@ -16,11 +16,11 @@ import math
 
 import numpy as np
 
-from femb.element import Element
+from femb.base.functions import Constant, as_time_function, evaluate
+from femb.base.geometry import GeometryBlock
+from femb.base.jit import kernel
 from femb.errors import ModelError
-from femb.functions import Constant, as_time_function, evaluate
-from femb.geometry import GeometryBlock
-from femb.jit import kernel
+from femb.system.element import Element
 
 from .bodies import _check_scalar, _point
 from .joints import PairElement
@@ -359,7 +359,7 @@ class _BodyLoad(Element):
     """A load on one body."""
 
     has_force = True
-    work = "load"                    # an applied load: its work ∫ fe·ve dt (femb.energy)
+    work = "load"                    # an applied load: its work ∫ fe·ve dt (femb.results.energy)
 
     def __init__(self, name, body):
         super().__init__(name)
@@ -539,7 +539,7 @@ class Gravity(Element):
     name : str
     """
 
-    #: a uniform field on every mass, assembled by the model as M ĝ (no kernels; femb.model reads this trait)
+    #: a uniform field on every mass, assembled by the model as M ĝ (no kernels; femb.system.model reads this trait)
     gravity_field = True
 
     def __init__(self, g=(0.0, -9.81), name="gravity"):

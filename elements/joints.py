@@ -31,11 +31,11 @@ import math
 
 import numpy as np
 
-from femb.element import Element
+from femb.base.functions import as_time_function
+from femb.base.geometry import GeometryBlock
+from femb.base.jit import kernel
 from femb.errors import ModelError
-from femb.functions import as_time_function
-from femb.geometry import GeometryBlock
-from femb.jit import kernel
+from femb.system.element import Element
 
 from ._planar import perp, rot
 

@@ -30,10 +30,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from femb.element import Element
+from femb.base.jit import kernel
+from femb.base.rotations import quat_to_matrix
 from femb.errors import ModelError
-from femb.jit import kernel
-from femb.rotations import quat_to_matrix
+from femb.system.element import Element
 
 from .bodies import Body, Ground
 from .spatial_bodies import SpatialBody, unit3, vector3

@@ -56,7 +56,7 @@ centroid, ρA L/6 [2 1; 1 2] ⊗ I₃ in (ẋ_A, ẋ_B), and **lumped rotary ine
 gyroscopic moment −Ω × J_n Ω in the force kernel, as for
 :class:`SpatialRigidBody`. In femb's velocity coordinates (ẋ in space axes, Ω
 in body axes) this mass matrix is **constant**, as the compiled time loop
-requires (``femb/model.py`` refuses configuration-dependent masses); the
+requires (``femb/system/model.py`` refuses configuration-dependent masses); the
 consistent rotary inertia of the SE(3) interpolation would depend on the
 relative rotation of the two nodes. ``mass="lumped"`` gives ρA L/2 I₃ per
 node; ``mass="averaged"`` their mean. Gravity (``SpatialGravity``, M ĝ) is then the work-equivalent load of
@@ -87,11 +87,11 @@ from typing import Any
 
 import numpy as np
 
-from femb import rotations as rt
-from femb.element import Element
+from femb.base import rotations as rt
+from femb.base.geometry import GeometryBlock
+from femb.base.jit import jit_disabled, kernel
 from femb.errors import ModelError
-from femb.geometry import GeometryBlock
-from femb.jit import jit_disabled, kernel
+from femb.system.element import Element
 
 from . import _spatial as sp
 from ._meshing import check_model_size, element_count
@@ -1117,7 +1117,7 @@ class SpatialBeam(Element):
         circular/helical arc through them).
     """
 
-    spatial = True                    # acts on frame nodes (femb.model: no planar element on them)
+    spatial = True                    # acts on frame nodes (femb.system.model: no planar element on them)
     glyph = "beam"                    # drawn as a tube along its centre line (femb.io.frames)
     has_mass = True
     constant_mass = True
@@ -1465,7 +1465,7 @@ def _check_end(mech, owner, which, spec):
 
 def _mesher_inputs(mech, name, section, mass, normal, frames, path):
     """The checks of :func:`spatial_beam` that need no mesh; returns the owner string and ``normal``."""
-    from femb.mechanism import Mechanism
+    from femb.system.mechanism import Mechanism
     if not isinstance(name, str) or not name:
         raise ModelError(f"spatial_beam: name must be a non-empty string, got {name!r}")
     owner = f"spatial_beam '{name}'"
@@ -1553,7 +1553,7 @@ def spatial_beam(mech, name, section, path, n_elements, *, normal=None, frames=N
     velocity, omega : (3,) or (n + 1, 3), optional
         Initial velocities of the nodes, space axes. Both (3,): the rigid motion
         ṙ = v₀ + ω × (r − p) of velocity v₀ at the point p = ``about`` and angular velocity ω
-        (each node's Ω = R₀ᵀ ω in its node axes; :func:`femb.motion.set_rigid_velocity` sets any
+        (each node's Ω = R₀ᵀ ω in its node axes; :func:`femb.system.motion.set_rigid_velocity` sets any
         body to such a field). Rows per node: ṙ and ω of each node. Default: at rest. A
         ``"shared"`` end keeps its body's velocities; clamped nodes must be given zero.
     about : (3,), optional
@@ -1623,7 +1623,7 @@ def spatial_beam(mech, name, section, path, n_elements, *, normal=None, frames=N
 # ---------------------------------------------------------------------------
 @dataclass
 class BeamSeries:
-    """A meshed spatial beam over the stored times of a result (:meth:`femb.result.Result.beam`).
+    """A meshed spatial beam over the stored times of a result (:meth:`femb.results.result.Result.beam`).
 
     n elements ``{name}.e0`` … ``{name}.e{n-1}``, n + 1 nodes from the start to the end of the
     mesh, nt stored times. All vectors in space axes unless stated.

@@ -25,12 +25,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from femb import rotations as rt
-from femb.element import Element
+from femb.base import rotations as rt
+from femb.base.geometry import GeometryBlock
+from femb.base.jit import kernel
 from femb.errors import ModelError
-from femb.geometry import GeometryBlock
-from femb.jit import kernel
-from femb.nodes import Node
+from femb.system.element import Element
+from femb.system.nodes import Node
 
 from . import _spatial_geometry as sg
 from .bodies import Body, Ground, _check_scalar
@@ -116,11 +116,11 @@ class FrameNode(Node):
         For each rotation of the node: (start in x of its unit quaternion, 4
         entries; start in v of its body-axes rotation vector, 3 entries). The
         update is p ← p ⊗ quat(exp(δθ)) (renormalised), the tangent operator
-        T(δθ) of :mod:`femb.rotations` multiplies these columns.
+        T(δθ) of :mod:`femb.base.rotations` multiplies these columns.
     compose, tangent, bracket :
         The group operations as compiled functions: ``compose(x, d)`` (7,),
         ``tangent(d)`` (6, 6), ``bracket(v, w)`` (6,)
-        (:func:`femb.rotations.frame_compose`, ``frame_tangent``, ``frame_bracket``).
+        (:func:`femb.base.rotations.frame_compose`, ``frame_tangent``, ``frame_bracket``).
 
     Parameters
     ----------
@@ -204,7 +204,7 @@ class SpatialBody(Body):
         :func:`~femb.elements._spatial_geometry.check_shape`.
     """
 
-    #: acts on spatial frame nodes (femb.model refuses planar elements on them)
+    #: acts on spatial frame nodes (femb.system.model refuses planar elements on them)
     spatial = True
 
     def _init_body(self, name, node, points=None, axes=None, shape=None):

@@ -26,12 +26,12 @@ import math
 
 import numpy as np
 
-from femb.element import Element
+from femb.base import rotations as rt
+from femb.base.functions import Constant, as_time_function, evaluate
+from femb.base.geometry import GeometryBlock
+from femb.base.jit import kernel
 from femb.errors import ModelError
-from femb.functions import Constant, as_time_function, evaluate
-from femb.geometry import GeometryBlock
-from femb import rotations as rt
-from femb.jit import kernel
+from femb.system.element import Element
 
 from . import _spatial as sp
 from . import _spatial_geometry as sg
@@ -509,10 +509,10 @@ def load_force(P, t, tf, xe, ve, jac, fe, fq, fv):
 
 
 class _Load(Element):
-    #: acts on spatial frame nodes (femb.model refuses planar elements on them)
+    #: acts on spatial frame nodes (femb.system.model refuses planar elements on them)
     spatial = True
     has_force = True
-    work = "load"                     # an applied load: its work ∫ fe·ve dt (femb.energy)
+    work = "load"                     # an applied load: its work ∫ fe·ve dt (femb.results.energy)
     glyph = "load"
     kernels = {"force": load_force}
     _torque = False

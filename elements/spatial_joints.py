@@ -51,12 +51,12 @@ import math
 
 import numpy as np
 
-from femb.element import Element
+from femb.base import rotations as rt
+from femb.base.functions import as_time_function
+from femb.base.geometry import GeometryBlock
+from femb.base.jit import kernel
 from femb.errors import ModelError
-from femb.functions import as_time_function
-from femb.geometry import GeometryBlock
-from femb import rotations as rt
-from femb.jit import kernel
+from femb.system.element import Element
 
 from . import _spatial as sp
 from . import _spatial_geometry as sg
@@ -131,7 +131,7 @@ class SpatialPairElement(Element):
         ``axis1`` may also name axes of body a.
     """
 
-    #: acts on spatial frame nodes (femb.model refuses planar elements on them)
+    #: acts on spatial frame nodes (femb.system.model refuses planar elements on them)
     spatial = True
     #: an element between the frames of two spatial bodies a and b, xe = (x_a, p_a, x_b, p_b):
     #: pictures mark its axes and the bodies it links (femb.io.frames reads this trait)
@@ -682,7 +682,7 @@ class DrivenRevoluteAngle(SpatialPairElement):
     ----------
     name, a, b, at, point_a, point_b, axis, axis1, frame : see :class:`SpatialPairElement`
     angle : float or TimeFunction
-        φ(t) (rad), e.g. ``femb.functions.Linear(6.0)``.
+        φ(t) (rad), e.g. ``femb.base.functions.Linear(6.0)``.
     angle0 : float
         θ0 (rad), default 0: the angle at t0 is 0 by construction.
     """
@@ -748,7 +748,7 @@ def relative_angle(Ea, Eb, xa, xb):
 
     Ea, Eb : (3, 3) rows ē_a1..3, ē_b1..3 (body axes); xa, xb : (..., 7) node coordinates.
     """
-    from femb import rotations as rt
+    from femb.base import rotations as rt
     xa = np.atleast_2d(xa)
     xb = np.atleast_2d(xb)
     out = np.empty(xa.shape[0])

@@ -1,7 +1,7 @@
 """femb: flexible multibody dynamics in absolute coordinates.
 
 Build a :class:`Mechanism` from elements (:mod:`femb.elements`), compile it
-into a frozen :class:`~femb.model.Model`, and integrate it with the index-3
+into a frozen :class:`~femb.system.model.Model`, and integrate it with the index-3
 generalized-α scheme of Arnold & Brüls (2007) via :func:`simulate`.
 
 ``import femb`` loads only the exception classes; the names below come from
@@ -16,18 +16,18 @@ __version__ = "0.1.0"
 
 #: public name -> the module that defines it (imported on first access)
 _LAZY = {
-    "GeneralizedAlpha": "femb.alpha",
-    "Mechanism": "femb.mechanism",
-    "Model": "femb.model",
-    "State": "femb.model",
-    "Result": "femb.result",
-    "consistent_initial_state": "femb.initial",
-    "GeneralizedAlphaSolver": "femb.solver",
-    "simulate": "femb.solver",
-    "check_jacobians": "femb.checks",
-    "JacobianReport": "femb.checks",
-    "sweep": "femb.sweep",
-    "set_rigid_velocity": "femb.motion",
+    "GeneralizedAlpha": "femb.solve.alpha",
+    "Mechanism": "femb.system.mechanism",
+    "Model": "femb.system.model",
+    "State": "femb.system.model",
+    "Result": "femb.results.result",
+    "consistent_initial_state": "femb.system.initial",
+    "GeneralizedAlphaSolver": "femb.solve.solver",
+    "simulate": "femb.solve.solver",
+    "check_jacobians": "femb.analysis.checks",
+    "JacobianReport": "femb.analysis.checks",
+    "sweep": "femb.study.sweep",
+    "set_rigid_velocity": "femb.system.motion",
     "view": "femb.io.view",
 }
 
@@ -43,7 +43,7 @@ __all__ = [
 
 def __getattr__(name):
     """The public names of :data:`_LAZY`, imported from their modules when first asked for; a
-    submodule (``femb.assembly``, ``femb.static``, ``femb.io``, ...) is imported when first used."""
+    submodule (``femb.system.assembly``, ``femb.analysis.static``, ``femb.io``, ...) is imported when first used."""
     import importlib
 
     module = _LAZY.get(name)

@@ -50,7 +50,7 @@ class SolverError(FembError):
     residuals : dict
         Residual norms at the last Newton iterate (``"r_q"`` in force units,
         ``"Phi"`` in length units), when known.
-    result : femb.result.Result or None
+    result : femb.results.result.Result or None
         Everything stored up to the last accepted step.
     """
 
@@ -132,7 +132,7 @@ NEWTON_HINT_START = (
 
 class PathJumpWarning(UserWarning):
     """Load stepping left the equilibrium path: a converged state far from the path's continuation
-    (a limit point passed, snap-through); :func:`femb.static.solve_static` with
+    (a limit point passed, snap-through); :func:`femb.analysis.static.solve_static` with
     ``method="arc_length"`` follows the path instead."""
 
 

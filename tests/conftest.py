@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 # the suite measures what it compiles itself: no background compilation of the built-in kernels
-# after the engine's first compilation (femb.cache.start_background_build)
+# after the engine's first compilation (femb.solve.cache.start_background_build)
 os.environ.setdefault("FEMB_BACKGROUND_BUILD", "0")
 
 import femb  # noqa: E402
@@ -42,7 +42,7 @@ def _use_checkout_subpackages():
 _use_checkout_subpackages()
 
 from femb import Mechanism  # noqa: E402
-from femb.functions import Harmonic, Polynomial, TimeFunction
+from femb.base.functions import Harmonic, Polynomial, TimeFunction
 
 
 def every_element_mechanism():

@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 
 from femb import Mechanism
-from femb.functions import Harmonic, Polynomial
+from femb.base.functions import Harmonic, Polynomial
 
 #: the joint types, in a fixed order
 JOINT_TYPES = ("Hinge", "Slider", "PointOnLine", "DrivenAngle", "DrivenDisplacement")

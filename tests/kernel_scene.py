@@ -2,7 +2,7 @@
 
 Shared by tests/test_kernels_forces.py and by tests/data/make_kernels_forces_reference.py
 (which computed the stored reference values with the numpy kernels these compiled kernels
-replaced). Elements are resolved and validated as :func:`femb.model.compile_model` does, and
+replaced). Elements are resolved and validated as :func:`femb.system.model.compile_model` does, and
 batched by ``(type, group_key())``.
 """
 from types import SimpleNamespace
@@ -12,8 +12,8 @@ import numpy as np
 from femb import Mechanism
 from femb.elements import (Force, Gravity, PointMass, RigidBody, RotationalSpringDamper, Section,
                            SpringDamper, Torque, add_beam)
+from femb.base.functions import Harmonic, Polynomial, TimeFunction
 from femb.elements.bodies import Body
-from femb.functions import Harmonic, Polynomial, TimeFunction
 
 SEC = Section(EA=1e3, GA=4e2, EI=2.0, rhoA=1.5, rhoI=2e-3)
 SEC_D = Section(EA=2e3, GA=7e2, EI=3.0, rhoA=0.8, rhoI=1e-3, damping=0.03)

@@ -1,7 +1,7 @@
 """Finite differences on R³ × SO(3) for the spatial kernel tests (x ⊕ δ = (r + δr, p ∘ exp(δθ)))."""
 import numpy as np
 
-from femb import rotations as rt
+from femb.base import rotations as rt
 
 
 def random_quat(rng):

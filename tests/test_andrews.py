@@ -9,8 +9,8 @@ Intermediate times: the independent relative-coordinate model
 import numpy as np
 import pytest
 
-from femb.benchmarks import andrews as an
-from femb.benchmarks.convergence import convergence_study, fit_order, run
+from femb.benchmarks.accuracy.convergence import convergence_study, fit_order, run
+from femb.benchmarks.scenes.planar import andrews as an
 
 ANGLES = list(an.ANGLE_NAMES)
 LAMS = list(an.LAMBDA_NAMES)

@@ -1,11 +1,11 @@
-"""Bauchau's flexible four-bar (benchmarks/bauchau_fourbar.py) against the results published with
+"""Bauchau's flexible four-bar (benchmarks/scenes/beams/bauchau_fourbar.py) against the results published with
 mb_sef_py, and the start of an impulsively driven stiff model."""
 import numpy as np
 
 import femb
-from femb.benchmarks import bauchau_fourbar as scene
-from femb.benchmarks import registry
-from femb.solver import start_is_resolved
+from femb.benchmarks.scenes.beams import bauchau_fourbar as scene
+from femb.solve.solver import start_is_resolved
+from femb.study import registry
 
 
 def test_runs_as_a_scene_file_with_its_reference():
@@ -28,7 +28,7 @@ def test_default_start_survives_the_impulsive_driver():
     """At t0 the driver turns the first beam node. A start that set only that node moving (the
     other nodes at rest) had the jerk of the links' stiff modes (h·ω ≈ 500 at h = 4 ms): the
     consistent start's correction diverged at step 2, and the seed's start was used instead.
-    The start of flexible models (femb/initial.py, weighted by the beams' stiffness) sets the
+    The start of flexible models (femb/system/initial.py, weighted by the beams' stiffness) sets the
     links moving as the rigid bodies they nearly are: the consistent start is resolved."""
     model = scene.build().compile()
     r = femb.simulate(model, 0.1, 4e-3, rho_inf=0.5)

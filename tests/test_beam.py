@@ -11,10 +11,11 @@ import math
 import meshio
 import numpy as np
 
-from femb import kernels
+from femb.system import kernels
 import pytest
 
-from femb import Mechanism, assembly
+from femb import Mechanism
+from femb.system import assembly
 from femb.elements import (Clamp, Force, Gravity, Hinge, ReissnerBeam, RigidBody, Section, add_beam,
                            beam_resultants, beam_strain_energy)
 from femb.errors import ModelError

@@ -3,7 +3,7 @@
 * energy of a free, spinning and vibrating beam: conserved to O(h²) with
   ρ∞ = 1 (no numerical dissipation), dissipated with ρ∞ < 1 and by material damping;
 * second-order convergence in h of q and λ on the two flexible benchmark
-  scenes (femb.benchmarks.spin_up, femb.benchmarks.flexible_slider_crank),
+  scenes (femb.benchmarks.scenes.beams.spin_up, femb.benchmarks.scenes.beams.flexible_slider_crank),
   errors against a run with a much smaller step (the scheme's own reference:
   the scenes have no closed-form solution);
 * convergence of their tip/midspan deflection under mesh refinement.
@@ -14,10 +14,11 @@ import numpy as np
 import pytest
 
 import femb
-from femb import Mechanism, assembly
-from femb.benchmarks import flexible_slider_crank, spin_up
+from femb import Mechanism
+from femb.benchmarks.scenes.beams import flexible_slider_crank, spin_up
 from femb.elements import Section, add_beam, beam_strain_energy
 from femb.errors import ParameterWarning
+from femb.system import assembly
 
 
 def free_beam(damping=0.0, n=4):

@@ -1,15 +1,15 @@
-"""The static and buckling beam scenes (benchmarks/beam_rollup.py, beam_bend45.py, argyris_frame.py).
+"""The static and buckling beam scenes (benchmarks/scenes/beams/beam_rollup.py, beam_bend45.py, argyris_frame.py).
 
 References: the exact circle of pure bending; GXBeam's tip at F = 600 and Simo & Vu-Quoc's
-tip positions (../shared/docs/spatial.md §7.4); Argyris et al. 1979, P_cr = 1.088 N.
+tip positions (docs/beams.md, "Validation (spatial)"); Argyris et al. 1979, P_cr = 1.088 N.
 """
 import json
 
 import numpy as np
 import pytest
 
-from femb import cli
-from femb.benchmarks import registry
+from femb.console import cli
+from femb.study import registry
 
 
 @pytest.mark.parametrize("n", [3, 5, 16])

@@ -1,4 +1,4 @@
-"""Static validation of the Reissner beam with the static solver (femb.static).
+"""Static validation of the Reissner beam with the static solver (femb.analysis.static).
 
 References beside each test: Timoshenko beam theory for small loads, the
 exact constant-curvature solution for a tip moment, the elastica solved
@@ -12,8 +12,8 @@ import pytest
 from scipy.integrate import solve_bvp
 
 from femb import Mechanism
+from femb.analysis.static import solve_static
 from femb.elements import Force, Gravity, Section, Torque, add_beam
-from femb.static import solve_static
 
 
 def cantilever(n, *, EI=1.0, EA=1e7, GA=1e7, L=1.0, P=0.0, M=0.0, rhoA=1.0, gravity=None):

@@ -8,13 +8,13 @@ from pathlib import Path
 
 import pytest
 
-from femb import jit
+from femb.base import jit
 
 
 USER_MODULE = textwrap.dedent('''
     import numpy as np
-    from femb.element import Element
-    from femb.jit import kernel
+    from femb.system.element import Element
+    from femb.base.jit import kernel
     from {helpers} import stiffness
 
 
@@ -49,7 +49,7 @@ USER_MODULE = textwrap.dedent('''
 ''')
 
 HELPERS = textwrap.dedent('''
-    from femb.jit import kernel
+    from femb.base.jit import kernel
 
 
     @kernel
@@ -174,11 +174,11 @@ def test_an_unwritable_cache_runs_in_memory_with_one_warning(tmp_path):
 @pytest.mark.skipif(jit.jit_disabled(), reason="no compilation without the JIT")
 def test_cache_commands_show_and_clear(tmp_path):
     env = _env(_engine_only_cache(tmp_path / "cache"))
-    info = subprocess.run([sys.executable, "-m", "femb.cli", "cache", "info"], env=env, capture_output=True,
+    info = subprocess.run([sys.executable, "-m", "femb.console.cli", "cache", "info"], env=env, capture_output=True,
                           text=True, timeout=300)
     assert info.returncode == 0, info.stderr
     assert str(tmp_path / "cache") in info.stdout and "engine: compiled" in info.stdout
-    clear = subprocess.run([sys.executable, "-m", "femb.cli", "cache", "clear"], env=env, capture_output=True,
+    clear = subprocess.run([sys.executable, "-m", "femb.console.cli", "cache", "clear"], env=env, capture_output=True,
                            text=True, timeout=300)
     assert clear.returncode == 0 and "cleared" in clear.stdout
     assert not any((tmp_path / "cache").iterdir())
@@ -187,7 +187,7 @@ def test_cache_commands_show_and_clear(tmp_path):
 COMPILE_ONLY = textwrap.dedent('''
     import sys
     sys.path.insert(0, {folder!r})
-    from femb import kernels
+    from femb.system import kernels
     from {module} import Pull
     kernels.compiled_kernel("Pull", "force", Pull.kernels["force"])
     print("compiled" if kernels._fresh else "loaded")
@@ -227,7 +227,7 @@ MANY_SIGNATURES = textwrap.dedent('''
 ''')
 
 POLY = textwrap.dedent('''
-    from femb.jit import kernel
+    from femb.base.jit import kernel
 
 
     @kernel(allocates=True)

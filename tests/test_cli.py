@@ -1,4 +1,4 @@
-"""The ``femb`` command line (femb.cli): subcommands, JSON contract, errors."""
+"""The ``femb`` command line (femb.console.cli): subcommands, JSON contract, errors."""
 import importlib
 import json
 import shutil
@@ -9,8 +9,8 @@ import textwrap
 import pytest
 
 import femb
-from femb import cli
-from femb.benchmarks import registry
+from femb.console import cli
+from femb.study import registry
 
 SCENE_FILE = textwrap.dedent('''
     """Pendulum from a file (test scene)."""
@@ -81,7 +81,8 @@ def test_list_compiles_nothing(tmp_path, monkeypatch, capsys):
     """`femb list` describes scenes from their tables and builders alone: no numba compilation (nor a
     cache load, which goes through the same call), no model compiled, no background cache build."""
     import numba.core.dispatcher
-    from femb import cache, kernels
+    from femb.solve import cache
+    from femb.system import kernels
 
     calls = []
 
@@ -94,8 +95,8 @@ def test_list_compiles_nothing(tmp_path, monkeypatch, capsys):
     monkeypatch.setattr(numba.core.dispatcher.Dispatcher, "compile", forbid("numba's compiler"))
     monkeypatch.setattr(kernels, "compiled_kernel", forbid("compiled_kernel"))
     monkeypatch.setattr(cache, "start_background_build", forbid("the background build"))
-    import femb.mechanism
-    monkeypatch.setattr(femb.mechanism.Mechanism, "compile", forbid("Mechanism.compile"))
+    import femb.system.mechanism
+    monkeypatch.setattr(femb.system.mechanism.Mechanism, "compile", forbid("Mechanism.compile"))
     p = tmp_path / "pend.py"
     p.write_text(SCENE_FILE)
     for argv in (["list", "bead_attractor"], ["list", "fourbar_driven"], ["list", str(p)], ["list"]):
@@ -125,7 +126,7 @@ ALL_SCENES = ["andrews", "slider_crank", "flexible_slider_crank", "spin_up", "pe
 @pytest.mark.parametrize("name", ALL_SCENES)
 def test_scene_parameters_and_outputs_are_all_described(name):
     """PARAMETERS describes exactly build()'s parameters, OUTPUTS exactly outputs()'s names."""
-    mod = importlib.import_module(f"femb.benchmarks.{name}")
+    mod = importlib.import_module(registry.scene_module(name))
     scene = registry.Scene(name, mod, mod.__name__)
     assert scene.undocumented() == ([], [])
     for table in (mod.PARAMETERS, mod.OUTPUTS):
@@ -276,7 +277,7 @@ def test_bench_figures_slider_crank(tmp_path, capsys):
 # ------------------------------------------------------------------ console script
 def test_console_script():
     exe = shutil.which("femb")
-    cmd = [exe] if exe else [sys.executable, "-m", "femb.cli"]
+    cmd = [exe] if exe else [sys.executable, "-m", "femb.console.cli"]
     r = subprocess.run(cmd + ["--help"], capture_output=True, text=True, timeout=120)
     assert r.returncode == 0 and "run" in r.stdout and "bench" in r.stdout
     r = subprocess.run(cmd + ["run", "andrews", "--h", "x"], capture_output=True, text=True, timeout=120)

@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 
 import femb
-from femb.benchmarks import andrews
-from femb.jit import kernel
+from femb.base.jit import kernel
+from femb.benchmarks.scenes.planar import andrews
 
 REF = json.loads((Path(__file__).parent / "data" / "andrews_numpy_d1a00cd.json").read_text())
 #: the seed reproduction's settings: residual Newton test, the seed's start, no step-size check
@@ -39,7 +39,7 @@ SPATIAL_REF = json.loads((Path(__file__).parent / "data" / "spatial_engine_refer
 def test_heavy_top_equals_the_per_kind_engine(formulation):
     """The one engine against the per-kind generated modules it replaced (commit 1e00ae6): the
     heavy top after 300 steps, q to 1e-12, identical Newton iteration counts."""
-    from femb.benchmarks import heavy_top
+    from femb.benchmarks.scenes.spatial import heavy_top
     ref = SPATIAL_REF[f"heavy_top_{formulation}"]
     model = heavy_top.build()
     model = model.compile() if hasattr(model, "compile") else model
@@ -52,7 +52,7 @@ def test_heavy_top_equals_the_per_kind_engine(formulation):
 
 def test_band_lu_matches_dense_solve_and_flags_singularity():
     """The compiled band LU with partial pivoting solves random band systems and sees singular ones."""
-    from femb.codegen import _envelope, compiled
+    from femb.solve.codegen import _envelope, compiled
     model = andrews.build().compile()
     mod = compiled(model).mod
     rng = np.random.default_rng(5)
@@ -92,7 +92,7 @@ def test_band_lu_matches_dense_solve_and_flags_singularity():
 def test_band_lu_without_interchanges_compacts_its_factors():
     """No row interchange: the factors move into N (kl + ku + 1) entries (``ipiv[N]`` = 1) and the
     compact solve gives the same solution; one interchange keeps the full storage."""
-    from femb.codegen import _envelope, compiled
+    from femb.solve.codegen import _envelope, compiled
     mod = compiled(andrews.build().compile()).mod
     rng = np.random.default_rng(11)
     for N, kl, ku in [(9, 2, 3), (60, 11, 11), (50, 5, 2)]:
@@ -126,7 +126,7 @@ def test_band_lu_without_interchanges_compacts_its_factors():
 
 def test_dense_lu_on_the_nonzero_pattern_solves_sparse_systems_and_flags_singularity():
     """The dense LU records the factors' pattern as it pivots; its solve visits those entries only."""
-    from femb.codegen import compiled
+    from femb.solve.codegen import compiled
     mod = compiled(andrews.build().compile()).mod
     rng = np.random.default_rng(7)
     for N, density in [(5, 0.6), (41, 0.1), (90, 0.05)]:
@@ -147,9 +147,9 @@ def test_dense_lu_on_the_nonzero_pattern_solves_sparse_systems_and_flags_singula
 
 
 def test_packs_give_compiled_code_the_arrays_by_number_and_share_them_with_python():
-    """femb.jit.pack: every rank and dtype comes back unchanged; writes go both ways; bad input is refused."""
+    """femb.base.jit.pack: every rank and dtype comes back unchanged; writes go both ways; bad input is refused."""
     import numba
-    from femb.jit import OPTIONS, fview1, fview2, fview3, iview1, iview2, iview3, pack
+    from femb.base.jit import OPTIONS, fview1, fview2, fview3, iview1, iview2, iview3, pack
     rng = np.random.default_rng(3)
     arrays = [rng.standard_normal(5), np.arange(6, dtype=np.int64).reshape(2, 3), rng.standard_normal((3, 0)),
               rng.standard_normal((2, 3, 4)), np.array([1, 0, 1], dtype=np.int8), rng.integers(-9, 9, (2, 2, 2)),
@@ -203,7 +203,7 @@ def test_packs_give_compiled_code_the_arrays_by_number_and_share_them_with_pytho
 
 def test_spin_up_runs_with_the_variable_band_and_matches_the_full_band():
     """The per-column work bounds of the band LU change the cost, not the numbers."""
-    from femb.benchmarks import spin_up
+    from femb.benchmarks.scenes.beams import spin_up
     model = spin_up.build(60).compile()          # 195 unknowns: above the dense-storage size
     a = femb.simulate(model, 0.2, 5e-3)
     b = femb.simulate(model, 0.2, 5e-3, linear_solver="dense")
@@ -215,8 +215,8 @@ def test_spin_up_runs_with_the_variable_band_and_matches_the_full_band():
 def test_python_time_functions_give_the_same_run_as_compiled_ones():
     """A driver given as Python callables goes through Python once per step; same numbers as Harmonic."""
     import math
+    from femb.base.functions import Harmonic
     from femb.elements import DrivenAngle, Gravity, Hinge, RigidBody
-    from femb.functions import Harmonic
 
     def build(fn):
         m = femb.Mechanism("driven")
@@ -237,8 +237,8 @@ def test_python_time_functions_give_the_same_run_as_compiled_ones():
 
 
 def test_solver_steps_one_at_a_time_and_stops_at_its_end():
-    from femb.benchmarks import pendulum
-    from femb.solver import GeneralizedAlphaSolver
+    from femb.benchmarks.scenes.planar import pendulum
+    from femb.solve.solver import GeneralizedAlphaSolver
     model = pendulum.build().compile()
     s = GeneralizedAlphaSolver(model, 1e-3)                 # no end: steps as asked
     its = [s.step() for _ in range(5)]
@@ -273,7 +273,7 @@ def attractor_allocating(P, t, tf, xe, ve, jac, fe, fq, fv):
 def test_an_allocating_user_kernel_still_runs():
     """A user's kernel that creates arrays (``@kernel(allocates=True)``) runs: its model kind's loop
     is compiled with reference counting; the numbers equal the allocation-free kernel's."""
-    from femb.benchmarks import bead_attractor as ba
+    from femb.benchmarks.scenes.planar import bead_attractor as ba
 
     class AllocatingAttractor(ba.PointAttractor):
         kernels = {"force": attractor_allocating}

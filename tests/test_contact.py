@@ -5,7 +5,8 @@ import numpy as np
 import pytest
 
 import femb
-from femb.benchmarks import contact_ball, contact_block, contact_painleve, contact_rocking, contact_sphere3d
+from femb.benchmarks.scenes.contact import (
+    contact_ball, contact_block, contact_painleve, contact_rocking, contact_sphere3d)
 from femb.contact import simulate
 from femb.elements import Gravity, RigidBody
 from femb.elements.contact import SphereOnPlane
@@ -168,8 +169,8 @@ def test_engine_refuses_contact_models():
 
 def test_hinges_stay_exact_while_the_slider_bounces():
     """Slider–crank with translational clearance: impacts between the guides, hinges Φ = 0 to round-off."""
-    from femb import assembly
-    from femb.benchmarks import contact_slider_crank
+    from femb.benchmarks.scenes.contact import contact_slider_crank
+    from femb.system import assembly
     model = contact_slider_crank.build().compile()
     res = simulate(model, 0.006, 2e-4)
     _no_penetration(res)

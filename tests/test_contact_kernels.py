@@ -93,7 +93,7 @@ def test_spatial_contact_on_planar_body_is_refused():
 
 def test_contact_kernel_role_signature_is_checked():
     """A contact type whose kernel has the wrong arity is refused with the role's signature."""
-    from femb.jit import kernel
+    from femb.base.jit import kernel
 
     @kernel
     def bad(P, t, tf, xe, ve, jac, gN, W, zeta, H):      # le missing

@@ -12,7 +12,7 @@ import pytest
 import femb
 from femb.elements import (Clamp, DrivenAngle, DrivenDisplacement, Force, Gravity, Hinge, PointMass,
                            PointOnLine, RigidBody, Slider, Torque)
-from femb.functions import Polynomial
+from femb.base.functions import Polynomial
 
 G = 9.81
 
@@ -133,7 +133,7 @@ def test_every_constraint_type_is_covered():
     """A new constraint type in femb.elements needs its convention here and in docs/conventions.md
     (planar) or in the joint table of docs/spatial.md (spatial joints)."""
     import femb.elements as el
-    from femb.element import Element
+    from femb.system.element import Element
 
     types = {n for n in el.__all__ if isinstance(getattr(el, n), type) and issubclass(getattr(el, n), Element)
              and getattr(el, n).n_constraints > 0}

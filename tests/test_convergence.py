@@ -6,8 +6,8 @@ import textwrap
 import numpy as np
 import pytest
 
-from femb.benchmarks import registry
-from femb.benchmarks.convergence import convergence_study, fit_order, format_table, run
+from femb.benchmarks.accuracy.convergence import convergence_study, fit_order, format_table, run
+from femb.study import registry
 
 PENDULUM = textwrap.dedent('''
     """A pendulum of two bars (test scene without reference)."""
@@ -108,7 +108,7 @@ def test_run_returns_outputs_of_final_state():
 
 
 def test_time_to_accuracy_meets_targets():
-    from femb.benchmarks.convergence import time_to_accuracy
+    from femb.benchmarks.accuracy.convergence import time_to_accuracy
 
     rows = time_to_accuracy("slider_crank", [3e-2, 3e-3], calibrate_h=4e-3)
     assert [r["target"] for r in rows] == [3e-2, 3e-3]

@@ -22,8 +22,8 @@ def test_api_pages_public_first_internal_apart(tmp_path):
     apipages = importlib.import_module("femb_apipages")
     apipages.generate(tmp_path)
     pages = {p.stem for p in (tmp_path / "_generated" / "api").glob("*.rst")}
-    for mod in ("femb", "femb.solver", "femb.result", "femb.io.vtk", "femb.io.render", "femb.elements.joints",
-                "femb.elements.beam", "femb.benchmarks.registry", "femb.engine.loop", "femb.jit"):
+    for mod in ("femb", "femb.solve.solver", "femb.results.result", "femb.io.vtk", "femb.io.render", "femb.elements.joints",
+                "femb.elements.beam", "femb.study.registry", "femb.engine.loop", "femb.base.jit"):
         assert mod in pages
     assert not any(part.startswith("_") for p in pages for part in p.split("."))   # private modules skipped
     public = (tmp_path / "_generated" / "api_public.inc").read_text()
@@ -32,10 +32,10 @@ def test_api_pages_public_first_internal_apart(tmp_path):
     tocs = public + internal + bench
     assert all(f"_generated/api/{p}\n" in tocs for p in pages)                   # every page in one list
     assert all(tocs.count(f"_generated/api/{p}\n") == 1 for p in pages)          # ... and only one
-    assert "femb.solver\n" in public and "femb.jit\n" in internal and "femb.benchmarks.andrews\n" in bench
-    assert "femb.benchmarks" not in public and "femb.cli_common" not in public
-    text = (tmp_path / "_generated" / "api" / "femb.solver.rst").read_text()
-    assert ".. automodule:: femb.solver" in text
+    assert "femb.solve.solver\n" in public and "femb.base.jit\n" in internal and "femb.benchmarks.scenes.planar.andrews\n" in bench
+    assert "femb.benchmarks" not in public and "femb.console.cli_common" not in public
+    text = (tmp_path / "_generated" / "api" / "femb.solve.solver.rst").read_text()
+    assert ".. automodule:: femb.solve.solver" in text
 
 
 def test_every_note_is_on_the_site(tmp_path):

@@ -159,13 +159,13 @@ def test_no_page_points_outside_the_repository(site):
 
 def test_api_reference_public_first_benchmarks_apart(site):
     public = _article(site / "api" / "index.html")
-    for mod in ("femb.mechanism", "femb.solver", "femb.result", "femb.static", "femb.modal", "femb.linearize",
-                "femb.sweep", "femb.contact", "femb.elements.spatial_beam"):
+    for mod in ("femb.system.mechanism", "femb.solve.solver", "femb.results.result", "femb.analysis.static", "femb.analysis.modal", "femb.analysis.linearize",
+                "femb.study.sweep", "femb.contact", "femb.elements.spatial_beam"):
         assert f"_generated/api/{mod}.html" in public, mod
-    for internal in ("femb.jit", "femb.cli_common", "femb.engine.loop", "femb.benchmarks"):
+    for internal in ("femb.base.jit", "femb.console.cli_common", "femb.engine.loop", "femb.benchmarks"):
         assert f"_generated/api/{internal}.html" not in public, internal
-    assert "_generated/api/femb.jit.html" in _article(site / "api" / "internal.html")
-    assert "_generated/api/femb.benchmarks.andrews.html" in _article(site / "api" / "benchmarks.html")
+    assert "_generated/api/femb.base.jit.html" in _article(site / "api" / "internal.html")
+    assert "_generated/api/femb.benchmarks.scenes.planar.andrews.html" in _article(site / "api" / "benchmarks.html")
 
 
 def test_gallery_examples_have_thumbnails_and_downloads(site):

@@ -1,4 +1,4 @@
-"""Energies and momenta from the element contract (femb.energy).
+"""Energies and momenta from the element contract (femb.results.energy).
 
 * every built-in type's ``"energy"`` kernel is the potential of its force: −dV/ds along
   x ∘ exp(s w) equals f(q, 0)·w (central differences, planar and spatial);
@@ -20,17 +20,17 @@ import numpy as np
 import pytest
 
 import femb
-from femb import energy as fe
-from femb import kernels
-from femb.element import Element
+from femb.results import energy as fe
+from femb.system import kernels
+from femb.system.element import Element
 from femb.elements import (Bushing, PointSpringDamper, RigidBody, RotationalSpringDamper, Section,
                            SpatialForce, SpatialRigidBody, SpatialRotationalSpringDamper, SpringDamper, add_beam,
                            beam_strain_energy)
+from femb.analysis.static import solve_static
+from femb.base.jit import kernel
 from femb.elements.spatial_beam import SpatialBeam, SpatialSection, spatial_beam
 from femb.elements.spatial_forces import SpatialGravity
-from femb.jit import kernel
-from femb.static import solve_static
-from femb.kernels import ContractWarning
+from femb.system.kernels import ContractWarning
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 
@@ -436,7 +436,7 @@ def _element_classes():
 
 def test_the_core_never_names_an_element_class():
     """femb/ (not femb/elements) imports no class of the element library; the one exception is the
-    ground every Mechanism starts with (femb/mechanism.py)."""
+    ground every Mechanism starts with (femb/system/mechanism.py)."""
     classes = _element_classes()
     assert {"SpatialBeam", "RigidBody", "Gravity", "SpatialPairElement", "Body"} <= classes
     bad = []
@@ -445,15 +445,15 @@ def test_the_core_never_names_an_element_class():
         for node in ast.walk(tree):
             if isinstance(node, ast.ImportFrom) and (node.module or "").startswith("femb.elements"):
                 for a in node.names:
-                    if a.name in classes and not (path.name == "mechanism.py" and a.name == "Ground"
-                                                  and path.parent.name == "femb"):
+                    if a.name in classes and not (path.relative_to(ROOT).as_posix() == "femb/system/mechanism.py"
+                                                  and a.name == "Ground"):
                         bad.append(f"{path.relative_to(ROOT)}:{node.lineno} {a.name}")
     assert not bad, bad
 
 
 def test_the_bead_attractor_example_declares_its_potential():
-    """benchmarks/bead_attractor.py's PointAttractor (a type outside femb.elements): U = −μ/|x − P|."""
-    from femb.benchmarks import bead_attractor
+    """benchmarks/scenes/planar/bead_attractor.py's PointAttractor (a type outside femb.elements): U = −μ/|x − P|."""
+    from femb.benchmarks.scenes.planar import bead_attractor
     model = bead_attractor.build().compile()
     r = femb.simulate(model, 1.0, 1e-3, rho_inf=0.95)
     e = r.energy()

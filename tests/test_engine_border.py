@@ -11,8 +11,8 @@ import femb
 from femb import engine as S
 from femb.elements import PointMass, SpringDamper
 from femb.errors import ParameterError
-from femb.options import MAX_STEPS, SolverOptions, fixed_steps
-from femb.solver import GeneralizedAlphaSolver
+from femb.solve.options import MAX_STEPS, SolverOptions, fixed_steps
+from femb.solve.solver import GeneralizedAlphaSolver
 
 K, MASS = 40.0, 0.5
 
@@ -226,8 +226,8 @@ def test_stored_states_are_arrays_of_the_stored_count(osc):
 
 
 def test_storage_that_does_not_fit_is_refused_up_front(osc, monkeypatch):
-    import femb.storage
-    monkeypatch.setattr(femb.storage, "available_memory", lambda: 10 * 2 ** 20)
+    import femb.results.storage
+    monkeypatch.setattr(femb.results.storage, "available_memory", lambda: 10 * 2 ** 20)
     with pytest.raises(ParameterError, match="GiB") as e:
         femb.simulate(osc, 1e3, 1e-3)            # 10⁶ stored states of 64 bytes: 61 MiB
     assert "stride" in str(e.value)
@@ -235,7 +235,7 @@ def test_storage_that_does_not_fit_is_refused_up_front(osc, monkeypatch):
 
 
 def test_cli_run_refuses_an_absurd_step_count_before_building(capsys):
-    from femb import cli
+    from femb.console import cli
     assert cli.main(["run", "pendulum", "--t-end", "1", "--h", "1e-300"]) == 2
     err = capsys.readouterr().err
     assert "h = 1e-300" in err and "steps" in err

@@ -8,7 +8,9 @@ import numpy as np
 import pytest
 
 import femb
-from femb.benchmarks import andrews, heavy_top, spin_up_3d
+from femb.benchmarks.scenes.beams import spin_up_3d
+from femb.benchmarks.scenes.planar import andrews
+from femb.benchmarks.scenes.spatial import heavy_top
 
 REF = np.load(Path(__file__).parent / "data" / "engine_split_reference.npz")
 #: round-off of a different CPU or BLAS; on the machine the data were written on, the runs are bit-identical

@@ -142,7 +142,7 @@ def test_redundant_constraints_are_reported():
 
 
 def test_newton_failure_reports_time_step_residual_and_keeps_result():
-    from femb.benchmarks import andrews
+    from femb.benchmarks.scenes.planar import andrews
     model = andrews.build().compile()
     with pytest.raises(ConvergenceError) as err:
         femb.simulate(model, 0.03, 2e-3)

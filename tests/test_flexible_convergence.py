@@ -1,4 +1,4 @@
-"""Convergence with unresolved axial modes (docs/beams.md): femb.diagnostics and the benchmark."""
+"""Convergence with unresolved axial modes (docs/beams.md): femb.solve.diagnostics and the benchmark."""
 import math
 
 import numpy as np
@@ -10,7 +10,7 @@ from femb.elements import PointMass, PointOnLine, SpringDamper
 
 
 def test_numerical_decay_limits_and_monotone():
-    from femb.diagnostics import numerical_decay
+    from femb.solve.diagnostics import numerical_decay
 
     for rho in (0.5, 0.7, 0.9):
         assert numerical_decay(1e-4, rho) == pytest.approx(1.0, abs=1e-12)
@@ -22,7 +22,7 @@ def test_numerical_decay_limits_and_monotone():
 
 
 def test_free_oscillation_error_is_the_trapezoidal_phase_lag_at_rho_one():
-    from femb.diagnostics import free_oscillation_error
+    from femb.solve.diagnostics import free_oscillation_error
 
     # ρ∞ = 1 is the trapezoidal rule: z = e^{2i arctan(hω/2)}, no amplitude loss
     for w, n in ((0.1, 1000), (0.5, 37), (2.0, 5)):
@@ -41,7 +41,7 @@ def _oscillator(k=400.0, m=1.0):
 
 
 def test_acceleration_roughness_of_a_resolved_oscillation():
-    from femb.diagnostics import acceleration_roughness
+    from femb.solve.diagnostics import acceleration_roughness
 
     model, w = _oscillator()
     h = 0.5 / w
@@ -52,8 +52,8 @@ def test_acceleration_roughness_of_a_resolved_oscillation():
 
 
 def test_acceleration_roughness_needs_every_step():
-    from femb.diagnostics import acceleration_roughness
     from femb.errors import ParameterError
+    from femb.solve.diagnostics import acceleration_roughness
 
     model, w = _oscillator()
     r = femb.simulate(model, 0.5, 0.01, rho_inf=0.7, stride=3)
@@ -62,9 +62,9 @@ def test_acceleration_roughness_needs_every_step():
 
 
 def test_step_halving_order_flags_the_unresolved_axial_mode_only():
-    from femb.benchmarks import flexible_slider_crank as fsc
-    from femb.benchmarks import slider_crank
-    from femb.diagnostics import step_halving_order
+    from femb.benchmarks.scenes.beams import flexible_slider_crank as fsc
+    from femb.benchmarks.scenes.planar import slider_crank
+    from femb.solve.diagnostics import step_halving_order
 
     bare = fsc.build(8, damping=0.0).compile()
     damped = fsc.build(8).compile()
@@ -81,7 +81,7 @@ def test_step_halving_order_flags_the_unresolved_axial_mode_only():
 
 
 def test_undamped_rod_does_not_converge_until_the_phase_lag_is_small():
-    from femb.benchmarks import flexible_convergence as fc
+    from femb.benchmarks.accuracy import flexible_convergence as fc
 
     rows, w = fc.study(0.0, 0.7, hs=(1e-4, 2e-5, 5e-6), h_ref=5e-7)
     periods = 2 * np.pi / w
@@ -100,9 +100,10 @@ def test_undamped_rod_does_not_converge_until_the_phase_lag_is_small():
 
 
 def test_fixed_step_warning_names_the_unresolved_coordinates():
-    from femb.benchmarks import flexible_slider_crank as fsc
-    from femb.benchmarks import heavy_top, slider_crank
-    from femb.diagnostics import fixed_step_warning
+    from femb.benchmarks.scenes.beams import flexible_slider_crank as fsc
+    from femb.benchmarks.scenes.planar import slider_crank
+    from femb.benchmarks.scenes.spatial import heavy_top
+    from femb.solve.diagnostics import fixed_step_warning
 
     msg = fixed_step_warning(fsc.build(8, damping=0.0).compile(), 1e-4)
     assert msg is not None and "rod.n" in msg and "h = 0.0001 s" in msg and "more" in msg
@@ -114,7 +115,7 @@ def test_fixed_step_warning_names_the_unresolved_coordinates():
 
 
 def test_smooth_start_leaves_a_much_smaller_ringing():
-    from femb.benchmarks import flexible_convergence as fc
+    from femb.benchmarks.accuracy import flexible_convergence as fc
 
     rows, _ = fc.study(0.0, 0.7, hs=(1e-4,), h_ref=1e-6, ramp=fc.RAMP)
     h, err, chk, warned = rows[0][:4]
@@ -127,7 +128,8 @@ def test_simulate_warns_about_an_unresolved_start_only_when_asked_and_only_when_
     and the rigid slider-crank at their steps do not; without the keyword nothing is checked."""
     import warnings
 
-    from femb.benchmarks import flexible_slider_crank as fsc, slider_crank
+    from femb.benchmarks.scenes.beams import flexible_slider_crank as fsc
+    from femb.benchmarks.scenes.planar import slider_crank
     from femb.errors import AccuracyWarning
     bare = fsc.build(8, damping=0.0).compile()
     with pytest.warns(AccuracyWarning, match="does not resolve the motion of the first 64 steps"):

@@ -1,4 +1,4 @@
-"""Spatial R–S–U–R four-bar with a flexible SE(3)-beam coupler (benchmarks/flexible_fourbar_3d.py).
+"""Spatial R–S–U–R four-bar with a flexible SE(3)-beam coupler (benchmarks/scenes/beams/flexible_fourbar_3d.py).
 
 Second order in h for the positions and the joint reactions (fixed steps, index 3, the
 scene's defaults; errors over the whole run against the stabilized index-2 form at
@@ -9,7 +9,7 @@ import math
 import numpy as np
 import pytest
 
-from femb.benchmarks import registry
+from femb.study import registry
 
 
 @pytest.fixture(scope="module")

@@ -1,4 +1,4 @@
-"""The start of flexible models (femb/initial.py, docs/stepsize.md §2 "Flexible models").
+"""The start of flexible models (femb/system/initial.py, docs/stepsize.md §2 "Flexible models").
 
 A driven closed loop with a beam, started as a rigid one is (bodies at rest, the driver at
 full speed from t = 0): the start sets the beam moving with the least strain rate the joints
@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 
 import femb
-from femb import initial
-from femb.benchmarks import registry
+from femb.study import registry
+from femb.system import initial
 
 
 @pytest.fixture(scope="module")

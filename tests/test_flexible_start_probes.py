@@ -1,4 +1,4 @@
-"""Driven flexible closed loops started from rest as users start rigid ones (femb/initial.py,
+"""Driven flexible closed loops started from rest as users start rigid ones (femb/system/initial.py,
 docs/stepsize.md §2 "Flexible models"), on loops the start was not tuned on: an R–S–U–R linkage
 with a skew rocker axis and a steel beam coupler, and a planar slider-crank with a flexible rod;
 the driver at full speed from t = 0, the beams undeformed under gravity, the user's default
@@ -15,12 +15,12 @@ import pytest
 
 import femb
 from femb import Mechanism
+from femb.base.functions import Linear
 from femb.elements import DrivenAngle, Hinge, PointMass, PointOnLine, RigidBody, Section, add_beam
 from femb.elements.spatial_beam import SpatialSection, spatial_beam
 from femb.elements.spatial_bodies import SpatialRigidBody
 from femb.elements.spatial_forces import SpatialGravity
 from femb.elements.spatial_joints import DrivenRevoluteAngle, RevoluteJoint, SphericalJoint, UniversalJoint
-from femb.functions import Linear
 
 
 def _rod(name, m, p0, p1, r=0.01):

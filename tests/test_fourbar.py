@@ -168,7 +168,7 @@ def test_constraint_residual_at_tolerance_after_every_step(scaling):
     worst = []
 
     def observer(state, step):
-        worst.append(np.abs(femb.assembly.constraint_vector(model, state.t, state.q)).max())
+        worst.append(np.abs(femb.system.assembly.constraint_vector(model, state.t, state.q)).max())
 
     r = femb.simulate(model, 0.5, 2e-3, scaling=scaling, observer=observer)
     assert len(worst) == r.steps + 1
@@ -176,5 +176,5 @@ def test_constraint_residual_at_tolerance_after_every_step(scaling):
     # and the equations of motion hold at every stored step
     for k in range(0, r.t.size, 25):
         st = femb.State(r.t[k], r.q[k], r.qd[k], r.qdd[k], r.lam[k])
-        r_q, _ = femb.assembly.residual(model, st)
+        r_q, _ = femb.system.assembly.residual(model, st)
         assert np.abs(r_q).max() <= 1e-9 * np.abs(FORCE).max()

@@ -24,8 +24,8 @@ MAX_PARAMS = 10
 #: {"file:qualified name": reason}, one line each (mirrored in docs/engine.md)
 ALLOWED = {
     # the compiled call of a user or built-in kernel: its arguments are the element contract's
-    "femb/jit.py:call_force": "the element contract's 10 kernel arguments plus the kernel's address (packing them changes every element type)",
-    "femb/jit.py:call_constraint": "the element contract's 10 kernel arguments plus the kernel's address (packing them changes every element type)",
+    "femb/base/jit.py:call_force": "the element contract's 10 kernel arguments plus the kernel's address (packing them changes every element type)",
+    "femb/base/jit.py:call_constraint": "the element contract's 10 kernel arguments plus the kernel's address (packing them changes every element type)",
 }
 
 

@@ -13,13 +13,14 @@ import numpy as np
 import pytest
 
 import femb
-from femb import assembly
-from femb.alpha import GeneralizedAlpha
-from femb.benchmarks import andrews as A
-from femb.benchmarks import pendulum, registry
-from femb.benchmarks import stepsize_study as S
-from femb.codegen import evaluate_dense
-from femb.model import State
+from femb.benchmarks.accuracy import stepsize_study as S
+from femb.benchmarks.scenes.planar import andrews as A
+from femb.benchmarks.scenes.planar import pendulum
+from femb.solve.alpha import GeneralizedAlpha
+from femb.solve.codegen import evaluate_dense
+from femb.study import registry
+from femb.system import assembly
+from femb.system.model import State
 
 HS = (4e-3, 2e-3, 1e-3, 5e-4)
 run2 = functools.partial(S.run, formulation="index2")
@@ -143,7 +144,7 @@ def test_newton_takes_few_iterations_on_andrews():
 
 def test_band_storage_of_the_index2_layout_matches_the_dense_one():
     """A beam clamped to a hub (nq + 2nc = 198 unknowns): band LU on the index-2 layout."""
-    from femb.benchmarks import spin_up
+    from femb.benchmarks.scenes.beams import spin_up
     model = spin_up.build(60).compile()
     a = femb.simulate(model, 0.2, 5e-3, formulation="index2")
     b = femb.simulate(model, 0.2, 5e-3, formulation="index2", linear_solver="dense")

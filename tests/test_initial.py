@@ -1,4 +1,4 @@
-"""Consistent initial values (femb.initial): redundant constraints named and eliminated, moves reported."""
+"""Consistent initial values (femb.system.initial): redundant constraints named and eliminated, moves reported."""
 import math
 import warnings
 
@@ -9,7 +9,8 @@ import femb
 from femb import Mechanism
 from femb.elements import Gravity, Hinge, RigidBody
 from femb.errors import InitializationError, ModelError
-from femb.initial import InitialMoveWarning, RedundantConstraintWarning, consistent_initial_state, redundancy
+from femb.system.initial import (
+    InitialMoveWarning, RedundantConstraintWarning, consistent_initial_state, redundancy)
 
 G = 9.81
 
@@ -40,15 +41,15 @@ def test_two_identical_hinges_eliminated_run_like_one():
     assert model.nc == 4 and model.active_constraints.tolist() == [True, True, False, False]
     # the user-level functions honour the mask
     q = model.q0 + 0.01
-    assert np.all(femb.assembly.constraint_vector(model, 0.0, q)[2:] == 0.0)
-    assert femb.assembly.constraint_jacobian(model, 0.0, q).toarray()[2:].any() == False  # noqa: E712
+    assert np.all(femb.system.assembly.constraint_vector(model, 0.0, q)[2:] == 0.0)
+    assert femb.system.assembly.constraint_jacobian(model, 0.0, q).toarray()[2:].any() == False  # noqa: E712
     one = femb.simulate(pendulum().compile(), 0.5, 1e-2)
     two = femb.simulate(model, 0.5, 1e-2)
     np.testing.assert_allclose(two.q, one.q, atol=1e-12)
     sparse = femb.simulate(model, 0.5, 1e-2, linear_solver="sparse")
     np.testing.assert_allclose(sparse.q, one.q, atol=1e-12)
     # the user-level iteration matrix is regular: a removed equation is the trivial λ_i = 0
-    S = femb.assembly.iteration_matrix(model, two.at(0.25), 1e-2, femb.GeneralizedAlpha.from_rho_inf(0.7))
+    S = femb.system.assembly.iteration_matrix(model, two.at(0.25), 1e-2, femb.GeneralizedAlpha.from_rho_inf(0.7))
     assert np.linalg.matrix_rank(S.toarray()) == model.nq + model.nc
     np.testing.assert_allclose(two.reaction("h1"), one.reaction("h1"), atol=1e-9)
     with pytest.warns(RedundantConstraintWarning, match="not unique") as rec:
@@ -104,7 +105,7 @@ def test_initial_moves_reported_and_limited():
     model = pendulum(offset=(0.1, 0.0)).compile(max_initial_move=0.5)
     with pytest.warns(InitialMoveWarning, match=r"'bar' by 0\.1 m and 0 rad"):
         st = consistent_initial_state(model)
-    assert np.abs(femb.assembly.constraint_vector(model, 0.0, st.q)).max() < 1e-12
+    assert np.abs(femb.system.assembly.constraint_vector(model, 0.0, st.q)).max() < 1e-12
     # the option of the function overrides the model's
     with pytest.raises(InitializationError, match="max_initial_move = 0.01 m"):
         consistent_initial_state(model, max_initial_move=0.01)
@@ -139,7 +140,7 @@ def test_singular_matrix_hint_fits_the_cause():
 def test_scene_that_asks_for_elimination_compiles_silently():
     # bricard's closure is structurally redundant and its scene compiles with redundant="eliminate":
     # asked for, so no warning (it printed 700 characters with an internal path and source line)
-    from femb.benchmarks import registry
+    from femb.study import registry
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         model = registry.load("bricard").model()

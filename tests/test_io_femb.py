@@ -4,7 +4,7 @@ import pytest
 
 import femb
 import femb.io
-from femb.benchmarks import andrews
+from femb.benchmarks.scenes.planar import andrews
 from femb.io.vtk import pvd_time
 
 
@@ -101,7 +101,7 @@ def test_render_andrews_png_and_gif(andrews_run, tmp_path, renderer):
 
 
 def test_cli_run_vtk_then_render(tmp_path, capsys):
-    from femb.cli import main
+    from femb.console.cli import main
 
     out = tmp_path / "andrews"
     assert main(["run", "andrews", "--t-end", "0.003", "--h", "1e-4", "--vtk", str(out), "--every", "5",

@@ -9,7 +9,7 @@ import io
 import numpy as np
 import pytest
 
-from femb.geometry import GeometryBlock
+from femb.base.geometry import GeometryBlock
 from femb.io import OutputError, TimeSeriesWriter, can_render, progress
 from femb.io.progress import PlainProgress
 from femb.io.render import render_animation, render_png, render_strip

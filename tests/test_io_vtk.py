@@ -8,7 +8,7 @@ import meshio
 import numpy as np
 import pytest
 
-from femb.geometry import GeometryBlock
+from femb.base.geometry import GeometryBlock
 from femb.io import vtk as fvtk
 from femb.io.vtk import (
     OutputError,
@@ -308,7 +308,7 @@ def test_empty_series_and_errors(tmp_path):
 def test_writing_does_not_import_pyvista(tmp_path):
     code = (
         "import sys, femb.io as io\n"
-        "from femb.geometry import GeometryBlock as G\n"
+        "from femb.base.geometry import GeometryBlock as G\n"
         "import numpy as np\n"
         f"w = io.TimeSeriesWriter({str(tmp_path)!r})\n"
         "w.write(0.0, [G('A', np.zeros((1, 3)), [('vertex', np.array([[0]]))])]); w.close()\n"

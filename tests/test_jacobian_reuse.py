@@ -5,9 +5,10 @@ import pytest
 
 import femb
 import femb.engine as S
+from femb.benchmarks.cost.spatial_beam_scaling import build as rod
+from femb.benchmarks.scenes.planar import andrews
+from femb.benchmarks.scenes.spatial import rigid_chain_3d
 from femb.engine import layout
-from femb.benchmarks import andrews, rigid_chain_3d
-from femb.benchmarks.spatial_beam_scaling import build as rod
 
 
 @pytest.fixture

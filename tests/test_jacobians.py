@@ -3,7 +3,7 @@ import numpy as np
 import pytest
 
 from femb import GeneralizedAlpha, State
-from femb import assembly, kernels
+from femb.system import assembly, kernels
 
 def _random_qe(model, g, rng):
     qx = model.ext(model.q0 + 0.1 * rng.standard_normal(model.nq))
@@ -118,7 +118,7 @@ def test_global_iteration_matrix_matches_newton_residual(every_model, scaled):
 @pytest.mark.parametrize("ordering", ["rcm", "natural"])
 def test_compiled_evaluate_equals_user_functions(every_model, ordering):
     """The generated compiled evaluate() (band storage, reordered) and the documented functions agree."""
-    from femb.codegen import evaluate_dense
+    from femb.solve.codegen import evaluate_dense
     rng = np.random.default_rng(3)
     m = every_model
     al = GeneralizedAlpha.from_rho_inf(0.8)

@@ -30,12 +30,12 @@ import pytest
 
 import femb
 from femb import Mechanism
-from femb import rotations as rt
+from femb.base import rotations as rt
 from femb.elements.spatial_bodies import SpatialRigidBody
 from femb.elements.spatial_forces import SpatialGravity
 from femb.elements.spatial_joints import (CylindricalJoint, DistanceJoint, DrivenRevoluteAngle, FixedJoint,
                                           PrismaticJoint, RevoluteJoint, joint_frame)
-from femb.functions import Linear, Polynomial
+from femb.base.functions import Linear, Polynomial
 
 G = 9.81
 N = np.array([1.0, 2.0, 2.0]) / 3.0                  # the (tilted) joint axis, space

@@ -3,7 +3,7 @@
 Every batch of tests/kernel_scene.py (springs and rotational springs with and
 without damping, constant and time-dependent torques, global and follower forces
 with time functions, consistent/undamped and lumped/damped beams, clamps) is
-called through :mod:`femb.kernels` with a stand-in batch object, and checked
+called through :mod:`femb.system.kernels` with a stand-in batch object, and checked
 
 * against the numbers of the numpy kernels they replaced (stored in
   tests/data/kernels_forces_reference.json by tests/data/make_kernels_forces_reference.py,
@@ -23,8 +23,8 @@ import numpy as np
 import pytest
 
 import kernel_scene as S
-from femb import kernels as K
 from femb.elements import Clamp, Force, ReissnerBeam, RotationalSpringDamper, SpringDamper, Torque
+from femb.system import kernels as K
 
 HERE = Path(__file__).resolve().parent
 REF = json.loads((HERE / "data" / "kernels_forces_reference.json").read_text())

@@ -1,6 +1,6 @@
 """Compiled kernels of the joints (elements/joints.py) and bodies (elements/bodies.py).
 
-Each kernel is called through :mod:`femb.kernels` on a batch described by a small
+Each kernel is called through :mod:`femb.system.kernels` on a batch described by a small
 stand-in group object, and checked
 
 * against central finite differences of its own outputs (Φ_q, ∂(Φ_qᵀλ)/∂q, Φ_t, γ),
@@ -21,9 +21,9 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from femb import kernels as K
 from femb.elements import bodies, joints
-from femb.element import Element
+from femb.system import kernels as K
+from femb.system.element import Element
 
 from joints_scenario import BODY_TYPES, JOINT_TYPES, build, states
 
@@ -38,7 +38,7 @@ def elements():
 
 
 def make_group(cls, els):
-    """The attributes of a model's batch that :mod:`femb.kernels` reads."""
+    """The attributes of a model's batch that :mod:`femb.system.kernels` reads."""
     tfun = getattr(cls, "time_functions", None)
     return SimpleNamespace(cls=cls, P=cls.pack(els)["P"], nel=len(els),
                            ndv=3 * len(els[0].nodes()), nc=cls.n_constraints,
@@ -202,13 +202,13 @@ _PLAIN = r"""
 import json, sys
 import numpy as np
 sys.path.insert(0, sys.argv[1])
-import femb.jit
-from femb import kernels as K
+import femb.base.jit
+from femb.system import kernels as K
 from femb.elements import bodies, joints
 from joints_scenario import BODY_TYPES, JOINT_TYPES, build, states
 from test_kernels_joints import make_group
 els = build(joints, bodies)
-out = {"disabled": femb.jit.jit_disabled(),
+out = {"disabled": femb.base.jit.jit_disabled(),
        "plain": all(type(f).__name__ == "function"
                     for c in (joints.Slider, joints.PointOnLine, joints.DrivenAngle,
                               joints.DrivenDisplacement, joints.Hinge, bodies.RigidBody, bodies.PointMass)

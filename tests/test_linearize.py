@@ -1,14 +1,14 @@
-"""femb.linearize: the Whipple bicycle from the 3-D model, closed forms, finite differences, errors."""
+"""femb.analysis.linearize: the Whipple bicycle from the 3-D model, closed forms, finite differences, errors."""
 import numpy as np
 import pytest
 
 from femb import Mechanism
-from femb.benchmarks import whipple_bicycle as wb
+from femb.analysis import linearize as fl
+from femb.benchmarks.accuracy import linearize_scenes as sc
 from femb.benchmarks.references import whipple_linear as ref
+from femb.benchmarks.scenes.spatial import whipple_bicycle as wb
 from femb.elements import RigidBody, Slider, SpringDamper
 from femb.errors import ParameterError
-from femb import linearize as fl
-from femb.benchmarks import linearize_scenes as sc
 
 
 def _match(got, want):
@@ -189,7 +189,7 @@ def test_linearization_matches_finite_differences_of_the_nonlinear_model():
     tilted.add(SpringDamper("hold", "ground", "pole", 200.0, 1.5, point_a=(1.0, 0.3)))
     tilted_model = tilted.compile()
     import warnings
-    from femb.static import solve_static
+    from femb.analysis.static import solve_static
     with warnings.catch_warnings():          # the tilted pole is an unstable equilibrium: linearizable all the same
         warnings.simplefilter("ignore", UserWarning)
         eq = solve_static(tilted_model)
@@ -234,8 +234,8 @@ def test_state_space_exports():
 
 # ---------------------------------------------------------------- large models, mode shapes
 def test_sparse_damped_modes_of_a_beam_match_dense_and_proportional_damping():
-    from femb.benchmarks.linearize_large import BETA, build
-    from femb.modal import modal_analysis
+    from femb.analysis.modal import modal_analysis
+    from femb.benchmarks.cost.linearize_large import BETA, build
     model = build(30, length=1.0).compile()
     sparse = fl.damped_modes(model, n_modes=12)
     dense = fl.linearize(model).eig()

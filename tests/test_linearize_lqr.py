@@ -3,11 +3,11 @@ import numpy as np
 import scipy.linalg as sla
 
 import femb
-from femb.element import Element
-from femb.jit import kernel
+from femb.base.jit import kernel
+from femb.system.element import Element
 
-from femb.benchmarks.linearize_scenes import cart_pendulum
-from femb.benchmarks.linearize_scenes import cart_pendulum_linear as _cart_linear
+from femb.benchmarks.accuracy.linearize_scenes import cart_pendulum
+from femb.benchmarks.accuracy.linearize_scenes import cart_pendulum_linear as _cart_linear
 
 
 @kernel

@@ -1,7 +1,7 @@
 """Bad input to the beam meshers and sections is a ModelError naming the parameter and the value
 (never a raw traceback, a hang, a machine out of memory, or a silently changed input); the spatial
 mesher's frames must follow the centre line; initial velocities of beams and bodies from a rigid
-velocity field (femb.motion)."""
+velocity field (femb.system.motion)."""
 import math
 import time
 
@@ -13,7 +13,7 @@ from femb.elements import RigidBody
 from femb.elements.beam import Section, add_beam
 from femb.elements.spatial_beam import SpatialSection, spatial_beam
 from femb.elements.spatial_bodies import SpatialRigidBody
-from femb.motion import set_rigid_velocity
+from femb.system.motion import set_rigid_velocity
 
 
 def S():

@@ -1,4 +1,4 @@
-"""Linearized modes (femb.modal) of beams and constrained mechanisms.
+"""Linearized modes (femb.analysis.modal) of beams and constrained mechanisms.
 
 References: Euler–Bernoulli cantilever frequencies β_k² √(EI/(ρA L⁴)),
 β = 1.8751, 4.6941, 7.8548 (e.g. Géradin & Rixen, Mechanical Vibrations,
@@ -10,11 +10,12 @@ import math
 import numpy as np
 import pytest
 
-from femb import Mechanism, assembly
+from femb import Mechanism
+from femb.analysis.modal import modal_analysis
+from femb.analysis.static import solve_static
 from femb.elements import Force, Gravity, Hinge, PointOnLine, RigidBody, Section, add_beam
 from femb.errors import SingularMatrixError
-from femb.modal import modal_analysis
-from femb.static import solve_static
+from femb.system import assembly
 
 BETA = np.array([1.875104068711961, 4.694091132974175, 7.854757438237613])
 # steel, 10 mm × 10 mm, L = 1 m: length/thickness = 100

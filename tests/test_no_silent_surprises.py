@@ -83,7 +83,7 @@ def test_a_given_velocity_changed_by_the_projection_warns():
 
 
 def test_consistent_or_unset_velocities_do_not_warn():
-    from femb.functions import Linear
+    from femb.base.functions import Linear
     with warnings.catch_warnings():
         warnings.simplefilter("error", InitialMoveWarning)
         femb.consistent_initial_state(_pendulum(velocity=(0.0, 1.0), omega=2.0))
@@ -93,7 +93,7 @@ def test_consistent_or_unset_velocities_do_not_warn():
 
 
 def test_a_spatial_initial_velocity_changed_by_the_projection_warns():
-    from femb.benchmarks import heavy_top
+    from femb.benchmarks.scenes.spatial import heavy_top
     X, W = np.array([0.0, 1.0, 0.0]), np.array([0.0, 150.0, -4.61538])
     mech = femb.Mechanism("top")
     top = mech.add(E.SpatialRigidBody("top", 15.0, (0.234375, 0.46875, 0.234375), position=X,
@@ -130,7 +130,7 @@ def test_a_step_longer_than_the_run_warns():
 
 
 def test_a_run_too_short_for_the_in_loop_check_still_warns_when_h_is_far_too_large():
-    from femb.benchmarks import pendulum
+    from femb.benchmarks.scenes.planar import pendulum
     scene_model = pendulum.build().compile()
     with pytest.warns(AccuracyWarning, match="short run of 10 stored steps"):
         r = femb.simulate(scene_model, 2.0, 0.2)
@@ -149,7 +149,7 @@ def test_singular_iteration_matrix_at_a_huge_step_on_a_clamped_beam_names_the_st
     sec = E.Section.rectangle(E=2.1e11, G=8.1e10, width=0.01, height=0.01, density=7800.0)
     E.add_beam(mech, "beam", sec, start=(0.0, 0.0), end=(1.0, 0.0), n_elements=10, start_joint="clamp")
     mech.add(E.Gravity((0.0, -9.81)))
-    # the beam starts in its quasi-static deflection (femb/initial.py, settle): Newton then stalls
+    # the beam starts in its quasi-static deflection (femb/system/initial.py, settle): Newton then stalls
     # (ConvergenceError) where, started undeformed, it met a singular matrix; either names h first
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", AccuracyWarning)
@@ -161,7 +161,7 @@ def test_singular_iteration_matrix_at_a_huge_step_on_a_clamped_beam_names_the_st
     else:
         assert str(err.value).split("; ")[-1].startswith("try a smaller h"), str(err.value)
     # a rotation without inertia and without a constraint keeps the hint about masses
-    from femb.initial import singular_hint
+    from femb.system.initial import singular_hint
     m2 = femb.Mechanism("massless")
     node = m2.add(E.BeamNode("n", (0.5, 0.0)))              # a massless node: θ has no mass
     m2.add(E.Hinge("h", "ground", node), E.PointMass("m", 1.0, (1.0, 0.0)))

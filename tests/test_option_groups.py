@@ -4,9 +4,9 @@ import numpy as np
 import pytest
 
 from femb import Mechanism
+from femb.analysis.static import StaticOptions, solve_static
 from femb.elements import Gravity, PointMass, SpringDamper
 from femb.errors import ParameterError
-from femb.static import StaticOptions, solve_static
 
 
 def _hanging():
@@ -38,7 +38,7 @@ def test_static_unknown_option_is_named():
 
 def test_simulate_options_and_keywords_agree():
     import femb
-    from femb.options import SolverOptions
+    from femb.solve.options import SolverOptions
 
     model = _hanging()
     a = femb.simulate(model, 0.05, 0.01, rho_inf=0.5, max_iter=12, stride=2)
@@ -59,7 +59,7 @@ def test_simulate_options_and_keywords_agree():
 
 
 def test_sweep_plan_names_unknown_options():
-    from femb.sweep import SweepPlan, sweep
+    from femb.study.sweep import SweepPlan, sweep
 
     with pytest.raises(ParameterError, match="unknown option.*gird"):
         sweep("slider_crank", gird={"k": [1.0]})

@@ -16,10 +16,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from femb.base.geometry import GeometryBlock
 from femb.errors import OutputError
 from femb.io import vtk
 from femb.io.vtk import TimeSeriesWriter, read_pvd
-from femb.geometry import GeometryBlock
 
 
 def _mount_tmpfs(path, opts):
@@ -112,7 +112,7 @@ def test_femb_run_vtk_on_a_really_full_disk_stops_with_one_line(tmp_path):
     if not _mount_tmpfs(d, "size=64k"):
         pytest.skip("cannot mount a tmpfs here")
     try:
-        out = subprocess.run([sys.executable, "-m", "femb.cli", "run", "pendulum", "--t-end", "2", "--vtk", str(d),
+        out = subprocess.run([sys.executable, "-m", "femb.console.cli", "run", "pendulum", "--t-end", "2", "--vtk", str(d),
                               "--progress", "off"], capture_output=True, text=True, timeout=600)
         assert out.returncode == 1, out.stderr
         lines = [ln for ln in out.stderr.splitlines() if ln.startswith("femb: error")]
@@ -126,10 +126,10 @@ def test_femb_run_vtk_on_a_really_full_disk_stops_with_one_line(tmp_path):
 
 
 def _cli(argv, capsys):
-    """``femb ARGV`` in this process (``femb.cli.main``, as the console script calls it): the exit
+    """``femb ARGV`` in this process (``femb.console.cli.main``, as the console script calls it): the exit
     status, stdout and stderr. The full-disk test above runs the same command line in a process of
     its own."""
-    from femb import cli
+    from femb.console import cli
     try:
         code = cli.main(argv)
     except SystemExit as exc:
@@ -191,7 +191,7 @@ def test_sweep_rows_on_a_full_disk_are_one_error_with_what_was_written(tmp_path,
     pd = pytest.importorskip("pandas")
     pytest.importorskip("pyarrow")
     import importlib
-    sw = importlib.import_module("femb.sweep")
+    sw = importlib.import_module("femb.study.sweep")
     w = sw._Writer(tmp_path, flush_rows=2, flush_interval=1e9)
     w.add([{"case": 0, "case_id": "a", "x": 1.0}, {"case": 1, "case_id": "b", "x": 2.0}])
     real = pd.DataFrame.to_parquet

@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 import femb
-from femb.benchmarks import registry
+from femb.study import registry
 
 #: scene: (t_end, position outputs, multiplier outputs, bound on max position error at h = 1e-3,
 #:         bound on max multiplier error at h = 1e-3 (N or N m)); bounds ≈ 1.5× the measured values

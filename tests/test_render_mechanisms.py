@@ -10,10 +10,10 @@ import numpy as np
 import pytest
 
 import femb
-from femb.benchmarks.registry import load
 from femb.io import OutputError, read_frame
 from femb.io.mechanism import JOINT_KINDS, parse_view, view_direction
 from femb.io.render import picture_scene, render_animation, render_png, render_strip
+from femb.study.registry import load
 
 pytest.importorskip("pyvista")
 pytestmark = pytest.mark.filterwarnings("ignore:mechanism 'bricard'.*dependent constraint")
@@ -225,7 +225,7 @@ def test_strips_and_animation(scene, renderer, tmp_path):
 
 
 def test_cli_render_options(scene, renderer, tmp_path, capsys):
-    from femb.cli import main
+    from femb.console.cli import main
 
     name, pvd = scene
     body = sorted(SCENES[name][3])[0]
@@ -246,7 +246,7 @@ def test_cli_render_options(scene, renderer, tmp_path, capsys):
 # ---------------------------------------------------------------------------
 def test_a_beam_kind_is_drawn_as_a_tube(tmp_path):
     """Frames with a body and a beam (field data only, as an element with ``glyph = "beam"`` writes)."""
-    from femb.geometry import GeometryBlock
+    from femb.base.geometry import GeometryBlock
     from femb.io import TimeSeriesWriter
     from femb.io.frames import GLYPHS, glyphs
 
@@ -285,7 +285,7 @@ def test_the_spatial_beam_scene_is_drawn_as_tubes(tmp_path):
     """femb's own SpatialBeam: the right-angle cantilever's elements are drawn as a tube (its
     element type's kind is 'beam'), inside the picture, with the welded root's ground."""
     import femb
-    from femb.benchmarks import right_angle_cantilever as rac
+    from femb.benchmarks.scenes.beams import right_angle_cantilever as rac
     from femb.io.frames import VTKStream
 
     mech = rac.build()

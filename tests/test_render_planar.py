@@ -10,10 +10,10 @@ import pytest
 
 import femb
 from femb import Mechanism
-from femb.benchmarks.registry import load
+from femb.study.registry import load
 from femb.elements import (DrivenAngle, Force, Gravity, Hinge, PointMass, RigidBody, RotationalSpringDamper, Slider,
                            SpringDamper)
-from femb.functions import Linear
+from femb.base.functions import Linear
 from femb.io import read_frame
 from femb.io.render import _legend_labels, picture_scene, render_animation, render_png, render_strip
 

@@ -8,8 +8,8 @@ import femb
 from femb import Mechanism
 from femb.elements import (DrivenAngle, Force, Gravity, Hinge, PointMass, RigidBody, Section, SpringDamper, Torque,
                            add_beam)
+from femb.analysis.static import solve_static
 from femb.errors import ModelError
-from femb.static import solve_static
 
 G = 9.81
 

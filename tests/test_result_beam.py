@@ -6,10 +6,10 @@ import pytest
 
 import femb
 from femb import Mechanism
-from femb.errors import ModelError
-from femb.static import solve_static
+from femb.analysis.static import solve_static
 from femb.elements.spatial_beam import SpatialSection, spatial_beam
 from femb.elements.spatial_forces import SpatialForce, SpatialTorque
+from femb.errors import ModelError
 
 
 def test_rollup_circle_strains_forces_and_frames():
@@ -55,7 +55,7 @@ def test_cantilever_resultant_signs():
 
 
 def test_dynamic_beam_and_unknown_name():
-    from femb.benchmarks import registry
+    from femb.study import registry
     r = femb.simulate(registry.load("spin_up_3d").model(n_elements=4), 0.2, 0.01)
     bs = r.beam("beam")
     assert bs.centre_line.shape == (len(r.t), 5, 3)

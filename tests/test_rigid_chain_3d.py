@@ -24,10 +24,11 @@ import numpy as np
 import pytest
 
 import femb
-from femb.assembly import constraint_vector
-from femb.benchmarks import peers, registry
-from femb.benchmarks import rigid_chain_3d as C
-from femb.benchmarks.spatial_common import rotation_matrices
+from femb.benchmarks import peers
+from femb.benchmarks.scenes.spatial import rigid_chain_3d as C
+from femb.benchmarks.scenes.spatial.spatial_common import rotation_matrices
+from femb.study import registry
+from femb.system.assembly import constraint_vector
 
 N = 5
 
@@ -135,7 +136,7 @@ def test_agrees_with_exudyn(model, run):
 
 def test_measure_and_report_section():
     """The timing driver's record and the suite's section for it (structure only, no timing asserted)."""
-    from femb.benchmarks import suite
+    from femb.benchmarks.runners import suite
 
     sp = C.measure(n=3, t_end=0.01, runs=3, log=lambda m: None)
     assert sp["steps"] == 10 and len(sp["femb_runs"]) == 3 and sp["femb_ms"] > 0
@@ -153,7 +154,7 @@ def test_measure_and_report_section():
 def test_reproduces_exudyn_published_result():
     """The full 400-brick run to 1 s reproduces Exudyn's logged perf3DRigidBodies result.
 
-    Source: :data:`femb.benchmarks.rigid_chain_3d.EXUDYN_LOG` (Exudyn's performance log, 1.10.0):
+    Source: :data:`femb.benchmarks.scenes.spatial.rigid_chain_3d.EXUDYN_LOG` (Exudyn's performance log, 1.10.0):
     the last brick's displacement and xyz rotation angles, given there to 8 digits.
     """
     scene = registry.load("rigid_chain_3d")

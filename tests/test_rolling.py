@@ -4,13 +4,13 @@ import pytest
 
 import femb
 from femb import Mechanism
+from femb.base.jit import kernel
+from femb.base.rotations import expm
 from femb.elements import RigidBody
 from femb.elements.rolling import KnifeEdge, PlanarWheel, RollingDisc, SpinRate
 from femb.elements.spatial_bodies import SpatialRigidBody
 from femb.elements.spatial_forces import SpatialGravity
 from femb.errors import ModelError
-from femb.jit import kernel
-from femb.rotations import expm
 
 
 def _disc_mechanism(tilt=0.3):
@@ -71,7 +71,7 @@ def test_disc_contact_geometry_and_velocity_constraint_values():
     cs = RollingDisc.contact_state(g.P[0], x, v, [-3.0], [0.5, -0.25])
     assert abs(cs["point"][2]) < 1e-12
     assert cs["normal_force"] == 3.0
-    Psi = femb.assembly.velocity_constraints(model, 0.0, model.q0, model.qd0)[0]
+    Psi = femb.system.assembly.velocity_constraints(model, 0.0, model.q0, model.qd0)[0]
     np.testing.assert_allclose(Psi[:2], [cs["slip_velocity"] @ g.P[0, 10:13], cs["slip_velocity"] @ g.P[0, 13:16]],
                                atol=1e-14)
 

@@ -1,10 +1,10 @@
-"""femb.rotations: quaternions, exp/log of SO(3), tangent operator (compiled)."""
+"""femb.base.rotations: quaternions, exp/log of SO(3), tangent operator (compiled)."""
 import math
 
 import numpy as np
 import pytest
 
-from femb import rotations as rt
+from femb.base import rotations as rt
 
 
 def _rand_rot(rng, scale=1.0):

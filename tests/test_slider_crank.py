@@ -11,8 +11,8 @@ import numpy as np
 import pytest
 
 import femb
-from femb.benchmarks import slider_crank as sc
-from femb.benchmarks.convergence import convergence_study, run
+from femb.benchmarks.accuracy.convergence import convergence_study, run
+from femb.benchmarks.scenes.planar import slider_crank as sc
 
 
 def test_scene_is_built_from_elements():

@@ -5,10 +5,10 @@ import numpy as np
 import pytest
 
 import femb
-from femb.benchmarks import andrews
+from femb.benchmarks.scenes.planar import andrews
 from femb.elements import (DrivenAngle, DrivenDisplacement, Gravity, Hinge, PointMass, PointOnLine,
                            RigidBody, Slider, SpringDamper)
-from femb.functions import Harmonic, Linear
+from femb.base.functions import Harmonic, Linear
 
 K, MASS = 40.0, 0.5
 

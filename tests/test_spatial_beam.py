@@ -16,7 +16,7 @@ import scipy.linalg as sla
 sys.path.insert(0, str(Path(__file__).parent))
 from spatial_fd import oplus, random_quat, tangent_jacobian  # noqa: E402
 
-from femb import rotations as rt  # noqa: E402
+from femb.base import rotations as rt  # noqa: E402
 from femb.elements import spatial_beam as sb  # noqa: E402
 from femb.elements.spatial_beam import (SpatialBeam, SpatialBeamNode, SpatialSection,  # noqa: E402
                                         spatial_beam, spatial_beam_force, spatial_beam_mass)

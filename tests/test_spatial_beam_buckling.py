@@ -1,4 +1,4 @@
-"""Linearized buckling of spatial beams: Argyris' right-angle frame (femb.modal.buckling_analysis).
+"""Linearized buckling of spatial beams: Argyris' right-angle frame (femb.analysis.modal.buckling_analysis).
 
 Data as jgerstmayr/EXUDYN:main/pythonDev/TestModels/rightAngleFrame.py (Nachbagauer &
 Gerstmayr 2013, J. Comput. Nonlinear Dynam. 9:011013): arms 0.24 m, strip 30 × 0.6 mm
@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from femb import Mechanism
-from femb.modal import buckling_analysis
+from femb.analysis.modal import buckling_analysis
 from femb.elements.spatial_beam import SpatialSection, spatial_beam
 from femb.elements.spatial_forces import SpatialForce
 

@@ -1,12 +1,12 @@
 """Dynamics of spatial beams with femb.simulate: the right-angle cantilever (Simo & Vu-Quoc 1988;
-../shared/docs/spatial.md §7.5), benchmarks/right_angle_cantilever.py."""
+docs/beams.md, "Validation (spatial)"), benchmarks/scenes/beams/right_angle_cantilever.py."""
 import numpy as np
 import pytest
 
 import femb
-from femb.benchmarks import registry
-from femb.benchmarks import right_angle_cantilever as scene
+from femb.benchmarks.scenes.beams import right_angle_cantilever as scene
 from femb.elements.spatial_beam import SpatialBeam
+from femb.study import registry
 
 
 @pytest.fixture(scope="module")

@@ -1,4 +1,4 @@
-"""Modal analysis of spatial beam models (femb.modal on rotation nodes), 20 elements.
+"""Modal analysis of spatial beam models (femb.analysis.modal on rotation nodes), 20 elements.
 
 References: Euler–Bernoulli bending frequencies ω = (β_n L)² √(EI/(ρA L⁴)) with β_n L =
 1.87510407, 4.69409113 (clamped–free) and 4.73004074, 7.85320462 (free–free); axial and
@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from femb import Mechanism
-from femb.modal import modal_analysis
+from femb.analysis.modal import modal_analysis
 from femb.elements.spatial_beam import SpatialSection, spatial_beam
 
 E, NU, L, RHO = 2.1e11, 0.3, 1.0, 7850.0

@@ -1,4 +1,4 @@
-"""femb's spatial beam against Exudyn's ObjectBeamGeometricallyExact (benchmarks/spatial_beam_peer.py).
+"""femb's spatial beam against Exudyn's ObjectBeamGeometricallyExact (benchmarks/cost/spatial_beam_peer.py).
 
 Skipped when Exudyn is not installed. On the small model (n = 10 elements, the
 first 10 ms after release under gravity, h = 1e-4 s, ρ∞ = 0.7):
@@ -25,7 +25,7 @@ import warnings
 import numpy as np
 import pytest
 
-from femb.benchmarks import spatial_beam_peer as P
+from femb.benchmarks.cost import spatial_beam_peer as P
 
 pytestmark = pytest.mark.skipif(P.exudyn_version() is None, reason="Exudyn not installed")
 

@@ -1,8 +1,7 @@
-"""Static equilibrium of spatial beam models (femb.static.solve_static on rotation nodes).
+"""Static equilibrium of spatial beam models (femb.analysis.static.solve_static on rotation nodes).
 
 References: the exact circle of pure bending (Simo & Vu-Quoc 1986, Part II, roll-up);
-the 45° bend of Bathe & Bolourchi (1979) with the tip values of ../shared/docs/spatial.md
-§7.4 (byuflowlab/GXBeam.jl:test/examples/curved.jl, 16 elements, J = 1/6, k = 1; Simo &
+the 45° bend of Bathe & Bolourchi (1979) with the tip values of docs/beams.md, "Validation (spatial)" (byuflowlab/GXBeam.jl:test/examples/curved.jl, 16 elements, J = 1/6, k = 1; Simo &
 Vu-Quoc 1986 tip positions at F = 300, 450, 600); Timoshenko's cantilever deflection
 PL³/(3EI) + PL/(kGA).
 """
@@ -12,7 +11,7 @@ import numpy as np
 import pytest
 
 from femb import Mechanism
-from femb.static import solve_static
+from femb.analysis.static import solve_static
 from femb.elements.spatial_beam import SpatialSection, spatial_beam
 from femb.elements.spatial_forces import SpatialForce, SpatialTorque
 
@@ -130,7 +129,7 @@ def test_large_deflection_against_the_elastica():
     """Cantilever under a dead tip load P L²/EI = 3 (EA = GA = 1e7 EI/L²), in the x–y plane:
     tip (x, y, θ) against the elastica (0.745580, −0.603253, −0.986017) (docs/beams.md, Validation 3;
     Bisshopp & Drucker 1945), errors O(1/n²)."""
-    from femb import rotations as rt
+    from femb.base import rotations as rt
     L, EI = 1.0, 1.0
     ref = np.array([0.745580, -0.603253, -0.986017])
     errs = []

@@ -19,12 +19,12 @@ sys.path.insert(0, str(Path(__file__).parent))
 from spatial_fd import oplus, random_quat  # noqa: E402
 
 from femb import Mechanism  # noqa: E402
-from femb import rotations as rt  # noqa: E402
-from femb.errors import ModelError, OutputError  # noqa: E402
-from femb.functions import Harmonic, Linear, Polynomial  # noqa: E402
+from femb.base import rotations as rt  # noqa: E402
+from femb.base.functions import Harmonic, Linear, Polynomial  # noqa: E402
 from femb.elements import _spatial_geometry as sg  # noqa: E402
 from femb.elements import spatial_forces as sf  # noqa: E402
 from femb.elements import spatial_joints as sj  # noqa: E402
+from femb.errors import ModelError, OutputError  # noqa: E402
 from femb.elements.spatial_bodies import (SpatialPointMass, SpatialRigidBody, box_inertia,  # noqa: E402
                                           spatial_ground)
 from femb.io.frames import model_blocks  # noqa: E402

@@ -15,8 +15,8 @@ import numpy as np
 import pytest
 
 import femb
-from femb import assembly
-from femb.benchmarks import heavy_top, spatial_slider_crank
+from femb.benchmarks.scenes.spatial import heavy_top, spatial_slider_crank
+from femb.system import assembly
 
 TOP = ["x_cm", "y_cm", "z_cm", "rotation", "omega_x", "omega_z", "lambda_x", "lambda_y", "lambda_z"]
 

@@ -14,10 +14,10 @@ sys.path.insert(0, str(Path(__file__).parent))
 from spatial_fd import oplus, random_frame_state, random_quat, tangent_jacobian  # noqa: E402
 
 from femb import Mechanism  # noqa: E402
-from femb.errors import ModelError  # noqa: E402
-from femb.functions import Harmonic, Polynomial  # noqa: E402
+from femb.base.functions import Harmonic, Polynomial  # noqa: E402
 from femb.elements import spatial_joints as sj  # noqa: E402
 from femb.elements.spatial_bodies import SpatialRigidBody, spatial_ground  # noqa: E402
+from femb.errors import ModelError  # noqa: E402
 
 
 def _bodies(rng, mech):
@@ -231,7 +231,7 @@ def test_force_kernels_against_finite_differences(seed):
 
 def _potential(el, x):
     """Independent potential of an undamped spring element (numpy, from its definition)."""
-    from femb import rotations as rt
+    from femb.base import rotations as rt
     Ra = rt.quat_to_matrix(np.ascontiguousarray(x[3:7]))
     Rb = rt.quat_to_matrix(np.ascontiguousarray(x[10:14]))
     pa = x[0:3] + Ra @ el.Xa

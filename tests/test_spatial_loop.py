@@ -12,9 +12,9 @@ import pytest
 
 import femb
 from femb.errors import ModelError
-from femb.solver import GeneralizedAlphaSolver
+from femb.solve.solver import GeneralizedAlphaSolver
 
-from femb.benchmarks import bricard, heavy_top, spatial_double_pendulum, spatial_slider_crank
+from femb.benchmarks.scenes.spatial import bricard, heavy_top, spatial_double_pendulum, spatial_slider_crank
 
 TOP_OUT = ["x_cm", "y_cm", "z_cm", "rotation", "omega_x", "omega_z", "lambda_x", "lambda_y", "lambda_z"]
 
@@ -176,7 +176,7 @@ def test_vtk_frames_at_fixed_dt_for_a_spatial_model(top, tmp_path):
 
 def test_planar_and_spatial_rotation_entries_apart():
     """A planar pendulum next to a spatial body: both integrate, each as if alone."""
-    from femb.benchmarks import pendulum
+    from femb.benchmarks.scenes.planar import pendulum
     mp = pendulum.build().compile()
     ref = femb.simulate(mp, 0.2, 1e-3, rho_inf=0.9)
     mech = pendulum.build()
@@ -220,6 +220,6 @@ def test_result_access_of_a_spatial_body(top):
     assert np.allclose(F[:, 0:3], r.reaction("support"), rtol=1e-12, atol=1e-9)
     assert np.abs(F[:, 3:6]).max() < 1e-9 * np.abs(F[:, 0:3]).max()
     with pytest.raises(ModelError, match="planar"):
-        from femb.benchmarks import pendulum
+        from femb.benchmarks.scenes.planar import pendulum
         femb.simulate(pendulum.build().compile(), 0.01, 1e-3).rotation(
             [n for n in pendulum.build().compile().bodies if n != "ground"][0])

@@ -12,13 +12,13 @@ import numpy as np
 import pytest
 
 import femb
+from femb.base.functions import Harmonic
 from femb.errors import ModelError
-from femb.functions import Harmonic
 from femb.elements import (Bushing, PointSpringDamper, RevoluteJoint, SpatialForce, SpatialGravity,
                            SpatialRigidBody, SpatialRotationalSpringDamper, SpatialTorque)
 from femb.elements.spatial_joints import joint_reactions
 
-from femb.benchmarks import heavy_top, spatial_slider_crank
+from femb.benchmarks.scenes.spatial import heavy_top, spatial_slider_crank
 
 
 @pytest.fixture(scope="module")
@@ -91,7 +91,7 @@ def test_spatial_spring_pendulum_energy_balance():
 
 
 def test_bushing_torsion_spring_and_loads_energy_balance(wheel_run):
-    from femb.energy import elastic_energy
+    from femb.results.energy import elastic_energy
     parts = elastic_energy(wheel_run, by_element=True)
     assert set(parts) == {"mount", "torsion"}
     assert np.ptp(parts["mount"]) > 0.1 and np.ptp(parts["torsion"]) > 1e-3
@@ -206,7 +206,7 @@ def test_to_pandas_and_plot_on_spatial_models(top_run, crank_run, wheel_run, tmp
 
 
 def test_planar_outputs_list_joint_reactions_too():
-    from femb.benchmarks import pendulum
+    from femb.benchmarks.scenes.planar import pendulum
     r = femb.simulate(pendulum.build().compile(), 0.05, 1e-3)
     names = r.outputs()
     joints = [e for e, v in r.model.lam_index.items() if len(v)]
@@ -252,7 +252,7 @@ def test_every_spatial_element_type_is_importable_from_femb_elements():
     for mod in (spatial_bodies, spatial_joints, spatial_forces):
         for name in dir(mod):
             obj = getattr(mod, name)
-            if isinstance(obj, type) and issubclass(obj, femb.element.Element) and obj.__module__ == mod.__name__ \
+            if isinstance(obj, type) and issubclass(obj, femb.system.element.Element) and obj.__module__ == mod.__name__ \
                     and obj not in bases and not name.startswith("_"):
                 exported = [n for n in E.__all__ if getattr(E, n) is obj]
                 assert exported, f"{mod.__name__}.{name} is not exported by femb.elements"
@@ -262,7 +262,7 @@ def test_every_spatial_element_type_is_importable_from_femb_elements():
 
 
 def test_spatial_paths_of_result_speak_3d():
-    from femb.result import Result
+    from femb.results.result import Result
     for meth in (Result.position, Result.point, Result.reaction_at, Result.series, Result.outputs):
         doc = meth.__doc__
         assert "(nt, 3)" in doc or "(x, y, z)" in doc or "spatial" in doc.lower(), meth.__name__

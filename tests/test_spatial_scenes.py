@@ -1,13 +1,13 @@
 """The spatial scenes build, start on their constraints and carry consistent velocities.
 
 They cannot run before the Lie-group time loop exists; these checks use the
-joints' compiled kernels directly (femb.benchmarks.spatial_common).
+joints' compiled kernels directly (femb.benchmarks.scenes.spatial.spatial_common).
 """
 import numpy as np
 import pytest
 
-from femb.benchmarks import bricard, heavy_top, spatial_double_pendulum, spatial_slider_crank
-from femb.benchmarks.spatial_common import initial_constraints, redundancy
+from femb.benchmarks.scenes.spatial import bricard, heavy_top, spatial_double_pendulum, spatial_slider_crank
+from femb.benchmarks.scenes.spatial.spatial_common import initial_constraints, redundancy
 
 SCENES = {"heavy_top": (heavy_top, 6, 3, 3), "spatial_slider_crank": (spatial_slider_crank, 18, 17, 17),
           "bricard": (bricard, 30, 30, 29), "spatial_double_pendulum": (spatial_double_pendulum, 12, 10, 10)}
@@ -47,7 +47,7 @@ def test_heavy_top_initial_state():
 # ---------------------------------------------------------------------------
 from scipy.integrate import solve_ivp  # noqa: E402
 
-from femb.benchmarks.spatial_common import Index1Check, point_positions  # noqa: E402
+from femb.benchmarks.scenes.spatial.spatial_common import Index1Check, point_positions  # noqa: E402
 
 
 def _run(mod, T, rtol=1e-11):
@@ -95,7 +95,7 @@ def test_slider_crank_kernels_reproduce_the_minimal_coordinate_reference():
     xs, vs = chk.node_state(y, "slider")
     assert abs(xs[0] - ref["slider_x"][0]) < 1e-9 and abs(vs[0] - ref["slider_v"][0]) < 1e-8
     xr, vr = chk.node_state(y, "rod")
-    from femb import rotations as rt
+    from femb.base import rotations as rt
     w = rt.quat_to_matrix(np.ascontiguousarray(xr[3:7] / np.linalg.norm(xr[3:7]))) @ vr[3:]
     np.testing.assert_allclose(w, [ref[f"rod_omega_{a}"][0] for a in "xyz"], atol=1e-7)
 

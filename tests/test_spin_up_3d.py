@@ -1,4 +1,4 @@
-"""The spin-up beam built in 3-D (benchmarks/spin_up_3d.py) converges to the planar scene's limit.
+"""The spin-up beam built in 3-D (benchmarks/scenes/beams/spin_up_3d.py) converges to the planar scene's limit.
 
 Both models are second order in the mesh; their difference at t = 2 s falls at order 2
 (measured 2.00, 2.00 for n = 4 → 8 → 16), and the motion stays in the x–y plane.
@@ -6,7 +6,7 @@ Both models are second order in the mesh; their difference at t = 2 s falls at o
 import numpy as np
 
 import femb
-from femb.benchmarks import registry
+from femb.study import registry
 
 
 def test_difference_to_the_planar_scene_falls_at_order_two_and_stays_in_plane():

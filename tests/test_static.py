@@ -1,4 +1,4 @@
-"""The static solver (femb.static): load stepping, constraints, cut-backs, errors."""
+"""The static solver (femb.analysis.static): load stepping, constraints, cut-backs, errors."""
 import math
 
 import numpy as np
@@ -9,8 +9,8 @@ import femb
 from femb import Mechanism
 from femb.elements import (Force, Gravity, Hinge, RigidBody, RotationalSpringDamper, Section,
                            add_beam)
+from femb.analysis.static import equilibrium_residual, solve_static
 from femb.errors import ConvergenceError, ParameterError, SingularMatrixError
-from femb.static import equilibrium_residual, solve_static
 
 M_BAR, L_BAR, K_SPRING, G = 2.0, 0.8, 10.0, 9.81
 

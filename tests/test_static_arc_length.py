@@ -19,8 +19,8 @@ import pytest
 from femb.errors import PathJumpWarning
 
 from femb import Mechanism
+from femb.analysis.static import solve_static
 from femb.errors import ConvergenceError, ParameterError
-from femb.static import solve_static
 
 A, H, EA = 1.0, 0.1, 1e6                     # half span, rise, axial stiffness of the truss
 L0 = math.hypot(A, H)
@@ -216,7 +216,7 @@ def test_limit_load_factors_needs_an_arc_length_path():
 def test_deep_arch_limit_load_against_dadeppo_schmidt():
     """Clamped–hinged 215° arch, crown load: the limit load converges to 8.97 EI/R² (within 1 % from
     40 elements; second order in the element length), and load stepping fails at the limit point."""
-    from femb.benchmarks import deep_arch
+    from femb.benchmarks.scenes.beams import deep_arch
     P, mu = {}, {}
     for n in (20, 40, 80):
         model = deep_arch.build(n).compile()
@@ -243,8 +243,8 @@ def test_deep_arch_limit_load_against_dadeppo_schmidt():
 def test_deep_arch_scene_is_registered_and_runs(tmp_path, capsys):
     import json
 
-    from femb import cli
-    from femb.benchmarks import registry
+    from femb.console import cli
+    from femb.study import registry
     assert "deep_arch" in registry.static_names() and "deep_arch" not in registry.names()
     sc = registry.load("deep_arch")
     assert sc.module.ANALYSIS == "static" and set(sc.outputs(sc.module.solve(sc.model(n_elements=10)))) == \

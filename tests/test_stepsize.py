@@ -11,7 +11,7 @@ is skipped or emulated). Errors are measured against the independent
 references of the scenes (``femb.benchmarks.references``) as maxima over the
 run, since the error at t_end alone hides the start-up transient
 (stepsize.md §2). The studies used are those of
-:mod:`femb.benchmarks.stepsize_study`.
+:mod:`femb.benchmarks.accuracy.stepsize_study`.
 """
 import math
 import re
@@ -23,12 +23,13 @@ import numpy as np
 import pytest
 
 import femb
+from femb.base.functions import Harmonic
+from femb.benchmarks.accuracy import stepsize_study as S
+from femb.benchmarks.scenes.beams import spin_up
+from femb.benchmarks.scenes.planar import andrews as A
 from femb.elements import DrivenAngle, Gravity, Hinge, RigidBody
-from femb.functions import Harmonic
-from femb.benchmarks import andrews as A
-from femb.benchmarks import registry, spin_up
-from femb.benchmarks import stepsize_study as S
 from femb.errors import SolverError
+from femb.study import registry
 
 HS = (4e-3, 2e-3, 1e-3, 5e-4)
 
@@ -161,7 +162,7 @@ def test_force_pulse_with_h_max_resolves_the_pulse():
 def test_index2_formulation_runs_the_index2_step_and_unknown_ones_are_refused():
     """formulation="index2" runs the stabilized index-2 step (tests/test_index2.py), not index 3."""
     import pytest
-    from femb.benchmarks import pendulum
+    from femb.benchmarks.scenes.planar import pendulum
     model = pendulum.build().compile()
     r = femb.simulate(model, 0.01, 1e-3, formulation="index2")
     assert r.settings["formulation"] == "index2"
@@ -171,7 +172,7 @@ def test_index2_formulation_runs_the_index2_step_and_unknown_ones_are_refused():
 
 # ------------------------------------------------------------------ command line
 def test_cli_runs_a_scene_with_a_tolerance():
-    proc = subprocess.run([sys.executable, "-m", "femb.cli", "run", "double_pendulum", "--rtol", "1e-4",
+    proc = subprocess.run([sys.executable, "-m", "femb.console.cli", "run", "double_pendulum", "--rtol", "1e-4",
                            "--atol", "1e-4"], capture_output=True, text=True, timeout=120)
     assert proc.returncode == 0, proc.stderr[-2000:]
 

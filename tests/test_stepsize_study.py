@@ -1,4 +1,4 @@
-"""The step-size study library (femb.benchmarks.stepsize_study) on data with known answers.
+"""The step-size study library (femb.benchmarks.accuracy.stepsize_study) on data with known answers.
 
 The studies take a ``run`` callable; here it is replaced by one that returns
 the scene's reference plus a known error, so the fitted orders, the log–log
@@ -11,8 +11,8 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from femb.benchmarks import registry
-from femb.benchmarks import stepsize_study as S
+from femb.benchmarks.accuracy import stepsize_study as S
+from femb.study import registry
 
 
 def fake_run(order, c=1.0, transient=True):

@@ -18,15 +18,17 @@ import numpy as np
 import pytest
 
 import femb
-from femb.benchmarks import (adaptive_suite, peers, pendulum, registry, singular_slider_crank, stress, suite,
-                             work_precision)
+from femb.benchmarks import peers
+from femb.benchmarks.runners import adaptive_suite, stress, suite, work_precision
+from femb.benchmarks.scenes.planar import pendulum, singular_slider_crank
+from femb.study import registry
 
 VERDICTS = {"PASS", "FAIL", "FINDING"}
 
 
 def _cli_has_bench_suite():
     """True once ``femb bench`` accepts the suite's options (the command line wires it to suite.main)."""
-    from femb import cli
+    from femb.console import cli
 
     parser = cli.build_parser()
     for action in parser._actions:
@@ -44,7 +46,7 @@ def quick_report(tmp_path_factory):
     boot = (f"import sys; sys.path.insert(0, {str(Path(__file__).resolve().parent)!r}); import conftest; "
             "sys.argv[0] = 'femb'; ")
     # every part at quick size (femb bench --quick alone runs the smaller set of suite.plan)
-    cmd = [sys.executable, "-c", boot + "from femb.benchmarks.suite import main; sys.exit(main(sys.argv[1:]))",
+    cmd = [sys.executable, "-c", boot + "from femb.benchmarks.runners.suite import main; sys.exit(main(sys.argv[1:]))",
            "--quick", "--out", str(out), "--only", ",".join(suite.PARTS)]
     proc = subprocess.run(cmd, capture_output=True, text=True, timeout=900)
     assert proc.returncode == 0, proc.stderr[-3000:]
@@ -56,7 +58,7 @@ def quick_report(tmp_path_factory):
 def test_quick_run_writes_report_json_and_figures(quick_report):
     out, results, report, proc = quick_report
     assert results["suite"]["mode"] == "quick"
-    assert "femb bench --quick" in report or "femb.benchmarks.suite --quick" in report
+    assert "femb bench --quick" in report or "femb.benchmarks.runners.suite --quick" in report
     assert "femb bench [" in proc.stderr               # progress was shown while running
     figures = re.findall(r"!\[[^\]]*\]\(([^)]+)\)", report)
     assert len(figures) >= len(registry.names()) + len(stress.TESTS)

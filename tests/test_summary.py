@@ -7,9 +7,9 @@ import pytest
 
 import femb
 from femb import Mechanism
+from femb.analysis.modal import buckling_analysis, modal_analysis
+from femb.analysis.static import solve_static
 from femb.elements import Gravity, Hinge, RigidBody, Section, add_beam
-from femb.modal import buckling_analysis, modal_analysis
-from femb.static import solve_static
 
 SHORT = 600    # characters: a few lines, never the arrays
 
@@ -91,7 +91,7 @@ def test_public_functions_have_type_hints(fn):
 
 def test_sweep_has_type_hints():
     pytest.importorskip("dask")
-    from femb.sweep import sweep           # femb.sweep is the module once another test imported it
+    from femb.study.sweep import sweep           # femb.sweep is the module once another test imported it
 
     hints = typing.get_type_hints(sweep)
     assert "return" in hints and "scene" in hints
@@ -104,8 +104,8 @@ def test_import_femb_is_light_and_everything_loads_on_use():
 
     code = ("import sys, femb\n"
             "assert not [m for m in sys.modules if m.split('.')[0] in ('numba', 'scipy', 'pyvista', 'meshio')]\n"
-            "assert femb.assembly.mass_matrix and femb.static.solve_static and femb.io.read_pvd\n"
-            "assert femb.Mechanism.__module__ == 'femb.mechanism' and callable(femb.simulate)\n"
+            "assert femb.system.assembly.mass_matrix and femb.analysis.static.solve_static and femb.io.read_pvd\n"
+            "assert femb.Mechanism.__module__ == 'femb.system.mechanism' and callable(femb.simulate)\n"
             "assert 'numba' in sys.modules\n"
             "assert set(femb.__all__) <= set(dir(femb))\n"
             "try:\n    femb.nothing\nexcept AttributeError as e:\n    assert 'nothing' in str(e)\n"

@@ -13,10 +13,10 @@ pytest.importorskip("pandas")
 pytest.importorskip("pyarrow")
 
 import femb  # noqa: E402
-from femb.benchmarks import registry  # noqa: E402
 from femb.errors import ParameterError  # noqa: E402
-from femb.sweep import (full_factorial, make_design, parse_grid_spec, parse_range_spec,  # noqa: E402
-                        read_results, sample_design)
+from femb.study import registry  # noqa: E402
+from femb.study.sweep import (
+    full_factorial, make_design, parse_grid_spec, parse_range_spec, read_results, sample_design)
 
 T_END = 0.03          # 6 steps of the slider-crank's h = 5e-3: each case takes milliseconds
 H = 5e-3
@@ -102,7 +102,7 @@ def test_grid_and_range_specs():
 
 def test_femb_import_is_light_and_sweep_is_lazy():
     code = ("import sys, femb; assert 'dask' not in sys.modules and 'pandas' not in sys.modules; "
-            "import femb.sweep; assert callable(femb.sweep); from femb import sweep; "
+            "import femb.study.sweep; assert callable(femb.sweep); from femb import sweep; "
             "assert callable(sweep); assert 'dask' not in sys.modules")
     subprocess.run([sys.executable, "-c", code], check=True)
 
@@ -251,7 +251,7 @@ def test_interrupt_then_resume(client, tmp_path):
     on_disk = read_results(out)
     assert len(on_disk) == 6 and set(on_disk["case_id"]) == set(df["case_id"])
     # the design comes back with the rows: parameters are not taken for outputs
-    from femb.sweep import output_columns, plot_results
+    from femb.study.sweep import output_columns, plot_results
     assert on_disk.attrs["parameters"] == ["k"] and on_disk.attrs["outputs"] == df.attrs["outputs"]
     for key in ("femb_version", "settings", "params", "units"):
         assert on_disk.attrs[key] == df.attrs[key], key
@@ -272,7 +272,7 @@ def test_interrupt_then_resume(client, tmp_path):
 def test_scene_file_travels_as_source(client, tmp_path):
     scene = tmp_path / "my_crank.py"
     scene.write_text('"""A scene file of a user."""\n'
-                     "from femb.benchmarks.slider_crank import DEFAULTS, build, outputs  # noqa: F401\n")
+                     "from femb.benchmarks.scenes.planar.slider_crank import DEFAULTS, build, outputs  # noqa: F401\n")
     df = femb.sweep(str(scene), grid={"k": [1e3, 1e4]}, t_end=T_END, outputs=["theta"], client=client)
     assert (df["status"] == "success").all()
     assert df.iloc[1]["theta"] == serial({"k": 1e4})[1]["theta"][-1]
@@ -287,7 +287,7 @@ def test_trajectories_stay_in_files(client, tmp_path):
 
 
 def test_local_cluster_workers_inherit_cache_dir(tmp_path):
-    from femb.sweep import _open_client
+    from femb.study.sweep import _open_client
 
     cl, owned = _open_client(None, 1, str(tmp_path))
     try:
@@ -311,7 +311,7 @@ def test_local_cluster_workers_inherit_cache_dir(tmp_path):
     ([], "give at least one --grid"),
 ])
 def test_cli_bad_specs_one_line_exit_2(argv, message, tmp_path, capsys):
-    from femb.cli import main
+    from femb.console.cli import main
 
     rc = main(["sweep", "slider_crank", "--out", str(tmp_path / "o")] + argv)
     err = capsys.readouterr().err
@@ -320,7 +320,7 @@ def test_cli_bad_specs_one_line_exit_2(argv, message, tmp_path, capsys):
 
 
 def test_cli_sweep_runs_and_plots(client, tmp_path, capsys):
-    from femb.cli import main
+    from femb.console.cli import main
 
     out, png = tmp_path / "r.parquet", tmp_path / "r.png"
     rc = main(["sweep", "slider_crank", "--grid", "k=1e3,1e4", "--grid", "rho_inf=0.5,0.9",

@@ -12,11 +12,11 @@ import pytest
 
 import femb
 from femb import Mechanism
-from femb.element import Element
+from femb.base.jit import kernel
 from femb.elements import Hinge, RigidBody
 from femb.errors import ModelError
-from femb.jit import kernel
-from femb.kernels import ContractWarning
+from femb.system.element import Element
+from femb.system.kernels import ContractWarning
 
 
 # ---- kernels of a linear spring pulling a body's centre of mass to the origin, f = −k x − c ẋ
@@ -203,7 +203,7 @@ def test_a_correct_damped_element_passes_silently():
 
 
 def test_every_builtin_scene_passes_the_jacobian_check():
-    from femb.benchmarks import registry
+    from femb.study import registry
     for name in ("andrews", "heavy_top", "bricard", "spatial_slider_crank", "flexible_slider_crank", "spin_up_3d",
                  "flexible_fourbar_3d", "right_angle_cantilever"):
         mech = registry.load(name).module.build()

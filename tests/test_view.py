@@ -36,7 +36,7 @@ pytestmark = pytest.mark.skipif(not _OK, reason=_WHY)
 needs_chromium = pytest.mark.skipif(
     chromium_path() is None, reason="no chromium on this machine (apt-get install chromium) for the browser test")
 
-FEMB = [sys.executable, "-c", "import sys; from femb.cli import main; sys.exit(main())"]
+FEMB = [sys.executable, "-c", "import sys; from femb.console.cli import main; sys.exit(main())"]
 
 
 def _free_port():

@@ -1,6 +1,6 @@
 """Four-bar linkage with a prescribed crank angle: exact kinematics and Newton–Euler forces (reference).
 
-Independent reference for :mod:`femb.benchmarks.fourbar_driven`; plain numpy,
+Independent reference for :mod:`femb.benchmarks.scenes.planar.fourbar_driven`; plain numpy,
 no code shared with femb's engine.
 
 Model

@@ -6,7 +6,7 @@ beam, github.com/vspsonn/mb_sef_py, commit ed99143) ships its results in
 index-3 Lie-group generalized-α with ρ∞ = 0 and h = 4 ms, residual tolerance 1e-6, stored every
 8 ms. :data:`HINGE` holds every fifth stored sample of the position of ``node_3`` (the end of
 link 2 at the crooked hinge), read from the file's ``node_3/MOTION`` rows 0–2 (single precision)
-with h5py. The model: :mod:`femb.benchmarks.bauchau_fourbar`.
+with h5py. The model: :mod:`femb.benchmarks.scenes.beams.bauchau_fourbar`.
 """
 import numpy as np
 

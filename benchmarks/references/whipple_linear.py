@@ -1,7 +1,7 @@
 """The canonical linearized Whipple bicycle: M q̈ + v C₁ q̇ + (g K₀ + v² K₂) q = f, q = (φ, δ).
 
 An independent reference for the bicycle built from femb's spatial bodies and rolling discs
-(:mod:`femb.benchmarks.whipple_bicycle`): the closed-form coefficient matrices of Meijaard,
+(:mod:`femb.benchmarks.scenes.spatial.whipple_bicycle`): the closed-form coefficient matrices of Meijaard,
 Papadopoulos, Ruina & Schwab, "Linearized dynamics equations for the balance and steer of a
 bicycle: a benchmark and review", Proc. R. Soc. A 463 (2007) 1955–1982, Appendix A
 (eqs. A1–A27), written from the paper for any parameter set. Coordinates as in the paper:

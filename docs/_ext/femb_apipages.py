@@ -18,22 +18,22 @@ from pathlib import Path
 PUBLIC = [
     ("Build, run, read", "The objects of every script: a mechanism, its compiled model, the time "
      "integration and its result.",
-     ["femb", "femb.mechanism", "femb.model", "femb.solver", "femb.result", "femb.errors", "femb.functions"]),
+     ["femb", "femb.system.mechanism", "femb.system.model", "femb.solve.solver", "femb.results.result", "femb.errors", "femb.base.functions"]),
     ("Statics, modes, linearization, sweeps", "Analyses of a compiled model besides time integration.",
-     ["femb.static", "femb.modal", "femb.linearize", "femb.sweep", "femb.contact", "femb.energy",
-      "femb.checks", "femb.initial", "femb.motion"]),
+     ["femb.analysis.static", "femb.analysis.modal", "femb.analysis.linearize", "femb.study.sweep", "femb.contact", "femb.results.energy",
+      "femb.analysis.checks", "femb.system.initial", "femb.system.motion"]),
     ("Elements", "The element library (pictured in the element catalogue).",
      ["femb.elements", "femb.elements.bodies", "femb.elements.joints", "femb.elements.forces",
       "femb.elements.beam", "femb.elements.spatial_bodies", "femb.elements.spatial_joints",
       "femb.elements.spatial_forces", "femb.elements.spatial_beam", "femb.elements.rolling",
       "femb.elements.contact"]),
     ("Output", "ParaView time series, pictures and animations, output channels.",
-     ["femb.io", "femb.io.vtk", "femb.io.render", "femb.io.channels"]),
+     ["femb.io", "femb.io.vtk", "femb.io.render", "femb.results.channels"]),
 ]
 
 #: packages walked for the internal section, and the benchmark packages (a page of their own).
-INTERNAL_PACKAGES = ["femb", "femb.engine", "femb.io", "femb.contact", "femb.elements"]
-BENCHMARK_PACKAGES = ["femb.benchmarks", "femb.benchmarks.references"]
+INTERNAL_PACKAGES = ['femb', 'femb.base', 'femb.engine', 'femb.system', 'femb.elements', 'femb.io', 'femb.results', 'femb.solve', 'femb.analysis', 'femb.study', 'femb.console', 'femb.contact']
+BENCHMARK_PACKAGES = ['femb.benchmarks', 'femb.benchmarks.scenes.planar', 'femb.benchmarks.scenes.spatial', 'femb.benchmarks.scenes.beams', 'femb.benchmarks.scenes.contact', 'femb.benchmarks.references', 'femb.benchmarks.accuracy', 'femb.benchmarks.cost', 'femb.benchmarks.runners']
 
 
 def package_modules(package):

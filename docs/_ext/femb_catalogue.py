@@ -111,8 +111,8 @@ def point_on_line():
 
 def driven_angle():
     import femb
+    from femb.base.functions import Linear
     from femb.elements import DrivenAngle, Hinge, RigidBody
-    from femb.functions import Linear
 
     mech = femb.Mechanism("motor")
     crank = mech.add(RigidBody("crank", 1.0, 0.01, (0.15, 0.0), points={"O": (-0.15, 0.0)},
@@ -124,8 +124,8 @@ def driven_angle():
 
 def driven_displacement():
     import femb
+    from femb.base.functions import Harmonic
     from femb.elements import DrivenDisplacement, RigidBody, Slider
-    from femb.functions import Harmonic
 
     mech = femb.Mechanism("actuator")
     blk = mech.add(RigidBody("block", 1.0, 0.01, (0.3, 0.0), shape={"type": "box", "size": (0.12, 0.08)}))
@@ -310,7 +310,7 @@ def spatial_drives():
     from femb.elements.spatial_bodies import SpatialRigidBody, box_inertia, rod_inertia
     from femb.elements.spatial_joints import (DrivenPrismaticDisplacement, DrivenRevoluteAngle, PrismaticJoint,
                                               RevoluteJoint)
-    from femb.functions import Harmonic, Linear
+    from femb.base.functions import Harmonic, Linear
 
     mech = femb.Mechanism("drives")
     crank = mech.add(SpatialRigidBody("crank", 1.0, rod_inertia(1.0, 0.4, 0.02), position=(0.2, 0.0, 0.3),
@@ -386,10 +386,10 @@ def rolling_disc():
     import numpy as np
 
     import femb
+    from femb.base.rotations import expm
     from femb.elements.rolling import RollingDisc, SpinRate
     from femb.elements.spatial_bodies import SpatialRigidBody
     from femb.elements.spatial_forces import SpatialGravity
-    from femb.rotations import expm
 
     mech = femb.Mechanism("rolling_coin")
     R0 = expm(np.array([0.3, 0.0, 0.2]))                     # tilted by 0.3 rad, heading 0.2 rad
@@ -552,7 +552,7 @@ ENTRIES = [
           ("femb.elements.rolling.RollingDisc", "femb.elements.rolling.SpinRate"), rolling_disc,
           "A coin rolling without slip on the plane z = 0 (one holonomic and two velocity constraints) "
           "and a spin-rate drive between a frame and the coin. Velocity constraints are for "
-          ":func:`femb.linearize.linearize` (the Whipple bicycle); the time loop refuses them, so the "
+          ":func:`femb.analysis.linearize.linearize` (the Whipple bicycle); the time loop refuses them, so the "
           "picture shows the initial configuration.", run="initial"),
     Entry("planar_rolling", "Planar wheel and knife edge (non-holonomic)",
           ("femb.elements.rolling.PlanarWheel", "femb.elements.rolling.KnifeEdge"), planar_rolling,
@@ -587,8 +587,8 @@ def element_types():
     import femb.elements.spatial_bodies as sb
     import femb.elements.spatial_forces as sf
     import femb.elements.spatial_joints as sj
-    from femb.element import Element
     from femb.elements.bodies import Body
+    from femb.system.element import Element
 
     out = set()
     for mod in (el, sb, sj, sf, sbm, rl, ct):

@@ -15,8 +15,8 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 import femb
+from femb.base.functions import Linear
 from femb.elements import DrivenAngle, Gravity, Hinge, RigidBody
-from femb.functions import Linear
 from femb.io.render import render_strip
 
 W = 2.0                                            # crank speed, rad/s

@@ -15,8 +15,8 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 import femb
-from femb.benchmarks import registry
 from femb.io.render import render_strip
+from femb.study import registry
 
 scene = registry.load("andrews")
 model = scene.model()

@@ -10,7 +10,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 import femb
-from femb.benchmarks import registry
+from femb.study import registry
 
 scene = registry.load("slider_crank")
 print(scene.description)

@@ -18,10 +18,10 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 import femb
+from femb.base.functions import Linear
 from femb.elements.spatial_bodies import SpatialRigidBody, rod_inertia
 from femb.elements.spatial_forces import SpatialGravity
 from femb.elements.spatial_joints import DrivenRevoluteAngle, RevoluteJoint, SphericalJoint
-from femb.functions import Linear
 from femb.io.render import render_png, render_strip
 
 W = 2.0 * np.pi                                          # one turn per second

@@ -3,7 +3,7 @@
 
 A steel beam meshed into geometrically exact beam elements, clamped to the
 ground, linearized about its unloaded configuration with
-:func:`femb.modal.modal_analysis`. Its lowest bending frequencies converge
+:func:`femb.analysis.modal.modal_analysis`. Its lowest bending frequencies converge
 to the Euler–Bernoulli values ω_n = (β_n L)² √(EI/(ρA L⁴)) with
 β_n L = 1.8751, 4.6941, 7.8548 (e.g. Géradin & Rixen, *Mechanical
 Vibrations*, 3rd ed., 2015, Sect. 5.2) as the mesh is refined (the shear
@@ -16,8 +16,8 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 import femb
+from femb.analysis.modal import modal_analysis
 from femb.elements import Section, add_beam
-from femb.modal import modal_analysis
 
 E, G, d, rho, L = 2.1e11, 8.1e10, 0.01, 7850.0, 1.0
 sec = Section.circle(E, G, d, rho)

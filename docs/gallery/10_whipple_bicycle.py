@@ -3,7 +3,7 @@
 
 The benchmark bicycle of Meijaard, Papadopoulos, Ruina & Schwab (2007),
 built as a 3-D multibody model (four bodies, two rolling wheels: non-holonomic
-constraints) and linearized by :func:`femb.linearize.linearize` about its
+constraints) and linearized by :func:`femb.analysis.linearize.linearize` about its
 steady straight-ahead motion at each forward speed. The eigenvalues of the
 lateral dynamics against speed show the weave and capsize modes; between the
 two critical speeds the uncontrolled bicycle is stable. The published
@@ -12,7 +12,7 @@ values: weave speed 4.292 m/s, capsize speed 6.024 m/s.
 import matplotlib.pyplot as plt
 import numpy as np
 
-from femb.benchmarks import whipple_bicycle as wb
+from femb.benchmarks.scenes.spatial import whipple_bicycle as wb
 
 lin = wb.linearized(5.0)
 print(lin)

@@ -12,7 +12,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 import femb.contact
-from femb.benchmarks import contact_ball
+from femb.benchmarks.scenes.contact import contact_ball
 
 model = contact_ball.build(e_N=0.5).compile()
 result = femb.contact.simulate(model, t_end=1.5, h=2e-3, rho_inf=0.8)

@@ -11,7 +11,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
-from femb import kernels
+from femb.system import kernels
 
 
 @dataclass

@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from femb.checks import JacobianCheck, JacobianReport
+from femb.analysis.checks import JacobianCheck, JacobianReport
 from femb.contact import assemble
 
 
@@ -41,7 +41,7 @@ def check_contact_kernels(model, seed=0, eps=1e-6, rtol=1e-6, move=0.3):
 
     Returns
     -------
-    femb.checks.JacobianReport
+    femb.analysis.checks.JacobianReport
     """
     rng = np.random.default_rng(seed)
     nq = model.nq

@@ -6,7 +6,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from femb.errors import ModelError
-from femb.result import Result
+from femb.results.result import Result
 
 #: contact states in ``ContactResult.contact["state"]``
 OPEN, STICK, SLIP = 0, 1, 2
@@ -31,7 +31,7 @@ FRICTION_OUTPUTS = {
 
 @dataclass
 class ContactResult(Result):
-    """:class:`femb.result.Result` with contact outputs (docs/contact.md §6).
+    """:class:`femb.results.result.Result` with contact outputs (docs/contact.md §6).
 
     Attributes
     ----------
@@ -70,7 +70,7 @@ class ContactResult(Result):
         return None
 
     def series(self, name):
-        """As :meth:`femb.result.Result.series`, plus per contact ``<contact>.gN``, ``.gN_d``,
+        """As :meth:`femb.results.result.Result.series`, plus per contact ``<contact>.gN``, ``.gN_d``,
         ``.lambda_N``, ``.Lambda_N``, ``.P_N``, ``.state``, ``.slip`` (|γ_F|) and ``.gamma_F``,
         ``.lambda_F``, ``.Lambda_F``, ``.P_F`` (spatial: ``gamma_F1``, ``gamma_F2``, …), and
         ``energy.contact_normal`` / ``energy.contact_friction``."""

@@ -13,14 +13,14 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from femb import assembly
-from femb.alpha import GeneralizedAlpha
 from femb.contact import assemble
 from femb.contact.prox import prox_disc
 from femb.contact.result import OPEN, SLIP, STICK, ContactResult
 from femb.contact.step import NonsmoothStep, StepFailure, StepState
 from femb.errors import ContactError, ModelError, ParameterError
-from femb.initial import consistent_initial_state
+from femb.solve.alpha import GeneralizedAlpha
+from femb.system import assembly
+from femb.system.initial import consistent_initial_state
 
 
 def _kkt(model, t, q):

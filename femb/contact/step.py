@@ -39,9 +39,9 @@ import scipy.linalg as sla
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from femb import assembly, kernels
 from femb.contact import assemble
 from femb.contact.prox import direction, prox_disc, prox_nonnegative
+from femb.system import assembly, kernels
 
 
 @dataclass

@@ -1,16 +1,16 @@
 """Stage: build: the engine's entry points, their one signature each, and their compilation.
 
-The engine is compiled once per installation and CPU and cached on disk (:func:`femb.jit.engine`);
-its cache key hashes every file of this package (:func:`femb.jit.engine`), so that an edit of
+The engine is compiled once per installation and CPU and cached on disk (:func:`femb.base.jit.engine`);
+its cache key hashes every file of this package (:func:`femb.base.jit.engine`), so that an edit of
 any stage or of the layout recompiles it.
 """
 
 from femb.engine.linalg import band_lu, band_solve, dense_lu_solve
 from femb.engine.evaluate import (constraint_B, copy_B, eval_time_functions, evaluate, jacobian_times,
                                     rates)
-from femb.engine.newton import ggl_matrix, lie_reset
 from femb.engine.control import kkt_solve, project_normal_velocity
 from femb.engine.loop import run
+from femb.engine.newton import ggl_matrix, lie_reset
 
 
 # ---- the engine's entry points and their one signature each -----------------------------------
@@ -59,12 +59,12 @@ def ensure_engine(verbose=True):
     -------
     bool
         True when it was compiled now: the caller may then compile the built-in kernels in the
-        background (:func:`femb.cache.start_background_build`; the engine does not import the
+        background (:func:`femb.solve.cache.start_background_build`; the engine does not import the
         cache module, which imports it).
     """
     import sys
     import time
-    from femb.jit import cache_writable, compile_lock, is_cached, jit_disabled
+    from femb.base.jit import cache_writable, compile_lock, is_cached, jit_disabled
     if _ENGINE["ready"] or jit_disabled():
         return False
     sigs = engine_signatures()

@@ -17,7 +17,7 @@ import math
 
 from numba import njit
 
-from femb.jit import (engine, fview1, iview1, iview2)
+from femb.base.jit import engine, fview1, iview1, iview2
 from femb.engine.layout import (C_ACTIVE, C_ENV, C_IPERM, C_TFCOEF, C_TFKIND, C_TFOFF, C_W, C_XMAP, ENTRY,
     FP_AF, FP_AM, FP_BETA, FP_CQ, FP_CV, FP_EPUS, FP_ERTOL, FP_L, FP_NEWTC, FP_SCALED, FP_TOLQ, INNER, IP_GGL,
     IP_NC, IP_NV, NS_KKT, NS_REFINE, REFINE_CHECK, REFINE_HGROW, REFINE_SHARE,

@@ -2,7 +2,7 @@
 
 For every batch of the model's batch table (``C_BATCHES``, :mod:`femb.engine.layout`) gather the
 element coordinates from q, q̇ (and λ), call the batch's compiled kernels through their addresses
-(:func:`femb.jit.call_force`, :func:`femb.jit.call_constraint`, :func:`femb.jit.call_rates`) and
+(:func:`femb.base.jit.call_force`, :func:`femb.base.jit.call_constraint`, :func:`femb.base.jit.call_rates`) and
 scatter the results into the residual r_q = M q̈ − f + Φ_qᵀλ, r_λ = Φ (docs/method.md eqs. 1–2) and,
 with ``jac``, the iteration matrix S_t = [[M β' + C_t γ' + K_t, Φ_qᵀ], [Φ_q, 0]] (eq. 7).
 Jacobians with respect to rotations are taken in the tangent space (docs/spatial.md).
@@ -16,8 +16,8 @@ import math
 
 from numba import njit
 
-from femb.jit import (call_constraint, call_force, call_rates, engine, fview1, fview2, fview3, iview1, iview2,
-    iview3)
+from femb.base.jit import (
+    call_constraint, call_force, call_rates, engine, fview1, fview2, fview3, iview1, iview2, iview3)
 from femb.engine.layout import (B_BASE, B_HASC, B_KERNEL, B_RATES, B_ROLE, C_ACTIVE, C_BATCHES, C_FCONST,
     C_LIE, C_MI, C_MP, C_MX, C_QFIX, C_SCALE0, C_TFV, C_TI, C_TM, C_TN, C_W, C_WEXT, ENTRY, F_DOFS, F_FE,
     F_FQ, F_FV, F_P, F_TBLK, F_TF, F_TFI, F_TNN, F_VE, F_XDOFS, F_XE, INNER, K_BE, K_DOFS, K_GM, K_HE,

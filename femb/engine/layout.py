@@ -1,6 +1,6 @@
 """The engine's layout: every named field and constant that crosses between Python and compiled code.
 
-The engine (:mod:`femb.engine`) takes a model's data as packs of arrays (:func:`femb.jit.pack`:
+The engine (:mod:`femb.engine`) takes a model's data as packs of arrays (:func:`femb.base.jit.pack`:
 ``G`` the element batches, ``C`` the model constants, ``W`` the loop's work arrays), read back
 as views by the numbers below (``fview1(C, C_QFIX)``), and the solver's options and run state
 as the arrays ``ip``, ``fp`` (parameters), ``si``, ``sf`` (run state) and ``stats``, read by
@@ -9,11 +9,11 @@ described by ONE tuple of field names here; the index constants are generated fr
 (:func:`_number`) and Python fills the arrays by name only (:func:`named_array`).
 
 Nothing here is compiled: the constants are read by the compiled stages as globals (compile-time
-constants), and the engine's cache key hashes this file with the stages (:func:`femb.jit.engine`).
+constants), and the engine's cache key hashes this file with the stages (:func:`femb.base.jit.engine`).
 """
 from collections import namedtuple
 
-from femb.jit import OPTIONS
+from femb.base.jit import OPTIONS
 
 #: functions called from Python: no C-callable wrapper (``cfunc``), whose argument list is
 #: the flattened packs G, C and W
@@ -26,7 +26,7 @@ INNER = dict(ENTRY, no_cpython_wrapper=True)
 #: passed as separate machine arguments at every call (docs/engine.md, "The named packs")
 STAGE = dict(INNER, inline="always")
 
-# ---- the model constants in the pack C (built by name in femb/codegen.py, Compiled) ----------
+# ---- the model constants in the pack C (built by name in femb/solve/codegen.py, Compiled) ----------
 #: (name, kind) of each array of C, in pack order; C_<NAME> is its number. Kind: f/i (float64 or
 #: int64) and rank. The mass matrix (CSR: mp indptr, mi indices, mx data; tm its targets in the
 #: iteration matrix), the ordering (perm, iperm), force weights (w, wext), fixed coordinates
@@ -38,7 +38,7 @@ C_FIELDS = (("mp", "i1"), ("perm", "i1"), ("iperm", "i1"), ("w", "f1"), ("wext",
             ("tm", "i1"), ("tfv", "f2"), ("scale0", "f1"), ("active", "i1"), ("ti", "i1"), ("env", "i2"),
             ("tn", "f3"), ("xmap", "i1"), ("rot", "i2"), ("pn", "f2"), ("d", "f1"), ("fl", "i2"),
             ("pairs", "i2"), ("teta", "i1"), ("bw", "f2"), ("gglw", "f2"), ("batches", "i2"), ("lie", "i1"))
-# ---- the loop's work arrays in the pack W (built by name in femb/solver.py): the accepted
+# ---- the loop's work arrays in the pack W (built by name in femb/solve/solver.py): the accepted
 # state, the constrained accelerations and jerks, the KKT factorizations, error-estimate work, ...
 #: (name, length) of each work array, in pack order; W_<NAME> is its number. Lengths are the
 #: model's sizes: nx, nv (= nq), nc, N (Newton unknowns), "lu"/"piv" (storage of a factorization)
@@ -55,7 +55,7 @@ B_ROLE, B_BASE, B_HASC, B_KERNEL, B_RATES = 0, 1, 2, 3, 4
 NB = 5
 ROLE_FORCE, ROLE_CONSTRAINT = 0, 1
 # ---- a force batch's arrays in G, from its base: (name, kind f/i and rank), packed in this
-# order by femb/codegen.py, and their numbers
+# order by femb/solve/codegen.py, and their numbers
 FORCE_FIELDS = [("P", "f2"), ("dofs", "i2"), ("tfi", "i2"), ("tnn", "i3"), ("xe", "f2"), ("ve", "f2"),
                 ("tf", "f3"), ("fe", "f2"), ("fq", "f3"), ("fv", "f3"), ("xdofs", "i2"), ("tblk", "i3")]
 F_P, F_DOFS, F_TFI, F_TNN, F_XE, F_VE, F_TF, F_FE, F_FQ, F_FV, F_XDOFS, F_TBLK = range(12)
@@ -67,7 +67,7 @@ CONSTRAINT_FIELDS = [("P", "f2"), ("dofs", "i2"), ("lamidx", "i2"), ("tfi", "i2"
  K_XDOFS, K_TBLK) = range(18)
 assert len(FORCE_FIELDS) == F_TBLK + 1 and len(CONSTRAINT_FIELDS) == K_TBLK + 1
 
-# ---- status codes returned to Python (femb/solver.py raises femb's errors) -------------
+# ---- status codes returned to Python (femb/solve/solver.py raises femb's errors) -------------
 ST_CHUNK = 0          # requested number of steps done
 ST_DONE = 1           # t_end reached
 ST_NEED_TF = 2        # Python time functions must be evaluated at info[0]

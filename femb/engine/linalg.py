@@ -12,7 +12,7 @@ E. Anderson et al., LAPACK Users' Guide, 3rd ed., SIAM 1999 (band LU with partia
 
 from numba import njit
 
-from femb.jit import engine
+from femb.base.jit import engine
 from femb.engine.layout import (ENTRY, INNER, IP_DENSE, IP_KL, IP_KU, IP_N)
 
 
@@ -22,7 +22,7 @@ def band_lu(ABf, N, kl, ku, env, ipiv, rel_tol):
 
     ``ABf`` is the flat storage of ``AB (N, 2 kl + ku + 1)``. ``env`` (3, N)
     bounds the work per column j from the matrix's structure, computed once
-    per model (:mod:`femb.codegen`): rows j+1 … env[0, j] can hold nonzeros
+    per model (:mod:`femb.solve.codegen`): rows j+1 … env[0, j] can hold nonzeros
     below the diagonal (the cumulative lowest row, so row interchanges stay
     inside it) and columns up to env[1, j] can be reached by the pivot row
     and the fill of partial pivoting. A chain with a few wide spots (a beam

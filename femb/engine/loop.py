@@ -8,7 +8,7 @@ state into the caller's buffers. It returns a status code (``ST_*``); Python rai
 
 from numba import njit
 
-from femb.jit import (engine, fview1, iview1)
+from femb.base.jit import engine, fview1, iview1
 from femb.engine.layout import (STAGE, C_TFCOEF, C_TFKIND, C_TFOFF, ENTRY, FP_CQ, FP_CV, FP_EPUS, FP_H, FP_HMAX,
     FP_HMIN, FP_KEXP, FP_T0, FP_TEND, FP_WARN, INNER, IP_CHECK, IP_GGL, IP_MODE, IP_NC, IP_NSTEPS, IP_NV,
     IP_PYTF, IP_STORE, IP_STRIDE, NS_STEPS, SF_ERRMAX, SF_ERRMAX_T, SF_FREF, SF_FREF_S, SF_HNEXT, SF_HPREV,
@@ -16,8 +16,8 @@ from femb.engine.layout import (STAGE, C_TFCOEF, C_TFKIND, C_TFOFF, ENTRY, FP_CQ
     SI_LUFRESH, SI_NFAIL, SI_NOGROW, SI_PROJ, SI_REJECTED, SI_RMODE, SI_SAVED, SI_STEP, SI_STORED, ST_CHUNK,
     ST_DONE, ST_GO, ST_HMIN, ST_KKT_SINGULAR, ST_NEED_TF, W_ATOLV, W_A_S, W_EQ, W_EV, W_JN, W_JNEW, W_KB,
     W_KBACC, W_KPIV, W_KPIVACC, W_LAM_S, W_PLAM_S, W_PQDD_S, W_QDD_S, W_QD_S, W_QPP, W_QPP_NEW, W_Q_S, W_WQ)
-from femb.engine.linalg import copy_into
 from femb.engine.evaluate import eval_time_functions
+from femb.engine.linalg import copy_into
 from femb.engine.newton import newton_step
 from femb.engine.control import (error_norm, kkt_estimate, newton_weights, resynchronise, step_factor)
 

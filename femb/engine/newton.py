@@ -48,8 +48,8 @@ import math
 
 from numba import njit
 
-from femb.jit import (engine, fview1, fview2, fview3, iview1, iview2)
-from femb.rotations import (s2, s3, s7)
+from femb.base.jit import engine, fview1, fview2, fview3, iview1, iview2
+from femb.base.rotations import s2, s3, s7
 from femb.engine.layout import (STAGE, C_BW, C_D, C_ENV, C_FL, C_GGLW, C_IPERM, C_LIE, C_PAIRS, C_PN, C_ROT, C_TETA,
     C_TN, C_W, C_XMAP, ENTRY, FP_AF, FP_AM, FP_ATOL, FP_BETA, FP_GAMMA, FP_L, FP_NEWTC, FP_PHITOL, FP_RTOL,
     FP_SCALED, FP_SINGTOL, FP_XTOL, INNER, IP_CARRY, IP_FULL, IP_GGL, IP_MAXIT, IP_MINIT, IP_NC, IP_NTEST,
@@ -131,7 +131,7 @@ def newton_step(G, C, P, S, N, t1, h, h_prev, wq):
     Parameters
     ----------
     G, C : pack
-        The element batches and the model constants (:func:`femb.jit.pack`).
+        The element batches and the model constants (:func:`femb.base.jit.pack`).
     P, S, N : Par, StepState, NewtonArrays
         Parameters and run state; the state at t_n, in place: at t_{n+1}; Newton's arrays.
     t1, h, h_prev : float
@@ -651,7 +651,7 @@ def lie_update(q, C):
     For each free rotation b with quaternion at x[xs:xs+4] and rotation vector at
     v[vs:vs+3] (row b of C's array 20 = (xs, vs)): q[xs:xs+4] = p_n ⊗ (cos(φ/2), s7(φ) θ),
     renormalised, θ = D[vs:vs+3], φ = |θ|; C's array 18 [b] = T(θ) = I − s2 θ~ + s3 θ~²
-    (Brüls & Cardona 2010; femb/rotations.py for the coefficient functions).
+    (Brüls & Cardona 2010; femb/base/rotations.py for the coefficient functions).
     """
     Tn = fview3(C, C_TN)
     rot = iview2(C, C_ROT)

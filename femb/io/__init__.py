@@ -13,7 +13,7 @@ can_render, render_png, render_strip, render_animation, picture_scene
     from :mod:`femb.io.render` (what a picture of a mechanism shows:
     :mod:`femb.io.mechanism`)
 OutputChannels
-    from :mod:`femb.io.channels` (named outputs to CSV or Parquet during a run)
+    re-exported from :mod:`femb.results.channels` (named outputs to CSV or Parquet during a run)
 progress
     from :mod:`femb.io.progress`
 model_blocks, scene_field_data, VTKStream, write_vtk, write_vtk_stream
@@ -44,7 +44,7 @@ _EXPORTS = {
     "VTKStream": "frames",
     "write_vtk": "frames",
     "write_vtk_stream": "frames",
-    "OutputChannels": "channels",
+    "OutputChannels": "femb.results.channels",
 }
 
 __all__ = sorted([*_EXPORTS, "progress"])
@@ -54,7 +54,7 @@ def __getattr__(name):
     module = _EXPORTS.get(name)
     if module is None:
         raise AttributeError(f"module 'femb.io' has no attribute {name!r}")
-    value = getattr(importlib.import_module(f".{module}", __name__), name)
+    value = getattr(importlib.import_module(module if module.startswith("femb.") else f".{module}", __name__), name)
     globals()[name] = value
     return value
 

@@ -1,6 +1,6 @@
 """From model and state to output frames: the glue between elements and VTK files.
 
-Elements describe their look as :class:`femb.geometry.GeometryBlock` records
+Elements describe their look as :class:`femb.base.geometry.GeometryBlock` records
 (one call per element type); this module collects them for a state and streams
 them through :class:`femb.io.vtk.TimeSeriesWriter`.
 """
@@ -10,7 +10,7 @@ import weakref
 
 import numpy as np
 
-from femb.geometry import GeometryBlock
+from femb.base.geometry import GeometryBlock
 
 #: What the renderer draws for an element type (field data ``glyph.<type name>``):
 #: a number per kind. Element classes set a ``glyph`` attribute to be drawn as one
@@ -318,8 +318,8 @@ class VTKStream:
     """
 
     def __init__(self, model, directory, every=1, basename="frame", observer=None, dt=None):
-        from femb.io.vtk import TimeSeriesWriter
         from femb.errors import OutputError
+        from femb.io.vtk import TimeSeriesWriter
 
         self.model = model
         self.every = int(every)
@@ -339,7 +339,7 @@ class VTKStream:
         self.observer = observer
 
     def _frames_between(self, state, step):
-        from femb.interp import state_between
+        from femb.base.interp import state_between
         if step == 0 or self._prev is None:
             self._t0 = state.t
             self._k = 0
@@ -385,7 +385,7 @@ class VTKStream:
 
 
 def write_vtk(result, directory, every=1, basename="frame"):
-    """Write the stored steps of a :class:`~femb.result.Result` as a time series.
+    """Write the stored steps of a :class:`~femb.results.result.Result` as a time series.
 
     Returns
     -------

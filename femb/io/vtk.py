@@ -1,6 +1,6 @@
 """VTK output: merge geometry blocks into one mesh and stream a time series.
 
-Elements describe their looks as :class:`femb.geometry.GeometryBlock` records.
+Elements describe their looks as :class:`femb.base.geometry.GeometryBlock` records.
 This module is the only place that turns those records into files:
 
 * :func:`merge_blocks` joins the blocks of one instant into a single

@@ -1,0 +1,12 @@
+"""Benchmark scenes, one module each, by family (see :mod:`femb.study.registry`).
+"""
+
+
+def __getattr__(name):
+    """A submodule, imported when first used (``femb.benchmarks.scenes.<module>`` after ``import femb``)."""
+    import importlib
+    import importlib.util
+
+    if not name.startswith("_") and importlib.util.find_spec(f"{__name__}.{name}") is not None:
+        return importlib.import_module(f"{__name__}.{name}")
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -1,0 +1,13 @@
+"""Many runs of a scene: the scene registry and protocol (:mod:`femb.study.registry`),
+parameter sweeps on Dask (:mod:`femb.study.sweep`) and the parsing of values given as text.
+"""
+
+
+def __getattr__(name):
+    """A submodule, imported when first used (``femb.study.<module>`` after ``import femb``)."""
+    import importlib
+    import importlib.util
+
+    if not name.startswith("_") and importlib.util.find_spec(f"{__name__}.{name}") is not None:
+        return importlib.import_module(f"{__name__}.{name}")
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
