@@ -29,6 +29,17 @@ ALLOWED = {
 }
 
 
+#: functions whose code is within the limits but which, counted with their docstrings, run over 100
+#: lines: {"file:qualified name": measured reason}, mirrored in docs/engine.md (same section)
+LONG_WITH_DOCSTRING = {
+    "femb/analysis/static.py:solve_static": "165 lines: 10 of code, 155 of docstring (every strategy and keyword)",
+    "femb/io/render.py:render_strip": "123 lines: 86 of code, 37 of docstring",
+    "femb/io/render.py:render_animation": "109 lines: 69 of code, 40 of docstring",
+    "femb/solve/solver.py:simulate": "137 lines: 50 of code, 87 of docstring (every solver keyword)",
+    "femb/study/sweep.py:sweep": "144 lines: 60 of code, 84 of docstring (every keyword, the result's columns)",
+    "femb/system/initial.py:consistent_initial_state": "152 lines: 80 of code, 72 of docstring (the start's equations)",
+}
+
 def _docstring_lines(fn):
     body = fn.body
     if body and isinstance(body[0], ast.Expr) and isinstance(body[0].value, ast.Constant) \
@@ -107,3 +118,34 @@ def test_scan_measures(tmp_path, src, expected):
     else:
         assert sizes["femb/x.py:C.m"] == (4, 1)
         assert sizes["femb/x.py:C.m.<locals>.g"] == (2, 0)
+
+
+def _total_lines(root=ROOT / "femb", base=ROOT):
+    """{"file:name": lines from def to end, docstring included} for every function of ``root``."""
+    out = {}
+    for path in sorted(Path(root).rglob("*.py")):
+        rel = path.relative_to(base).as_posix()
+
+        def visit(node, prefix):
+            for ch in ast.iter_child_nodes(node):
+                if isinstance(ch, (ast.FunctionDef, ast.AsyncFunctionDef)):
+                    out[f"{rel}:{prefix}{ch.name}"] = ch.end_lineno - ch.lineno + 1
+                    visit(ch, prefix + ch.name + ".<locals>.")
+                elif isinstance(ch, ast.ClassDef):
+                    visit(ch, prefix + ch.name + ".")
+                else:
+                    visit(ch, prefix)
+
+        visit(ast.parse(path.read_text(encoding="utf-8")), "")
+    return out
+
+
+def test_functions_long_with_their_docstrings_are_named():
+    """Counted with docstrings, every function over 100 lines is in ALLOWED or LONG_WITH_DOCSTRING
+    (with its measured code and docstring lengths), and both lists name only such functions."""
+    long = {k for k, n in _total_lines().items() if n > MAX_LINES} - set(ALLOWED)
+    assert long == set(LONG_WITH_DOCSTRING), (sorted(long - set(LONG_WITH_DOCSTRING)),
+                                              sorted(set(LONG_WITH_DOCSTRING) - long))
+    text = (ROOT / "docs" / "engine.md").read_text(encoding="utf-8").split("## Functions that stay long", 1)[1]
+    missing = [k for k in LONG_WITH_DOCSTRING if f"`{k}`" not in text]
+    assert not missing, "docs/engine.md, 'Functions that stay long', does not name " + ", ".join(missing)
