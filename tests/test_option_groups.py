@@ -67,3 +67,17 @@ def test_sweep_plan_names_unknown_options():
         sweep("slider_crank", plan={"grid": {}})
     p = SweepPlan.create(grid={"k": [1.0]}, h=0.01)
     assert SweepPlan.create(p, h=0.02).h == 0.02 and SweepPlan.create(p, h=0.02).grid == {"k": [1.0]}
+
+
+def test_solver_options_replace_and_round_trip():
+    """SolverOptions.replace re-validates one change on resolved options (rho_inf over the resolved
+    alpha; the unbounded default h_max), and create(**as_kwargs()) gives the same options."""
+    from femb.solve.options import SolverOptions
+
+    o = SolverOptions.create(h=1e-3, rho_inf=0.9)
+    assert SolverOptions.create(**o.as_kwargs()) == o
+    r = o.replace(rho_inf=0.5)
+    assert r.alpha.rho_inf == 0.5 and r.h == 1e-3 and r.h_max == o.h_max
+    assert o.replace(newton="modified").newton == "modified" and o.replace(newton="modified").alpha == o.alpha
+    with pytest.raises(ParameterError, match="max_iter"):
+        o.replace(max_iter=0)

@@ -147,13 +147,21 @@ class SolverOptions:
 
     def replace(self, **changes):
         """A copy with some fields changed (validated again through :meth:`create`)."""
-        kw = self.as_kwargs()
-        kw.update(changes)
-        return SolverOptions.create(**kw)
+        return SolverOptions.create(**self.as_kwargs(changes))
 
-    def as_kwargs(self):
-        """The options as keyword arguments of :meth:`create` (``alpha`` as the GeneralizedAlpha)."""
+    def as_kwargs(self, changes=None):
+        """The options as keyword arguments of :meth:`create`, updated by ``changes``.
+
+        ``alpha`` is the GeneralizedAlpha (left out when ``changes`` give ``rho_inf``), and an
+        unbounded ``h_max`` is None (the default), so that ``create(**as_kwargs())`` round-trips.
+        """
+        changes = dict(changes or {})
         kw = {f.name: getattr(self, f.name) for f in dataclasses.fields(self)}
+        if kw["h_max"] == math.inf:
+            kw["h_max"] = None
+        if "rho_inf" in changes and "alpha" not in changes:
+            kw.pop("alpha")
+        kw.update(changes)
         return kw
 
     def atol_vector(self, nq):

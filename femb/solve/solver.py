@@ -724,13 +724,8 @@ def _split_keywords(options, kwargs):
         return run, kwargs
     if not isinstance(options, SolverOptions):
         raise ParameterError(f"options must be a femb.solve.options.SolverOptions, got {type(options).__name__}")
-    base = options.as_kwargs()
+    base = options.as_kwargs(kwargs)
     base.pop("h")
-    if base["h_max"] == math.inf:
-        base["h_max"] = None
-    if "rho_inf" in kwargs:
-        base.pop("alpha")
-    base.update(kwargs)
     return run, base
 
 
