@@ -36,3 +36,6 @@ __all__ += ["FrameNode", "SpatialPointMass", "SpatialRigidBody", "spatial_ground
             "PrismaticJoint", "FixedJoint", "DistanceJoint", "DrivenRevoluteAngle", "DrivenPrismaticDisplacement",
             "PointSpringDamper", "Bushing", "SpatialRotationalSpringDamper", "SpatialForce", "SpatialTorque",
             "SpatialGravity"]
+# penalty (compliant) contact: force elements of the compiled engine (docs/contact.md)
+from .penalty_contact import PenaltySphereOnPlane, SpatialPenaltySphereOnPlane  # noqa: E402
+__all__ += ["PenaltySphereOnPlane", "SpatialPenaltySphereOnPlane"]

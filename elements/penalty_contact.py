@@ -1,0 +1,587 @@
+"""Penalty (compliant) contact: a sphere or point of a body on a plane fixed in space.
+
+A force element (role ``"force"``, docs/kernels.md): it runs in femb's compiled engine at
+fixed or adaptive steps, planar and spatial, with the exact Jacobians ∂f/∂x (along
+x ∘ exp(εw) on spatial nodes) and ∂f/∂v in the iteration matrix, so that stiff contacts
+stay implicit. The nonsmooth scheme of ``femb.contact`` (docs/contact.md) enforces
+g_N ≥ 0 exactly; this one lets the bodies overlap by δ = −g_N > 0 on purpose (soft
+contact).
+
+Geometry (the conventions of :mod:`femb.elements.contact`): sphere centre C = r + R s (s in
+body axes, R the body's rotation), plane through p with unit normal n (to the free side),
+gap g_N = n·(C − p) − R_s, penetration δ = −g_N, contact point c = C − R_s n, its velocity
+v_c = ṙ + ω × (c − r), normal rate δ̇ = −n·v_c, slip velocity v_T = v_c − (n·v_c) n.
+
+Normal force: Hunt & Crossley (1975), Hertz stiffness with a damping term proportional to
+the elastic force,
+
+    f_N = max(0, k δⁿ (1 + α δ̇))  for δ > 0, else 0;  n = 3/2 (Hertz) by default.
+
+It is zero and C¹ at δ = 0 (n ≥ 1), never pulls (the damping part is clamped so that
+f_N ≥ 0: Hunt & Crossley's model otherwise sticks the bodies during separation) and dissipates
+only through α. For a central impact of a mass on the element the restitution coefficient is
+a function of α v⁻ alone (v⁻ the approach speed; scale δ by (m v⁻²/k)^{1/(n+1)} and time by
+that length over v⁻): :func:`hunt_crossley_damping` solves that one-degree-of-freedom impact for
+the α that gives the requested e at the approach speed ``v_ref``. At other speeds the restitution
+is e(α v⁻), lower for faster impacts; for e → 1 it tends to Hunt & Crossley's first-order relation
+α = 3(1 − e)/(2 v⁻).
+
+Friction: regularized Coulomb, f_T = −μ f_N v_T / √(|v_T|² + ε_v²), a viscous law below the
+slip speed ε_v (``eps_v``, m/s) and Coulomb's law above it; a "sticking" contact creeps at a
+speed ≈ ε_v |f_T|/(μ f_N) < ε_v.
+
+The force F = f_N n + f_T acts on the body at the contact point c: generalized force
+(F, (c − r) × F) (planar: the z-moment; spatial: Rᵀ((c − r) × F) in body axes). The elastic
+potential V = k δⁿ⁺¹/(n + 1) is the ``"energy"`` role (``work = "potential"``): the damping
+and friction forces, f(q, v) − f(q, 0), are counted as dissipated by ``Result.energy()``.
+
+References
+----------
+K. H. Hunt, F. R. E. Crossley, Coefficient of restitution interpreted as damping in vibroimpact,
+J. Appl. Mech. 42 (1975) 440–445.
+K. L. Johnson, Contact Mechanics, Cambridge University Press, 1985, §4.2 (Hertz), §11.4 (impact).
+P. Flores, M. Machado, M. T. Silva, J. M. Martins, On the continuous contact force models for soft
+materials in multibody dynamics, Multibody Syst. Dyn. 25 (2011) 357–375 (the family of such laws).
+"""
+from __future__ import annotations
+
+import functools
+import math
+
+import numpy as np
+
+from femb.base.jit import kernel
+from femb.base.rotations import quat_to_matrix_t
+from femb.errors import ModelError
+from femb.system.element import Element
+
+from ._spatial import add3, cross3, dot3, mm, mtm, mtv, mv, scale3, sub3
+
+#: columns of P: s (3), R_s, p (3), n (3), k, n_exp, α, μ, ε_v
+NPAR = 15
+
+
+# ---------------------------------------------------------------------------
+# 3 × 3 helpers (row-major 9-tuples, no allocation)
+# ---------------------------------------------------------------------------
+@kernel
+def skew(a):
+    """ã with ã b = a × b."""
+    return (0.0, -a[2], a[1], a[2], 0.0, -a[0], -a[1], a[0], 0.0)
+
+
+@kernel
+def outer_lin(u, g, c, Q, V):
+    """u gᵀ − c Q V (3 × 3)."""
+    QV = mm(Q, V)
+    return (u[0] * g[0] - c * QV[0], u[0] * g[1] - c * QV[1], u[0] * g[2] - c * QV[2],
+            u[1] * g[0] - c * QV[3], u[1] * g[1] - c * QV[4], u[1] * g[2] - c * QV[5],
+            u[2] * g[0] - c * QV[6], u[2] * g[1] - c * QV[7], u[2] * g[2] - c * QV[8])
+
+
+@kernel
+def add9(A, B):
+    return (A[0] + B[0], A[1] + B[1], A[2] + B[2], A[3] + B[3], A[4] + B[4], A[5] + B[5],
+            A[6] + B[6], A[7] + B[7], A[8] + B[8])
+
+
+@kernel
+def put_block(out, e, i0, j0, M):
+    """out[e, i0:i0+3, j0:j0+3] = M."""
+    for i in range(3):
+        for j in range(3):
+            out[e, i0 + i, j0 + j] = M[3 * i + j]
+
+
+# ---------------------------------------------------------------------------
+# the contact law
+# ---------------------------------------------------------------------------
+@kernel
+def hunt_crossley(delta, delta_d, k, nexp, alpha):
+    """Normal force f_N = max(0, k δⁿ (1 + α δ̇)) (δ > 0; else 0) and its partial derivatives.
+
+    Returns
+    -------
+    (f_N, ∂f_N/∂δ, ∂f_N/∂δ̇) : floats (N, N/m, N s/m); zeros where f_N = 0.
+    """
+    if not delta > 0.0:
+        return 0.0, 0.0, 0.0
+    damp = 1.0 + alpha * delta_d
+    if not damp > 0.0:
+        return 0.0, 0.0, 0.0
+    dn1 = delta ** (nexp - 1.0)
+    sig = k * dn1 * delta
+    return sig * damp, nexp * k * dn1 * damp, sig * alpha
+
+
+@kernel
+def sphere_plane_law(P, e, r, a, om, rd):
+    """Gap, force and slip of one sphere on its plane, world axes.
+
+    Parameters
+    ----------
+    P : (nel, 15) parameters; e : element
+    r, a, om, rd : 3-tuples: node position, lever R s of the sphere centre, angular velocity ω,
+        node velocity ṙ (space axes).
+
+    Returns
+    -------
+    g, δ̇, f_N, dfd = ∂f_N/∂δ, dfv = ∂f_N/∂δ̇, F (3), v_T (3), d = c − r (3), u = F/f_N (3),
+    ρ = √(|v_T|² + ε_v²)
+    """
+    Rs = P[e, 3]
+    n = (P[e, 7], P[e, 8], P[e, 9])
+    g = n[0] * (r[0] + a[0] - P[e, 4]) + n[1] * (r[1] + a[1] - P[e, 5]) + n[2] * (r[2] + a[2] - P[e, 6]) - Rs
+    d = sub3(a, scale3(Rs, n))
+    vc = add3(rd, cross3(om, d))
+    vn = dot3(n, vc)
+    fN, dfd, dfv = hunt_crossley(-g, -vn, P[e, 10], P[e, 11], P[e, 12])
+    vT = sub3(vc, scale3(vn, n))
+    eps = P[e, 14]
+    rho = math.sqrt(dot3(vT, vT) + eps * eps)
+    mr = P[e, 13] / rho
+    u = (n[0] - mr * vT[0], n[1] - mr * vT[1], n[2] - mr * vT[2])
+    return g, -vn, fN, dfd, dfv, scale3(fN, u), vT, d, u, rho
+
+
+@kernel
+def sphere_plane_jacobian(P, e, a, d, om, fN, dfd, dfv, vT, u, rho):
+    """∂F/∂(δr, δφ, ṙ, ω) of :func:`sphere_plane_law` (δφ a rotation increment in space axes).
+
+    With P_n = I − n nᵀ, Q = P_n − v_T v_Tᵀ/ρ², c_T = μ f_N/ρ, V_φ = ∂v_c/∂φ = d̃ ω̃ − ω̃ ã and
+    u = n − μ v_T/ρ (F = f_N u):
+
+    * F_r = u ⊗ (−dfd n),
+    * F_φ = u ⊗ (−dfd (a × n) − dfv V_φᵀ n) − c_T Q V_φ,
+    * F_v = u ⊗ (−dfv n) − c_T Q,
+    * F_ω = u ⊗ (−dfv (a × n)) + c_T Q d̃.
+
+    Returns the four 9-tuples.
+    """
+    n = (P[e, 7], P[e, 8], P[e, 9])
+    cT = P[e, 13] * fN / rho
+    r2 = 1.0 / (rho * rho)
+    Q = (1.0 - n[0] * n[0] - r2 * vT[0] * vT[0], -n[0] * n[1] - r2 * vT[0] * vT[1], -n[0] * n[2] - r2 * vT[0] * vT[2],
+         -n[1] * n[0] - r2 * vT[1] * vT[0], 1.0 - n[1] * n[1] - r2 * vT[1] * vT[1], -n[1] * n[2] - r2 * vT[1] * vT[2],
+         -n[2] * n[0] - r2 * vT[2] * vT[0], -n[2] * n[1] - r2 * vT[2] * vT[1], 1.0 - n[2] * n[2] - r2 * vT[2] * vT[2])
+    dt = skew(d)
+    wt = skew(om)
+    Vphi = sub9(mm(dt, wt), mm(wt, skew(a)))
+    an = cross3(a, n)
+    Vn = mtv(Vphi, n)
+    Z = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
+    Fr = outer_lin(u, scale3(-dfd, n), 0.0, Z, Z)
+    Fphi = outer_lin(u, (-dfd * an[0] - dfv * Vn[0], -dfd * an[1] - dfv * Vn[1], -dfd * an[2] - dfv * Vn[2]),
+                     cT, Q, Vphi)
+    I9 = (1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0)
+    Fv = outer_lin(u, scale3(-dfv, n), cT, Q, I9)
+    Fw = outer_lin(u, scale3(-dfv, an), -cT, Q, dt)
+    return Fr, Fphi, Fv, Fw
+
+
+@kernel
+def sub9(A, B):
+    return (A[0] - B[0], A[1] - B[1], A[2] - B[2], A[3] - B[3], A[4] - B[4], A[5] - B[5],
+            A[6] - B[6], A[7] - B[7], A[8] - B[8])
+
+
+@kernel
+def moment_jacobian(a, d, F, Fr, Fphi, Fv, Fw):
+    """∂m/∂(δr, δφ, ṙ, ω) of m = d × F, d = a − R_s n (δd = δφ × a): d̃ F_r, F̃ ã + d̃ F_φ, d̃ F_v, d̃ F_ω."""
+    dt = skew(d)
+    return mm(dt, Fr), add9(mm(skew(F), skew(a)), mm(dt, Fphi)), mm(dt, Fv), mm(dt, Fw)
+
+
+# ---------------------------------------------------------------------------
+# kernels: planar (x, y, θ) and spatial (r, quaternion | ṙ, Ω) nodes
+# ---------------------------------------------------------------------------
+@kernel
+def _planar_frame(P, xe, ve, e):
+    c, s = math.cos(xe[e, 2]), math.sin(xe[e, 2])
+    r = (xe[e, 0], xe[e, 1], 0.0)
+    a = (c * P[e, 0] - s * P[e, 1], s * P[e, 0] + c * P[e, 1], 0.0)
+    return r, a, (0.0, 0.0, ve[e, 2]), (ve[e, 0], ve[e, 1], 0.0)
+
+
+@kernel
+def planar_penalty_force(P, t, tf, xe, ve, jac, fe, fq, fv):
+    """Penalty sphere (disc) on a line, planar node (x, y, θ): f = (F_x, F_y, ((c − r) × F)_z).
+
+    P = (s (3, z = 0), R_s, p (3), n (3), k, n, α, μ, ε_v); Jacobians: the x, y and z-rotation
+    rows and columns of :func:`sphere_plane_jacobian` and :func:`moment_jacobian`.
+    """
+    for e in range(xe.shape[0]):
+        r, a, om, rd = _planar_frame(P, xe, ve, e)
+        g, gd, fN, dfd, dfv, F, vT, d, u, rho = sphere_plane_law(P, e, r, a, om, rd)
+        if fN == 0.0:
+            continue
+        fe[e, 0] = F[0]
+        fe[e, 1] = F[1]
+        fe[e, 2] = d[0] * F[1] - d[1] * F[0]
+        if not jac:
+            continue
+        Fr, Fphi, Fv, Fw = sphere_plane_jacobian(P, e, a, d, om, fN, dfd, dfv, vT, u, rho)
+        mr, mphi, mvv, mw = moment_jacobian(a, d, F, Fr, Fphi, Fv, Fw)
+        for i in range(2):
+            for j in range(2):
+                fq[e, i, j] = Fr[3 * i + j]
+                fv[e, i, j] = Fv[3 * i + j]
+            fq[e, i, 2] = Fphi[3 * i + 2]
+            fv[e, i, 2] = Fw[3 * i + 2]
+            fq[e, 2, i] = mr[6 + i]
+            fv[e, 2, i] = mvv[6 + i]
+        fq[e, 2, 2] = mphi[8]
+        fv[e, 2, 2] = mw[8]
+
+
+@kernel
+def _spatial_frame(P, xe, ve, e):
+    Rm = quat_to_matrix_t(xe[e, 3], xe[e, 4], xe[e, 5], xe[e, 6])
+    r = (xe[e, 0], xe[e, 1], xe[e, 2])
+    a = mv(Rm, (P[e, 0], P[e, 1], P[e, 2]))
+    om = mv(Rm, (ve[e, 3], ve[e, 4], ve[e, 5]))
+    return Rm, r, a, om, (ve[e, 0], ve[e, 1], ve[e, 2])
+
+
+@kernel
+def spatial_penalty_force(P, t, tf, xe, ve, jac, fe, fq, fv):
+    """Penalty sphere on a plane, spatial frame node: f = (F, Rᵀ((c − r) × F)).
+
+    Along R ← R exp(δθ̃) (δφ = R δθ) and ω = RΩ:
+    f_q = [[F_r, F_φ R], [Rᵀ m_r, (Rᵀm)~ + Rᵀ m_φ R]], f_v = [[F_v, F_ω R], [Rᵀ m_v, Rᵀ m_ω R]]
+    with m = (c − r) × F and the blocks of :func:`sphere_plane_jacobian`, :func:`moment_jacobian`.
+    P as :func:`planar_penalty_force`.
+    """
+    for e in range(xe.shape[0]):
+        Rm, r, a, om, rd = _spatial_frame(P, xe, ve, e)
+        g, gd, fN, dfd, dfv, F, vT, d, u, rho = sphere_plane_law(P, e, r, a, om, rd)
+        if fN == 0.0:
+            continue
+        m = cross3(d, F)
+        mb = mtv(Rm, m)
+        for i in range(3):
+            fe[e, i] = F[i]
+            fe[e, 3 + i] = mb[i]
+        if not jac:
+            continue
+        Fr, Fphi, Fv, Fw = sphere_plane_jacobian(P, e, a, d, om, fN, dfd, dfv, vT, u, rho)
+        mr, mphi, mvv, mw = moment_jacobian(a, d, F, Fr, Fphi, Fv, Fw)
+        put_block(fq, e, 0, 0, Fr)
+        put_block(fq, e, 0, 3, mm(Fphi, Rm))
+        put_block(fq, e, 3, 0, mtm(Rm, mr))
+        put_block(fq, e, 3, 3, add9(skew(mb), mm(mtm(Rm, mphi), Rm)))
+        put_block(fv, e, 0, 0, Fv)
+        put_block(fv, e, 0, 3, mm(Fw, Rm))
+        put_block(fv, e, 3, 0, mtm(Rm, mvv))
+        put_block(fv, e, 3, 3, mm(mtm(Rm, mw), Rm))
+
+
+@kernel
+def _hertz_potential(P, e, g):
+    """V = k δⁿ⁺¹/(n + 1) for δ = −g > 0, else 0."""
+    if not g < 0.0:
+        return 0.0
+    n1 = P[e, 11] + 1.0
+    return P[e, 10] * (-g) ** n1 / n1
+
+
+@kernel
+def planar_penalty_energy(P, t, tf, xe, Ve):
+    """Elastic potential of :func:`planar_penalty_force` (its force at v = 0 is −∂V/∂q)."""
+    for e in range(xe.shape[0]):
+        c, s = math.cos(xe[e, 2]), math.sin(xe[e, 2])
+        g = (P[e, 7] * (xe[e, 0] + c * P[e, 0] - s * P[e, 1] - P[e, 4])
+             + P[e, 8] * (xe[e, 1] + s * P[e, 0] + c * P[e, 1] - P[e, 5]) - P[e, 3])
+        Ve[e] = _hertz_potential(P, e, g)
+
+
+@kernel
+def spatial_penalty_energy(P, t, tf, xe, Ve):
+    """Elastic potential of :func:`spatial_penalty_force`."""
+    for e in range(xe.shape[0]):
+        Rm = quat_to_matrix_t(xe[e, 3], xe[e, 4], xe[e, 5], xe[e, 6])
+        a = mv(Rm, (P[e, 0], P[e, 1], P[e, 2]))
+        g = (P[e, 7] * (xe[e, 0] + a[0] - P[e, 4]) + P[e, 8] * (xe[e, 1] + a[1] - P[e, 5])
+             + P[e, 9] * (xe[e, 2] + a[2] - P[e, 6]) - P[e, 3])
+        Ve[e] = _hertz_potential(P, e, g)
+
+
+@kernel
+def penalty_state(P, xe, ve, spatial, out):
+    """Outputs of a batch at one state: out[e] = (g_N, ġ_N, f_N, F_T (3), v_T (3)), space axes.
+
+    ``spatial``: 1.0 for frame nodes (x = (r, quaternion)), 0.0 for planar nodes.
+    """
+    for e in range(xe.shape[0]):
+        if spatial > 0.0:
+            Rm, r, a, om, rd = _spatial_frame(P, xe, ve, e)
+        else:
+            r, a, om, rd = _planar_frame(P, xe, ve, e)
+        g, gd, fN, dfd, dfv, F, vT, d, u, rho = sphere_plane_law(P, e, r, a, om, rd)
+        out[e, 0] = g
+        out[e, 1] = -gd
+        out[e, 2] = fN
+        for i in range(3):
+            out[e, 3 + i] = F[i] - fN * P[e, 7 + i]
+            out[e, 6 + i] = vT[i]
+
+
+# ---------------------------------------------------------------------------
+# Hunt–Crossley damping for a given restitution
+# ---------------------------------------------------------------------------
+@functools.lru_cache(maxsize=64)
+def restitution_of(c, exponent=1.5):
+    """Restitution e of a central Hunt–Crossley impact as a function of c = α v⁻.
+
+    Solves the impact in the scaled variables of the module docstring,
+    x″ = −xⁿ max(0, 1 + c x′), x(0) = 0, x′(0) = 1, until x returns to 0; e = −x′ there.
+    """
+    from scipy.integrate import solve_ivp
+
+    def rhs(_, y):
+        x = max(y[0], 0.0)
+        return (y[1], -x ** exponent * max(0.0, 1.0 + c * y[1]))
+
+    def back(_, y):
+        return y[0]
+
+    back.terminal, back.direction = True, -1.0
+    sol = solve_ivp(rhs, (0.0, 100.0), (0.0, 1.0), method="DOP853", rtol=1e-11, atol=1e-13, events=back)
+    if not sol.t_events[0].size:
+        raise ModelError(f"Hunt–Crossley restitution for α v = {c:g}: the impact did not end (internal error)")
+    return float(-sol.y_events[0][0][1])
+
+
+@functools.lru_cache(maxsize=64)
+def hunt_crossley_damping(restitution, v_ref, exponent=1.5):
+    """α (s/m) such that a central impact at approach speed ``v_ref`` rebounds with ``restitution``.
+
+    Parameters
+    ----------
+    restitution : float in (0, 1]
+    v_ref : float > 0
+        Approach speed (m/s) at which e is exact.
+    exponent : float ≥ 1
+
+    Returns
+    -------
+    float
+        α = c/v_ref with e(c) = restitution (:func:`restitution_of`, solved by bisection on c);
+        0 for e = 1.
+    """
+    from scipy.optimize import brentq
+
+    if restitution >= 1.0:
+        return 0.0
+    hi = 1.0
+    while restitution_of(hi, exponent) > restitution:
+        hi *= 4.0
+        if hi > 1e9:
+            raise ModelError(f"restitution {restitution:g} is too small for the Hunt–Crossley law")
+    c = brentq(lambda x: restitution_of(x, exponent) - restitution, 0.0, hi, xtol=1e-12, rtol=1e-12)
+    return c / v_ref
+
+
+# ---------------------------------------------------------------------------
+# element types
+# ---------------------------------------------------------------------------
+def _num(owner, what, value, lo=None, lo_open=False, hi=None):
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        raise ModelError(f"{owner}: {what} must be a number, got {value!r}") from None
+    if not math.isfinite(v):
+        raise ModelError(f"{owner}: {what} must be finite, got {value!r}")
+    if lo is not None and (v < lo or (lo_open and v == lo)):
+        raise ModelError(f"{owner}: {what} must be {'>' if lo_open else '≥'} {lo:g}, got {v:g}")
+    if hi is not None and v > hi:
+        raise ModelError(f"{owner}: {what} must be ≤ {hi:g}, got {v:g}")
+    return v
+
+
+def _vec(owner, what, value, dim, unit=False):
+    try:
+        v = np.array(value, dtype=float).reshape(-1)
+    except (TypeError, ValueError):
+        raise ModelError(f"{owner}: {what} must be {dim} numbers, got {value!r}") from None
+    if v.size != dim or not np.all(np.isfinite(v)):
+        raise ModelError(f"{owner}: {what} must be {dim} finite numbers, got {value!r}")
+    if unit:
+        L = float(np.linalg.norm(v))
+        if L < 1e-12:
+            raise ModelError(f"{owner}: {what} must be a non-zero vector, got {value!r}")
+        v = v / L
+    return v
+
+
+class _PenaltySphereOnPlane(Element):
+    """Shared parameters, validation, packing and outputs of the two penalty types."""
+
+    has_force = True
+    force_depends_on_qd = True
+    work = "potential"
+    dim = 2
+
+    def __init__(self, name, body, radius, stiffness, point=None, plane_point=None, normal=None, *,
+                 restitution=1.0, v_ref=1.0, damping=None, mu=0.0, eps_v=1e-2, exponent=1.5):
+        super().__init__(name)
+        owner = f"{type(self).__name__} '{name}'"
+        dim = self.dim
+        self.body = body
+        self._point = point
+        self.radius = _num(owner, "radius", radius, 0.0)
+        self.k = _num(owner, "stiffness", stiffness, 0.0, lo_open=True)
+        self.exponent = _num(owner, "exponent", exponent, 1.0)
+        self.p = _vec(owner, "plane_point", np.zeros(dim) if plane_point is None else plane_point, dim)
+        default_n = (0.0, 1.0) if dim == 2 else (0.0, 0.0, 1.0)
+        self.n = _vec(owner, "normal", default_n if normal is None else normal, dim, unit=True)
+        self.mu = _num(owner, "mu (friction coefficient)", mu, 0.0)
+        self.eps_v = _num(owner, "eps_v (regularization speed, m/s)", eps_v, 0.0, lo_open=True)
+        self.restitution = _num(owner, "restitution", restitution, 0.0, hi=1.0)
+        self.v_ref = _num(owner, "v_ref (approach speed of the restitution, m/s)", v_ref, 0.0, lo_open=True)
+        if damping is not None:
+            if self.restitution != 1.0:
+                raise ModelError(f"{owner}: give restitution (with v_ref) or damping, not both")
+            self.alpha = _num(owner, "damping (Hunt–Crossley α, s/m)", damping, 0.0)
+        else:
+            if self.restitution == 0.0:
+                raise ModelError(f"{owner}: restitution 0 (a plastic impact) is not reachable with the "
+                                 "Hunt–Crossley law (α → ∞); give e > 0, or use femb.contact for e_N = 0")
+            self.alpha = hunt_crossley_damping(self.restitution, self.v_ref, self.exponent)
+
+    def nodes(self):
+        return [self.body.node]
+
+    @classmethod
+    def pack(cls, elements):
+        rows = []
+        for e in elements:
+            s3, p3, n3 = (np.zeros(3) for _ in range(3))
+            s3[:cls.dim], p3[:cls.dim], n3[:cls.dim] = e.s, e.p, e.n
+            rows.append([*s3, e.radius, *p3, *n3, e.k, e.exponent, e.alpha, e.mu, e.eps_v])
+        P = np.ascontiguousarray(np.array(rows, dtype=float).reshape(-1, NPAR))
+        return {"P": P}
+
+    # ----------------------------------------------------------------- outputs
+    @classmethod
+    def output_units(cls):
+        """Named outputs per element (``"<element>.<name>"`` in ``Result.series``) and their units."""
+        tang = (("lambda_F", "N"), ("gamma_F", "m/s")) if cls.dim == 2 else (
+            ("lambda_F1", "N"), ("lambda_F2", "N"), ("gamma_F1", "m/s"), ("gamma_F2", "m/s"))
+        return (("gN", "m"), ("gN_d", "m/s"), ("lambda_N", "N")) + tang + (
+            ("lambda_F_norm", "N"), ("slip", "m/s"), ("state", "1"))
+
+    @classmethod
+    def outputs(cls, params, qe, qde):
+        """Every named output of a batch at many states.
+
+        Parameters
+        ----------
+        params : dict from :meth:`pack`
+        qe : ndarray (nt, nel, ndx); qde : ndarray (nt, nel, ndv)
+
+        Returns
+        -------
+        dict name → ndarray (nt, nel): gap g_N (m, negative = penetration), ġ_N (m/s), normal
+        force λ_N = f_N (N), friction force components along the tangents (N; planar t =
+        (n_y, −n_x), spatial t₁, t₂ of :func:`femb.elements.contact.tangents`) and the slip
+        velocity components (m/s), |f_T| (N), slip speed |v_T| (m/s), state (0 open: f_N = 0,
+        1 stick: |v_T| < ε_v, 2 slip).
+        """
+        P = params["P"]
+        nt, nel = qe.shape[0], qe.shape[1]
+        Pt = np.ascontiguousarray(np.tile(P, (nt, 1)))
+        out = np.zeros((nt * nel, 9))
+        penalty_state(Pt, np.ascontiguousarray(qe.reshape(nt * nel, -1), dtype=float),
+                      np.ascontiguousarray(qde.reshape(nt * nel, -1), dtype=float),
+                      1.0 if cls.dim == 3 else 0.0, out)
+        FT, vT = out[:, 3:6], out[:, 6:9]
+        res = {"gN": out[:, 0], "gN_d": out[:, 1], "lambda_N": out[:, 2]}
+        for k, t in enumerate(cls._tangent_rows(Pt)):
+            sfx = "" if cls.dim == 2 else str(k + 1)
+            res["lambda_F" + sfx] = np.einsum("ij,ij->i", FT, t)
+            res["gamma_F" + sfx] = np.einsum("ij,ij->i", vT, t)
+        slip = np.linalg.norm(vT, axis=1)
+        res["lambda_F_norm"] = np.linalg.norm(FT, axis=1)
+        res["slip"] = slip
+        res["state"] = np.where(out[:, 2] > 0.0, np.where(slip < Pt[:, 14], 1.0, 2.0), 0.0)
+        return {k: v.reshape(nt, nel) for k, v in res.items()}
+
+    @classmethod
+    def _tangent_rows(cls, P):
+        n = P[:, 7:10]
+        if cls.dim == 2:
+            return [np.column_stack((n[:, 1], -n[:, 0], np.zeros(len(n))))]
+        from .contact import tangents
+
+        T = np.array([np.concatenate(tangents(v)) for v in n]).reshape(-1, 6)
+        return [T[:, 0:3], T[:, 3:6]]
+
+
+class PenaltySphereOnPlane(_PenaltySphereOnPlane):
+    """Compliant contact of a disc (or point) of a planar body with a line fixed in space.
+
+    Hunt–Crossley normal force with Hertz stiffness and regularized Coulomb friction (module
+    docstring); geometry and signs as :class:`femb.elements.contact.SphereOnPlane`.
+
+    Parameters
+    ----------
+    name : str
+    body : planar body or name
+    radius : float ≥ 0
+        Disc radius R_s (m); 0: a point.
+    stiffness : float > 0
+        k in f_N = k δⁿ (N/mⁿ); for two elastic spheres (Johnson §4.2) k = (4/3) E* √R*.
+    point : (2,) or name, optional
+        Disc centre in the body frame (default: the node).
+    plane_point, normal : (2,), optional
+        A point of the line and its normal to the free side (default: the x axis, n = (0, 1)).
+    restitution : float in (0, 1]
+        Coefficient of restitution of a central impact at approach speed ``v_ref`` (default 1:
+        no damping); sets α by :func:`hunt_crossley_damping`.
+    v_ref : float > 0
+        The approach speed (m/s) at which ``restitution`` holds (default 1).
+    damping : float ≥ 0, optional
+        α (s/m) directly, instead of ``restitution``.
+    mu : float ≥ 0
+        Coulomb friction coefficient.
+    eps_v : float > 0
+        Regularization speed ε_v (m/s, default 1e-3): below it friction is viscous
+        (f_T ≈ −μ f_N v_T/ε_v); "sticking" contacts creep at less than ε_v.
+    exponent : float ≥ 1
+        n (default 3/2, Hertz; 1: linear spring).
+    """
+
+    kernels = {"force": planar_penalty_force, "energy": planar_penalty_energy}
+    dim = 2
+
+    def resolve(self, lookup):
+        owner = f"PenaltySphereOnPlane '{self.name}'"
+        body = lookup(self.body, "body")
+        if getattr(body, "node", None) is None or getattr(body.node, "rotation_blocks", ()):
+            raise ModelError(f"{owner}: body must be a planar body, got {getattr(body, 'name', body)!r} "
+                             "(use SpatialPenaltySphereOnPlane for spatial bodies)")
+        self.body = body
+        self.s = np.asarray(body.local((0.0, 0.0) if self._point is None else self._point, "point"), dtype=float)
+
+
+class SpatialPenaltySphereOnPlane(_PenaltySphereOnPlane):
+    """Compliant contact of a sphere (or point) of a spatial body with a plane fixed in space.
+
+    As :class:`PenaltySphereOnPlane` with 3-vectors (``point`` in body axes; default plane z = 0,
+    n = (0, 0, 1)); geometry and signs as :class:`femb.elements.contact.SpatialSphereOnPlane`.
+    """
+
+    kernels = {"force": spatial_penalty_force, "energy": spatial_penalty_energy}
+    spatial = True
+    dim = 3
+
+    def resolve(self, lookup):
+        owner = f"SpatialPenaltySphereOnPlane '{self.name}'"
+        body = lookup(self.body, "body")
+        if getattr(body, "node", None) is None or not getattr(body.node, "rotation_blocks", ()):
+            raise ModelError(f"{owner}: body must be a spatial body, got {getattr(body, 'name', body)!r} "
+                             "(use PenaltySphereOnPlane for planar bodies)")
+        self.body = body
+        self.s = np.asarray(body.local((0.0, 0.0, 0.0) if self._point is None else self._point, "point"),
+                            dtype=float)
