@@ -460,7 +460,7 @@ class _PenaltySphereOnPlane(Element):
             s3[:cls.dim], p3[:cls.dim], n3[:cls.dim] = e.s, e.p, e.n
             rows.append([*s3, e.radius, *p3, *n3, e.k, e.exponent, e.alpha, e.mu, e.eps_v])
         P = np.ascontiguousarray(np.array(rows, dtype=float).reshape(-1, NPAR))
-        return {"P": P}
+        return {"P": P, "T": cls._tangents(elements)}
 
     # ----------------------------------------------------------------- outputs
     @classmethod
@@ -472,23 +472,25 @@ class _PenaltySphereOnPlane(Element):
             ("lambda_F_norm", "N"), ("slip", "m/s"), ("state", "1"))
 
     @classmethod
-    def outputs(cls, params, qe, qde):
-        """Every named output of a batch at many states.
+    def outputs(cls, params, qe, qde, rows):
+        """Every named output of some elements of a batch at many states.
 
         Parameters
         ----------
-        params : dict from :meth:`pack`
-        qe : ndarray (nt, nel, ndx); qde : ndarray (nt, nel, ndv)
+        params : dict from :meth:`pack` (the whole batch)
+        qe : ndarray (nt, ne, ndx); qde : ndarray (nt, ne, ndv)
+            Coordinates and velocities of the elements ``rows`` (ne indices into the batch).
 
         Returns
         -------
         dict name → ndarray (nt, nel): gap g_N (m, negative = penetration), ġ_N (m/s), normal
         force λ_N = f_N (N), friction force components along the tangents (N; planar t =
-        (n_y, −n_x), spatial t₁, t₂ of :func:`femb.elements.contact.tangents`) and the slip
+        (n_y, −n_x), spatial t₁, t₂ of the element) and the slip
         velocity components (m/s), |f_T| (N), slip speed |v_T| (m/s), state (0 open: f_N = 0,
         1 stick: |v_T| < ε_v, 2 slip).
         """
-        P = params["P"]
+        rows = np.asarray(rows, dtype=np.int64).reshape(-1)
+        P = params["P"][rows]
         nt, nel = qe.shape[0], qe.shape[1]
         Pt = np.ascontiguousarray(np.tile(P, (nt, 1)))
         out = np.zeros((nt * nel, 9))
@@ -497,7 +499,7 @@ class _PenaltySphereOnPlane(Element):
                       1.0 if cls.dim == 3 else 0.0, out)
         FT, vT = out[:, 3:6], out[:, 6:9]
         res = {"gN": out[:, 0], "gN_d": out[:, 1], "lambda_N": out[:, 2]}
-        for k, t in enumerate(cls._tangent_rows(Pt)):
+        for k, t in enumerate(cls._tangent_rows(params["T"][rows], nt)):
             sfx = "" if cls.dim == 2 else str(k + 1)
             res["lambda_F" + sfx] = np.einsum("ij,ij->i", FT, t)
             res["gamma_F" + sfx] = np.einsum("ij,ij->i", vT, t)
@@ -508,14 +510,20 @@ class _PenaltySphereOnPlane(Element):
         return {k: v.reshape(nt, nel) for k, v in res.items()}
 
     @classmethod
-    def _tangent_rows(cls, P):
-        n = P[:, 7:10]
-        if cls.dim == 2:
-            return [np.column_stack((n[:, 1], -n[:, 0], np.zeros(len(n))))]
-        from .contact import tangents
+    def _tangents(cls, elements):
+        """(nel, 6): the tangents (t₁, t₂) of the outputs; planar: t = (n_y, −n_x), t₂ = 0."""
+        T = np.zeros((len(elements), 6))
+        for i, e in enumerate(elements):
+            if cls.dim == 2:
+                T[i, 0:2] = (e.n[1], -e.n[0])
+            else:
+                T[i] = np.concatenate((e.t1, e.t2))
+        return T
 
-        T = np.array([np.concatenate(tangents(v)) for v in n]).reshape(-1, 6)
-        return [T[:, 0:3], T[:, 3:6]]
+    @classmethod
+    def _tangent_rows(cls, T, nt):
+        T = np.tile(T, (nt, 1))
+        return [T[:, 0:3]] if cls.dim == 2 else [T[:, 0:3], T[:, 3:6]]
 
 
 class PenaltySphereOnPlane(_PenaltySphereOnPlane):
@@ -570,11 +578,30 @@ class SpatialPenaltySphereOnPlane(_PenaltySphereOnPlane):
 
     As :class:`PenaltySphereOnPlane` with 3-vectors (``point`` in body axes; default plane z = 0,
     n = (0, 0, 1)); geometry and signs as :class:`femb.elements.contact.SpatialSphereOnPlane`.
+    ``tangent`` (3,), optional: t₁ of the outputs ``lambda_F1``, ``gamma_F1`` (its part orthogonal
+    to n; t₂ = n × t₁); default :func:`femb.elements.contact.tangents`. The force law is isotropic
+    and does not depend on it.
     """
 
     kernels = {"force": spatial_penalty_force, "energy": spatial_penalty_energy}
     spatial = True
     dim = 3
+
+    def __init__(self, name, body, radius, stiffness, point=None, plane_point=None, normal=None, *,
+                 tangent=None, **law):
+        super().__init__(name, body, radius, stiffness, point, plane_point, normal, **law)
+        from .contact import tangents
+
+        if tangent is None:
+            self.t1, self.t2 = tangents(self.n)
+        else:
+            owner = f"SpatialPenaltySphereOnPlane '{name}'"
+            t1 = _vec(owner, "tangent", tangent, 3)
+            t1 = t1 - (t1 @ self.n) * self.n
+            if np.linalg.norm(t1) < 1e-9:
+                raise ModelError(f"{owner}: tangent must not be parallel to the normal, got {tangent!r}")
+            self.t1 = t1 / np.linalg.norm(t1)
+            self.t2 = np.cross(self.n, self.t1)
 
     def resolve(self, lookup):
         owner = f"SpatialPenaltySphereOnPlane '{self.name}'"

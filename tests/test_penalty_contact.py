@@ -399,3 +399,31 @@ def test_incline_small_regularization_with_adaptive_steps():
     assert r.series("floor.slip")[0][-1] == pytest.approx(creep_speed(1e-4, 0.3, 0.5), rel=1e-2)
     with pytest.raises(femb.errors.ConvergenceError):
         _incline(0.3, 0.5, eps_v=1e-4)
+
+
+@pytest.mark.parametrize("spatial", [False, True], ids=["planar", "spatial"])
+def test_backspin_ball_rolls_back_at_minus_ten_sevenths(spatial):
+    """The ball of the backspin scene (ω₀ = 50 rad/s, μ = 0.2, dropped from 1 m): it slides, then rolls at
+    ẋ = −(2/7) R ω₀ = −10/7 m/s (angular momentum about the contact point); the regularized slip decays."""
+    from femb.benchmarks.scenes.contact.penalty_backspin import run
+    out = run(spatial=spatial, t_end=1.0, h=1e-3)
+    assert out["rolling speed"] == pytest.approx(-10 / 7, abs=1e-9)
+    assert out["slip at the end"] < 1e-9
+    assert 0.70 < out["slip < eps_v from"] < 0.76          # the rigid scheme's switch: 0.72812 s (e_N = 0)
+
+
+def test_outputs_of_each_element_of_a_batch():
+    """Outputs of element i use element i's parameters (two spheres, different stiffness, one batch)."""
+    from femb.benchmarks.scenes.contact import penalty_spheres
+    mech = femb.Mechanism("two")
+    mech.add(SpatialGravity((0.0, 0.0, -9.81)))
+    for i, k in enumerate((1e5, 4e5)):
+        mech.add(SpatialRigidBody(f"s{i}", 1.0, (0.001,) * 3, position=(i, 0.0, 0.049)))
+        mech.add(SpatialPenaltySphereOnPlane(f"c{i}", f"s{i}", 0.05, k, mu=0.1))
+    r = femb.simulate(mech.compile(), t_end=2e-3, h=1e-3)
+    for i, k in enumerate((1e5, 4e5)):
+        d = -r.series(f"c{i}.gN")[0]
+        assert d[0] == pytest.approx(1e-3)
+        assert r.series(f"c{i}.lambda_N")[0][0] == pytest.approx(k * 1e-3 ** 1.5, rel=1e-12)
+    out = penalty_spheres.outputs(r)
+    assert out["lambda_N"][0] == pytest.approx(5e5 * 1e-3 ** 1.5, rel=1e-12)

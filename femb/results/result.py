@@ -561,7 +561,7 @@ class Result:
 
     def _output_elements(self):
         """{element name: (batch, index in it)} of the element types that declare named outputs
-        (an ``output_units()`` and an ``outputs(params, qe, qde)`` classmethod, e.g. penalty contacts)."""
+        (an ``output_units()`` and an ``outputs(params, qe, qde, rows)`` classmethod, e.g. penalty contacts)."""
         return {name: (g, i) for g in self.model.groups if hasattr(g.cls, "output_units")
                 for i, name in enumerate(g.names)}
 
@@ -578,7 +578,7 @@ class Result:
         nt = self.t.size
         qx = np.concatenate((self.q, np.broadcast_to(m.q_fixed, (nt, m.q_fixed.size))), axis=1)
         vx = np.concatenate((self.qd, np.zeros((nt, m.nfix_v))), axis=1)
-        vals = g.cls.outputs(g.params, qx[:, g.xdofs[i:i + 1]], vx[:, g.dofs[i:i + 1]])
+        vals = g.cls.outputs(g.params, qx[:, g.xdofs[i:i + 1]], vx[:, g.dofs[i:i + 1]], [i])
         return vals[base][:, 0].copy(), units[base]
 
     def series(self, name: str) -> tuple[np.ndarray, str]:
