@@ -37,5 +37,5 @@ __all__ += ["FrameNode", "SpatialPointMass", "SpatialRigidBody", "spatial_ground
             "PointSpringDamper", "Bushing", "SpatialRotationalSpringDamper", "SpatialForce", "SpatialTorque",
             "SpatialGravity"]
 # penalty (compliant) contact: force elements of the compiled engine (docs/contact.md)
-from .penalty_contact import PenaltySphereOnPlane, SpatialPenaltySphereOnPlane  # noqa: E402
-__all__ += ["PenaltySphereOnPlane", "SpatialPenaltySphereOnPlane"]
+from .penalty_contact import PenaltySphereOnPlane, SpatialPenaltySpherePair, SpatialPenaltySphereOnPlane  # noqa: E402
+__all__ += ["PenaltySphereOnPlane", "SpatialPenaltySphereOnPlane", "SpatialPenaltySpherePair"]

@@ -327,6 +327,169 @@ def penalty_state(P, xe, ve, spatial, out):
 
 
 # ---------------------------------------------------------------------------
+# spatial sphere–sphere between two bodies
+# ---------------------------------------------------------------------------
+@kernel(allocates=True)
+def _skew_a(a):
+    S = np.zeros((3, 3))
+    S[0, 1], S[0, 2], S[1, 2] = -a[2], a[1], -a[0]
+    S[1, 0], S[2, 0], S[2, 1] = a[2], -a[1], a[0]
+    return S
+
+
+@kernel(allocates=True)
+def _rot(xe, e, o):
+    R = np.empty((3, 3))
+    T = quat_to_matrix_t(xe[e, o], xe[e, o + 1], xe[e, o + 2], xe[e, o + 3])
+    for i in range(3):
+        for j in range(3):
+            R[i, j] = T[3 * i + j]
+    return R
+
+
+@kernel(allocates=True)
+def sphere_pair_law(P, xe, ve, e):
+    """Geometry, force and slip of one sphere pair, space axes (arrays).
+
+    P = (s_a (3), s_b (3), R_a, R_b, w, k, n, α, μ, ε_v), w = R_a/(R_a + R_b); xe = (r_a, p_a, r_b, p_b).
+    Returns (R_a, R_b, a_a, a_b, ω_a, ω_b, e, L, n, d_a, d_b, v, g, f_N, dfd, dfv, F, v_T, u, ρ).
+    """
+    Ra, Rb = _rot(xe, e, 3), _rot(xe, e, 10)
+    aa = Ra @ P[e, 0:3]
+    ab = Rb @ P[e, 3:6]
+    wa = Ra @ ve[e, 3:6]
+    wb = Rb @ ve[e, 9:12]
+    ev = xe[e, 7:10] + ab - xe[e, 0:3] - aa
+    L = math.sqrt(ev @ ev)
+    n = ev / L
+    w = P[e, 8]
+    da = aa + w * ev
+    db = ab - (1.0 - w) * ev
+    v = ve[e, 6:9] + np.cross(wb, db) - ve[e, 0:3] - np.cross(wa, da)
+    vn = n @ v
+    g = L - P[e, 6] - P[e, 7]
+    fN, dfd, dfv = hunt_crossley(-g, -vn, P[e, 9], P[e, 10], P[e, 11])
+    vT = v - vn * n
+    rho = math.sqrt(vT @ vT + P[e, 13] * P[e, 13])
+    u = n - (P[e, 12] / rho) * vT
+    return Ra, Rb, aa, ab, wa, wb, ev, L, n, da, db, v, g, fN, dfd, dfv, fN * u, vT, u, rho
+
+
+@kernel(allocates=True)
+def _pair_jacobians(P, e, aa, ab, wa, wb, L, n, da, db, v, fN, dfd, dfv, F, vT, u, rho):
+    """World-axes Jacobians (3 × 12) of F and of the moments m_a = −d_a × F, m_b = d_b × F with respect
+    to y = (δr_a, δφ_a, δr_b, δφ_b) (δφ rotation increments in space axes) and to (ṙ_a, ω_a, ṙ_b, ω_b).
+
+    E = ∂e/∂y = [−I, ã_a, I, −ã_b], ∂n/∂y = P_n E/L (P_n = I − n nᵀ), V_y = ∂v/∂y (the rotating
+    arms and angular velocities, and the contact point c = C_a + w e), V_v = ∂v/∂(velocities)
+    = [−I, d̃_a, I, −d̃_b]; δ = R_a + R_b − L, δ̇ = −n·v; v_T = P_n v; F = f_N n − μ f_N v_T/ρ.
+    """
+    w = P[e, 8]
+    I3 = np.eye(3)
+    E = np.zeros((3, 12))
+    E[:, 0:3] = -I3
+    E[:, 3:6] = _skew_a(aa)
+    E[:, 6:9] = I3
+    E[:, 9:12] = -_skew_a(ab)
+    Pn = I3 - np.outer(n, n)
+    Dn = Pn @ E / L
+    Swa, Swb = _skew_a(wa), _skew_a(wb)
+    Vy = -(1.0 - w) * (Swb @ E) - w * (Swa @ E)
+    Vy[:, 9:12] += _skew_a(db) @ Swb - Swb @ _skew_a(ab)
+    Vy[:, 3:6] -= _skew_a(da) @ Swa - Swa @ _skew_a(aa)
+    Vv = np.zeros((3, 12))
+    Vv[:, 0:3] = -I3
+    Vv[:, 3:6] = _skew_a(da)
+    Vv[:, 6:9] = I3
+    Vv[:, 9:12] = -_skew_a(db)
+    vn = n @ v
+    gy = -dfd * (n @ E) - dfv * (v @ Dn + n @ Vy)
+    gv = -dfv * (n @ Vv)
+    cT = P[e, 12] * fN / rho
+    K = I3 - np.outer(vT, vT) / (rho * rho)
+    dvTy = Pn @ Vy - (vn * I3 + np.outer(n, v)) @ Dn
+    Fy = np.outer(u, gy) + fN * Dn - cT * (K @ dvTy)
+    Fv = np.outer(u, gv) - cT * (K @ (Pn @ Vv))
+    Ddb = -(1.0 - w) * E
+    Ddb[:, 9:12] -= _skew_a(ab)
+    Dda = w * E
+    Dda[:, 3:6] -= _skew_a(aa)
+    SF = _skew_a(F)
+    mby = -SF @ Ddb + _skew_a(db) @ Fy
+    may = SF @ Dda - _skew_a(da) @ Fy
+    return Fy, Fv, may, -_skew_a(da) @ Fv, mby, _skew_a(db) @ Fv
+
+
+@kernel(allocates=True)
+def sphere_pair_force(P, t, tf, xe, ve, jac, fe, fq, fv):
+    """Penalty contact of a sphere on spatial body a with a sphere on spatial body b.
+
+    f = (−F, −R_aᵀ(d_a × F), F, R_bᵀ(d_b × F)): F on b and −F on a at the contact point
+    c = C_a + w e, d_k = c − r_k. Jacobians along R_k ← R_k exp(δθ̃_k) (δφ_k = R_k δθ_k, ω_k = R_k Ω_k):
+    the world Jacobians of :func:`_pair_jacobians` with the rotation columns times R_k, the moment
+    rows times R_kᵀ, and (R_kᵀ m_k)~ added at (θ_k, θ_k).
+    """
+    for e in range(xe.shape[0]):
+        (Ra, Rb, aa, ab, wa, wb, ev, L, n, da, db, v, g, fN, dfd, dfv, F, vT, u,
+         rho) = sphere_pair_law(P, xe, ve, e)
+        if fN == 0.0:
+            continue
+        ma = -np.cross(da, F)
+        mb = np.cross(db, F)
+        mab = Ra.T @ ma
+        mbb = Rb.T @ mb
+        fe[e, 0:3] = -F
+        fe[e, 3:6] = mab
+        fe[e, 6:9] = F
+        fe[e, 9:12] = mbb
+        if not jac:
+            continue
+        Fy, Fv, may, mav, mby, mbv = _pair_jacobians(P, e, aa, ab, wa, wb, L, n, da, db, v, fN, dfd, dfv,
+                                                     F, vT, u, rho)
+        for Jy, Jv, r0, Rr in ((-Fy, -Fv, 0, Ra), (may, mav, 3, Ra), (Fy, Fv, 6, Rb), (mby, mbv, 9, Rb)):
+            Y = Jy.copy()
+            V = Jv.copy()
+            Y[:, 3:6] = np.ascontiguousarray(Jy[:, 3:6]) @ Ra
+            Y[:, 9:12] = np.ascontiguousarray(Jy[:, 9:12]) @ Rb
+            V[:, 3:6] = np.ascontiguousarray(Jv[:, 3:6]) @ Ra
+            V[:, 9:12] = np.ascontiguousarray(Jv[:, 9:12]) @ Rb
+            if r0 == 3 or r0 == 9:
+                Y = Rr.T @ Y
+                V = Rr.T @ V
+            fq[e, r0:r0 + 3, :] = Y
+            fv[e, r0:r0 + 3, :] = V
+        fq[e, 3:6, 3:6] += _skew_a(mab)
+        fq[e, 9:12, 9:12] += _skew_a(mbb)
+
+
+@kernel
+def sphere_pair_energy(P, t, tf, xe, Ve):
+    """Elastic potential k δⁿ⁺¹/(n + 1) of :func:`sphere_pair_force`, δ = R_a + R_b − |C_b − C_a|."""
+    for e in range(xe.shape[0]):
+        Ra = quat_to_matrix_t(xe[e, 3], xe[e, 4], xe[e, 5], xe[e, 6])
+        Rb = quat_to_matrix_t(xe[e, 10], xe[e, 11], xe[e, 12], xe[e, 13])
+        aa = mv(Ra, (P[e, 0], P[e, 1], P[e, 2]))
+        ab = mv(Rb, (P[e, 3], P[e, 4], P[e, 5]))
+        ev = (xe[e, 7] + ab[0] - xe[e, 0] - aa[0], xe[e, 8] + ab[1] - xe[e, 1] - aa[1],
+              xe[e, 9] + ab[2] - xe[e, 2] - aa[2])
+        g = math.sqrt(dot3(ev, ev)) - P[e, 6] - P[e, 7]
+        Ve[e] = 0.0 if not g < 0.0 else P[e, 9] * (-g) ** (P[e, 10] + 1.0) / (P[e, 10] + 1.0)
+
+
+@kernel(allocates=True)
+def sphere_pair_state(P, xe, ve, out):
+    """out[e] = (g_N, ġ_N, f_N, F_T (3), v_T (3)) of each pair, space axes (F_T on b, v_T of b against a)."""
+    for e in range(xe.shape[0]):
+        (Ra, Rb, aa, ab, wa, wb, ev, L, n, da, db, v, g, fN, dfd, dfv, F, vT, u,
+         rho) = sphere_pair_law(P, xe, ve, e)
+        out[e, 0] = g
+        out[e, 1] = n @ v
+        out[e, 2] = fN
+        out[e, 3:6] = F - fN * n
+        out[e, 6:9] = vT
+
+
+# ---------------------------------------------------------------------------
 # Hunt–Crossley damping for a given restitution
 # ---------------------------------------------------------------------------
 @functools.lru_cache(maxsize=64)
@@ -414,27 +577,25 @@ def _vec(owner, what, value, dim, unit=False):
     return v
 
 
-class _PenaltySphereOnPlane(Element):
-    """Shared parameters, validation, packing and outputs of the two penalty types."""
+class _PenaltyLaw(Element):
+    """The contact law's parameters (checked) and the named outputs, shared by every penalty type.
+
+    Subclasses set ``_state(P, xe, ve, out)`` (the compiled outputs kernel) through
+    :meth:`_state_values` and name their tangent components in :meth:`_tangent_rows`.
+    """
 
     has_force = True
     force_depends_on_qd = True
     work = "potential"
-    dim = 2
+    #: column of ε_v in P
+    _eps_col = 14
+    #: suffixes of the tangent components of the outputs
+    _tangent_suffixes = ("",)
 
-    def __init__(self, name, body, radius, stiffness, point=None, plane_point=None, normal=None, *,
-                 restitution=1.0, v_ref=1.0, damping=None, mu=0.0, eps_v=1e-2, exponent=1.5):
-        super().__init__(name)
-        owner = f"{type(self).__name__} '{name}'"
-        dim = self.dim
-        self.body = body
-        self._point = point
-        self.radius = _num(owner, "radius", radius, 0.0)
+    def _set_law(self, stiffness, restitution, v_ref, damping, mu, eps_v, exponent):
+        owner = f"{type(self).__name__} '{self.name}'"
         self.k = _num(owner, "stiffness", stiffness, 0.0, lo_open=True)
         self.exponent = _num(owner, "exponent", exponent, 1.0)
-        self.p = _vec(owner, "plane_point", np.zeros(dim) if plane_point is None else plane_point, dim)
-        default_n = (0.0, 1.0) if dim == 2 else (0.0, 0.0, 1.0)
-        self.n = _vec(owner, "normal", default_n if normal is None else normal, dim, unit=True)
         self.mu = _num(owner, "mu (friction coefficient)", mu, 0.0)
         self.eps_v = _num(owner, "eps_v (regularization speed, m/s)", eps_v, 0.0, lo_open=True)
         self.restitution = _num(owner, "restitution", restitution, 0.0, hi=1.0)
@@ -449,25 +610,15 @@ class _PenaltySphereOnPlane(Element):
                                  "Hunt–Crossley law (α → ∞); give e > 0, or use femb.contact for e_N = 0")
             self.alpha = hunt_crossley_damping(self.restitution, self.v_ref, self.exponent)
 
-    def nodes(self):
-        return [self.body.node]
-
-    @classmethod
-    def pack(cls, elements):
-        rows = []
-        for e in elements:
-            s3, p3, n3 = (np.zeros(3) for _ in range(3))
-            s3[:cls.dim], p3[:cls.dim], n3[:cls.dim] = e.s, e.p, e.n
-            rows.append([*s3, e.radius, *p3, *n3, e.k, e.exponent, e.alpha, e.mu, e.eps_v])
-        P = np.ascontiguousarray(np.array(rows, dtype=float).reshape(-1, NPAR))
-        return {"P": P, "T": cls._tangents(elements)}
+    def _law_row(self):
+        return [self.k, self.exponent, self.alpha, self.mu, self.eps_v]
 
     # ----------------------------------------------------------------- outputs
     @classmethod
     def output_units(cls):
         """Named outputs per element (``"<element>.<name>"`` in ``Result.series``) and their units."""
-        tang = (("lambda_F", "N"), ("gamma_F", "m/s")) if cls.dim == 2 else (
-            ("lambda_F1", "N"), ("lambda_F2", "N"), ("gamma_F1", "m/s"), ("gamma_F2", "m/s"))
+        tang = tuple((f"lambda_F{x}", "N") for x in cls._tangent_suffixes) + tuple(
+            (f"gamma_F{x}", "m/s") for x in cls._tangent_suffixes)
         return (("gN", "m"), ("gN_d", "m/s"), ("lambda_N", "N")) + tang + (
             ("lambda_F_norm", "N"), ("slip", "m/s"), ("state", "1"))
 
@@ -483,31 +634,69 @@ class _PenaltySphereOnPlane(Element):
 
         Returns
         -------
-        dict name → ndarray (nt, nel): gap g_N (m, negative = penetration), ġ_N (m/s), normal
-        force λ_N = f_N (N), friction force components along the tangents (N; planar t =
-        (n_y, −n_x), spatial t₁, t₂ of the element) and the slip
-        velocity components (m/s), |f_T| (N), slip speed |v_T| (m/s), state (0 open: f_N = 0,
+        dict name → ndarray (nt, ne): gap g_N (m, negative = penetration), ġ_N (m/s), normal
+        force λ_N = f_N (N), the friction force's components (N; planar along t = (n_y, −n_x),
+        spatial on a plane along the element's t₁, t₂, sphere pairs along x, y, z, the force on b)
+        and the slip velocity's (m/s), |f_T| (N), slip speed |v_T| (m/s), state (0 open: f_N = 0,
         1 stick: |v_T| < ε_v, 2 slip).
         """
         rows = np.asarray(rows, dtype=np.int64).reshape(-1)
-        P = params["P"][rows]
         nt, nel = qe.shape[0], qe.shape[1]
-        Pt = np.ascontiguousarray(np.tile(P, (nt, 1)))
+        Pt = np.ascontiguousarray(np.tile(params["P"][rows], (nt, 1)))
         out = np.zeros((nt * nel, 9))
-        penalty_state(Pt, np.ascontiguousarray(qe.reshape(nt * nel, -1), dtype=float),
-                      np.ascontiguousarray(qde.reshape(nt * nel, -1), dtype=float),
-                      1.0 if cls.dim == 3 else 0.0, out)
+        cls._state_values(Pt, np.ascontiguousarray(qe.reshape(nt * nel, -1), dtype=float),
+                          np.ascontiguousarray(qde.reshape(nt * nel, -1), dtype=float), out)
         FT, vT = out[:, 3:6], out[:, 6:9]
         res = {"gN": out[:, 0], "gN_d": out[:, 1], "lambda_N": out[:, 2]}
-        for k, t in enumerate(cls._tangent_rows(params["T"][rows], nt)):
-            sfx = "" if cls.dim == 2 else str(k + 1)
+        for sfx, t in zip(cls._tangent_suffixes, cls._tangent_rows(params["T"][rows], nt)):
             res["lambda_F" + sfx] = np.einsum("ij,ij->i", FT, t)
             res["gamma_F" + sfx] = np.einsum("ij,ij->i", vT, t)
         slip = np.linalg.norm(vT, axis=1)
         res["lambda_F_norm"] = np.linalg.norm(FT, axis=1)
         res["slip"] = slip
-        res["state"] = np.where(out[:, 2] > 0.0, np.where(slip < Pt[:, 14], 1.0, 2.0), 0.0)
+        res["state"] = np.where(out[:, 2] > 0.0, np.where(slip < Pt[:, cls._eps_col], 1.0, 2.0), 0.0)
         return {k: v.reshape(nt, nel) for k, v in res.items()}
+
+    @classmethod
+    def _tangent_rows(cls, T, nt):
+        T = np.tile(T, (nt, 1))
+        return [T[:, 3 * k:3 * k + 3] for k in range(len(cls._tangent_suffixes))]
+
+
+class _PenaltySphereOnPlane(_PenaltyLaw):
+    """Shared parameters, validation and packing of the planar and spatial sphere-on-plane types."""
+
+    dim = 2
+
+    def __init__(self, name, body, radius, stiffness, point=None, plane_point=None, normal=None, *,
+                 restitution=1.0, v_ref=1.0, damping=None, mu=0.0, eps_v=1e-2, exponent=1.5):
+        super().__init__(name)
+        owner = f"{type(self).__name__} '{name}'"
+        dim = self.dim
+        self.body = body
+        self._point = point
+        self.radius = _num(owner, "radius", radius, 0.0)
+        self.p = _vec(owner, "plane_point", np.zeros(dim) if plane_point is None else plane_point, dim)
+        default_n = (0.0, 1.0) if dim == 2 else (0.0, 0.0, 1.0)
+        self.n = _vec(owner, "normal", default_n if normal is None else normal, dim, unit=True)
+        self._set_law(stiffness, restitution, v_ref, damping, mu, eps_v, exponent)
+
+    def nodes(self):
+        return [self.body.node]
+
+    @classmethod
+    def pack(cls, elements):
+        rows = []
+        for e in elements:
+            s3, p3, n3 = (np.zeros(3) for _ in range(3))
+            s3[:cls.dim], p3[:cls.dim], n3[:cls.dim] = e.s, e.p, e.n
+            rows.append([*s3, e.radius, *p3, *n3, *e._law_row()])
+        P = np.ascontiguousarray(np.array(rows, dtype=float).reshape(-1, NPAR))
+        return {"P": P, "T": cls._tangents(elements)}
+
+    @classmethod
+    def _state_values(cls, P, xe, ve, out):
+        penalty_state(P, xe, ve, 1.0 if cls.dim == 3 else 0.0, out)
 
     @classmethod
     def _tangents(cls, elements):
@@ -519,11 +708,6 @@ class _PenaltySphereOnPlane(Element):
             else:
                 T[i] = np.concatenate((e.t1, e.t2))
         return T
-
-    @classmethod
-    def _tangent_rows(cls, T, nt):
-        T = np.tile(T, (nt, 1))
-        return [T[:, 0:3]] if cls.dim == 2 else [T[:, 0:3], T[:, 3:6]]
 
 
 class PenaltySphereOnPlane(_PenaltySphereOnPlane):
@@ -586,6 +770,7 @@ class SpatialPenaltySphereOnPlane(_PenaltySphereOnPlane):
     kernels = {"force": spatial_penalty_force, "energy": spatial_penalty_energy}
     spatial = True
     dim = 3
+    _tangent_suffixes = ("1", "2")
 
     def __init__(self, name, body, radius, stiffness, point=None, plane_point=None, normal=None, *,
                  tangent=None, **law):
@@ -612,3 +797,82 @@ class SpatialPenaltySphereOnPlane(_PenaltySphereOnPlane):
         self.body = body
         self.s = np.asarray(body.local((0.0, 0.0, 0.0) if self._point is None else self._point, "point"),
                             dtype=float)
+
+
+class SpatialPenaltySpherePair(_PenaltyLaw):
+    """Compliant contact of a sphere on spatial body a with a sphere on spatial body b.
+
+    Centres C_k = r_k + R_k s_k, e = C_b − C_a, normal n = e/|e| (from a to b), gap
+    g_N = |e| − R_a − R_b (the convention of :class:`femb.elements.contact.DiscOnDisc`), contact
+    point c = C_a + w e with w = R_a/(R_a + R_b) (the touching point when g_N = 0; on the line of
+    centres, dividing the overlap in the ratio of the radii), slip v_T = the tangential part of
+    the velocity of b's material point at c relative to a's. The law of the module docstring gives F,
+    which acts on b at c, and −F on a at c (so the pair exerts no net force or moment).
+
+    Parameters
+    ----------
+    name : str
+    a, b : spatial body or name
+    radius_a, radius_b : float ≥ 0
+    stiffness : float > 0
+        k in f_N = k δⁿ; for two elastic spheres (Johnson §4.2) k = (4/3) E* √R*,
+        1/R* = 1/R_a + 1/R_b, 1/E* = (1 − ν_a²)/E_a + (1 − ν_b²)/E_b.
+    point_a, point_b : (3,) or name, optional
+        Sphere centres in body axes (default: the nodes).
+    restitution, v_ref, damping, mu, eps_v, exponent : as :class:`PenaltySphereOnPlane`.
+
+    Notes
+    -----
+    The outputs ``lambda_F_x`` … and ``gamma_F_x`` … are the friction force on b and the slip
+    velocity in space axes. The kernel allocates small arrays (``@kernel(allocates=True)``).
+    """
+
+    kernels = {"force": sphere_pair_force, "energy": sphere_pair_energy}
+    spatial = True
+    _eps_col = 13
+    _tangent_suffixes = ("_x", "_y", "_z")
+
+    def __init__(self, name, a, b, radius_a, radius_b, stiffness, point_a=None, point_b=None, *,
+                 restitution=1.0, v_ref=1.0, damping=None, mu=0.0, eps_v=1e-2, exponent=1.5):
+        super().__init__(name)
+        owner = f"SpatialPenaltySpherePair '{name}'"
+        self.a, self.b = a, b
+        self._points = (point_a, point_b)
+        self.Ra = _num(owner, "radius_a", radius_a, 0.0)
+        self.Rb = _num(owner, "radius_b", radius_b, 0.0)
+        self._set_law(stiffness, restitution, v_ref, damping, mu, eps_v, exponent)
+
+    def resolve(self, lookup):
+        owner = f"SpatialPenaltySpherePair '{self.name}'"
+        for role in ("a", "b"):
+            body = lookup(getattr(self, role), role)
+            if getattr(body, "node", None) is None or not getattr(body.node, "rotation_blocks", ()):
+                raise ModelError(f"{owner}: {role} must be a spatial body, got {getattr(body, 'name', body)!r}")
+            setattr(self, role, body)
+        if self.a is self.b:
+            raise ModelError(f"{owner}: bodies a and b are the same ('{self.a.name}')")
+        pa, pb = self._points
+        self.sa = np.asarray(self.a.local((0.0, 0.0, 0.0) if pa is None else pa, "point_a"), dtype=float)
+        self.sb = np.asarray(self.b.local((0.0, 0.0, 0.0) if pb is None else pb, "point_b"), dtype=float)
+
+    def validate(self):
+        Ca, Cb = self.a.global_point(self.sa), self.b.global_point(self.sb)
+        if np.linalg.norm(Cb - Ca) == 0.0:
+            raise ModelError(f"SpatialPenaltySpherePair '{self.name}': the sphere centres coincide initially "
+                             "(no normal direction)")
+
+    def nodes(self):
+        return [self.a.node, self.b.node]
+
+    @classmethod
+    def pack(cls, elements):
+        rows = []
+        for e in elements:
+            w = e.Ra / (e.Ra + e.Rb) if e.Ra + e.Rb > 0.0 else 0.5
+            rows.append([*e.sa, *e.sb, e.Ra, e.Rb, w, *e._law_row()])
+        P = np.ascontiguousarray(np.array(rows, dtype=float).reshape(-1, 14))
+        return {"P": P, "T": np.tile(np.eye(3).reshape(1, 9), (len(elements), 1))}
+
+    @classmethod
+    def _state_values(cls, P, xe, ve, out):
+        sphere_pair_state(P, xe, ve, out)
