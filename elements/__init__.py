@@ -37,5 +37,7 @@ __all__ += ["FrameNode", "SpatialPointMass", "SpatialRigidBody", "spatial_ground
             "PointSpringDamper", "Bushing", "SpatialRotationalSpringDamper", "SpatialForce", "SpatialTorque",
             "SpatialGravity"]
 # penalty (compliant) contact: force elements of the compiled engine (docs/contact.md)
-from .penalty_contact import PenaltySphereOnPlane, SpatialPenaltySpherePair, SpatialPenaltySphereOnPlane  # noqa: E402
-__all__ += ["PenaltySphereOnPlane", "SpatialPenaltySphereOnPlane", "SpatialPenaltySpherePair"]
+from .penalty_contact import (PenaltySphereOnPlane, SpatialPenaltySphereOnBodyPlane,  # noqa: E402
+                              SpatialPenaltySpherePair, SpatialPenaltySphereOnPlane)
+__all__ += ["PenaltySphereOnPlane", "SpatialPenaltySphereOnPlane", "SpatialPenaltySpherePair",
+            "SpatialPenaltySphereOnBodyPlane"]

@@ -490,6 +490,171 @@ def sphere_pair_state(P, xe, ve, out):
 
 
 # ---------------------------------------------------------------------------
+# spatial sphere on a plane fixed to another body
+# ---------------------------------------------------------------------------
+@kernel(allocates=True)
+def body_plane_law(P, xe, ve, e):
+    """Geometry, force and slip of a sphere on body b against a plane fixed to body a, space axes.
+
+    P = (p̄ (3), n̄ (3) in a's axes, s_b (3), R_s, k, n, α, μ, ε_v); xe = (r_a, p_a, r_b, p_b).
+    Plane point P = r_a + R_a p̄, normal n = R_a n̄, centre C = r_b + R_b s_b, g = n·(C − P) − R_s,
+    contact point c = C − R_s n. Returns (R_a, R_b, p = R_a p̄, a_b = R_b s_b, ω_a, ω_b, n, C − P,
+    d_a = c − r_a, d_b = c − r_b, v (b's point at c against a's), g, f_N, dfd, dfv, F, v_T, u, ρ).
+    """
+    Ra, Rb = _rot(xe, e, 3), _rot(xe, e, 10)
+    pw = Ra @ P[e, 0:3]
+    n = Ra @ P[e, 3:6]
+    ab = Rb @ P[e, 6:9]
+    wa = Ra @ ve[e, 3:6]
+    wb = Rb @ ve[e, 9:12]
+    CP = xe[e, 7:10] + ab - xe[e, 0:3] - pw
+    g = n @ CP - P[e, 9]
+    c = xe[e, 7:10] + ab - P[e, 9] * n
+    da = c - xe[e, 0:3]
+    db = ab - P[e, 9] * n
+    v = ve[e, 6:9] + np.cross(wb, db) - ve[e, 0:3] - np.cross(wa, da)
+    vn = n @ v
+    fN, dfd, dfv = hunt_crossley(-g, -vn, P[e, 10], P[e, 11], P[e, 12])
+    vT = v - vn * n
+    rho = math.sqrt(vT @ vT + P[e, 14] * P[e, 14])
+    u = n - (P[e, 13] / rho) * vT
+    return Ra, Rb, pw, ab, wa, wb, n, CP, da, db, v, g, fN, dfd, dfv, fN * u, vT, u, rho
+
+
+@kernel(allocates=True)
+def two_body_jacobians(mu, Dn, Dc, Dg, n, v, da, db, wa, wb, fN, dfd, dfv, F, vT, u, rho):
+    """World-axes Jacobians (3 × 12) of F and of m_a = −d_a × F, m_b = d_b × F for a contact between
+    bodies a and b with normal n(y), contact point c(y) and gap g(y) given by their derivatives
+    Dn, Dc (3 × 12) and Dg (12,) along y = (δr_a, δφ_a, δr_b, δφ_b); v = b's point at c against
+    a's, δ = −g, δ̇ = −n·v, v_T = v − (n·v) n, F = f_N (n − μ v_T/ρ).
+
+    d_k = c − r_k: ∂d_a/∂y = Dc − [I, 0, 0, 0], ∂d_b/∂y = Dc − [0, 0, I, 0];
+    ∂v/∂y = ω̃_b ∂d_b/∂y − ω̃_a ∂d_a/∂y + (d̃_b ω̃_b at φ_b) − (d̃_a ω̃_a at φ_a) (δω = δφ × ω);
+    ∂v/∂(ṙ_a, ω_a, ṙ_b, ω_b) = [−I, d̃_a, I, −d̃_b].
+    """
+    I3 = np.eye(3)
+    Dda = Dc.copy()
+    Dda[:, 0:3] -= I3
+    Ddb = Dc.copy()
+    Ddb[:, 6:9] -= I3
+    Swa, Swb = _skew_a(wa), _skew_a(wb)
+    Vy = Swb @ Ddb - Swa @ Dda
+    Vy[:, 9:12] += _skew_a(db) @ Swb
+    Vy[:, 3:6] -= _skew_a(da) @ Swa
+    Vv = np.zeros((3, 12))
+    Vv[:, 0:3] = -I3
+    Vv[:, 3:6] = _skew_a(da)
+    Vv[:, 6:9] = I3
+    Vv[:, 9:12] = -_skew_a(db)
+    vn = n @ v
+    Pn = I3 - np.outer(n, n)
+    gy = -dfd * Dg - dfv * (v @ Dn + n @ Vy)
+    gv = -dfv * (n @ Vv)
+    cT = mu * fN / rho
+    K = I3 - np.outer(vT, vT) / (rho * rho)
+    dvTy = Pn @ Vy - (vn * I3 + np.outer(n, v)) @ Dn
+    Fy = np.outer(u, gy) + fN * Dn - cT * (K @ dvTy)
+    Fv = np.outer(u, gv) - cT * (K @ (Pn @ Vv))
+    SF = _skew_a(F)
+    return Fy, Fv, SF @ Dda - _skew_a(da) @ Fy, -_skew_a(da) @ Fv, -SF @ Ddb + _skew_a(db) @ Fy, _skew_a(db) @ Fv
+
+
+@kernel(allocates=True)
+def write_two_body(fe, fq, fv, e, jac, Ra, Rb, da, db, F, Fy, Fv, may, mav, mby, mbv):
+    """f = (−F, R_aᵀ m_a, F, R_bᵀ m_b) and, with ``jac``, its Jacobians along R_k ← R_k exp(δθ̃_k):
+    rotation columns times R_k, moment rows times R_kᵀ, (R_kᵀ m_k)~ added at (θ_k, θ_k)."""
+    mab = Ra.T @ (-np.cross(da, F))
+    mbb = Rb.T @ np.cross(db, F)
+    fe[e, 0:3] = -F
+    fe[e, 3:6] = mab
+    fe[e, 6:9] = F
+    fe[e, 9:12] = mbb
+    if not jac:
+        return
+    for Jy, Jv, r0, Rr in ((-Fy, -Fv, 0, Ra), (may, mav, 3, Ra), (Fy, Fv, 6, Rb), (mby, mbv, 9, Rb)):
+        Y = Jy.copy()
+        V = Jv.copy()
+        Y[:, 3:6] = np.ascontiguousarray(Jy[:, 3:6]) @ Ra
+        Y[:, 9:12] = np.ascontiguousarray(Jy[:, 9:12]) @ Rb
+        V[:, 3:6] = np.ascontiguousarray(Jv[:, 3:6]) @ Ra
+        V[:, 9:12] = np.ascontiguousarray(Jv[:, 9:12]) @ Rb
+        if r0 == 3 or r0 == 9:
+            Y = Rr.T @ Y
+            V = Rr.T @ V
+        fq[e, r0:r0 + 3, :] = Y
+        fv[e, r0:r0 + 3, :] = V
+    fq[e, 3:6, 3:6] += _skew_a(mab)
+    fq[e, 9:12, 9:12] += _skew_a(mbb)
+
+
+@kernel(allocates=True)
+def body_plane_force(P, t, tf, xe, ve, jac, fe, fq, fv):
+    """Penalty sphere (on body b) against a plane fixed to body a: F on b at c, −F on a at c.
+
+    Derivatives of the geometry of :func:`body_plane_law` (δn = δφ_a × n, δC = δr_b − ã_b δφ_b,
+    δP = δr_a − p̃ δφ_a): Dn = [0, −ñ, 0, 0], Dg = (C − P)ᵀDn + nᵀ(DC − DP), Dc = DC − R_s Dn; then
+    :func:`two_body_jacobians` and :func:`write_two_body`.
+    """
+    for e in range(xe.shape[0]):
+        (Ra, Rb, pw, ab, wa, wb, n, CP, da, db, v, g, fN, dfd, dfv, F, vT, u,
+         rho) = body_plane_law(P, xe, ve, e)
+        if fN == 0.0:
+            continue
+        Fy = Fv = may = mav = mby = mbv = np.zeros((3, 12))
+        if jac:
+            Dn = np.zeros((3, 12))
+            Dn[:, 3:6] = -_skew_a(n)
+            DCP = np.zeros((3, 12))
+            DCP[:, 0:3] = -np.eye(3)
+            DCP[:, 3:6] = _skew_a(pw)
+            DCP[:, 6:9] = np.eye(3)
+            DCP[:, 9:12] = -_skew_a(ab)
+            Dg = CP @ Dn + n @ DCP
+            Dc = DCP.copy()
+            Dc[:, 0:3] = 0.0
+            Dc[:, 3:6] = 0.0
+            Dc -= P[e, 9] * Dn
+            Fy, Fv, may, mav, mby, mbv = two_body_jacobians(P[e, 13], Dn, Dc, Dg, n, v, da, db, wa, wb, fN, dfd,
+                                                            dfv, F, vT, u, rho)
+        write_two_body(fe, fq, fv, e, jac, Ra, Rb, da, db, F, Fy, Fv, may, mav, mby, mbv)
+
+
+@kernel
+def body_plane_energy(P, t, tf, xe, Ve):
+    """Elastic potential k δⁿ⁺¹/(n + 1) of :func:`body_plane_force`, δ = R_s − n·(C − P)."""
+    for e in range(xe.shape[0]):
+        Ra = quat_to_matrix_t(xe[e, 3], xe[e, 4], xe[e, 5], xe[e, 6])
+        Rb = quat_to_matrix_t(xe[e, 10], xe[e, 11], xe[e, 12], xe[e, 13])
+        pw = mv(Ra, (P[e, 0], P[e, 1], P[e, 2]))
+        n = mv(Ra, (P[e, 3], P[e, 4], P[e, 5]))
+        ab = mv(Rb, (P[e, 6], P[e, 7], P[e, 8]))
+        CP = (xe[e, 7] + ab[0] - xe[e, 0] - pw[0], xe[e, 8] + ab[1] - xe[e, 1] - pw[1],
+              xe[e, 9] + ab[2] - xe[e, 2] - pw[2])
+        Ve[e] = _body_plane_potential(P, e, dot3(n, CP) - P[e, 9])
+
+
+@kernel
+def _body_plane_potential(P, e, g):
+    if not g < 0.0:
+        return 0.0
+    n1 = P[e, 11] + 1.0
+    return P[e, 10] * (-g) ** n1 / n1
+
+
+@kernel(allocates=True)
+def body_plane_state(P, xe, ve, out):
+    """out[e] = (g_N, ġ_N, f_N, F_T (3), v_T (3)), space axes (F_T on b, v_T of b against a)."""
+    for e in range(xe.shape[0]):
+        (Ra, Rb, pw, ab, wa, wb, n, CP, da, db, v, g, fN, dfd, dfv, F, vT, u,
+         rho) = body_plane_law(P, xe, ve, e)
+        out[e, 0] = g
+        out[e, 1] = n @ v
+        out[e, 2] = fN
+        out[e, 3:6] = F - fN * n
+        out[e, 6:9] = vT
+
+
+# ---------------------------------------------------------------------------
 # Hunt–Crossley damping for a given restitution
 # ---------------------------------------------------------------------------
 @functools.lru_cache(maxsize=64)
@@ -876,3 +1041,71 @@ class SpatialPenaltySpherePair(_PenaltyLaw):
     @classmethod
     def _state_values(cls, P, xe, ve, out):
         sphere_pair_state(P, xe, ve, out)
+
+
+class SpatialPenaltySphereOnBodyPlane(_PenaltyLaw):
+    """Compliant contact of a sphere on spatial body b with a plane fixed to spatial body a.
+
+    Plane point P = r_a + R_a p̄ and normal n = R_a n̄ (p̄, n̄ in a's axes; n to the free side), sphere
+    centre C = r_b + R_b s_b, gap g_N = n·(C − P) − R_s, contact point c = C − R_s n; the law of the
+    module docstring gives F, which acts on b at c and −F on a at c. The plane is unbounded (no
+    edges): keep the sphere over the part of a you mean.
+
+    Parameters
+    ----------
+    name : str
+    a : spatial body or name
+        The body that carries the plane (a table, a moving platform).
+    b : spatial body or name
+        The body that carries the sphere.
+    radius, stiffness : as :class:`PenaltySphereOnPlane`.
+    plane_point, normal : (3,), optional
+        In a's axes, or a point name of a (default: a's node and its z axis).
+    point : (3,) or name, optional
+        Sphere centre in b's axes (default: b's node).
+    restitution, v_ref, damping, mu, eps_v, exponent : as :class:`PenaltySphereOnPlane`.
+
+    Notes
+    -----
+    Outputs ``lambda_F_x`` … ``gamma_F_z``: the friction force on b and the slip velocity, space axes.
+    """
+
+    kernels = {"force": body_plane_force, "energy": body_plane_energy}
+    spatial = True
+    _tangent_suffixes = ("_x", "_y", "_z")
+
+    def __init__(self, name, a, b, radius, stiffness, plane_point=None, normal=None, point=None, *,
+                 restitution=1.0, v_ref=1.0, damping=None, mu=0.0, eps_v=1e-2, exponent=1.5):
+        super().__init__(name)
+        owner = f"SpatialPenaltySphereOnBodyPlane '{name}'"
+        self.a, self.b = a, b
+        self._spec = (plane_point, point)
+        self.radius = _num(owner, "radius", radius, 0.0)
+        self.nbar = _vec(owner, "normal", (0.0, 0.0, 1.0) if normal is None else normal, 3, unit=True)
+        self._set_law(stiffness, restitution, v_ref, damping, mu, eps_v, exponent)
+
+    def resolve(self, lookup):
+        owner = f"SpatialPenaltySphereOnBodyPlane '{self.name}'"
+        for role in ("a", "b"):
+            body = lookup(getattr(self, role), role)
+            if getattr(body, "node", None) is None or not getattr(body.node, "rotation_blocks", ()):
+                raise ModelError(f"{owner}: {role} must be a spatial body, got {getattr(body, 'name', body)!r}")
+            setattr(self, role, body)
+        if self.a is self.b:
+            raise ModelError(f"{owner}: bodies a and b are the same ('{self.a.name}')")
+        pp, pt = self._spec
+        self.pbar = np.asarray(self.a.local((0.0, 0.0, 0.0) if pp is None else pp, "plane_point"), dtype=float)
+        self.s = np.asarray(self.b.local((0.0, 0.0, 0.0) if pt is None else pt, "point"), dtype=float)
+
+    def nodes(self):
+        return [self.a.node, self.b.node]
+
+    @classmethod
+    def pack(cls, elements):
+        rows = [[*e.pbar, *e.nbar, *e.s, e.radius, *e._law_row()] for e in elements]
+        P = np.ascontiguousarray(np.array(rows, dtype=float).reshape(-1, 15))
+        return {"P": P, "T": np.tile(np.eye(3).reshape(1, 9), (len(elements), 1))}
+
+    @classmethod
+    def _state_values(cls, P, xe, ve, out):
+        body_plane_state(P, xe, ve, out)

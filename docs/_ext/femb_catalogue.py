@@ -453,7 +453,8 @@ def spatial_contact():
 
 def penalty_contact():
     import femb
-    from femb.elements import SpatialGravity, SpatialPenaltySpherePair, SpatialPenaltySphereOnPlane, SpatialRigidBody
+    from femb.elements import (FixedJoint, SpatialGravity, SpatialPenaltySphereOnBodyPlane, SpatialPenaltySpherePair,
+                               SpatialPenaltySphereOnPlane, SpatialRigidBody)
 
     mech = femb.Mechanism("penalty_balls")
     mech.add(SpatialRigidBody("ball", 1.0, (0.004, 0.004, 0.004), position=(0.0, 0.0, 0.3), velocity=(0.5, 0.0, 0.0),
@@ -463,6 +464,15 @@ def penalty_contact():
              SpatialPenaltySphereOnPlane("floor", "ball", 0.1, 1e6, restitution=0.5, mu=0.3),
              SpatialPenaltySphereOnPlane("floor2", "ball2", 0.1, 1e6, restitution=0.5, mu=0.3),
              SpatialPenaltySpherePair("pair", "ball", "ball2", 0.1, 0.1, 1e6, restitution=0.5, mu=0.3),
+             SpatialRigidBody("ramp", 5.0, (0.1, 0.1, 0.1), position=(-0.5, 0.0, 0.2), rotation=(0.9950042, 0.0, 0.0998334, 0.0),
+                              shape={"type": "box", "size": (0.4, 0.3, 0.02)}),
+             SpatialRigidBody("ball3", 1.0, (0.004, 0.004, 0.004), position=(-0.5, 0.0, 0.45),
+                              shape={"type": "sphere", "radius": 0.1}),
+             FixedJoint("weld", "ground", "ramp", at=(-0.5, 0.0, 0.2)),
+             # ε_v and h: this ball's slip stops during its impact on the ramp, where the viscous branch of the
+             # friction law is stiffest (h μ f_N/(m ε_v) with the impact force; docs/contact.md §9.5)
+             SpatialPenaltySphereOnBodyPlane("on_ramp", "ramp", "ball3", 0.1, 1e6, plane_point=(0.0, 0.0, 0.01),
+                                             restitution=0.5, mu=0.3, eps_v=0.05),
              SpatialGravity((0.0, 0.0, -9.81)))
     return mech
 
@@ -603,12 +613,14 @@ ENTRIES = [
           "A spinning disc dropped on a compliant floor: Hertz stiffness with Hunt–Crossley damping and "
           "regularized Coulomb friction, a force element of the compiled engine (:func:`femb.simulate`).",
           t_end=0.4, h=1e-3),
-    Entry("penalty_contact", "Penalty (compliant) contact in space: sphere on plane, sphere on sphere",
+    Entry("penalty_contact", "Penalty (compliant) contact in space: sphere on plane, on sphere, on a body's plane",
           ("femb.elements.penalty_contact.SpatialPenaltySphereOnPlane",
-           "femb.elements.penalty_contact.SpatialPenaltySpherePair"), penalty_contact,
-          "A spinning ball dropped on a compliant floor rolls into a second ball: Hertz stiffness, "
-          "Hunt–Crossley damping and regularized Coulomb friction between each ball and the floor and "
-          "between the balls, integrated by :func:`femb.simulate`.", t_end=0.5, h=1e-3),
+           "femb.elements.penalty_contact.SpatialPenaltySpherePair",
+           "femb.elements.penalty_contact.SpatialPenaltySphereOnBodyPlane"), penalty_contact,
+          "A spinning ball dropped on a compliant floor rolls into a second ball, and a third ball lands "
+          "on a tilted ramp welded to the ground (a plane fixed to a body): Hertz stiffness, "
+          "Hunt–Crossley damping and regularized Coulomb friction, integrated by :func:`femb.simulate`.",
+          t_end=0.5, h=5e-4),
 ]
 
 
