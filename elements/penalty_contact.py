@@ -1,4 +1,9 @@
-"""Penalty (compliant) contact: a sphere or point of a body on a plane fixed in space.
+"""Penalty (compliant) contact: spheres (or points) on planes and on spheres.
+
+Types: :class:`PenaltySphereOnPlane` (planar body, line fixed in space),
+:class:`SpatialPenaltySphereOnPlane` (spatial body, plane fixed in space),
+:class:`SpatialPenaltySpherePair` (spheres on two spatial bodies),
+:class:`SpatialPenaltySphereOnBodyPlane` (sphere on spatial body b, plane fixed to spatial body a).
 
 A force element (role ``"force"``, docs/kernels.md): it runs in femb's compiled engine at
 fixed or adaptive steps, planar and spatial, with the exact Jacobians ∂f/∂x (along
@@ -83,6 +88,12 @@ def outer_lin(u, g, c, Q, V):
 def add9(A, B):
     return (A[0] + B[0], A[1] + B[1], A[2] + B[2], A[3] + B[3], A[4] + B[4], A[5] + B[5],
             A[6] + B[6], A[7] + B[7], A[8] + B[8])
+
+
+@kernel
+def sub9(A, B):
+    return (A[0] - B[0], A[1] - B[1], A[2] - B[2], A[3] - B[3], A[4] - B[4], A[5] - B[5],
+            A[6] - B[6], A[7] - B[7], A[8] - B[8])
 
 
 @kernel
@@ -177,12 +188,6 @@ def sphere_plane_jacobian(P, e, a, d, om, fN, dfd, dfv, vT, u, rho):
     Fv = outer_lin(u, scale3(-dfv, n), cT, Q, I9)
     Fw = outer_lin(u, scale3(-dfv, an), -cT, Q, dt)
     return Fr, Fphi, Fv, Fw
-
-
-@kernel
-def sub9(A, B):
-    return (A[0] - B[0], A[1] - B[1], A[2] - B[2], A[3] - B[3], A[4] - B[4], A[5] - B[5],
-            A[6] - B[6], A[7] - B[7], A[8] - B[8])
 
 
 @kernel
