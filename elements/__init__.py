@@ -36,3 +36,8 @@ __all__ += ["FrameNode", "SpatialPointMass", "SpatialRigidBody", "spatial_ground
             "PrismaticJoint", "FixedJoint", "DistanceJoint", "DrivenRevoluteAngle", "DrivenPrismaticDisplacement",
             "PointSpringDamper", "Bushing", "SpatialRotationalSpringDamper", "SpatialForce", "SpatialTorque",
             "SpatialGravity"]
+# penalty (compliant) contact: force elements of the compiled engine (docs/contact.md)
+from .penalty_contact import (PenaltySphereOnPlane, SpatialPenaltySphereOnBodyPlane,  # noqa: E402
+                              SpatialPenaltySpherePair, SpatialPenaltySphereOnPlane)
+__all__ += ["PenaltySphereOnPlane", "SpatialPenaltySphereOnPlane", "SpatialPenaltySpherePair",
+            "SpatialPenaltySphereOnBodyPlane"]

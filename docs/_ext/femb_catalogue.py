@@ -451,6 +451,44 @@ def spatial_contact():
     return mech
 
 
+def penalty_contact():
+    import femb
+    from femb.elements import (FixedJoint, SpatialGravity, SpatialPenaltySphereOnBodyPlane, SpatialPenaltySpherePair,
+                               SpatialPenaltySphereOnPlane, SpatialRigidBody)
+
+    mech = femb.Mechanism("penalty_balls")
+    mech.add(SpatialRigidBody("ball", 1.0, (0.004, 0.004, 0.004), position=(0.0, 0.0, 0.3), velocity=(0.5, 0.0, 0.0),
+                              omega=(0.0, -20.0, 0.0), shape={"type": "sphere", "radius": 0.1}),
+             SpatialRigidBody("ball2", 1.0, (0.004, 0.004, 0.004), position=(0.3, 0.02, 0.1),
+                              shape={"type": "sphere", "radius": 0.1}),
+             SpatialPenaltySphereOnPlane("floor", "ball", 0.1, 1e6, restitution=0.5, mu=0.3),
+             SpatialPenaltySphereOnPlane("floor2", "ball2", 0.1, 1e6, restitution=0.5, mu=0.3),
+             SpatialPenaltySpherePair("pair", "ball", "ball2", 0.1, 0.1, 1e6, restitution=0.5, mu=0.3),
+             SpatialRigidBody("ramp", 5.0, (0.1, 0.1, 0.1), position=(-0.5, 0.0, 0.2), rotation=(0.9950042, 0.0, 0.0998334, 0.0),
+                              shape={"type": "box", "size": (0.4, 0.3, 0.02)}),
+             SpatialRigidBody("ball3", 1.0, (0.004, 0.004, 0.004), position=(-0.5, 0.0, 0.45),
+                              shape={"type": "sphere", "radius": 0.1}),
+             FixedJoint("weld", "ground", "ramp", at=(-0.5, 0.0, 0.2)),
+             # ε_v and h: this ball's slip stops during its impact on the ramp, where the viscous branch of the
+             # friction law is stiffest (h μ f_N/(m ε_v) with the impact force; docs/contact.md §9.5)
+             SpatialPenaltySphereOnBodyPlane("on_ramp", "ramp", "ball3", 0.1, 1e6, plane_point=(0.0, 0.0, 0.01),
+                                             restitution=0.5, mu=0.3, eps_v=0.05),
+             SpatialGravity((0.0, 0.0, -9.81)))
+    return mech
+
+
+def planar_penalty_contact():
+    import femb
+    from femb.elements import Gravity, PenaltySphereOnPlane, RigidBody
+
+    mech = femb.Mechanism("penalty_disc")
+    mech.add(RigidBody("ball", 1.0, 0.004, (0.0, 0.3), velocity=(0.5, 0.0), omega=20.0,
+                       shape={"type": "disc", "radius": 0.1}),
+             PenaltySphereOnPlane("floor", "ball", 0.1, 1e6, restitution=0.5, mu=0.3),
+             Gravity((0.0, -9.81)))
+    return mech
+
+
 @dataclass
 class Entry:
     key: str
@@ -570,6 +608,19 @@ ENTRIES = [
           ("femb.elements.contact.SpatialSphereOnPlane",), spatial_contact,
           "A spinning ball thrown onto the floor: impacts with restitution, sliding and rolling with "
           "Coulomb friction, integrated by :func:`femb.contact.simulate`.", t_end=0.5, h=2e-3, run="contact"),
+    Entry("planar_penalty_contact", "Penalty (compliant) contact in the plane",
+          ("femb.elements.penalty_contact.PenaltySphereOnPlane",), planar_penalty_contact,
+          "A spinning disc dropped on a compliant floor: Hertz stiffness with Hunt–Crossley damping and "
+          "regularized Coulomb friction, a force element of the compiled engine (:func:`femb.simulate`).",
+          t_end=0.4, h=1e-3),
+    Entry("penalty_contact", "Penalty (compliant) contact in space: sphere on plane, on sphere, on a body's plane",
+          ("femb.elements.penalty_contact.SpatialPenaltySphereOnPlane",
+           "femb.elements.penalty_contact.SpatialPenaltySpherePair",
+           "femb.elements.penalty_contact.SpatialPenaltySphereOnBodyPlane"), penalty_contact,
+          "A spinning ball dropped on a compliant floor rolls into a second ball, and a third ball lands "
+          "on a tilted ramp welded to the ground (a plane fixed to a body): Hertz stiffness, "
+          "Hunt–Crossley damping and regularized Coulomb friction, integrated by :func:`femb.simulate`.",
+          t_end=0.5, h=5e-4),
 ]
 
 
@@ -582,6 +633,7 @@ def element_types():
 
     import femb.elements as el
     import femb.elements.contact as ct
+    import femb.elements.penalty_contact as pc
     import femb.elements.rolling as rl
     import femb.elements.spatial_beam as sbm
     import femb.elements.spatial_bodies as sb
@@ -591,7 +643,7 @@ def element_types():
     from femb.system.element import Element
 
     out = set()
-    for mod in (el, sb, sj, sf, sbm, rl, ct):
+    for mod in (el, sb, sj, sf, sbm, rl, ct, pc):
         public = getattr(mod, "__all__", None) or [n for n, o in vars(mod).items() if not n.startswith("_")
                                                     and _inspect.isclass(o) and o.__module__ == mod.__name__]
         for name in public:

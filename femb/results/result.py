@@ -553,9 +553,33 @@ class Result:
         names += [f"{el}.{eq}" for el, eq in constraint_labels(m)]
         for el, comps in self._reaction_joints().items():
             names += [f"{el}.{c}" for c in comps]
+        for el, (g, _) in self._output_elements().items():
+            names += [f"{el}.{c}" for c, _ in g.cls.output_units()]
         names += [f"energy.{k}" for k in ("kinetic", "gravitational", "elastic", "work_loads",
                                           "work_drives", "dissipated", "total", "balance")]
         return names
+
+    def _output_elements(self):
+        """{element name: (batch, index in it)} of the element types that declare named outputs
+        (an ``output_units()`` and an ``outputs(params, qe, qde, rows)`` classmethod, e.g. penalty contacts)."""
+        return {name: (g, i) for g in self.model.groups if hasattr(g.cls, "output_units")
+                for i, name in enumerate(g.names)}
+
+    def _element_output_series(self, name, owner, base):
+        """:meth:`series` of an element's declared output; None if ``owner`` declares none."""
+        found = self._output_elements().get(owner)
+        if found is None:
+            return None
+        g, i = found
+        units = dict(g.cls.output_units())
+        if base not in units:
+            raise ModelError(f"output '{name}': '{owner}' has the outputs {', '.join(units)} (see Result.outputs())")
+        m = self.model
+        nt = self.t.size
+        qx = np.concatenate((self.q, np.broadcast_to(m.q_fixed, (nt, m.q_fixed.size))), axis=1)
+        vx = np.concatenate((self.qd, np.zeros((nt, m.nfix_v))), axis=1)
+        vals = g.cls.outputs(g.params, qx[:, g.xdofs[i:i + 1]], vx[:, g.dofs[i:i + 1]], [i])
+        return vals[base][:, 0].copy(), units[base]
 
     def series(self, name: str) -> tuple[np.ndarray, str]:
         """One named output over time: (values of shape (nt,), unit).
@@ -588,6 +612,10 @@ class Result:
             Reaction force (N) and moment (N·m) of the joint on its body b,
             space axes, the moment about the joint's point on b
             (:meth:`reaction_at`).
+        ``"<element>.<output>"``
+            A named output of an element type that declares them (``output_units()``
+            and ``outputs()`` classmethods), e.g. ``"floor.lambda_N"`` of a penalty
+            contact (docs/contact.md).
         ``"energy.<kind>"``
             An energy of :meth:`energy` (J).
 
@@ -611,7 +639,8 @@ class Result:
                 raise ModelError(f"unknown energy '{kind}' (known: {sorted(k for k in e if k != 'not_counted')})")
             return e[kind], "J"
         # longest known name that prefixes the output name
-        known = sorted(set(m.node_index) | set(m.lam_index) | set(m.bodies), key=len, reverse=True)
+        known = sorted(set(m.node_index) | set(m.lam_index) | set(m.bodies) | set(self._output_elements()),
+                       key=len, reverse=True)
         owner = next((k for k in known if name.startswith(k + ".")), None)
         if owner is None:
             raise ModelError(f"output '{name}': no body, node or joint of that name (see Result.outputs())")
@@ -621,8 +650,8 @@ class Result:
             if rest.endswith(suffix):
                 base, deriv = rest[:-len(suffix)], d
                 break
-        found = None
-        if owner in m.node_index:
+        found = self._element_output_series(name, owner, rest)
+        if owner in m.node_index and found is None:
             found = self._node_series(name, owner, base, deriv)
         if found is None and owner in m.lam_index and deriv == 0:
             found = self._multiplier_series(name, owner, base)

@@ -86,6 +86,10 @@ SCENES = {
     "rigid_chain_3d": "femb.benchmarks.scenes.spatial.rigid_chain_3d",
     "spin_up_3d": "femb.benchmarks.scenes.beams.spin_up_3d",
     "flexible_fourbar_3d": "femb.benchmarks.scenes.beams.flexible_fourbar_3d",
+    # penalty (compliant) contact: force elements of the compiled engine (docs/contact.md)
+    "penalty_ball": "femb.benchmarks.scenes.contact.penalty_ball",
+    "penalty_backspin": "femb.benchmarks.scenes.contact.penalty_backspin",
+    "penalty_spheres": "femb.benchmarks.scenes.contact.penalty_spheres",
 }
 
 #: Scenes that are not time integrations (static equilibria, linearized buckling): name -> module.
