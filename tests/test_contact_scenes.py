@@ -1,4 +1,4 @@
-"""Contact scenes with independent references: the tippe top (femb.contact)."""
+"""Contact scenes with independent references: the tippe top, a beam swinging onto a stop (femb.contact)."""
 import numpy as np
 import pytest
 
@@ -35,3 +35,21 @@ def test_tippetop_step_size_study():
     # positions and contact force: first order in this sliding phase (docs/contact.md, tippe top)
     assert st["order_err_r"] >= 0.9 and st["order_err_lambda_N"] >= 0.9
     assert st["err_r"][-1] < 5e-6 and st["err_lambda_N"][-1] < 1e-5
+
+
+def test_beam_swings_onto_the_stop():
+    """A spatial beam (E = 2.1e10, 4 elements) pinned at one end hits the stop with its tip node's
+    sphere: no penetration, first impact near the rigid rod's t*, the pin exact, energy lost."""
+    from femb.benchmarks.scenes.contact import contact_beam_stop
+
+    t_star = contact_beam_stop.rigid_impact_time()
+    assert t_star == pytest.approx(0.268015, abs=1e-6)
+    res, row = contact_beam_stop.run(t_end=0.29)
+    _no_penetration(res)
+    assert row["impacts"] >= 1 and res.events[0]["contact"] == "stop"
+    assert 0.0 < row["first impact"] - t_star < 2e-4                    # sags a little: later than the rigid rod
+    assert row["max |Phi| pin"] <= 1e-10
+    assert abs(row["balance before the first impact"]) < 1e-4           # ρ∞ = 0.8 damping only, J
+    assert row["energy lost in impacts"] > 1.0                           # e_N = 0: most of ½ J α̇² goes
+    o = contact_beam_stop.outputs(res)
+    assert o["lambda_N"].min() >= 0.0 and o["energy_lost"][-1] == pytest.approx(row["energy lost in impacts"])
