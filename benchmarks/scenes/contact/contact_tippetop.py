@@ -98,7 +98,9 @@ def _quat_matrix(p):
 
 
 def _invariants(R, Omega, I1, I3, a1, r1):
-    """Tilt θ, Jellett's λ_J = L·(r₁e_z − a₁e₃) and the spin Ω₃ from rotations (nt, 3, 3) and Ω (nt, 3)."""
+    """Tilt θ, Jellett's λ_J = L·(r₁e_z − a₁e₃) and the spin Ω₃.
+
+    From the rotations R (nt, 3, 3) and the body-axes angular velocities Ω (nt, 3)."""
     e3 = R[:, :, 2]
     L = np.einsum("kij,kj->ki", R, Omega * np.array([I1, I1, I3]))
     theta = np.arccos(np.clip(e3[:, 2], -1.0, 1.0))
@@ -173,7 +175,8 @@ def reference(t, mass=PARAMS["mass"], I1=PARAMS["I1"], I3=PARAMS["I3"], a1=PARAM
     N = np.array([_sliding_rhs(y, par)[1] for y in Y])
     slip = np.array([_sliding_rhs(y, par)[2] for y in Y])
     return {"x": Y[:, 0], "y": Y[:, 1], "z": Y[:, 2], "theta": theta, "jellett": jellett, "spin": spin,
-            "lambda_N": N, "slip": slip, "description": "sliding on the body sphere, Newton-Euler, scipy DOP853 rtol 1e-12"}
+            "lambda_N": N, "slip": slip,
+            "description": "sliding on the body sphere, Newton-Euler, scipy DOP853 rtol 1e-12"}
 
 
 # ---------------------------------------------------------------------------
