@@ -1,0 +1,55 @@
+"""Contact scenes with independent references: the tippe top, a beam swinging onto a stop (femb.contact)."""
+import numpy as np
+import pytest
+
+from femb.benchmarks.scenes.contact import contact_tippetop
+from femb.contact import simulate
+
+
+def _no_penetration(res):
+    assert res.contact["gN"].min() >= -1e-10 * res.model.length_scale
+
+
+def test_tippetop_rises_as_the_reference():
+    """The first 0.2 s at h = 2e-3: the tilt grows from 0.1 to about 0.42 rad as the scipy reference
+    (sliding on the body sphere), the centre of mass rises, the stem stays off, Jellett's λ_J holds."""
+    res = simulate(contact_tippetop.build().compile(), 0.2, 2e-3)
+    _no_penetration(res)
+    o = contact_tippetop.outputs(res)
+    ref = contact_tippetop.reference(res.t)
+    assert ref["theta"][-1] > 0.4
+    assert np.abs(o["theta"] - ref["theta"]).max() < 0.02                 # 2e-3 s steps, nutation period ~0.04 s
+    assert np.abs(res.q[:, 2] - ref["z"]).max() < 1e-5 * 12.0              # z_G within 0.1 % of z₀
+    assert o["z"][-1] > o["z"][0] + 2e-4
+    assert np.all(res.contact["state"][1:, 0] == 2)                         # body sphere slides throughout
+    assert np.all(res.contact["state"][:, 1] == 0)                          # stem open
+    assert abs(o["jellett"][-1] / o["jellett"][0] - 1.0) < 1e-3
+    np.testing.assert_allclose(o["lambda_N"][1:], ref["lambda_N"][1:], rtol=0.02)
+
+
+def test_tippetop_step_size_study():
+    """Errors at t = 0.025 s against the scipy reference at h = 5e-4, 2.5e-4, 1.25e-4: the errors of
+    position and normal force fall with h, Jellett's drift at second order."""
+    st = contact_tippetop.order_study(t_end=0.025, hs=(5e-4, 2.5e-4, 1.25e-4))
+    assert st["order_jellett_drift"] >= 1.9
+    # positions and contact force: first order in this sliding phase (docs/contact.md, tippe top)
+    assert st["order_err_r"] >= 0.9 and st["order_err_lambda_N"] >= 0.9
+    assert st["err_r"][-1] < 5e-6 and st["err_lambda_N"][-1] < 1e-5
+
+
+def test_beam_swings_onto_the_stop():
+    """A spatial beam (E = 2.1e10, 4 elements) pinned at one end hits the stop with its tip node's
+    sphere: no penetration, first impact near the rigid rod's t*, the pin exact, energy lost."""
+    from femb.benchmarks.scenes.contact import contact_beam_stop
+
+    t_star = contact_beam_stop.rigid_impact_time()
+    assert t_star == pytest.approx(0.268015, abs=1e-6)
+    res, row = contact_beam_stop.run(t_end=0.29)
+    _no_penetration(res)
+    assert row["impacts"] >= 1 and res.events[0]["contact"] == "stop"
+    assert 0.0 < row["first impact"] - t_star < 2e-4                    # sags a little: later than the rigid rod
+    assert row["max |Phi| pin"] <= 1e-10
+    assert abs(row["balance before the first impact"]) < 1e-4           # ρ∞ = 0.8 damping only, J
+    assert row["energy lost in impacts"] > 1.0                           # e_N = 0: most of ½ J α̇² goes
+    o = contact_beam_stop.outputs(res)
+    assert o["lambda_N"].min() >= 0.0 and o["energy_lost"][-1] == pytest.approx(row["energy lost in impacts"])
