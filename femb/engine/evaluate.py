@@ -17,12 +17,12 @@ import math
 from numba import njit
 
 from femb.base.jit import (
-    call_constraint, call_force, call_rates, engine, fview1, fview2, fview3, iview1, iview2, iview3)
+    call_constraint, call_force, call_rates, call_velocity_constraint, engine, fview1, fview2, fview3, iview1, iview2, iview3)
 from femb.engine.layout import (B_BASE, B_HASC, B_KERNEL, B_RATES, B_ROLE, C_ACTIVE, C_BATCHES, C_FCONST,
-    C_LIE, C_MI, C_MP, C_MX, C_QFIX, C_SCALE0, C_TFV, C_TI, C_TM, C_TN, C_W, C_WEXT, ENTRY, F_DOFS, F_FE,
+    C_LAMZ, C_LIE, C_MI, C_MP, C_MX, C_QFIX, C_SCALE0, C_TFV, C_TI, C_TM, C_TN, C_W, C_WEXT, ENTRY, F_DOFS, F_FE,
     F_FQ, F_FV, F_P, F_TBLK, F_TF, F_TFI, F_TNN, F_VE, F_XDOFS, F_XE, INNER, K_BE, K_DOFS, K_GM, K_HE,
     K_LAMIDX, K_LE, K_P, K_PHE, K_PT, K_TB, K_TBLK, K_TBT, K_TF, K_TFI, K_TNN, K_VE, K_XDOFS, K_XE,
-    ROLE_CONSTRAINT, ROLE_FORCE)
+    ROLE_CONSTRAINT, ROLE_FORCE, ROLE_VELOCITY, V_DQ)
 from femb.engine.linalg import zero1, zero2, zero3
 
 
@@ -85,8 +85,10 @@ def evaluate(G, C, t, X, jac, coef, out):
     for b in range(batches.shape[0]):
         if batches[b, B_ROLE] == ROLE_FORCE:
             scale = force_batch(G, C, batches[b], t, X, jac, coef, out, scale)
-        else:
+        elif batches[b, B_ROLE] == ROLE_CONSTRAINT:
             scale = constraint_batch(G, C, batches[b], t, X, jac, coef, out, scale)
+        else:
+            scale = velocity_batch(G, C, batches[b], t, X, jac, coef, out, scale)
     return scale
 
 
@@ -173,6 +175,107 @@ def constraint_batch(G, C, row, t, X, jac, coef, out, scale):
 
 
 @njit(**INNER)
+def velocity_batch(G, C, row, t, X, jac, coef, out, scale):
+    """One velocity-constraint (non-holonomic) batch, Ψ = A v + a at (q, q̇): its rows as those of
+    the index-2 velocity level in Algorithm 1 (q̇ = q̇' + γ'Δq), scaled by 1/γ'.
+
+    Residual rows Ψ/γ' and r += Aᵀμ; with ``jac`` the rows A + Ψ_q T/γ' (∂Ψ/∂Δq = γ'A + Ψ_q T,
+    T the tangent operator of rotation nodes), the columns Aᵀ and cK ∂(Aᵀμ)/∂q into ABf. γ' =
+    cC/cK from ``coef`` (Newton: c γ' / c); with cC = 0 (the constrained accelerations of the
+    error estimate, coef = (1, 0, 0)) the rows are A and the residual Ψ.
+    """
+    q, qd, lam = X[0], X[1], X[3]
+    cC, cK = coef[1], coef[2]
+    ABf, r, Phi = out
+    base = row[B_BASE]
+    s = cK / cC if cC != 0.0 else 1.0
+    velocity_blocks(G, C, row, t, q, qd, lam, jac)
+    Psi = fview2(G, base + K_PHE)
+    Ae = fview3(G, base + K_BE)
+    for e in range(Psi.shape[0]):
+        for j in range(Psi.shape[1]):
+            Psi[e, j] *= s
+    lamidx = iview2(G, base + K_LAMIDX)
+    scale = scatter_constraint(Psi, Ae, fview2(G, base + K_LE), iview2(G, base + K_DOFS), lamidx,
+                               iview1(C, C_ACTIVE), Phi, r, fview1(C, C_WEXT), scale)
+    if jac:
+        Dq = fview3(G, base + V_DQ)
+        He = fview3(G, base + K_HE)
+        if iview1(C, C_LIE)[0] != 0:
+            tblk = iview3(G, base + K_TBLK)
+            Tn = fview3(C, C_TN)
+            apply_tangent(Dq, tblk, Tn, cK)
+            apply_tangent(He, tblk, Tn, cK)
+        scatter_velocity_rows(Ae, Dq, s if cC != 0.0 else 0.0, iview3(G, base + K_TB), iview3(G, base + K_TBT), ABf)
+        scatter_matrix(He, iview3(G, base + K_TNN), ABf, cK)
+    return scale
+
+
+@njit(**INNER)
+def velocity_blocks(G, C, row, t, q, v, lam, jac):
+    """Run the batch's velocity-constraint kernel at (t, q, v) with μ from ``lam`` (the engine's
+    multiplier vector [λ; μ]); Ψ, A, Ψ_t (and with ``jac`` Ψ_q, ∂(Aᵀμ)/∂q) stay in G."""
+    base = row[B_BASE]
+    gather_batch(G, C, base, K_XDOFS, K_DOFS, K_XE, K_VE, q, v)
+    le = fview2(G, base + K_LE)
+    gather_lam(lam, iview2(G, base + K_LAMIDX), le)
+    tf = fview3(G, base + K_TF)
+    gather_tf(fview2(C, C_TFV), iview2(G, base + K_TFI), tf)
+    Psi = fview2(G, base + K_PHE)
+    Ae = fview3(G, base + K_BE)
+    Pt = fview2(G, base + K_PT)
+    Dq = fview3(G, base + V_DQ)
+    He = fview3(G, base + K_HE)
+    zero2(Psi)
+    zero3(Ae)
+    zero2(Pt)
+    if jac:
+        zero3(Dq)
+        zero3(He)
+    call_velocity_constraint(row[B_KERNEL], fview2(G, base + K_P), t, tf, fview2(G, base + K_XE),
+                             fview2(G, base + K_VE), le, jac, Psi, Ae, Pt, Dq, He)
+
+
+@njit(**INNER)
+def scatter_velocity_rows(Ae, Dq, s, tB, tBt, ABf):
+    """A + s Ψ_q into the velocity rows, Aᵀ into their columns."""
+    for e in range(Ae.shape[0]):
+        for j in range(Ae.shape[1]):
+            for i in range(Ae.shape[2]):
+                t = tB[e, j, i]
+                if t >= 0:
+                    v = Ae[e, j, i]
+                    ABf[t] += v + s * Dq[e, j, i]
+                    ABf[tBt[e, j, i]] += v
+
+
+@njit(**INNER)
+def velocity_rates(G, C, row, t, q, qd, lam, active, Phi_t, gam):
+    """A velocity-constraint batch's share of :func:`rates`: Φ_t ← a = Ψ − A q̇ (so that the rows
+    read A q̇ + Φ_t = 0) and γ ← Ψ_q q̇ + Ψ_t (A q̈ = −γ: the time derivative of Ψ = 0)."""
+    velocity_blocks(G, C, row, t, q, qd, lam, qd.shape[0] >= 0)
+    base = row[B_BASE]
+    Psi = fview2(G, base + K_PHE)
+    Ae = fview3(G, base + K_BE)
+    Pt = fview2(G, base + K_PT)
+    Dq = fview3(G, base + V_DQ)
+    ve = fview2(G, base + K_VE)
+    lamidx = iview2(G, base + K_LAMIDX)
+    for e in range(lamidx.shape[0]):
+        for j in range(lamidx.shape[1]):
+            c = lamidx[e, j]
+            if active[c] == 0:
+                continue
+            av = 0.0
+            dv = 0.0
+            for i in range(ve.shape[1]):
+                av += Ae[e, j, i] * ve[e, i]
+                dv += Dq[e, j, i] * ve[e, i]
+            Phi_t[c] = Psi[e, j] - av
+            gam[c] = dv + Pt[e, j]
+
+
+@njit(**INNER)
 def constraint_blocks(G, C, row, t, q, v):
     """Run the batch's constraint kernel at (t, q) without Jacobian; its B_e blocks stay in G.
     The velocities gathered into the batch's ``ve`` are those of ``v``."""
@@ -190,12 +293,16 @@ def constraint_blocks(G, C, row, t, q, v):
 
 @engine(**ENTRY)
 def rates(G, C, t, q, qd, Phi_t, gam):
-    """Φ_t and γ (B q̈ = −γ) of all constraints at (t, q, q̇)."""
+    """Φ_t and γ (B q̈ = −γ) of all constraints at (t, q, q̇); velocity-constraint rows Ψ = A q̇ + a:
+    Φ_t = a and γ = Ψ_q q̇ + Ψ_t (:func:`velocity_rates`)."""
     batches = iview2(C, C_BATCHES)
     active = iview1(C, C_ACTIVE)
     zero1(Phi_t)
     zero1(gam)
     for b in range(batches.shape[0]):
+        if batches[b, B_ROLE] == ROLE_VELOCITY:
+            velocity_rates(G, C, batches[b], t, q, qd, fview1(C, C_LAMZ), active, Phi_t, gam)
+            continue
         if batches[b, B_ROLE] != ROLE_CONSTRAINT:
             continue
         base = batches[b, B_BASE]
@@ -220,13 +327,17 @@ def rates(G, C, t, q, qd, Phi_t, gam):
 
 @engine(**ENTRY)
 def jacobian_times(G, C, t, q, v, out):
-    """out = B(q, t) v for all constraints."""
+    """out = B(q, t) v for all constraints (the velocity-constraint rows: A(q, t) v)."""
     batches = iview2(C, C_BATCHES)
     zero1(out)
     for b in range(batches.shape[0]):
-        if batches[b, B_ROLE] != ROLE_CONSTRAINT:
+        if batches[b, B_ROLE] == ROLE_VELOCITY:
+            # A(q, t) v: A does not depend on the velocities the kernel is given
+            velocity_blocks(G, C, batches[b], t, q, v, fview1(C, C_LAMZ), v.shape[0] < 0)
+        elif batches[b, B_ROLE] == ROLE_CONSTRAINT:
+            constraint_blocks(G, C, batches[b], t, q, v)
+        else:
             continue
-        constraint_blocks(G, C, batches[b], t, q, v)
         base = batches[b, B_BASE]
         Be = fview3(G, base + K_BE)
         ve = fview2(G, base + K_VE)
