@@ -191,3 +191,19 @@ def test_start_from_a_given_state_without_mu():
         res = femb.simulate(model, 0.1, h=1e-3)
         again = femb.simulate(model, 0.1, h=1e-3, state=res.at(0.0), initialize=False)
     assert again.lam.shape == res.lam.shape and np.allclose(again.q, res.q, atol=1e-6)
+
+
+@pytest.mark.parametrize("v, grows", [(4.6, False), (3.0, True)])
+def test_whipple_bicycle_roll_perturbation_follows_the_weave_eigenvalue(v, grows):
+    """The IFToMM uncontrolled-bicycle benchmark from the 3-D model: a lean-rate perturbation decays
+    inside the self-stable range (4.292–6.024 m/s) and grows below it, at the rate of the weave
+    eigenvalue of the linearization."""
+    from femb.benchmarks.scenes.spatial import whipple_bicycle as wb
+    ev = wb.eigenvalues(v)
+    weave = ev[np.argmax(np.abs(ev.imag))]
+    t, lean, _, res, psi = wb.roll_perturbation(v, roll_rate=1e-3, t_end=3.5, h=1e-3)
+    sigma, omega, rms = wb.fit_lean(t, lean, ev)
+    assert abs(sigma - weave.real) < 2e-3 and abs(omega - abs(weave.imag)) < 2e-3, (sigma, omega, weave)
+    early, late = np.abs(lean[(t >= 0.5) & (t <= 1.5)]).max(), np.abs(lean[t >= 2.5]).max()
+    assert (late > 5 * early) if grows else (late < 0.5 * early)
+    assert psi < 1e-13
