@@ -207,3 +207,12 @@ def test_whipple_bicycle_roll_perturbation_follows_the_weave_eigenvalue(v, grows
     early, late = np.abs(lean[(t >= 0.5) & (t <= 1.5)]).max(), np.abs(lean[t >= 2.5]).max()
     assert (late > 5 * early) if grows else (late < 0.5 * early)
     assert psi < 1e-13
+
+
+def test_contact_integrator_refuses_velocity_constraints():
+    from femb.system.initial import consistent_initial_state
+    m = Mechanism("skate")
+    m.add(RigidBody("s", 1.0, 0.1))
+    m.add(KnifeEdge("k", "s"))
+    with pytest.raises(femb.errors.ModelError, match="contact integrator"):
+        consistent_initial_state(m.compile(), contacts=True)

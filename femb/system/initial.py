@@ -429,7 +429,8 @@ def consistent_initial_state(model: Model, state: State | None = None, *, t0: fl
         matrix is singular.
     ModelError
         The model has velocity-level (non-holonomic) constraints (rolling joints) and
-        ``weights`` (the start of flexible models does not take them).
+        ``weights`` (the start of flexible models does not take them) or ``contacts`` (nor does
+        the contact integrator).
 
     Notes
     -----
@@ -439,6 +440,11 @@ def consistent_initial_state(model: Model, state: State | None = None, *, t0: fl
     state's ``lam`` holds [λ; μ] (nc + nn).
     """
     nn = getattr(model, "nn", 0)
+    if nn and contacts:
+        names = sorted({g.cls.__name__ for g in model.velocity_constraint_groups})
+        raise ModelError(f"model '{model.name}' has {nn} velocity-level (non-holonomic) constraints "
+                         f"({', '.join(names)}): the contact integrator (femb.contact.simulate) does not take them; "
+                         "femb.simulate does (without contacts)")
     if nn and weights is not None:
         names = sorted({g.cls.__name__ for g in model.velocity_constraint_groups})
         raise ModelError(f"model '{model.name}' has {nn} velocity-level (non-holonomic) constraints "

@@ -286,6 +286,32 @@ def run_table(speeds=(3.0, 4.6), roll_rate=1e-3, t_end=5.0, h=1e-3):
     return rows
 
 
+def convergence(v=4.6, roll_rate=0.5, t_end=2.0, hs=(8e-3, 4e-3, 2e-3, 1e-3), h_ref=1.25e-4):
+    """Fitted orders of the nonlinear run in q and in the multipliers [λ; μ] at ``t_end``.
+
+    The reference is femb's own run at ``h_ref`` (no independent solution of the nonlinear 3-D
+    bicycle is at hand; the rolling disc and the sleigh are checked against independent ones in
+    ``tests/test_nonholonomic_run.py``). Errors: max |Δq| over the configuration entries and
+    max |Δλ| / max |λ| over the multipliers. Returns (hs, err_q, err_lam, order_q, order_lam),
+    printed.
+    """
+    import femb
+    model = build(v, roll_rate=roll_rate).compile()
+    ref = femb.simulate(model, t_end, h=h_ref, store=False)
+    eq, el = [], []
+    for h in hs:
+        r = femb.simulate(model, t_end, h=h, store=False)
+        eq.append(float(np.abs(r.q[-1] - ref.q[-1]).max()))
+        el.append(float(np.abs(r.lam[-1] - ref.lam[-1]).max() / np.abs(ref.lam[-1]).max()))
+    oq = float(np.polyfit(np.log(hs), np.log(eq), 1)[0])
+    ol = float(np.polyfit(np.log(hs), np.log(el), 1)[0])
+    print(f"bicycle v = {v} m/s, lean rate {roll_rate} rad/s, t = {t_end} s, reference h = {h_ref:g} s:")
+    for h, a, b in zip(hs, eq, el):
+        print(f"  h = {h:.0e}: max |Δq| = {a:.3e}, max |Δ[λ; μ]| / max |[λ; μ]| = {b:.3e}")
+    print(f"  fitted order: q {oq:.3f}, multipliers {ol:.3f}")
+    return hs, eq, el, oq, ol
+
+
 def plot(path, speeds, ev):
     """Root locus against speed (real and imaginary parts), saved to ``path``."""
     return fl.campbell_plot(speeds, ev, path, xlabel="forward speed v (m/s)", ylim=(-10, 10),
@@ -296,7 +322,8 @@ def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--plot", help="write the root locus against speed to this image file")
     ap.add_argument("--run", action="store_true",
-                    help="the nonlinear run: a lean-rate perturbation at 3 and 4.6 m/s, its rate against the weave")
+                    help="the nonlinear run: a lean-rate perturbation at 3 and 4.6 m/s, its rate against the weave, "
+                         "and its convergence order")
     ap.add_argument("--whole", action="store_true",
                     help="time the whole process (interpreter, imports, compile, 101 speeds) in fresh subprocesses")
     args = ap.parse_args(argv)
@@ -304,6 +331,7 @@ def main(argv=None):
         return _time_whole()
     if args.run:
         run_table()
+        convergence()
         return 0
     t0 = time.perf_counter()
     speeds, ev = study()
