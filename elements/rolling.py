@@ -178,6 +178,7 @@ class RollingDisc(Element):
     constraint_units = ("N",)
     n_velocity_constraints = 2
     velocity_constraint_names = ("t1", "t2")
+    velocity_constraint_units = ("N", "N")
     kernels = {"constraint": disc_constraint, "rates": disc_rates, "velocity_constraint": disc_rolling}
 
     def __init__(self, name, body, radius, axis, normal=(0.0, 0.0, 1.0), point=(0.0, 0.0, 0.0),
@@ -305,6 +306,7 @@ class PlanarWheel(_PlanarOneBody):
     constraint_names = ("normal",)
     n_velocity_constraints = 1
     velocity_constraint_names = ("tangential",)
+    velocity_constraint_units = ("N",)
     kernels = {"constraint": wheel_constraint, "rates": wheel_rates, "velocity_constraint": wheel_rolling}
 
     def __init__(self, name, body, radius, normal=(0.0, 1.0), point=(0.0, 0.0)):
@@ -353,6 +355,7 @@ class KnifeEdge(_PlanarOneBody):
 
     n_velocity_constraints = 1
     velocity_constraint_names = ("lateral",)
+    velocity_constraint_units = ("N",)
     kernels = {"velocity_constraint": knife_rolling}
 
     def __init__(self, name, body, angle=0.0, point=(0.0, 0.0)):
@@ -418,6 +421,7 @@ class SpinRate(Element):
     spatial = True
     n_velocity_constraints = 1
     velocity_constraint_names = ("rate",)
+    velocity_constraint_units = ("N·m",)
     kernels = {"velocity_constraint": spin_rate}
 
     def __init__(self, name, a, b, axis, rate):

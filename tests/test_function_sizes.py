@@ -26,6 +26,7 @@ ALLOWED = {
     # the compiled call of a user or built-in kernel: its arguments are the element contract's
     "femb/base/jit.py:call_force": "the element contract's 10 kernel arguments plus the kernel's address (packing them changes every element type)",
     "femb/base/jit.py:call_constraint": "the element contract's 10 kernel arguments plus the kernel's address (packing them changes every element type)",
+    "femb/base/jit.py:call_velocity_constraint": "the element contract's 12 kernel arguments plus the kernel's address (packing them changes every element type)",
 }
 
 

@@ -97,12 +97,12 @@ def test_a_wrong_velocity_jacobian_is_reported():
     assert any(c.what == "velocity constraint: dPsi/dx (Dq)" for c in rep.failures)
 
 
-def test_time_loop_refuses_velocity_constraints():
+def test_index2_refuses_velocity_constraints():
     m = Mechanism("skate")
     m.add(RigidBody("s", 1.0, 0.1))
     m.add(KnifeEdge("k", "s"))
-    with pytest.raises(ModelError, match="non-holonomic"):
-        femb.simulate(m.compile(), 0.1, h=0.01)
+    with pytest.raises(femb.errors.ParameterError, match="non-holonomic"):
+        femb.simulate(m.compile(), 0.1, h=0.01, formulation="index2")
 
 
 def test_bad_parameters_are_named():

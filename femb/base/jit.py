@@ -211,6 +211,9 @@ ROLE_SIGNATURES = {
     "constraint": types.void(_F2, types.float64, _F3, _F2, _F2, types.boolean, _F2, _F3, _F3),
     "rates": types.void(_F2, types.float64, _F3, _F2, _F2, _F2, _F2),
     "energy": types.void(_F2, types.float64, _F3, _F2, _F1),
+    # non-holonomic rows Ψ = A v + a (docs/kernels.md): P, t, tf, xe, ve, le, jac, Psi, A, Psi_t, Dq, H
+    "velocity_constraint": types.void(_F2, types.float64, _F3, _F2, _F2, _F2, types.boolean, _F2, _F3, _F2,
+                                      _F3, _F3),
 }
 #: the arguments of each role, by name (for error messages)
 ROLE_ARGUMENTS = {
@@ -219,6 +222,7 @@ ROLE_ARGUMENTS = {
     "constraint": ("P", "t", "tf", "xe", "le", "jac", "Phi", "B", "H"),
     "rates": ("P", "t", "tf", "xe", "ve", "Phi_t", "gam"),
     "energy": ("P", "t", "tf", "xe", "Ve"),
+    "velocity_constraint": ("P", "t", "tf", "xe", "ve", "le", "jac", "Psi", "A", "Psi_t", "Dq", "H"),
 }
 #: with the JIT disabled, kernel "addresses" index this list of Python functions
 _PY_KERNELS = []
@@ -274,8 +278,14 @@ def call_rates(typingctx, addr, P, t, tf, xe, ve, Phi_t, gam):
     return _call_codegen("rates", (addr, P, t, tf, xe, ve, Phi_t, gam))
 
 
+@intrinsic
+def call_velocity_constraint(typingctx, addr, P, t, tf, xe, ve, le, jac, Psi, A, Psi_t, Dq, H):
+    """Call the compiled velocity-constraint (non-holonomic) kernel at address ``addr``."""
+    return _call_codegen("velocity_constraint", (addr, P, t, tf, xe, ve, le, jac, Psi, A, Psi_t, Dq, H))
+
+
 if jit_disabled():
-    call_force = call_constraint = call_rates = _py_call      # noqa: F811 (plain Python)
+    call_force = call_constraint = call_rates = call_velocity_constraint = _py_call      # noqa: F811 (plain Python)
 
 
 # --------------------------------------------------------------------------

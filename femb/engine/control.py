@@ -20,7 +20,7 @@ from numba import njit
 from femb.base.jit import engine, fview1, iview1, iview2
 from femb.engine.layout import (C_ACTIVE, C_ENV, C_IPERM, C_TFCOEF, C_TFKIND, C_TFOFF, C_W, C_XMAP, ENTRY,
     FP_AF, FP_AM, FP_BETA, FP_CQ, FP_CV, FP_EPUS, FP_ERTOL, FP_L, FP_NEWTC, FP_SCALED, FP_TOLQ, INNER, IP_GGL,
-    IP_NC, IP_NV, NS_KKT, NS_REFINE, REFINE_CHECK, REFINE_HGROW, REFINE_SHARE,
+    IP_NC, IP_NN, IP_NV, NS_KKT, NS_REFINE, REFINE_CHECK, REFINE_HGROW, REFINE_SHARE,
     SF_ERRPREV, SF_RCHECKH, SI_LUVALID, SI_NOGROW, SI_PROJ, SI_RCOUNT, SI_RMODE, W_ATOLV, W_BV, W_DU, W_EQ,
     W_EV, W_GAM, W_JN, W_KB, W_KBACC, W_KPIV, W_KPIVACC, W_KR, W_KX, W_LK, W_PT, W_QPP_NEW, W_TGT, W_ZL, W_ZQ)
 from femb.engine.linalg import (copy_into, factor, solve)
@@ -225,7 +225,8 @@ def error_norm(ip, fp, C, W, q0, q1, qd0, qd1, use_v):
 def resynchronise(G, C, P, S, N, W, t, h, h_prev):
     """Re-synchronise a and the normal velocity with a new step size (stepsize.md §2), in place.
 
-    a* = a + Δ (h − h_prev) j with Δ = α_m − α_f; index 3: B q̇* = h² C_q B j − Φ_t (the
+    a* = a + Δ (h − h_prev) j with Δ = α_m − α_f; index 3: B q̇* = h² C_q B j − Φ_t and, on
+    velocity-constraint rows, A q̇* = −a (they hold exactly at every step) (the
     index-2 step keeps B q̇ + Φ_t = 0: no normal velocity to re-synchronise), projected with
     the Newton matrix of the accepted step (``si[SI_PROJ] == 1``) or a KKT factorization at
     the accepted state. Returns 0, or 1 if that KKT matrix is singular.
@@ -250,6 +251,9 @@ def resynchronise(G, C, P, S, N, W, t, h, h_prev):
     rates(G, C, t, q, qd, Pt, fview1(W, W_GAM))
     for j in range(nc):
         tgt[j] = -Pt[j] + h * h * fp[FP_CQ] * Bv[j]
+    # velocity-constraint rows (the last nn): the scheme keeps A q̇ + a = 0 exactly, no h² term
+    for j in range(nc - ip[IP_NN], nc):
+        tgt[j] = -Pt[j]
     if si[SI_PROJ] == 1:
         # the Newton matrix of the accepted step: its constraint rows are B
         project_normal_velocity(G, C, ip, W, t, q, qd, tgt, (N.AB, N.ipiv))

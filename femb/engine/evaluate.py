@@ -17,12 +17,12 @@ import math
 from numba import njit
 
 from femb.base.jit import (
-    call_constraint, call_force, call_rates, engine, fview1, fview2, fview3, iview1, iview2, iview3)
+    call_constraint, call_force, call_rates, call_velocity_constraint, engine, fview1, fview2, fview3, iview1, iview2, iview3)
 from femb.engine.layout import (B_BASE, B_HASC, B_KERNEL, B_RATES, B_ROLE, C_ACTIVE, C_BATCHES, C_FCONST,
-    C_LIE, C_MI, C_MP, C_MX, C_QFIX, C_SCALE0, C_TFV, C_TI, C_TM, C_TN, C_W, C_WEXT, ENTRY, F_DOFS, F_FE,
+    C_LAMZ, C_LIE, C_MI, C_MP, C_MX, C_QFIX, C_SCALE0, C_TFV, C_TI, C_TM, C_TN, C_W, C_WEXT, ENTRY, F_DOFS, F_FE,
     F_FQ, F_FV, F_P, F_TBLK, F_TF, F_TFI, F_TNN, F_VE, F_XDOFS, F_XE, INNER, K_BE, K_DOFS, K_GM, K_HE,
     K_LAMIDX, K_LE, K_P, K_PHE, K_PT, K_TB, K_TBLK, K_TBT, K_TF, K_TFI, K_TNN, K_VE, K_XDOFS, K_XE,
-    ROLE_CONSTRAINT, ROLE_FORCE)
+    ROLE_CONSTRAINT, ROLE_FORCE, ROLE_VELOCITY, V_DQ)
 from femb.engine.linalg import zero1, zero2, zero3
 
 
@@ -137,15 +137,64 @@ def force_batch(G, C, row, t, X, jac, coef, out, scale):
 @njit(**INNER)
 def constraint_batch(G, C, row, t, X, jac, coef, out, scale):
     """One constraint batch: Φ_e, B_e and H_e from the kernel; Φ, Bᵀλ into r, [B, Bᵀ, cK H] into ABf
-    (the arguments of :func:`evaluate`; ``row`` the batch's row of the batch table)."""
+    (the arguments of :func:`evaluate`; ``row`` the batch's row of the batch table).
+
+    A velocity-constraint batch (``ROLE_VELOCITY``, Ψ = A v + a at (q, q̇)) takes the same path with
+    its rows as those of the index-2 velocity level in Algorithm 1 (q̇ = q̇' + γ'Δq), scaled by
+    1/γ': residual rows Ψ/γ', r += Aᵀμ, and with ``jac`` the rows A + Ψ_q T/γ' (∂Ψ/∂Δq = γ'A +
+    Ψ_q T, T the tangent operator of rotation nodes), the columns Aᵀ and cK ∂(Aᵀμ)/∂q; γ' = cC/cK
+    from ``coef`` (Newton: c γ' / c). With cC = 0 (the constrained accelerations of the error
+    estimate, coef = (1, 0, 0)) the rows are A and the residual Ψ (:func:`kernel_blocks`).
+    """
     q, qd, lam = X[0], X[1], X[3]
     cK = coef[2]
     ABf, r, Phi = out
     base = row[B_BASE]
-    gather_batch(G, C, base, K_XDOFS, K_DOFS, K_XE, K_VE, q, qd)
+    velocity = row[B_ROLE] == ROLE_VELOCITY
+    s = kernel_blocks(G, C, row, t, q, qd, lam, jac, coef[1], cK)
+    sd = s if coef[1] != 0.0 else 0.0          # the factor of Ψ_q in the velocity rows (1/γ', or none)
     lamidx = iview2(G, base + K_LAMIDX)
+    Be = fview3(G, base + K_BE)
+    He = fview3(G, base + K_HE)
+    scale = scatter_constraint(fview2(G, base + K_PHE), Be, fview2(G, base + K_LE), iview2(G, base + K_DOFS),
+                               lamidx, iview1(C, C_ACTIVE), Phi, r, fview1(C, C_WEXT), scale)
+    if jac:
+        tB = iview3(G, base + K_TB)
+        tBt = iview3(G, base + K_TBT)
+        lie = iview1(C, C_LIE)[0] != 0
+        if lie:
+            tblk = iview3(G, base + K_TBLK)
+            Tn = fview3(C, C_TN)
+            if velocity:
+                # A + Ψ_q T/γ' in the rows (the kernel's Ψ_q in the batch's array V_DQ), Aᵀ in the columns
+                Dq = fview3(G, base + V_DQ)
+                apply_tangent(Dq, tblk, Tn, cK)
+                scatter_matrix(Dq, tB, ABf, sd)
+                scatter_B(Be, tB, tBt, ABf)
+            else:
+                scatter_B_tangent(Be, tblk, Tn, cK, tB, tBt, ABf)
+            apply_tangent(He, tblk, Tn, cK)
+        else:
+            if velocity:
+                scatter_matrix(fview3(G, base + V_DQ), tB, ABf, sd)
+            scatter_B(Be, tB, tBt, ABf)
+        scatter_matrix(He, iview3(G, base + K_TNN), ABf, cK)
+    return scale
+
+
+@njit(**INNER)
+def kernel_blocks(G, C, row, t, q, v, lam, jac, cC, cK):
+    """Gather the batch's coordinates, velocities ``v`` and multipliers, run its constraint kernel (or
+    velocity-constraint kernel: Ψ into Φ_e, A into B_e, Ψ_t into the batch's Pt, Ψ_q into V_DQ) at
+    (t, q); the blocks stay in G.
+
+    Returns the factor s of a velocity batch's rows (cK/cC = 1/γ', 1 when cC = 0; its Ψ is scaled
+    by it), 1.0 for a constraint batch.
+    """
+    base = row[B_BASE]
+    gather_batch(G, C, base, K_XDOFS, K_DOFS, K_XE, K_VE, q, v)
     le = fview2(G, base + K_LE)
-    gather_lam(lam, lamidx, le)
+    gather_lam(lam, iview2(G, base + K_LAMIDX), le)
     tf = fview3(G, base + K_TF)
     gather_tf(fview2(C, C_TFV), iview2(G, base + K_TFI), tf)
     Phe = fview2(G, base + K_PHE)
@@ -155,59 +204,57 @@ def constraint_batch(G, C, row, t, X, jac, coef, out, scale):
     zero3(Be)
     if jac:
         zero3(He)
-    call_constraint(row[B_KERNEL], fview2(G, base + K_P), t, tf, fview2(G, base + K_XE), le, jac, Phe, Be, He)
-    scale = scatter_constraint(Phe, Be, le, iview2(G, base + K_DOFS), lamidx, iview1(C, C_ACTIVE), Phi, r,
-                               fview1(C, C_WEXT), scale)
+    if row[B_ROLE] != ROLE_VELOCITY:
+        call_constraint(row[B_KERNEL], fview2(G, base + K_P), t, tf, fview2(G, base + K_XE), le, jac, Phe, Be, He)
+        return 1.0
+    Pt = fview2(G, base + K_PT)
+    Dq = fview3(G, base + V_DQ)
+    zero2(Pt)
     if jac:
-        tB = iview3(G, base + K_TB)
-        tBt = iview3(G, base + K_TBT)
-        if iview1(C, C_LIE)[0] != 0:
-            tblk = iview3(G, base + K_TBLK)
-            Tn = fview3(C, C_TN)
-            scatter_B_tangent(Be, tblk, Tn, cK, tB, tBt, ABf)
-            apply_tangent(He, tblk, Tn, cK)
-        else:
-            scatter_B(Be, tB, tBt, ABf)
-        scatter_matrix(He, iview3(G, base + K_TNN), ABf, cK)
-    return scale
+        zero3(Dq)
+    call_velocity_constraint(row[B_KERNEL], fview2(G, base + K_P), t, tf, fview2(G, base + K_XE),
+                             fview2(G, base + K_VE), le, jac, Phe, Be, Pt, Dq, He)
+    s = cK / cC if cC != 0.0 else 1.0
+    for e in range(Phe.shape[0]):
+        for j in range(Phe.shape[1]):
+            Phe[e, j] *= s
+    return s
 
 
 @njit(**INNER)
 def constraint_blocks(G, C, row, t, q, v):
     """Run the batch's constraint kernel at (t, q) without Jacobian; its B_e blocks stay in G.
-    The velocities gathered into the batch's ``ve`` are those of ``v``."""
-    base = row[B_BASE]
-    gather_batch(G, C, base, K_XDOFS, K_DOFS, K_XE, K_VE, q, v)
-    tf = fview3(G, base + K_TF)
-    gather_tf(fview2(C, C_TFV), iview2(G, base + K_TFI), tf)
-    Phe = fview2(G, base + K_PHE)
-    Be = fview3(G, base + K_BE)
-    zero2(Phe)
-    zero3(Be)
-    call_constraint(row[B_KERNEL], fview2(G, base + K_P), t, tf, fview2(G, base + K_XE), fview2(G, base + K_LE),
-                    v.shape[0] < 0, Phe, Be, fview3(G, base + K_HE))
+    The velocities gathered into the batch's ``ve`` are those of ``v`` (a velocity-constraint batch:
+    its A, which does not depend on them, with zero multipliers)."""
+    kernel_blocks(G, C, row, t, q, v, fview1(C, C_LAMZ), v.shape[0] < 0, 0.0, 0.0)
 
 
 @engine(**ENTRY)
 def rates(G, C, t, q, qd, Phi_t, gam):
-    """Φ_t and γ (B q̈ = −γ) of all constraints at (t, q, q̇)."""
+    """Φ_t and γ (B q̈ = −γ) of all constraints at (t, q, q̇); velocity-constraint rows Ψ = A q̇ + a:
+    Φ_t = a = Ψ − A q̇ (so that they read A q̇ + Φ_t = 0) and γ = Ψ_q q̇ + Ψ_t (A q̈ = −γ: dΨ/dt = 0)."""
     batches = iview2(C, C_BATCHES)
     active = iview1(C, C_ACTIVE)
     zero1(Phi_t)
     zero1(gam)
     for b in range(batches.shape[0]):
-        if batches[b, B_ROLE] != ROLE_CONSTRAINT:
+        if batches[b, B_ROLE] == ROLE_FORCE:
             continue
         base = batches[b, B_BASE]
-        gather_batch(G, C, base, K_XDOFS, K_DOFS, K_XE, K_VE, q, qd)
-        tf = fview3(G, base + K_TF)
-        gather_tf(fview2(C, C_TFV), iview2(G, base + K_TFI), tf)
         Pt = fview2(G, base + K_PT)
         gm = fview2(G, base + K_GM)
-        zero2(Pt)
-        zero2(gm)
-        call_rates(batches[b, B_RATES], fview2(G, base + K_P), t, tf, fview2(G, base + K_XE),
-                   fview2(G, base + K_VE), Pt, gm)
+        if batches[b, B_ROLE] == ROLE_VELOCITY:
+            kernel_blocks(G, C, batches[b], t, q, qd, fview1(C, C_LAMZ), qd.shape[0] >= 0, 0.0, 0.0)
+            velocity_rates(fview2(G, base + K_PHE), fview3(G, base + K_BE), fview3(G, base + V_DQ),
+                           fview2(G, base + K_VE), Pt, gm)
+        else:
+            gather_batch(G, C, base, K_XDOFS, K_DOFS, K_XE, K_VE, q, qd)
+            tf = fview3(G, base + K_TF)
+            gather_tf(fview2(C, C_TFV), iview2(G, base + K_TFI), tf)
+            zero2(Pt)
+            zero2(gm)
+            call_rates(batches[b, B_RATES], fview2(G, base + K_P), t, tf, fview2(G, base + K_XE),
+                       fview2(G, base + K_VE), Pt, gm)
         lamidx = iview2(G, base + K_LAMIDX)
         for e in range(lamidx.shape[0]):
             for j in range(lamidx.shape[1]):
@@ -218,13 +265,27 @@ def rates(G, C, t, q, qd, Phi_t, gam):
     return 0
 
 
+@njit(**INNER)
+def velocity_rates(Psi, Ae, Dq, ve, Pt, gm):
+    """A velocity batch's Φ_t ← Ψ − A v and γ ← Ψ_q v + Ψ_t (Ψ_t in ``Pt`` on entry), per row."""
+    for e in range(Psi.shape[0]):
+        for j in range(Psi.shape[1]):
+            av = 0.0
+            dv = 0.0
+            for i in range(ve.shape[1]):
+                av += Ae[e, j, i] * ve[e, i]
+                dv += Dq[e, j, i] * ve[e, i]
+            gm[e, j] = dv + Pt[e, j]
+            Pt[e, j] = Psi[e, j] - av
+
+
 @engine(**ENTRY)
 def jacobian_times(G, C, t, q, v, out):
-    """out = B(q, t) v for all constraints."""
+    """out = B(q, t) v for all constraints (the velocity-constraint rows: A(q, t) v)."""
     batches = iview2(C, C_BATCHES)
     zero1(out)
     for b in range(batches.shape[0]):
-        if batches[b, B_ROLE] != ROLE_CONSTRAINT:
+        if batches[b, B_ROLE] == ROLE_FORCE:
             continue
         constraint_blocks(G, C, batches[b], t, q, v)
         base = batches[b, B_BASE]

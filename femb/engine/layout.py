@@ -32,12 +32,14 @@ STAGE = dict(INNER, inline="always")
 #: iteration matrix), the ordering (perm, iperm), force weights (w, wext), fixed coordinates
 #: (qfix), constant forces (fconst, scale0), time functions (tfkind, tfoff, tfcoef, tfv), active
 #: constraints, targets (ti), the band envelope (env), rotation nodes (tn, xmap, rot, pn, d), the
-#: index-2 layout (fl, pairs, teta, bw, gglw), the batch table and the Lie flag
+#: index-2 layout (fl, pairs, teta, bw, gglw), the batch table, the Lie flag and zero multipliers
+#: (lamz, nc: the μ given to velocity-constraint kernels outside Newton)
 C_FIELDS = (("mp", "i1"), ("perm", "i1"), ("iperm", "i1"), ("w", "f1"), ("wext", "f1"), ("qfix", "f1"),
             ("fconst", "f1"), ("mi", "i1"), ("tfkind", "i1"), ("tfoff", "i1"), ("tfcoef", "f1"), ("mx", "f1"),
             ("tm", "i1"), ("tfv", "f2"), ("scale0", "f1"), ("active", "i1"), ("ti", "i1"), ("env", "i2"),
             ("tn", "f3"), ("xmap", "i1"), ("rot", "i2"), ("pn", "f2"), ("d", "f1"), ("fl", "i2"),
-            ("pairs", "i2"), ("teta", "i1"), ("bw", "f2"), ("gglw", "f2"), ("batches", "i2"), ("lie", "i1"))
+            ("pairs", "i2"), ("teta", "i1"), ("bw", "f2"), ("gglw", "f2"), ("batches", "i2"), ("lie", "i1"),
+            ("lamz", "f1"))
 # ---- the loop's work arrays in the pack W (built by name in femb/solve/solver.py): the accepted
 # state, the constrained accelerations and jerks, the KKT factorizations, error-estimate work, ...
 #: (name, length) of each work array, in pack order; W_<NAME> is its number. Lengths are the
@@ -49,11 +51,12 @@ W_FIELDS = (("q_s", "nx"), ("qd_s", "nv"), ("qdd_s", "nv"), ("lam_s", "nc"), ("a
             ("Bv", "nc"), ("tgt", "nc"), ("eq", "nv"), ("ev", "nv"), ("atolv", "nv"), ("wq", "nv"),
             ("du", "nv"), ("lk", "nc"))
 # ---- the batch table C_BATCHES: one row per batch ------------------------------------------
-#: role of the batch (ROLE_FORCE or ROLE_CONSTRAINT), its first array in G, the count of arrays,
-#: 1 if its forces depend on q̇, the kernel addresses (force or constraint; rates)
+#: role of the batch (ROLE_FORCE, ROLE_CONSTRAINT or ROLE_VELOCITY), its first array in G, the count
+#: of arrays, 1 if its forces depend on q̇, the kernel addresses (force, constraint or velocity
+#: constraint; rates)
 B_ROLE, B_BASE, B_HASC, B_KERNEL, B_RATES = 0, 1, 2, 3, 4
 NB = 5
-ROLE_FORCE, ROLE_CONSTRAINT = 0, 1
+ROLE_FORCE, ROLE_CONSTRAINT, ROLE_VELOCITY = 0, 1, 2
 # ---- a force batch's arrays in G, from its base: (name, kind f/i and rank), packed in this
 # order by femb/solve/codegen.py, and their numbers
 FORCE_FIELDS = [("P", "f2"), ("dofs", "i2"), ("tfi", "i2"), ("tnn", "i3"), ("xe", "f2"), ("ve", "f2"),
@@ -66,6 +69,11 @@ CONSTRAINT_FIELDS = [("P", "f2"), ("dofs", "i2"), ("lamidx", "i2"), ("tfi", "i2"
 (K_P, K_DOFS, K_LAMIDX, K_TFI, K_TNN, K_TB, K_TBT, K_XE, K_VE, K_LE, K_TF, K_PHE, K_BE, K_HE, K_PT, K_GM,
  K_XDOFS, K_TBLK) = range(18)
 assert len(FORCE_FIELDS) == F_TBLK + 1 and len(CONSTRAINT_FIELDS) == K_TBLK + 1
+# ---- a velocity-constraint (non-holonomic) batch's arrays in G: those of a constraint batch, read
+# as Ψ = A v + a (K_PHE: Ψ, K_BE: A, K_HE: ∂(Aᵀμ)/∂x, K_PT: Ψ_t, K_GM: scratch; K_LAMIDX: the rows
+# of μ in the engine's multiplier vector [λ; μ]), and ∂Ψ/∂x at fixed v (V_DQ)
+VELOCITY_FIELDS = CONSTRAINT_FIELDS + [("Dq", "f3")]
+V_DQ = len(CONSTRAINT_FIELDS)
 
 # ---- status codes returned to Python (femb/solve/solver.py raises femb's errors) -------------
 ST_CHUNK = 0          # requested number of steps done
@@ -89,7 +97,8 @@ ST_GO = 99
 IP_FIELDS = ("nv", "nc", "nfix", "n", "kl", "ku",            # sizes; N Newton unknowns; band widths
              "maxit", "minit", "full", "pred",               # Newton: iterations, full/modified, predictor
              "nsteps", "stride", "store", "pytf",            # fixed steps; storage; Python time functions
-             "mode", "ntest", "check", "dense", "ggl", "carry")  # adaptive; Newton test; check; layout
+             "mode", "ntest", "check", "dense", "ggl", "carry",  # adaptive; Newton test; check; layout
+             "nn")                                           # velocity-constraint rows: the last nn of nc
 #: float parameters fp
 FP_FIELDS = ("h", "t0", "am", "af", "beta", "gamma",         # step, start, α_m, α_f, β, γ
              "rtol", "atol", "phitol", "l", "xtol",          # Newton residual test; length scale; round-off

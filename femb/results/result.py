@@ -40,7 +40,9 @@ class Result:
     qd, qdd : ndarray, shape (nt, nq)
         Velocities and accelerations (a spatial frame node: ṙ in space axes,
         Ω in body axes, and their derivatives).
-    lam : ndarray, shape (nt, nc)
+    lam : ndarray, shape (nt, nc + nn)
+        The multipliers: λ of the nc holonomic constraints, then μ of the nn velocity-level
+        (non-holonomic) ones (:attr:`mu`; nn = 0 for most models).
     newton_iterations : ndarray of int, shape (nsteps,)
         Newton iterations of every step taken (not only the stored ones).
     status : str
@@ -73,6 +75,11 @@ class Result:
     @property
     def success(self):
         return self.status == "success"
+
+    @property
+    def mu(self):
+        """Multipliers μ of the velocity-level (non-holonomic) constraints, shape (nt, nn)."""
+        return self.lam[:, self.model.nc:]
 
     @property
     def steps(self):
@@ -551,6 +558,7 @@ class Result:
                             names += [f"{nname}.{kind}_{comp}", f"{nname}.{kind}_{comp}_d"]
         from femb.system.initial import constraint_labels
         names += [f"{el}.{eq}" for el, eq in constraint_labels(m)]
+        names += [f"{el}.{eq}" for el, eq in _velocity_labels(m)]
         for el, comps in self._reaction_joints().items():
             names += [f"{el}.{c}" for c in comps]
         for el, (g, _) in self._output_elements().items():
@@ -604,7 +612,10 @@ class Result:
             A multiplier (``"pivot.x"``; equation names as in
             ``constraint_names`` of the joint type; unit from its
             ``constraint_units`` when the type declares them, e.g. N·m for the
-            lock rows of spatial joints, else ``"λ"``).
+            lock rows of spatial joints, else ``"λ"``). Velocity-level
+            (non-holonomic) constraints likewise (``"roll.t1"``: names from
+            ``velocity_constraint_names``, units from ``velocity_constraint_units``
+            when declared, else ``"μ"``).
         ``"<joint>.Fx"``, ``".Fy"``, ``".M"`` (planar joints)
             Reaction force (N) and moment (N·m, counter-clockwise) of the joint
             on its body b, about the joint's point on b (:meth:`reaction_at`).
@@ -639,8 +650,9 @@ class Result:
                 raise ModelError(f"unknown energy '{kind}' (known: {sorted(k for k in e if k != 'not_counted')})")
             return e[kind], "J"
         # longest known name that prefixes the output name
-        known = sorted(set(m.node_index) | set(m.lam_index) | set(m.bodies) | set(self._output_elements()),
-                       key=len, reverse=True)
+        mu_index = getattr(m, "mu_index", {})
+        known = sorted(set(m.node_index) | set(m.lam_index) | set(mu_index) | set(m.bodies)
+                       | set(self._output_elements()), key=len, reverse=True)
         owner = next((k for k in known if name.startswith(k + ".")), None)
         if owner is None:
             raise ModelError(f"output '{name}': no body, node or joint of that name (see Result.outputs())")
@@ -655,6 +667,11 @@ class Result:
             found = self._node_series(name, owner, base, deriv)
         if found is None and owner in m.lam_index and deriv == 0:
             found = self._multiplier_series(name, owner, base)
+        if found is None and owner in mu_index and deriv == 0:
+            labels = dict(((el, eq), i) for i, (el, eq) in enumerate(_velocity_labels(m)))
+            i = labels.get((owner, base))
+            if i is not None:
+                found = self.lam[:, m.nc + i].copy(), _velocity_unit(m, owner, base)
         if found is not None:
             return found
         raise ModelError(f"output '{name}': '{owner}' has no output '{rest}' (see Result.outputs())")
@@ -896,6 +913,28 @@ class Result:
         from femb.io.view import view as _view
 
         return _view(self, port=port, open_browser=open_browser, view=view)
+
+
+def _velocity_labels(model):
+    """(element, equation name) of each velocity-level (non-holonomic) constraint row, in μ order."""
+    out = [None] * getattr(model, "nn", 0)
+    for g in getattr(model, "velocity_constraint_groups", ()):
+        names = tuple(getattr(g.cls, "velocity_constraint_names", ()) or ())
+        for e, row in zip(g.names, g.mu):
+            for k, j in enumerate(row):
+                out[int(j)] = (e, names[k] if k < len(names) else f"mu{k}")
+    return out
+
+
+def _velocity_unit(model, element, equation):
+    """Unit of a velocity-constraint multiplier: its type's ``velocity_constraint_units`` entry, else "μ"."""
+    for g in getattr(model, "velocity_constraint_groups", ()):
+        if element in g.names:
+            names = tuple(getattr(g.cls, "velocity_constraint_names", ()) or ())
+            units = tuple(getattr(g.cls, "velocity_constraint_units", ()) or ())
+            k = names.index(equation) if equation in names else -1
+            return units[k] if 0 <= k < len(units) else "μ"
+    return "μ"
 
 
 def _multiplier_unit(model, i):

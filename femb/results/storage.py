@@ -103,7 +103,8 @@ class Storage:
     """
 
     def __init__(self, model, n_steps, stride, store):
-        nx, nv, nc = model.nx, model.nq, model.nc
+        # the multipliers [λ; μ]: nc holonomic, then nn velocity-constraint (non-holonomic) rows
+        nx, nv, nc = model.nx, model.nq, model.nc + getattr(model, "nn", 0)
         states = steps = None
         if n_steps is not None:
             states = 2 + (n_steps // stride if store else 0)

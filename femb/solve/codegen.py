@@ -19,7 +19,7 @@ from scipy.sparse.csgraph import reverse_cuthill_mckee
 
 from femb.base.jit import pack
 from femb.engine import layout as _S
-from femb.errors import ModelError
+from femb.errors import ModelError, ParameterError
 
 #: largest system stored densely (its LU skips zeros); larger ones always use the band storage
 DENSE_MAX = 400
@@ -29,6 +29,7 @@ DENSE_SMALL = 128
 #: in femb/engine/layout.py (F_*, K_*)
 FORCE_FIELDS = _S.FORCE_FIELDS
 CONSTRAINT_FIELDS = _S.CONSTRAINT_FIELDS
+VELOCITY_FIELDS = _S.VELOCITY_FIELDS
 #: the model constants packed into C, by name: ``C_FIELDS`` of femb/engine/layout.py
 
 
@@ -59,8 +60,9 @@ class Compiled:
         ``C_FIELDS`` of femb/engine/layout.py, their meaning where ``femb/engine/`` reads them) as
         one pack; ``Cv[k]`` constant k as a numpy view.
     N, kl, ku, ldab : int
-        Unknowns nq + nc (nq + 2 nc with the index-2 layout) and the band of the
-        permuted iteration matrix.
+        Unknowns nq + nc + nn (nq + 2 nc with the index-2 layout) and the band of the
+        permuted iteration matrix. The nn velocity-constraint (non-holonomic) rows and their
+        multipliers μ follow the nc holonomic ones: the engine's multiplier vector is [λ; μ].
     layout : {"index3", "index2"}
         "index2" adds nc rows and columns for the stabilized index-2 step
         (``newton_step`` in femb/engine/newton.py, index 2): the velocity constraint rows
@@ -75,10 +77,16 @@ class Compiled:
         self.model = model
         self.layout = layout
         ggl = layout == "index2"
-        nv, nc = model.nq, model.nc
-        self.N = N = nv + 2 * nc if ggl else nv + nc
+        nv, nc, nn = model.nq, model.nc, getattr(model, "nn", 0)
+        if ggl and nn:
+            raise ParameterError(f"formulation='index2': model '{model.name}' has {nn} velocity-level "
+                                 "(non-holonomic) constraints, which the stabilized index-2 step does not take; "
+                                 "use formulation='index3' (its velocity rows hold them exactly at every step)")
+        self.N = N = nv + 2 * nc if ggl else nv + nc + nn
         active = np.ones(nc, dtype=np.int8) if getattr(model, "active_constraints", None) is None \
             else np.asarray(model.active_constraints, dtype=np.int8)
+        # the engine's multipliers are [λ; μ]: velocity-constraint rows are always active
+        active = np.concatenate((active, np.ones(nn, dtype=np.int8)))
         Mc = model.M_const.tocsr()
         Mc.sort_indices()
         flat = _index2_entries(model, active) if ggl else None
@@ -89,7 +97,8 @@ class Compiled:
         self.G, self.Gv = pack(_batch_arrays(model, target, active))
         index2 = _index2_targets(target, flat, active, nv, nc)
         C = _constants(model, Mc, perm, iperm, active, index2, target)
-        C.update(env=self.env, gglw=np.zeros((4, nc if ggl else 0)), batches=self.batch_table(model))
+        C.update(env=self.env, gglw=np.zeros((4, nc if ggl else 0)), batches=self.batch_table(model),
+                 lamz=np.zeros(nc + nn))
         #: the constants as one pack (F, I, L) for the compiled code, and as numpy views (Cv[k]),
         #: in the order of C_FIELDS (femb/engine/layout.py), by name
         self.C, self.Cv = pack(_S.named_arrays(_S.C_FIELDS, C, "C"))
@@ -164,7 +173,9 @@ class Compiled:
         (columns ``B_*`` of :mod:`femb.engine.layout`)."""
         from femb.system.kernels import compiled_kernel
         nF = len(model.force_groups)
-        table = np.zeros((nF + len(model.constraint_groups), _S.NB), dtype=np.int64)
+        nK = len(model.constraint_groups)
+        vgroups = list(getattr(model, "velocity_constraint_groups", ()))
+        table = np.zeros((nF + nK + len(vgroups), _S.NB), dtype=np.int64)
         for gi, g in enumerate(model.force_groups):
             row = table[gi]
             row[_S.B_ROLE] = _S.ROLE_FORCE
@@ -177,6 +188,13 @@ class Compiled:
             row[_S.B_BASE] = len(FORCE_FIELDS) * nF + len(CONSTRAINT_FIELDS) * gi
             row[_S.B_KERNEL] = compiled_kernel(g.cls.__name__, "constraint", g.cls.kernels["constraint"])[1]
             row[_S.B_RATES] = compiled_kernel(g.cls.__name__, "rates", g.cls.kernels["rates"])[1]
+        base = len(FORCE_FIELDS) * nF + len(CONSTRAINT_FIELDS) * nK
+        for gi, g in enumerate(vgroups):
+            row = table[nF + nK + gi]
+            row[_S.B_ROLE] = _S.ROLE_VELOCITY
+            row[_S.B_BASE] = base + len(VELOCITY_FIELDS) * gi
+            row[_S.B_KERNEL] = compiled_kernel(g.cls.__name__, "velocity_constraint",
+                                               g.cls.kernels["velocity_constraint"])[1]
         return table
 
 
@@ -244,6 +262,10 @@ def _pattern(model, Mc, active, flat, N):
     for g in model.constraint_groups:
         R += [nv + g.cq_rows, g.cq_cols]
         Cc += [g.cq_cols, nv + g.cq_rows]
+    for g in getattr(model, "velocity_constraint_groups", ()):
+        rr, cc = _velocity_rows(g, nc, nv)
+        R += [nv + rr, cc, g.nn_rows]
+        Cc += [cc, nv + rr, g.nn_cols]
     inactive = np.nonzero(active == 0)[0]
     R.append(nv + inactive)
     Cc.append(nv + inactive)
@@ -255,6 +277,15 @@ def _pattern(model, Mc, active, flat, N):
     R.append(np.arange(N))       # the diagonal, so that every unknown is in the graph
     Cc.append(np.arange(N))
     return np.concatenate(R).astype(np.int64), np.concatenate(Cc).astype(np.int64)
+
+
+def _velocity_rows(g, nc, nv):
+    """Row (in the multipliers [λ; μ]) and free column of each entry of a velocity-constraint batch's A."""
+    nel, nd = g.dofs.shape
+    R = np.broadcast_to(nc + g.mu[:, :, None], (nel, g.nn, nd)).reshape(-1)
+    C = np.broadcast_to(g.dofs[:, None, :], (nel, g.nn, nd)).reshape(-1)
+    ok = C < nv
+    return R[ok], C[ok]
 
 
 def _index2_targets(target, flat, active, nv, nc):
@@ -286,7 +317,7 @@ def _index2_targets(target, flat, active, nv, nc):
 
 def _check_parameters(model):
     """Every batch's parameter array P is (elements, parameters)."""
-    for g in model.force_groups + model.constraint_groups:
+    for g in model.force_groups + model.constraint_groups + list(getattr(model, "velocity_constraint_groups", ())):
         if g.P.ndim != 2:
             raise ModelError(f"{g.name}: its parameter array P must have shape (elements, parameters), "
                              f"got shape {g.P.shape}")
@@ -321,8 +352,8 @@ def _xdofs_of(g):
 
 
 def _batch_arrays(model, target, active):
-    """The arrays of every batch, forces then constraints, each in the order of
-    :data:`FORCE_FIELDS` / :data:`CONSTRAINT_FIELDS` (the contents of the pack G)."""
+    """The arrays of every batch, forces, constraints, then velocity constraints, each in the order of
+    :data:`FORCE_FIELDS` / :data:`CONSTRAINT_FIELDS` / :data:`VELOCITY_FIELDS` (the contents of the pack G)."""
     nv = model.nq
     rot = getattr(model, "rot_blocks", np.zeros((0, 2), dtype=np.int64))
     block_of = {int(vs): b for b, (_, vs) in enumerate(rot)}
@@ -352,7 +383,31 @@ def _batch_arrays(model, target, active):
                    np.zeros((nel, ntf, 3)), np.zeros((nel, ncg)), np.zeros((nel, ncg, nd)),
                    np.zeros((nel, nd, nd)), np.zeros((nel, ncg)), np.zeros((nel, ncg)),
                    _xdofs_of(g), _tangent_blocks(g, block_of)]
+    for g in getattr(model, "velocity_constraint_groups", ()):
+        arrays += _velocity_arrays(g, target, model.nc, nv, block_of)
     return arrays
+
+
+def _velocity_arrays(g, target, nc, nv, block_of):
+    """The arrays of one velocity-constraint batch (:data:`VELOCITY_FIELDS`): those of a constraint
+    batch with the rows nc + μ of the multipliers [λ; μ], and the work array of Ψ_q."""
+    nel, nd = g.dofs.shape
+    ndx = _xdofs_of(g).shape[1]
+    nn = g.nn
+    ntf = g.tf_index.shape[1]
+    rows = nc + g.mu
+    tB = np.full((nel, nn, nd), -1, dtype=np.int64)
+    tBt = np.full((nel, nn, nd), -1, dtype=np.int64)
+    Rr = np.broadcast_to(rows[:, :, None], (nel, nn, nd))
+    Cr = np.broadcast_to(g.dofs[:, None, :], (nel, nn, nd))
+    ok = Cr < nv
+    tB[ok] = target(nv + Rr[ok], Cr[ok])
+    tBt[ok] = target(Cr[ok], nv + Rr[ok])
+    return [g.P, _i64(g.dofs), _i64(rows), _i64(g.tf_index), _nn_targets(g, target, nv), tB, tBt,
+            np.zeros((nel, ndx)), np.zeros((nel, nd)), np.zeros((nel, nn)),
+            np.zeros((nel, ntf, 3)), np.zeros((nel, nn)), np.zeros((nel, nn, nd)),
+            np.zeros((nel, nd, nd)), np.zeros((nel, nn)), np.zeros((nel, nn)),
+            _xdofs_of(g), _tangent_blocks(g, block_of), np.zeros((nel, nn, nd))]
 
 
 def _constants(model, Mc, perm, iperm, active, index2, target):
@@ -471,9 +526,10 @@ def evaluate_dense(model, state, h, alpha, scaled=True, ordering="rcm", formulat
     Returns
     -------
     r_q : ndarray (nq,)
-    Phi : ndarray (nc,)
+    Phi : ndarray (nc + nn,)
+        Φ, then the velocity-constraint rows Ψ/γ' (``state.lam`` holds [λ; μ] for such models).
     scale : float
-    S : ndarray (nq + nc, nq + nc)
+    S : ndarray (N, N)
     """
     cp = compiled(model, ordering, formulation)
     nv, N = model.nq, cp.N
@@ -484,7 +540,7 @@ def evaluate_dense(model, state, h, alpha, scaled=True, ordering="rcm", formulat
     c = alpha.beta * h * h if scaled else 1.0
     AB = np.zeros(cp.storage_size)
     r = np.zeros(nv)
-    Phi = np.zeros(model.nc)
+    Phi = np.zeros(model.nc + getattr(model, "nn", 0))
     cp.mod.lie_reset(cp.C)
     X = (_f64(state.q), _f64(state.qd), _f64(state.qdd), _f64(state.lam))
     scale = cp.mod.evaluate(cp.G, cp.C, float(state.t), X, True, (c * bp, c * gp, c), (AB, r, Phi))

@@ -51,10 +51,17 @@ CHUNK = 4096
 
 
 
+def _multipliers(model):
+    """Size of the engine's multiplier vector [λ; μ]: nc holonomic and nn velocity-constraint rows."""
+    return model.nc + getattr(model, "nn", 0)
+
+
 def _constraint_owner(model):
-    owner = np.empty(model.nc, dtype=object)
+    owner = np.empty(_multipliers(model), dtype=object)
     for name, idx in model.lam_index.items():
         owner[idx] = name
+    for name, idx in getattr(model, "mu_index", {}).items():
+        owner[model.nc + np.asarray(idx, dtype=np.int64)] = name
     return owner
 
 
@@ -214,6 +221,10 @@ class GeneralizedAlphaSolver:
                                                             self.adaptive, phi_tol=self.phi_tol)
         else:
             st = (state or self.model.initial_state(t0)).copy()
+        nn = getattr(self.model, "nn", 0)
+        if nn and st.lam.size == self.model.nc:
+            # a state without μ (initialize=False from the model's initial state): μ starts at 0
+            st.lam = np.concatenate((st.lam, np.zeros(nn)))
         self.init_time = time.perf_counter() - t_init
         self._initialized = bool(initialize)
         self.initial_state = st.copy()
@@ -241,12 +252,13 @@ class GeneralizedAlphaSolver:
         cp, m = self.cp, self.model
         correction = self.newton_test == "correction"
         ggl = self.formulation == "index2"
-        return dict(nv=m.nq, nc=m.nc, nfix=m.nfix, n=cp.N, kl=cp.kl, ku=cp.ku,
+        return dict(nv=m.nq, nc=_multipliers(m), nfix=m.nfix, n=cp.N, kl=cp.kl, ku=cp.ku,
                     maxit=self.max_iter, minit=self.min_iter, full=int(self.newton == "full"),
                     pred={"zero": 0, "previous": 1, "extrapolate": 2}[self.predictor],
                     nsteps=self.n_steps, stride=1, store=1, pytf=int(bool(cp.python_tf)),
                     mode=int(self.adaptive), ntest=int(correction), check=0 if self.adaptive else self.check_every,
-                    dense=int(bool(cp.dense)), ggl=int(ggl), carry=cp.mod.carry_rule(cp.N, cp.dense, correction, ggl))
+                    dense=int(bool(cp.dense)), ggl=int(ggl), carry=cp.mod.carry_rule(cp.N, cp.dense, correction, ggl),
+                    nn=_multipliers(m) - m.nc)
 
     def _float_parameters(self):
         """The float parameters ``fp``, by field name (``femb/engine/layout.py``, ``FP_FIELDS``)."""
@@ -271,16 +283,16 @@ class GeneralizedAlphaSolver:
         self.q, self.qd, self.qdd, self.lam = st.q.copy(), st.qd.copy(), st.qdd.copy(), st.lam.copy()
         self.a = st.qdd.copy()
         self.pqdd = np.zeros(m.nq)
-        self.plam = np.zeros(m.nc)
+        self.plam = np.zeros(_multipliers(m))
         self.AB = np.zeros(cp.storage_size)
         self.ipiv = np.zeros(cp.piv_size, dtype=np.int64)
         self.r = np.zeros(m.nq)
-        self.Phi = np.zeros(m.nc)
+        self.Phi = np.zeros(_multipliers(m))
         self.rhs = np.zeros(cp.N)
         self.x = np.zeros(cp.N)
         self.info = np.zeros(8)
         # the work arrays of the compiled loop, one pack (femb.base.jit.pack), by their names in W_FIELDS
-        size = {"nx": m.nx, "nv": m.nq, "nc": m.nc, "N": cp.N, "lu": cp.storage_size, "piv": cp.piv_size}
+        size = {"nx": m.nx, "nv": m.nq, "nc": _multipliers(m), "N": cp.N, "lu": cp.storage_size, "piv": cp.piv_size}
         self.W, self.Wv = pack([np.zeros(size[n], dtype=np.int64 if n == "piv" else np.float64)
                                 for _, n in S.W_FIELDS])
         self.Wv[S.W_ATOLV][:] = self.atol
@@ -316,7 +328,7 @@ class GeneralizedAlphaSolver:
 
     def _start_engine(self):
         """The compiled pieces of the start (:class:`femb.system.initial.StartEngine`)."""
-        cp, nc = self.cp, self.model.nc
+        cp, nc = self.cp, _multipliers(self.model)
         KBt = np.zeros_like(self.AB)
         kp = np.zeros_like(self.ipiv)
 
@@ -401,7 +413,7 @@ class GeneralizedAlphaSolver:
     def _buffers(self, n):
         b = self._bufs
         if b is None or b[0].shape[0] < n:
-            nv, nc = self.model.nq, self.model.nc
+            nv, nc = self.model.nq, _multipliers(self.model)
             b = (np.zeros(n), np.zeros((n, self.model.nx)), np.zeros((n, nv)), np.zeros((n, nv)), np.zeros((n, nc)),
                  np.zeros(n), np.zeros(n, dtype=np.int32), np.zeros(n))
             self._bufs = b

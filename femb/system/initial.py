@@ -428,14 +428,28 @@ def consistent_initial_state(model: Model, state: State | None = None, *, t0: fl
         equations are dependent (names them, and what they depend on), or a
         matrix is singular.
     ModelError
-        The model has velocity-level (non-holonomic) constraints (rolling joints): the
-        time loop does not integrate them yet (they serve :mod:`femb.analysis.linearize`).
+        The model has velocity-level (non-holonomic) constraints (rolling joints) and
+        ``weights`` (the start of flexible models does not take them) or ``contacts`` (nor does
+        the contact integrator).
+
+    Notes
+    -----
+    Velocity-level (non-holonomic) constraints Ψ = A(q, t) v + a(q, t) = 0 (``model.nn`` rows,
+    multipliers μ): step 2 projects onto Φ_q q̇ = −Φ_t and A q̇ = −a together, step 3 solves
+    [[M, Φ_qᵀ, Aᵀ], [Φ_q, 0, 0], [A, 0, 0]] [q̈; λ; μ] = [f; −γ; −(Ψ_q q̇ + Ψ_t)], and the
+    state's ``lam`` holds [λ; μ] (nc + nn).
     """
-    if getattr(model, "nn", 0):
+    nn = getattr(model, "nn", 0)
+    if nn and contacts:
         names = sorted({g.cls.__name__ for g in model.velocity_constraint_groups})
-        raise ModelError(f"model '{model.name}' has {model.nn} velocity-level (non-holonomic) constraints "
-                         f"({', '.join(names)}): the time loop does not integrate them yet; use "
-                         "femb.analysis.linearize for their linearized dynamics (docs/linearize.md)")
+        raise ModelError(f"model '{model.name}' has {nn} velocity-level (non-holonomic) constraints "
+                         f"({', '.join(names)}): the contact integrator (femb.contact.simulate) does not take them; "
+                         "femb.simulate does (without contacts)")
+    if nn and weights is not None:
+        names = sorted({g.cls.__name__ for g in model.velocity_constraint_groups})
+        raise ModelError(f"model '{model.name}' has {nn} velocity-level (non-holonomic) constraints "
+                         f"({', '.join(names)}) and deformable elements: the start of flexible models "
+                         "does not take velocity constraints")
     if getattr(model, "n_contacts", 0) and not contacts:
         raise ModelError(f"model '{model.name}' has contact elements ({model.n_contacts} contacts): the compiled "
                          "engine (femb.simulate) does not treat contacts yet and would ignore them; integrate it "
@@ -490,7 +504,9 @@ def consistent_initial_state(model: Model, state: State | None = None, *, t0: fl
         st.q = q
         B = assembly.constraint_jacobian(model, t, st.q).tocsr()[rows]
         Phi_t, _ = assembly.constraint_rates(model, t, st.q, st.qd)
-        if weights is None:
+        if nn:
+            pass                    # below, with the velocity constraints
+        elif weights is None:
             sol = _solve_augmented(I, B, st.qd, -Phi_t[rows], "velocity projection")
             if sol is None:
                 e = _redundancy_error(model, st.q, t, "cannot make the initial velocities consistent")
@@ -498,15 +514,58 @@ def consistent_initial_state(model: Model, state: State | None = None, *, t0: fl
             qd = sol[0]
         else:
             qd = project_velocity(model, weights, t, st.q, st.qd, -Phi_t)
+        if not nn:
+            _check_velocity_changes(model, st.qd, qd, report_move)
+            st.qd = qd
+    if nn:
+        qd = _project_velocity_constraints(model, t, st.q, st.qd, rows)
         _check_velocity_changes(model, st.qd, qd, report_move)
         st.qd = qd
-    if weights is not None:
+        st.qdd, st.lam = _velocity_constraint_accelerations(model, t, st.q, st.qd, rows)
+    elif weights is not None:
         st.q, st.qdd, st.lam = settle(model, weights, t, st.q, st.qd)
     else:
         st.qdd, st.lam = start_accelerations(model, None, t, st.q, st.qd)
     if not (np.all(np.isfinite(st.qdd)) and np.all(np.isfinite(st.lam))):
         raise InitializationError("initial accelerations are not finite")
     return st
+
+
+def _velocity_rows(model, t, q, qd, rows):
+    """The velocity-level rows of a model with velocity constraints: [Φ_q; A] (active rows),
+    [Φ_t; a] with a = Ψ − A q̇, and (γ, Ψ_q q̇ + Ψ_t) with B q̈ = −γ, A q̈ = −(Ψ_q q̇ + Ψ_t)."""
+    B = assembly.constraint_jacobian(model, t, q).tocsr()[rows]
+    Phi_t, gam = assembly.constraint_rates(model, t, q, qd)
+    Psi, A, Psi_t = assembly.velocity_constraints(model, t, q, qd)
+    Dq, _ = assembly.velocity_constraint_jacobians(model, t, q, qd, np.zeros(model.nn))
+    BA = sp.vstack((B, A)).tocsr()
+    return BA, np.concatenate((Phi_t[rows], Psi - A @ qd)), np.concatenate((gam[rows], Dq @ qd + Psi_t))
+
+
+def _project_velocity_constraints(model, t, q, qd, rows):
+    """Least-change velocities with Φ_q q̇ + Φ_t = 0 and A q̇ + a = 0 (one linear projection: both
+    are linear in q̇)."""
+    BA, rate, _ = _velocity_rows(model, t, q, qd, rows)
+    sol = _solve_augmented(sp.identity(model.nq, format="csr"), BA, qd, -rate, "velocity projection")
+    if sol is None:
+        raise InitializationError("velocity projection: the rows [Φ_q; A] of the holonomic and velocity-level "
+                                  f"(non-holonomic) constraints are rank-deficient at t = {t:.6g} s; {SINGULAR_HINT}")
+    return sol[0]
+
+
+def _velocity_constraint_accelerations(model, t, q, qd, rows):
+    """(q̈, [λ; μ]) of [[M, Φ_qᵀ, Aᵀ], [Φ_q, 0, 0], [A, 0, 0]] [q̈; λ; μ] = [f; −γ; −(Ψ_q q̇ + Ψ_t)]
+    (Gauss's principle with the velocity-level rows differentiated once)."""
+    BA, _, gam = _velocity_rows(model, t, q, qd, rows)
+    f = assembly.force_vector(model, t, q, qd)
+    sol = _solve_augmented(assembly.mass_matrix(model, q), BA, f, -gam, "initial accelerations")
+    if sol is None:
+        raise InitializationError(f"initial accelerations: the matrix [[M, Φ_qᵀ, Aᵀ], [Φ_q, 0, 0], [A, 0, 0]] is "
+                                  f"singular at t = {t:.6g} s; {SINGULAR_HINT}")
+    lam = np.zeros(model.nc + model.nn)
+    lam[rows] = sol[1][:rows.size]
+    lam[model.nc:] = sol[1][rows.size:]
+    return sol[0], lam
 
 
 # --------------------------------------------------------------------------
@@ -714,7 +773,7 @@ def consistent_start(model, weights, engine, st, j0, h0, alpha, Cq, index3):
     """The consistent start of the generalized-α scheme (stepsize.md §2): a₀ and the normal velocity.
 
     a₀ = q̈₀ + (α_m − α_f) h₀ j₀; with the index-3 form and constraints, q̇₀ is corrected
-    in place so that Φ_q q̇₀ = −Φ_t + h₀² C_q Φ_q j₀ (+ h₀²/12 Φ_q [q̇₀, q̈₀] on Lie groups,
+    in place so that Φ_q q̇₀ = −Φ_t + h₀² C_q Φ_q j₀ (velocity-constraint rows: A q̇₀ = −a) (+ h₀²/12 Φ_q [q̇₀, q̈₀] on Lie groups,
     Arnold, Cardona & Brüls 2016): M-orthogonally by ``engine.project``, or for a flexible
     model with the sweeps of :func:`project_velocity`. The index-2 form keeps
     Φ_q q̇ + Φ_t = 0 exactly: only a₀ is set.
@@ -741,7 +800,7 @@ def consistent_start(model, weights, engine, st, j0, h0, alpha, Cq, index3):
     """
     d = alpha.alpha_m - alpha.alpha_f
     a0 = st.qdd + d * h0 * j0
-    if model.nc and index3:
+    if (model.nc or getattr(model, "nn", 0)) and index3:
         t0 = float(st.t)
         Bj = engine.jacobian_times(t0, st.q, j0)
         Pt = engine.rates(t0, st.q, st.qd)
@@ -749,6 +808,9 @@ def consistent_start(model, weights, engine, st, j0, h0, alpha, Cq, index3):
         if model.lie:
             Bb = engine.jacobian_times(t0, st.q, model.bracket(st.qd, st.qdd))
             target = target + (h0 * h0 / 12.0) * Bb
+        if getattr(model, "nn", 0):
+            # velocity-constraint rows (after the nc holonomic ones): the step keeps A q̇ + a = 0 exactly
+            target[model.nc:] = -Pt[model.nc:]
         if weights is not None:
             st.qd[:] = project_velocity(model, weights, t0, st.q, st.qd, target)
         else:

@@ -26,8 +26,8 @@ from femb.base.jit import (
 #: the velocity-level (non-holonomic) constraint role, A(q, t) v + a(q, t) = 0 (docs/kernels.md):
 #: ``velocity_constraint(P, t, tf, xe, ve, le, jac, Psi, A, Psi_t, Dq, H)`` with Psi = A v + a
 #: (nel, nn), A (nel, nn, ndv), Psi_t = ∂Psi/∂t (nel, nn); with ``jac``: Dq = ∂Psi/∂x along
-#: x ∘ exp(εw) at fixed v (nel, nn, ndv) and H = ∂(Aᵀμ)/∂x (nel, ndv, ndv). Python paths only
-#: (linearization, checks); the time loop does not call it.
+#: x ∘ exp(εw) at fixed v (nel, nn, ndv) and H = ∂(Aᵀμ)/∂x (nel, ndv, ndv). The compiled engine
+#: calls it by address (femb.base.jit.call_velocity_constraint); linearization and checks from Python.
 _F2, _F3 = types.float64[:, ::1], types.float64[:, :, ::1]
 SIGNATURES = dict(ROLE_SIGNATURES, velocity_constraint=types.void(
     _F2, types.float64, _F3, _F2, _F2, _F2, types.boolean, _F2, _F3, _F2, _F3, _F3))

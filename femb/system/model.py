@@ -31,8 +31,9 @@ class State:
     t : float
     q, qd, qdd : ndarray, shape (nq,)
         Coordinates, velocities, accelerations.
-    lam : ndarray, shape (nc,)
-        Lagrange multipliers.
+    lam : ndarray, shape (nc,) or (nc + nn,)
+        Lagrange multipliers; on models with velocity-level (non-holonomic) constraints, the
+        states of a run (and of the consistent start) hold [λ; μ], μ of the nn velocity rows.
     """
 
     t: float
