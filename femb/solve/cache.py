@@ -28,6 +28,11 @@ from pathlib import Path
 from femb.base.jit import cache_dir
 
 
+#: the kernel roles ``femb cache build`` compiles: the engine's, the velocity-constraint role
+#: (called by the engine) and the contact role (called by :mod:`femb.contact`)
+BUILT_ROLES = ("mass", "force", "constraint", "rates", "energy", "velocity_constraint", "contact")
+
+
 def builtin_element_types():
     """Every element type of :mod:`femb.elements` that has compiled kernels, sorted by name."""
     import femb.elements as pkg
@@ -61,7 +66,7 @@ def build(progress=True, stream=None):
     ensure_engine(verbose=progress)
     t1 = time.perf_counter()
     todo = [(cls, role, fn) for cls in builtin_element_types()
-            for role, fn in cls.kernels.items() if role in ("mass", "force", "constraint", "rates", "energy")]
+            for role, fn in cls.kernels.items() if role in BUILT_ROLES]
     n = 0
     pb = bar(len(todo), desc="femb cache build: kernels", enabled=progress)
     for cls, role, fn in todo:
