@@ -54,7 +54,7 @@ from femb.errors import SolverError
 from femb.benchmarks import peers
 from femb.benchmarks.runners.bench_common import (
     GROUPS, _andrews_angle_error, _fixed_step_search, _groups_from_outputs, _sample_outputs, clean, errors,
-    first_line, scene_newton_options, simulate_timed)
+    first_line, margins, scene_newton_options, simulate_timed)
 from femb.study.registry import Scene, load
 
 
@@ -583,7 +583,7 @@ def figure(wp, path):
         fig.legend(h, l, loc="upper center", bbox_to_anchor=(0.5, 0.965), ncol=6, fontsize=8, frameon=False)
     fig.suptitle(f"work–precision: {wp['scene']}  (t_end = {wp['t_end']:g} s; reference: "
                  f"{'independent' if wp['mode'] == 'outputs' else 'femb self-reference'})", y=0.995, fontsize=11)
-    fig.tight_layout(rect=(0, 0, 1, 0.92))
+    margins(fig, left=1.1, right=0.25, bottom=0.6, top=0.95, wspace=1.2, hspace=0.75)
     fig.savefig(path, dpi=90)
     plt.close(fig)
     return path
@@ -624,7 +624,7 @@ def adaptive_figure(wp, path):
             ax.grid(True, which="both", alpha=0.3)
             ax.legend(fontsize=8)
     fig.suptitle(f"fixed against adaptive steps: {wp['scene']} (t_end = {wp['t_end']:g} s)", fontsize=11)
-    fig.tight_layout()
+    margins(fig, left=1.1, right=0.25, bottom=0.6, top=0.5, wspace=1.2, hspace=0.75)
     fig.savefig(path, dpi=90)
     plt.close(fig)
     return path

@@ -26,6 +26,33 @@ def _rot2(th, s):
     return np.stack((c * s[0] - sn * s[1], sn * s[0] + c * s[1]), axis=-1)
 
 
+#: :meth:`Result.plot` page, in inches: width, height of one panel (axes and the gap above it),
+#: margins left (tick labels and y label), right, top (title), bottom (x tick labels and label)
+_PLOT_INCHES = {"width": 7.0, "panel": 1.9, "left": 1.15, "right": 0.2, "top": 0.55, "bottom": 0.55,
+                "gap": 0.3}
+
+
+def _panel_figure(n):
+    """A matplotlib Figure for ``n`` stacked panels with margins fixed in inches.
+
+    Fixed margins instead of the constrained layout engine: the engine measures
+    every axes' tick labels on a dry draw before the real one, which made a plot
+    of all ~40 outputs of a spatial model take several times as long as drawing
+    it (the margins here fit tick labels of up to about 8 characters, what the
+    default tick formatter writes, with its offset text in the gap above a panel).
+    """
+    from matplotlib.figure import Figure
+
+    s = _PLOT_INCHES
+    height = s["panel"] * n + s["top"] + s["bottom"] - s["gap"]
+    fig = Figure(figsize=(s["width"], height))
+    axes_height = s["panel"] - s["gap"]
+    fig.subplots_adjust(left=s["left"] / s["width"], right=1.0 - s["right"] / s["width"],
+                        bottom=s["bottom"] / height, top=1.0 - s["top"] / height,
+                        hspace=s["gap"] / axes_height)
+    return fig
+
+
 @dataclass
 class Result:
     """Stored steps of a simulation.
@@ -779,15 +806,13 @@ class Result:
         -------
         matplotlib.figure.Figure
         """
-        from matplotlib.figure import Figure
-
         if isinstance(outputs, str):
             outputs = [outputs]
         outputs = list(outputs)
         if not outputs:
             raise ModelError("Result.plot: give at least one output name")
         series = [(n, *self.series(n)) for n in outputs]
-        fig = Figure(figsize=(7.0, 1.9 * len(series) + 0.6), layout="constrained")
+        fig = _panel_figure(len(series))
         axes = fig.subplots(len(series), 1, sharex=True, squeeze=False)[:, 0]
         xlabel = "load factor" if hasattr(self, "load_factor") else "t (s)"
         for ax, (n, v, unit) in zip(axes, series):
@@ -795,7 +820,7 @@ class Result:
             ax.set_ylabel(f"{n} ({unit})")
             ax.grid(True, alpha=0.3)
         axes[-1].set_xlabel(xlabel)
-        fig.suptitle(title or f"{self.model.name}")
+        fig.suptitle(title or f"{self.model.name}", y=1.0 - 0.12 / fig.get_figheight())
         if file is not None:
             import os
             from matplotlib.backends.backend_agg import FigureCanvasAgg
