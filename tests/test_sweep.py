@@ -205,7 +205,9 @@ def test_client_restart_mid_sweep_loses_nothing(client):
     def restart(done, total, rows):
         if not restarted:
             restarted.append(done)
-            client.restart()
+            # the restart waits for both workers: up to WORKER_RESTART_TIMEOUT (dask's default, 120 s,
+            # ran out on a loaded 2-core machine while the new worker processes imported femb)
+            client.restart(timeout=WORKER_RESTART_TIMEOUT)
 
     df = femb.sweep("slider_crank", grid={"k": list(np.linspace(1e3, 2e3, 8))}, t_end=0.1,
                     outputs=["theta"], client=client, batch_size=1, progress=restart)
