@@ -60,10 +60,11 @@ from femb.base.rotations import quat_to_matrix_t
 from femb.errors import ModelError
 from femb.system.element import Element
 
-from ._spatial import add3, cross3, dot3, mm, mtm, mtv, mv, scale3, sub3
+from ._spatial import I9, add3, cross3, dot3, mm, mtm, mtv, mv, neg9, outer_minus, scale3, sub3
 
 #: columns of P: s (3), R_s, p (3), n (3), k, n_exp, α, μ, ε_v
 NPAR = 15
+Z9 = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
 
 
 # ---------------------------------------------------------------------------
@@ -88,6 +89,12 @@ def outer_lin(u, g, c, Q, V):
 def add9(A, B):
     return (A[0] + B[0], A[1] + B[1], A[2] + B[2], A[3] + B[3], A[4] + B[4], A[5] + B[5],
             A[6] + B[6], A[7] + B[7], A[8] + B[8])
+
+
+@kernel
+def lin3(s, a, t, b):
+    """s a + t b (3-vectors)."""
+    return (s * a[0] + t * b[0], s * a[1] + t * b[1], s * a[2] + t * b[2])
 
 
 @kernel
@@ -332,139 +339,201 @@ def penalty_state(P, xe, ve, spatial, out):
 
 
 # ---------------------------------------------------------------------------
+# contacts between two spatial bodies a and b (tuples, no allocation)
+# ---------------------------------------------------------------------------
+@kernel
+def lin9(s, A, t, B):
+    """s A + t B (3 × 3)."""
+    return (s * A[0] + t * B[0], s * A[1] + t * B[1], s * A[2] + t * B[2], s * A[3] + t * B[3],
+            s * A[4] + t * B[4], s * A[5] + t * B[5], s * A[6] + t * B[6], s * A[7] + t * B[7],
+            s * A[8] + t * B[8])
+
+
+@kernel
+def pick9(j, A0, A1, A2, A3):
+    """Column block j of a 3 × 12 matrix [A0, A1, A2, A3] (9-tuples)."""
+    if j == 0:
+        return A0
+    if j == 1:
+        return A1
+    if j == 2:
+        return A2
+    return A3
+
+
+@kernel
+def _rows3(ve, e, o):
+    return (ve[e, o], ve[e, o + 1], ve[e, o + 2])
+
+
+@kernel
+def _frames2(xe, ve, e):
+    """R_a, R_b (9-tuples) and ω_a = R_a Ω_a, ω_b = R_b Ω_b of xe = (r_a, p_a, r_b, p_b), ve = (ṙ_a, Ω_a, ṙ_b, Ω_b)."""
+    Ra = quat_to_matrix_t(xe[e, 3], xe[e, 4], xe[e, 5], xe[e, 6])
+    Rb = quat_to_matrix_t(xe[e, 10], xe[e, 11], xe[e, 12], xe[e, 13])
+    return Ra, Rb, mv(Ra, _rows3(ve, e, 3)), mv(Rb, _rows3(ve, e, 9))
+
+
+@kernel
+def two_body_law(P, e, c0, g, n, v):
+    """The law of the module docstring for gap g, normal n and velocity v (b's point at c against a's).
+
+    P[e, c0:c0 + 5] = (k, n, α, μ, ε_v). Returns (f_N, ∂f_N/∂δ, ∂f_N/∂δ̇, c_T = μ f_N/ρ, ρ) and
+    (F, v_T, u) (3-tuples, F = f_N u, u = n − μ v_T/ρ).
+    """
+    vn = dot3(n, v)
+    fN, dfd, dfv = hunt_crossley(-g, -vn, P[e, c0], P[e, c0 + 1], P[e, c0 + 2])
+    vT = sub3(v, scale3(vn, n))
+    eps = P[e, c0 + 4]
+    rho = math.sqrt(dot3(vT, vT) + eps * eps)
+    mr = P[e, c0 + 3] / rho
+    u = (n[0] - mr * vT[0], n[1] - mr * vT[1], n[2] - mr * vT[2])
+    return (fN, dfd, dfv, mr * fN, rho), (scale3(fN, u), vT, u)
+
+
+@kernel
+def two_body_block(j, Dn, Dc, Dg, geo, law, vecs):
+    """Column block j of the world-axes Jacobians (3 × 12) of F, m_a = −d_a × F and m_b = d_b × F for a
+    contact between bodies a and b, along y = (δr_a, δφ_a, δr_b, δφ_b) (δφ rotation increments in space
+    axes) and along (ṙ_a, ω_a, ṙ_b, ω_b).
+
+    Dn, Dc (9-tuples), Dg (3-tuple): block j of ∂n/∂y, ∂c/∂y, ∂g/∂y; geo = (n, v, d_a, d_b, ω_a, ω_b),
+    d_k = c − r_k; law, vecs from :func:`two_body_law`. With ∂d_a/∂y = Dc − [I, 0, 0, 0],
+    ∂d_b/∂y = Dc − [0, 0, I, 0], V_y = ∂v/∂y = ω̃_b ∂d_b/∂y − ω̃_a ∂d_a/∂y + [0, −d̃_a ω̃_a, 0, d̃_b ω̃_b]
+    (δω = δφ × ω), V_v = [−I, d̃_a, I, −d̃_b], P_n = I − n nᵀ, K = I − v_T v_Tᵀ/ρ²:
+
+    * F_y = u (−dfd Dg − dfv (Dnᵀv + V_yᵀn))ᵀ + f_N Dn − c_T K (P_n V_y − (n·v I + n vᵀ) Dn),
+    * F_v = u (−dfv V_vᵀn)ᵀ − c_T K P_n V_v,
+    * m_a,y = F̃ ∂d_a/∂y − d̃_a F_y, m_a,v = −d̃_a F_v, m_b,y = −F̃ ∂d_b/∂y + d̃_b F_y, m_b,v = d̃_b F_v.
+
+    Returns the six 3 × 3 blocks (F_y, F_v, m_a,y, m_a,v, m_b,y, m_b,v).
+    """
+    n, v, da, db, wa, wb = geo
+    fN, dfd, dfv, cT, rho = law
+    F, vT, u = vecs
+    Dda = sub9(Dc, I9) if j == 0 else Dc
+    Ddb = sub9(Dc, I9) if j == 2 else Dc
+    Swa, Swb = skew(wa), skew(wb)
+    dta, dtb = skew(da), skew(db)
+    Vy = sub9(mm(Swb, Ddb), mm(Swa, Dda))
+    if j == 1:
+        Vy = sub9(Vy, mm(dta, Swa))
+    elif j == 3:
+        Vy = add9(Vy, mm(dtb, Swb))
+    Vv = pick9(j, neg9(I9), dta, I9, neg9(dtb))
+    vn = dot3(n, v)
+    gy = lin3(-dfd, Dg, -dfv, add3(mtv(Dn, v), mtv(Vy, n)))
+    gv = scale3(-dfv, mtv(Vv, n))
+    Pn = neg9(outer_minus(n, n, 1.0, I9))
+    K = lin9(1.0, I9, -1.0 / (rho * rho), outer_minus(vT, vT, 0.0, I9))
+    dvTy = sub9(mm(Pn, Vy), mm(outer_minus(n, v, -vn, I9), Dn))
+    Fy = add9(outer_lin(u, gy, cT, K, dvTy), lin9(fN, Dn, 0.0, Dn))
+    Fv = outer_lin(u, gv, cT, mm(K, Pn), Vv)
+    SF = skew(F)
+    may = sub9(mm(SF, Dda), mm(dta, Fy))
+    mby = sub9(mm(dtb, Fy), mm(SF, Ddb))
+    return Fy, Fv, may, neg9(mm(dta, Fv)), mby, mm(dtb, Fv)
+
+
+@kernel
+def put_column(out, e, j, Ra, Rb, J, Ja, Jb):
+    """Column block j of a two-body Jacobian along R_k ← R_k exp(δθ̃_k): rows (−J, R_aᵀ J_a, J, R_bᵀ J_b),
+    each times R_a (j = 1) or R_b (j = 3) on the right."""
+    if j == 1:
+        J, Ja, Jb = mm(J, Ra), mm(Ja, Ra), mm(Jb, Ra)
+    elif j == 3:
+        J, Ja, Jb = mm(J, Rb), mm(Ja, Rb), mm(Jb, Rb)
+    c = 3 * j
+    put_block(out, e, 0, c, neg9(J))
+    put_block(out, e, 3, c, mtm(Ra, Ja))
+    put_block(out, e, 6, c, J)
+    put_block(out, e, 9, c, mtm(Rb, Jb))
+
+
+@kernel
+def put_forces(fe, fq, e, jac, Ra, Rb, da, db, F):
+    """fe[e] = (−F, R_aᵀ m_a, F, R_bᵀ m_b), m_a = −d_a × F, m_b = d_b × F; with ``jac``, adds (R_kᵀ m_k)~ to
+    fq[e] at (θ_k, θ_k) (the derivative of R_kᵀ along R_k exp(δθ̃_k))."""
+    mab = mtv(Ra, cross3(F, da))
+    mbb = mtv(Rb, cross3(db, F))
+    for i in range(3):
+        fe[e, i] = -F[i]
+        fe[e, 3 + i] = mab[i]
+        fe[e, 6 + i] = F[i]
+        fe[e, 9 + i] = mbb[i]
+    if jac:
+        Sa, Sb = skew(mab), skew(mbb)
+        for i in range(3):
+            for k in range(3):
+                fq[e, 3 + i, 3 + k] += Sa[3 * i + k]
+                fq[e, 9 + i, 9 + k] += Sb[3 * i + k]
+
+
+@kernel
+def put_state(out, e, g, n, v, law, vecs):
+    """out[e] = (g_N, ġ_N = n·v, f_N, F_T = F − f_N n (3), v_T (3))."""
+    fN = law[0]
+    F, vT = vecs[0], vecs[1]
+    out[e, 0] = g
+    out[e, 1] = dot3(n, v)
+    out[e, 2] = fN
+    for i in range(3):
+        out[e, 3 + i] = F[i] - fN * n[i]
+        out[e, 6 + i] = vT[i]
+
+
+# ---------------------------------------------------------------------------
 # spatial sphere–sphere between two bodies
 # ---------------------------------------------------------------------------
-@kernel(allocates=True)
-def _skew_a(a):
-    S = np.zeros((3, 3))
-    S[0, 1], S[0, 2], S[1, 2] = -a[2], a[1], -a[0]
-    S[1, 0], S[2, 0], S[2, 1] = a[2], -a[1], a[0]
-    return S
-
-
-@kernel(allocates=True)
-def _rot(xe, e, o):
-    R = np.empty((3, 3))
-    T = quat_to_matrix_t(xe[e, o], xe[e, o + 1], xe[e, o + 2], xe[e, o + 3])
-    for i in range(3):
-        for j in range(3):
-            R[i, j] = T[3 * i + j]
-    return R
-
-
-@kernel(allocates=True)
+@kernel
 def sphere_pair_law(P, xe, ve, e):
-    """Geometry, force and slip of one sphere pair, space axes (arrays).
+    """Geometry, force and slip of one sphere pair, space axes.
 
     P = (s_a (3), s_b (3), R_a, R_b, w, k, n, α, μ, ε_v), w = R_a/(R_a + R_b); xe = (r_a, p_a, r_b, p_b).
-    Returns (R_a, R_b, a_a, a_b, ω_a, ω_b, e, L, n, d_a, d_b, v, g, f_N, dfd, dfv, F, v_T, u, ρ).
+    Returns (R_a, R_b), (a_a, a_b) (the levers R_k s_k), e = C_b − C_a, L = |e|, g,
+    geo = (n, v, d_a, d_b, ω_a, ω_b) (d_k = c − r_k, c = C_a + w e) and law, vecs of :func:`two_body_law`.
     """
-    Ra, Rb = _rot(xe, e, 3), _rot(xe, e, 10)
-    aa = Ra @ P[e, 0:3]
-    ab = Rb @ P[e, 3:6]
-    wa = Ra @ ve[e, 3:6]
-    wb = Rb @ ve[e, 9:12]
-    ev = xe[e, 7:10] + ab - xe[e, 0:3] - aa
-    L = math.sqrt(ev @ ev)
-    n = ev / L
+    Ra, Rb, wa, wb = _frames2(xe, ve, e)
+    aa = mv(Ra, (P[e, 0], P[e, 1], P[e, 2]))
+    ab = mv(Rb, (P[e, 3], P[e, 4], P[e, 5]))
+    ev = sub3(add3(_rows3(xe, e, 7), ab), add3(_rows3(xe, e, 0), aa))
+    L = math.sqrt(dot3(ev, ev))
+    n = scale3(1.0 / L, ev)
     w = P[e, 8]
-    da = aa + w * ev
-    db = ab - (1.0 - w) * ev
-    v = ve[e, 6:9] + np.cross(wb, db) - ve[e, 0:3] - np.cross(wa, da)
-    vn = n @ v
+    da = add3(aa, scale3(w, ev))
+    db = sub3(ab, scale3(1.0 - w, ev))
+    v = sub3(add3(_rows3(ve, e, 6), cross3(wb, db)), add3(_rows3(ve, e, 0), cross3(wa, da)))
     g = L - P[e, 6] - P[e, 7]
-    fN, dfd, dfv = hunt_crossley(-g, -vn, P[e, 9], P[e, 10], P[e, 11])
-    vT = v - vn * n
-    rho = math.sqrt(vT @ vT + P[e, 13] * P[e, 13])
-    u = n - (P[e, 12] / rho) * vT
-    return Ra, Rb, aa, ab, wa, wb, ev, L, n, da, db, v, g, fN, dfd, dfv, fN * u, vT, u, rho
+    law, vecs = two_body_law(P, e, 9, g, n, v)
+    return (Ra, Rb), (aa, ab), L, g, (n, v, da, db, wa, wb), law, vecs
 
 
-@kernel(allocates=True)
-def _pair_jacobians(P, e, aa, ab, wa, wb, L, n, da, db, v, fN, dfd, dfv, F, vT, u, rho):
-    """World-axes Jacobians (3 × 12) of F and of the moments m_a = −d_a × F, m_b = d_b × F with respect
-    to y = (δr_a, δφ_a, δr_b, δφ_b) (δφ rotation increments in space axes) and to (ṙ_a, ω_a, ṙ_b, ω_b).
-
-    E = ∂e/∂y = [−I, ã_a, I, −ã_b], ∂n/∂y = P_n E/L (P_n = I − n nᵀ), V_y = ∂v/∂y (the rotating
-    arms and angular velocities, and the contact point c = C_a + w e), V_v = ∂v/∂(velocities)
-    = [−I, d̃_a, I, −d̃_b]; δ = R_a + R_b − L, δ̇ = −n·v; v_T = P_n v; F = f_N n − μ f_N v_T/ρ.
-    """
-    w = P[e, 8]
-    I3 = np.eye(3)
-    E = np.zeros((3, 12))
-    E[:, 0:3] = -I3
-    E[:, 3:6] = _skew_a(aa)
-    E[:, 6:9] = I3
-    E[:, 9:12] = -_skew_a(ab)
-    Pn = I3 - np.outer(n, n)
-    Dn = Pn @ E / L
-    Swa, Swb = _skew_a(wa), _skew_a(wb)
-    Vy = -(1.0 - w) * (Swb @ E) - w * (Swa @ E)
-    Vy[:, 9:12] += _skew_a(db) @ Swb - Swb @ _skew_a(ab)
-    Vy[:, 3:6] -= _skew_a(da) @ Swa - Swa @ _skew_a(aa)
-    Vv = np.zeros((3, 12))
-    Vv[:, 0:3] = -I3
-    Vv[:, 3:6] = _skew_a(da)
-    Vv[:, 6:9] = I3
-    Vv[:, 9:12] = -_skew_a(db)
-    vn = n @ v
-    gy = -dfd * (n @ E) - dfv * (v @ Dn + n @ Vy)
-    gv = -dfv * (n @ Vv)
-    cT = P[e, 12] * fN / rho
-    K = I3 - np.outer(vT, vT) / (rho * rho)
-    dvTy = Pn @ Vy - (vn * I3 + np.outer(n, v)) @ Dn
-    Fy = np.outer(u, gy) + fN * Dn - cT * (K @ dvTy)
-    Fv = np.outer(u, gv) - cT * (K @ (Pn @ Vv))
-    Ddb = -(1.0 - w) * E
-    Ddb[:, 9:12] -= _skew_a(ab)
-    Dda = w * E
-    Dda[:, 3:6] -= _skew_a(aa)
-    SF = _skew_a(F)
-    mby = -SF @ Ddb + _skew_a(db) @ Fy
-    may = SF @ Dda - _skew_a(da) @ Fy
-    return Fy, Fv, may, -_skew_a(da) @ Fv, mby, _skew_a(db) @ Fv
-
-
-@kernel(allocates=True)
+@kernel
 def sphere_pair_force(P, t, tf, xe, ve, jac, fe, fq, fv):
     """Penalty contact of a sphere on spatial body a with a sphere on spatial body b.
 
     f = (−F, −R_aᵀ(d_a × F), F, R_bᵀ(d_b × F)): F on b and −F on a at the contact point
-    c = C_a + w e, d_k = c − r_k. Jacobians along R_k ← R_k exp(δθ̃_k) (δφ_k = R_k δθ_k, ω_k = R_k Ω_k):
-    the world Jacobians of :func:`_pair_jacobians` with the rotation columns times R_k, the moment
-    rows times R_kᵀ, and (R_kᵀ m_k)~ added at (θ_k, θ_k).
+    c = C_a + w e, d_k = c − r_k. Geometry derivatives (E = ∂e/∂y = [−I, ã_a, I, −ã_b]):
+    ∂n/∂y = P_n E/L, ∂g/∂y = Eᵀn, ∂c/∂y = [I, −ã_a, 0, 0] + w E; then :func:`two_body_block` per column
+    block, along R_k ← R_k exp(δθ̃_k) (δφ_k = R_k δθ_k, ω_k = R_k Ω_k) by :func:`put_column`, :func:`put_forces`.
     """
     for e in range(xe.shape[0]):
-        (Ra, Rb, aa, ab, wa, wb, ev, L, n, da, db, v, g, fN, dfd, dfv, F, vT, u,
-         rho) = sphere_pair_law(P, xe, ve, e)
-        if fN == 0.0:
+        (Ra, Rb), (aa, ab), L, g, geo, law, vecs = sphere_pair_law(P, xe, ve, e)
+        if law[0] == 0.0:
             continue
-        ma = -np.cross(da, F)
-        mb = np.cross(db, F)
-        mab = Ra.T @ ma
-        mbb = Rb.T @ mb
-        fe[e, 0:3] = -F
-        fe[e, 3:6] = mab
-        fe[e, 6:9] = F
-        fe[e, 9:12] = mbb
-        if not jac:
-            continue
-        Fy, Fv, may, mav, mby, mbv = _pair_jacobians(P, e, aa, ab, wa, wb, L, n, da, db, v, fN, dfd, dfv,
-                                                     F, vT, u, rho)
-        for Jy, Jv, r0, Rr in ((-Fy, -Fv, 0, Ra), (may, mav, 3, Ra), (Fy, Fv, 6, Rb), (mby, mbv, 9, Rb)):
-            Y = Jy.copy()
-            V = Jv.copy()
-            Y[:, 3:6] = np.ascontiguousarray(Jy[:, 3:6]) @ Ra
-            Y[:, 9:12] = np.ascontiguousarray(Jy[:, 9:12]) @ Rb
-            V[:, 3:6] = np.ascontiguousarray(Jv[:, 3:6]) @ Ra
-            V[:, 9:12] = np.ascontiguousarray(Jv[:, 9:12]) @ Rb
-            if r0 == 3 or r0 == 9:
-                Y = Rr.T @ Y
-                V = Rr.T @ V
-            fq[e, r0:r0 + 3, :] = Y
-            fv[e, r0:r0 + 3, :] = V
-        fq[e, 3:6, 3:6] += _skew_a(mab)
-        fq[e, 9:12, 9:12] += _skew_a(mbb)
+        n = geo[0]
+        if jac:
+            w = P[e, 8]
+            PnL = lin9(1.0 / L, I9, -1.0 / L, outer_minus(n, n, 0.0, I9))
+            Sa, Sb = skew(aa), skew(ab)
+            for j in range(4):
+                E = pick9(j, neg9(I9), Sa, I9, neg9(Sb))
+                C0 = pick9(j, I9, neg9(Sa), Z9, Z9)
+                Fy, Fv, may, mav, mby, mbv = two_body_block(j, mm(PnL, E), lin9(1.0, C0, w, E), mtv(E, n),
+                                                            geo, law, vecs)
+                put_column(fq, e, j, Ra, Rb, Fy, may, mby)
+                put_column(fv, e, j, Ra, Rb, Fv, mav, mbv)
+        put_forces(fe, fq, e, jac, Ra, Rb, geo[2], geo[3], vecs[0])
 
 
 @kernel
@@ -481,147 +550,66 @@ def sphere_pair_energy(P, t, tf, xe, Ve):
         Ve[e] = 0.0 if not g < 0.0 else P[e, 9] * (-g) ** (P[e, 10] + 1.0) / (P[e, 10] + 1.0)
 
 
-@kernel(allocates=True)
+@kernel
 def sphere_pair_state(P, xe, ve, out):
     """out[e] = (g_N, ġ_N, f_N, F_T (3), v_T (3)) of each pair, space axes (F_T on b, v_T of b against a)."""
     for e in range(xe.shape[0]):
-        (Ra, Rb, aa, ab, wa, wb, ev, L, n, da, db, v, g, fN, dfd, dfv, F, vT, u,
-         rho) = sphere_pair_law(P, xe, ve, e)
-        out[e, 0] = g
-        out[e, 1] = n @ v
-        out[e, 2] = fN
-        out[e, 3:6] = F - fN * n
-        out[e, 6:9] = vT
+        R, lev, L, g, geo, law, vecs = sphere_pair_law(P, xe, ve, e)
+        put_state(out, e, g, geo[0], geo[1], law, vecs)
 
 
 # ---------------------------------------------------------------------------
 # spatial sphere on a plane fixed to another body
 # ---------------------------------------------------------------------------
-@kernel(allocates=True)
+@kernel
 def body_plane_law(P, xe, ve, e):
     """Geometry, force and slip of a sphere on body b against a plane fixed to body a, space axes.
 
     P = (p̄ (3), n̄ (3) in a's axes, s_b (3), R_s, k, n, α, μ, ε_v); xe = (r_a, p_a, r_b, p_b).
     Plane point P = r_a + R_a p̄, normal n = R_a n̄, centre C = r_b + R_b s_b, g = n·(C − P) − R_s,
-    contact point c = C − R_s n. Returns (R_a, R_b, p = R_a p̄, a_b = R_b s_b, ω_a, ω_b, n, C − P,
-    d_a = c − r_a, d_b = c − r_b, v (b's point at c against a's), g, f_N, dfd, dfv, F, v_T, u, ρ).
+    contact point c = C − R_s n. Returns (R_a, R_b), (p = R_a p̄, a_b = R_b s_b), C − P, g,
+    geo = (n, v, d_a, d_b, ω_a, ω_b) (d_k = c − r_k; v: b's point at c against a's) and law, vecs of
+    :func:`two_body_law`.
     """
-    Ra, Rb = _rot(xe, e, 3), _rot(xe, e, 10)
-    pw = Ra @ P[e, 0:3]
-    n = Ra @ P[e, 3:6]
-    ab = Rb @ P[e, 6:9]
-    wa = Ra @ ve[e, 3:6]
-    wb = Rb @ ve[e, 9:12]
-    CP = xe[e, 7:10] + ab - xe[e, 0:3] - pw
-    g = n @ CP - P[e, 9]
-    c = xe[e, 7:10] + ab - P[e, 9] * n
-    da = c - xe[e, 0:3]
-    db = ab - P[e, 9] * n
-    v = ve[e, 6:9] + np.cross(wb, db) - ve[e, 0:3] - np.cross(wa, da)
-    vn = n @ v
-    fN, dfd, dfv = hunt_crossley(-g, -vn, P[e, 10], P[e, 11], P[e, 12])
-    vT = v - vn * n
-    rho = math.sqrt(vT @ vT + P[e, 14] * P[e, 14])
-    u = n - (P[e, 13] / rho) * vT
-    return Ra, Rb, pw, ab, wa, wb, n, CP, da, db, v, g, fN, dfd, dfv, fN * u, vT, u, rho
+    Ra, Rb, wa, wb = _frames2(xe, ve, e)
+    pw = mv(Ra, (P[e, 0], P[e, 1], P[e, 2]))
+    n = mv(Ra, (P[e, 3], P[e, 4], P[e, 5]))
+    ab = mv(Rb, (P[e, 6], P[e, 7], P[e, 8]))
+    rb = _rows3(xe, e, 7)
+    CP = sub3(add3(rb, ab), add3(_rows3(xe, e, 0), pw))
+    g = dot3(n, CP) - P[e, 9]
+    db = sub3(ab, scale3(P[e, 9], n))
+    da = sub3(add3(rb, db), _rows3(xe, e, 0))
+    v = sub3(add3(_rows3(ve, e, 6), cross3(wb, db)), add3(_rows3(ve, e, 0), cross3(wa, da)))
+    law, vecs = two_body_law(P, e, 10, g, n, v)
+    return (Ra, Rb), (pw, ab), CP, g, (n, v, da, db, wa, wb), law, vecs
 
 
-@kernel(allocates=True)
-def two_body_jacobians(mu, Dn, Dc, Dg, n, v, da, db, wa, wb, fN, dfd, dfv, F, vT, u, rho):
-    """World-axes Jacobians (3 × 12) of F and of m_a = −d_a × F, m_b = d_b × F for a contact between
-    bodies a and b with normal n(y), contact point c(y) and gap g(y) given by their derivatives
-    Dn, Dc (3 × 12) and Dg (12,) along y = (δr_a, δφ_a, δr_b, δφ_b); v = b's point at c against
-    a's, δ = −g, δ̇ = −n·v, v_T = v − (n·v) n, F = f_N (n − μ v_T/ρ).
-
-    d_k = c − r_k: ∂d_a/∂y = Dc − [I, 0, 0, 0], ∂d_b/∂y = Dc − [0, 0, I, 0];
-    ∂v/∂y = ω̃_b ∂d_b/∂y − ω̃_a ∂d_a/∂y + (d̃_b ω̃_b at φ_b) − (d̃_a ω̃_a at φ_a) (δω = δφ × ω);
-    ∂v/∂(ṙ_a, ω_a, ṙ_b, ω_b) = [−I, d̃_a, I, −d̃_b].
-    """
-    I3 = np.eye(3)
-    Dda = Dc.copy()
-    Dda[:, 0:3] -= I3
-    Ddb = Dc.copy()
-    Ddb[:, 6:9] -= I3
-    Swa, Swb = _skew_a(wa), _skew_a(wb)
-    Vy = Swb @ Ddb - Swa @ Dda
-    Vy[:, 9:12] += _skew_a(db) @ Swb
-    Vy[:, 3:6] -= _skew_a(da) @ Swa
-    Vv = np.zeros((3, 12))
-    Vv[:, 0:3] = -I3
-    Vv[:, 3:6] = _skew_a(da)
-    Vv[:, 6:9] = I3
-    Vv[:, 9:12] = -_skew_a(db)
-    vn = n @ v
-    Pn = I3 - np.outer(n, n)
-    gy = -dfd * Dg - dfv * (v @ Dn + n @ Vy)
-    gv = -dfv * (n @ Vv)
-    cT = mu * fN / rho
-    K = I3 - np.outer(vT, vT) / (rho * rho)
-    dvTy = Pn @ Vy - (vn * I3 + np.outer(n, v)) @ Dn
-    Fy = np.outer(u, gy) + fN * Dn - cT * (K @ dvTy)
-    Fv = np.outer(u, gv) - cT * (K @ (Pn @ Vv))
-    SF = _skew_a(F)
-    return Fy, Fv, SF @ Dda - _skew_a(da) @ Fy, -_skew_a(da) @ Fv, -SF @ Ddb + _skew_a(db) @ Fy, _skew_a(db) @ Fv
-
-
-@kernel(allocates=True)
-def write_two_body(fe, fq, fv, e, jac, Ra, Rb, da, db, F, Fy, Fv, may, mav, mby, mbv):
-    """f = (−F, R_aᵀ m_a, F, R_bᵀ m_b) and, with ``jac``, its Jacobians along R_k ← R_k exp(δθ̃_k):
-    rotation columns times R_k, moment rows times R_kᵀ, (R_kᵀ m_k)~ added at (θ_k, θ_k)."""
-    mab = Ra.T @ (-np.cross(da, F))
-    mbb = Rb.T @ np.cross(db, F)
-    fe[e, 0:3] = -F
-    fe[e, 3:6] = mab
-    fe[e, 6:9] = F
-    fe[e, 9:12] = mbb
-    if not jac:
-        return
-    for Jy, Jv, r0, Rr in ((-Fy, -Fv, 0, Ra), (may, mav, 3, Ra), (Fy, Fv, 6, Rb), (mby, mbv, 9, Rb)):
-        Y = Jy.copy()
-        V = Jv.copy()
-        Y[:, 3:6] = np.ascontiguousarray(Jy[:, 3:6]) @ Ra
-        Y[:, 9:12] = np.ascontiguousarray(Jy[:, 9:12]) @ Rb
-        V[:, 3:6] = np.ascontiguousarray(Jv[:, 3:6]) @ Ra
-        V[:, 9:12] = np.ascontiguousarray(Jv[:, 9:12]) @ Rb
-        if r0 == 3 or r0 == 9:
-            Y = Rr.T @ Y
-            V = Rr.T @ V
-        fq[e, r0:r0 + 3, :] = Y
-        fv[e, r0:r0 + 3, :] = V
-    fq[e, 3:6, 3:6] += _skew_a(mab)
-    fq[e, 9:12, 9:12] += _skew_a(mbb)
-
-
-@kernel(allocates=True)
+@kernel
 def body_plane_force(P, t, tf, xe, ve, jac, fe, fq, fv):
     """Penalty sphere (on body b) against a plane fixed to body a: F on b at c, −F on a at c.
 
     Derivatives of the geometry of :func:`body_plane_law` (δn = δφ_a × n, δC = δr_b − ã_b δφ_b,
-    δP = δr_a − p̃ δφ_a): Dn = [0, −ñ, 0, 0], Dg = (C − P)ᵀDn + nᵀ(DC − DP), Dc = DC − R_s Dn; then
-    :func:`two_body_jacobians` and :func:`write_two_body`.
+    δP = δr_a − p̃ δφ_a): Dn = [0, −ñ, 0, 0], D(C − P) = [−I, p̃, I, −ã_b], Dg = Dnᵀ(C − P) + D(C − P)ᵀn,
+    Dc = [0, 0, I, −ã_b] − R_s Dn; then :func:`two_body_block` per column block, :func:`put_column`,
+    :func:`put_forces`.
     """
     for e in range(xe.shape[0]):
-        (Ra, Rb, pw, ab, wa, wb, n, CP, da, db, v, g, fN, dfd, dfv, F, vT, u,
-         rho) = body_plane_law(P, xe, ve, e)
-        if fN == 0.0:
+        (Ra, Rb), (pw, ab), CP, g, geo, law, vecs = body_plane_law(P, xe, ve, e)
+        if law[0] == 0.0:
             continue
-        Fy = Fv = may = mav = mby = mbv = np.zeros((3, 12))
         if jac:
-            Dn = np.zeros((3, 12))
-            Dn[:, 3:6] = -_skew_a(n)
-            DCP = np.zeros((3, 12))
-            DCP[:, 0:3] = -np.eye(3)
-            DCP[:, 3:6] = _skew_a(pw)
-            DCP[:, 6:9] = np.eye(3)
-            DCP[:, 9:12] = -_skew_a(ab)
-            Dg = CP @ Dn + n @ DCP
-            Dc = DCP.copy()
-            Dc[:, 0:3] = 0.0
-            Dc[:, 3:6] = 0.0
-            Dc -= P[e, 9] * Dn
-            Fy, Fv, may, mav, mby, mbv = two_body_jacobians(P[e, 13], Dn, Dc, Dg, n, v, da, db, wa, wb, fN, dfd,
-                                                            dfv, F, vT, u, rho)
-        write_two_body(fe, fq, fv, e, jac, Ra, Rb, da, db, F, Fy, Fv, may, mav, mby, mbv)
+            n = geo[0]
+            Sn, Sb = skew(n), skew(ab)
+            for j in range(4):
+                Dn = pick9(j, Z9, neg9(Sn), Z9, Z9)
+                DCP = pick9(j, neg9(I9), skew(pw), I9, neg9(Sb))
+                Dc = lin9(1.0, pick9(j, Z9, Z9, I9, neg9(Sb)), -P[e, 9], Dn)
+                Fy, Fv, may, mav, mby, mbv = two_body_block(j, Dn, Dc, add3(mtv(Dn, CP), mtv(DCP, n)),
+                                                            geo, law, vecs)
+                put_column(fq, e, j, Ra, Rb, Fy, may, mby)
+                put_column(fv, e, j, Ra, Rb, Fv, mav, mbv)
+        put_forces(fe, fq, e, jac, Ra, Rb, geo[2], geo[3], vecs[0])
 
 
 @kernel
@@ -646,17 +634,12 @@ def _body_plane_potential(P, e, g):
     return P[e, 10] * (-g) ** n1 / n1
 
 
-@kernel(allocates=True)
+@kernel
 def body_plane_state(P, xe, ve, out):
     """out[e] = (g_N, ġ_N, f_N, F_T (3), v_T (3)), space axes (F_T on b, v_T of b against a)."""
     for e in range(xe.shape[0]):
-        (Ra, Rb, pw, ab, wa, wb, n, CP, da, db, v, g, fN, dfd, dfv, F, vT, u,
-         rho) = body_plane_law(P, xe, ve, e)
-        out[e, 0] = g
-        out[e, 1] = n @ v
-        out[e, 2] = fN
-        out[e, 3:6] = F - fN * n
-        out[e, 6:9] = vT
+        R, lev, CP, g, geo, law, vecs = body_plane_law(P, xe, ve, e)
+        put_state(out, e, g, geo[0], geo[1], law, vecs)
 
 
 # ---------------------------------------------------------------------------
@@ -994,7 +977,7 @@ class SpatialPenaltySpherePair(_PenaltyLaw):
     Notes
     -----
     The outputs ``lambda_F_x`` … and ``gamma_F_x`` … are the friction force on b and the slip
-    velocity in space axes. The kernel allocates small arrays (``@kernel(allocates=True)``).
+    velocity in space axes.
     """
 
     kernels = {"force": sphere_pair_force, "energy": sphere_pair_energy}
