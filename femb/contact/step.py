@@ -16,7 +16,8 @@ the residual R = (R_s, R_c) of eq. (127)::
     M Q + Φ_qᵀκ_g − W_Nᵀκ_N − (h/2) W_FᵀΛ_F = 0
     Φ = 0,   Φ_q u + Φ_t = 0,   Φ_q u̇ + γ = 0                 (index-3 exactness at all levels,
                                                              Brüls, Acary & Cardona 2014)
-    contact rows, eqs. (129), (132), (135), (138), (142), on the index sets (130)–(141)
+    contact rows, eqs. (129), (132), (135), (138), (142), on the index sets (130)–(141),
+    with the slip row (138b) on the impulsive parts, Λ_F = −μΛ_N ξ_F/‖ξ_F‖ (docs/contact.md §1.1)
 
 with the kinematics (71), (73), (125): ā_{n+1} from (1 − α_m)ā_{n+1} + α_m ā_n =
 (1 − α_f)u̇_{n+1} + α_f u̇_n, u_{n+1} = u_n + h((1 − γ)ā_n + γā_{n+1}) + U,
@@ -241,7 +242,12 @@ class NonsmoothStep:
                 ev["Phi"], B @ ev["u"] + ev["Phi_t"], B @ ud + ev["gam"]]
 
     def friction_rows(self, ev, x, A, D, E):
-        """R_c for friction, eqs. (138), (142), and the derivative blocks of the Jacobian."""
+        """R_c for friction, eqs. (138), (142), and the derivative blocks of the Jacobian.
+
+        The slip row of (138) acts on Λ_F, Λ_N, not on P_F, P_N: the smooth share
+        h((1 − γ)λ̄_F,n + γλ̄_F,n+1) of P_F follows (142c) with the slip direction of its own stage,
+        so a persistent slip whose direction turns leaves no O(h²) percussion per step.
+        """
         mu, nF, nN = self.lay.mu, self.lay.nF, self.lay.nN
         LN, lN, LF, lF = self.split(x)[7:11]
         PN, PF, xiF, gF, gFdd = ev["PN"], ev["PF"], ev["xiF"], ev["gF"], ev["gFdd"]
