@@ -28,13 +28,13 @@ def test_tippetop_rises_as_the_reference():
 
 
 def test_tippetop_step_size_study():
-    """Errors at t = 0.025 s against the scipy reference at h = 5e-4, 2.5e-4, 1.25e-4: the errors of
-    position and normal force fall with h, Jellett's drift at second order."""
+    """Errors at t = 0.025 s against the scipy reference at h = 5e-4, 2.5e-4, 1.25e-4: position, tilt,
+    normal force and Jellett's drift at second order in this sliding phase (the slip direction
+    turns; measured 2.00 for all four, docs/contact.md, tippe top)."""
     st = contact_tippetop.order_study(t_end=0.025, hs=(5e-4, 2.5e-4, 1.25e-4))
     assert st["order_jellett_drift"] >= 1.9
-    # positions and contact force: first order in this sliding phase (docs/contact.md, tippe top)
-    assert st["order_err_r"] >= 0.9 and st["order_err_lambda_N"] >= 0.9
-    assert st["err_r"][-1] < 5e-6 and st["err_lambda_N"][-1] < 1e-5
+    assert st["order_err_r"] >= 1.9 and st["order_err_theta"] >= 1.9 and st["order_err_lambda_N"] >= 1.9
+    assert st["err_r"][-1] < 6e-8 and st["err_lambda_N"][-1] < 1e-8            # measured 3.0e-8 m, 4.8e-9 N
 
 
 def test_beam_swings_onto_the_stop():

@@ -16,7 +16,8 @@ the residual R = (R_s, R_c) of eq. (127)::
     M Q + Φ_qᵀκ_g − W_Nᵀκ_N − (h/2) W_FᵀΛ_F = 0
     Φ = 0,   Φ_q u + Φ_t = 0,   Φ_q u̇ + γ = 0                 (index-3 exactness at all levels,
                                                              Brüls, Acary & Cardona 2014)
-    contact rows, eqs. (129), (132), (135), (138), (142), on the index sets (130)–(141)
+    contact rows, eqs. (129), (132), (135), (138), (142), on the index sets (130)–(141),
+    with the slip row (138b) on the impulsive parts, Λ_F = −μΛ_N ξ_F/‖ξ_F‖ (docs/contact.md §1.1)
 
 with the kinematics (71), (73), (125): ā_{n+1} from (1 − α_m)ā_{n+1} + α_m ā_n =
 (1 − α_f)u̇_{n+1} + α_f u̇_n, u_{n+1} = u_n + h((1 − γ)ā_n + γā_{n+1}) + U,
@@ -241,13 +242,19 @@ class NonsmoothStep:
                 ev["Phi"], B @ ev["u"] + ev["Phi_t"], B @ ud + ev["gam"]]
 
     def friction_rows(self, ev, x, A, D, E):
-        """R_c for friction, eqs. (138), (142), and the derivative blocks of the Jacobian."""
+        """R_c for friction, eqs. (138), (142), and the derivative blocks of the Jacobian.
+
+        The slip row of (138) acts on Λ_F, Λ_N, not on P_F, P_N: the smooth share
+        h((1 − γ)λ̄_F,n + γλ̄_F,n+1) of P_F follows (142c) with the slip direction of its own stage,
+        so a persistent slip whose direction turns leaves no O(h²) percussion per step.
+        """
         mu, nF, nN = self.lay.mu, self.lay.nF, self.lay.nN
-        lN, lF = self.split(x)[8], self.split(x)[10]
+        LN, lN, LF, lF = self.split(x)[7:11]
         PN, PF, xiF, gF, gFdd = ev["PN"], ev["PF"], ev["xiF"], ev["gF"], ev["gFdd"]
         R9, R10 = PF.copy(), lF.copy()
         Dxi, Dgd, Dg = np.zeros((nF, nF)), np.zeros((nF, nF)), np.zeros((nF, nF))
         Dpf, Dlf = np.ones(nF), np.ones(nF)
+        Dsm = np.ones(nF)          # 1 where the row acts on P (with the smooth share), 0 on Λ alone
         Dpn, Dln = np.zeros((nF, nN)), np.zeros((nF, nN))
         for i, idx in enumerate(self.lay.friction):
             if not idx.size or not A[i]:
@@ -267,15 +274,19 @@ class NonsmoothStep:
                     Dgd[blk] = mu[i] * lN[i] * dv
                     Dln[idx, i] = mu[i] * v
             else:                                          # (138b), (142c): slip
+                # the slip law on the impulsive parts Λ_F, Λ_N of the percussions (P_F − Λ_F is the
+                # smooth force's share, fixed by (142c) at its own stages): a persistent slip keeps
+                # Λ_F with Λ_N (docs/contact.md, departures)
                 v, dv = direction(xiF[idx])
-                R9[idx] = PF[idx] + mu[i] * PN[i] * v
-                Dxi[blk] = mu[i] * PN[i] * dv
+                R9[idx] = LF[idx] + mu[i] * LN[i] * v
+                Dxi[blk] = mu[i] * LN[i] * dv
                 Dpn[idx, i] = mu[i] * v
+                Dsm[idx] = 0.0
                 w, dw = direction(gF[idx])
                 R10[idx] = lF[idx] + mu[i] * lN[i] * w
                 Dg[blk] = mu[i] * lN[i] * dw
                 Dln[idx, i] = mu[i] * w
-        return R9, R10, dict(Dxi=Dxi, Dgd=Dgd, Dg=Dg, Dpf=Dpf, Dlf=Dlf, Dpn=Dpn, Dln=Dln)
+        return R9, R10, dict(Dxi=Dxi, Dgd=Dgd, Dg=Dg, Dpf=Dpf, Dlf=Dlf, Dpn=Dpn, Dln=Dln, Dsm=Dsm)
 
     def system(self, s, x, fixed_z=None, frozen=None):
         """Residual R (eq. (127)), its Jacobian (csc) and the index sets at the iterate x.
@@ -355,8 +366,8 @@ class NonsmoothStep:
         J[6][0], J[6][2], J[6][6], J[6][8] = cq * (dg(Af) @ WN), dg(Af) @ WN, dg(1 - Af), cq * dg(1 - Af)
         J[7][0], J[7][1], J[7][7], J[7][8] = cu * (dg(Bf) @ WN), dg(Bf) @ WN, dg(1 - Bf), cu * dg(1 - Bf)
         J[8][0], J[8][8] = dg(Cf) @ WN, dg(1 - Cf)
-        J[9][0], J[9][1], J[9][7], J[9][8] = cu * (Dxi @ WF), Dxi @ WF, Dpn, cu * Dpn
-        J[9][9], J[9][10] = dg(Fd["Dpf"]), cu * dg(Fd["Dpf"])
+        J[9][0], J[9][1], J[9][7], J[9][8] = cu * (Dxi @ WF), Dxi @ WF, Dpn, cu * (dg(Fd["Dsm"]) @ Dpn)
+        J[9][9], J[9][10] = dg(Fd["Dpf"]), cu * dg(Fd["Dsm"] * Fd["Dpf"])
         J[10][0], J[10][1], J[10][8], J[10][10] = Dgd @ WF + cu * (Dg @ WF), Dg @ WF, Dln, dg(Fd["Dlf"])
         return J
 
@@ -447,6 +458,7 @@ class NonsmoothStep:
         B_ = A & (rN * ev["xiN"] - ev["PN"] <= 0.0)
         lN = np.where(B_, prox_nonnegative(lN_j - rN * ev["gNdd"]), 0.0)      # (134)
         PF, lF = np.zeros(self.lay.nF), np.zeros(self.lay.nF)
+        slip = np.zeros(self.lay.nF, dtype=bool)
         for i, idx in enumerate(self.lay.friction):
             if not idx.size or not A[i]:
                 continue
@@ -457,11 +469,16 @@ class NonsmoothStep:
             else:                                                             # (140b)
                 v, _ = direction(ev["gF"][idx])
                 lF[idx] = -mu[i] * lN[i] * v
+                slip[idx] = True
         lbN = (af * s.lam_N + (1 - af) * lN - am * s.lbar_N) / (1 - am)
         lbF = (af * s.lam_F + (1 - af) * lF - am * s.lbar_F) / (1 - am)
         LN = PN - h * ((1 - g) * s.lbar_N + g * lbN)                          # (95)
         kN = kN_hat - h * h * ((0.5 - b) * s.lbar_N + b * lbN)                # (102)
         LF = PF - h * ((1 - g) * s.lbar_F + g * lbF)                          # (113)
+        for i, idx in enumerate(self.lay.friction):                           # slip: Λ_F from Λ_N (friction_rows)
+            if idx.size and slip[idx[0]]:
+                v, _ = direction(ev["xiF"][idx])
+                LF[idx] = -mu[i] * LN[i] * v
         return np.concatenate((kN, LN, lN, LF, lF))
 
     def fixed_point(self, s, x0):
