@@ -416,6 +416,20 @@ def tangents(n):
     return t1, np.cross(n, t1)
 
 
+def plane_tangents(owner, n, tangent=None):
+    """The tangents (t₁, t₂) of the plane with unit normal n: :func:`tangents` when ``tangent`` is None,
+    else t₁ the given direction projected on the plane (ModelError naming ``owner`` when it is parallel
+    to n), t₂ = n × t₁."""
+    if tangent is None:
+        return tangents(n)
+    t1 = _vector(owner, "tangent", tangent, 3)
+    t1 = t1 - (t1 @ n) * n
+    if np.linalg.norm(t1) < 1e-9:
+        raise ModelError(f"{owner}: tangent must not be parallel to the normal, got {tangent!r}")
+    t1 = t1 / np.linalg.norm(t1)
+    return t1, np.cross(n, t1)
+
+
 class SpatialSphereOnPlane(ContactElement):
     """A point or sphere of a spatial body on a plane fixed in space, with isotropic Coulomb friction.
 
@@ -449,15 +463,7 @@ class SpatialSphereOnPlane(ContactElement):
         self.radius = _scalar(owner, "radius", radius, 0.0)
         self.p = _vector(owner, "plane_point", plane_point, 3)
         self.n = _unit(owner, "normal", normal, 3)
-        if tangent is None:
-            self.t1, self.t2 = tangents(self.n)
-        else:
-            t1 = _vector(owner, "tangent", tangent, 3)
-            t1 = t1 - (t1 @ self.n) * self.n
-            if np.linalg.norm(t1) < 1e-9:
-                raise ModelError(f"{owner}: tangent must not be parallel to the normal, got {tangent!r}")
-            self.t1 = t1 / np.linalg.norm(t1)
-            self.t2 = np.cross(self.n, self.t1)
+        self.t1, self.t2 = plane_tangents(owner, self.n, tangent)
 
     def resolve(self, lookup):
         owner = f"SpatialSphereOnPlane '{self.name}'"

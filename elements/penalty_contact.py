@@ -701,6 +701,17 @@ def hunt_crossley_damping(restitution, v_ref, exponent=1.5):
 # ---------------------------------------------------------------------------
 # element types
 # ---------------------------------------------------------------------------
+def _resolve_two_bodies(el, owner, lookup):
+    """Resolve ``el.a`` and ``el.b`` to two different spatial bodies (ModelError naming ``owner``)."""
+    for role in ("a", "b"):
+        body = lookup(getattr(el, role), role)
+        if getattr(body, "node", None) is None or not getattr(body.node, "rotation_blocks", ()):
+            raise ModelError(f"{owner}: {role} must be a spatial body, got {getattr(body, 'name', body)!r}")
+        setattr(el, role, body)
+    if el.a is el.b:
+        raise ModelError(f"{owner}: bodies a and b are the same ('{el.a.name}')")
+
+
 def _num(owner, what, value, lo=None, lo_open=False, hi=None):
     try:
         v = float(value)
@@ -716,12 +727,9 @@ def _num(owner, what, value, lo=None, lo_open=False, hi=None):
 
 
 def _vec(owner, what, value, dim, unit=False):
-    try:
-        v = np.array(value, dtype=float).reshape(-1)
-    except (TypeError, ValueError):
-        raise ModelError(f"{owner}: {what} must be {dim} numbers, got {value!r}") from None
-    if v.size != dim or not np.all(np.isfinite(v)):
-        raise ModelError(f"{owner}: {what} must be {dim} finite numbers, got {value!r}")
+    from .contact import _vector
+
+    v = _vector(owner, what, value, dim)
     if unit:
         L = float(np.linalg.norm(v))
         if L < 1e-12:
@@ -928,18 +936,9 @@ class SpatialPenaltySphereOnPlane(_PenaltySphereOnPlane):
     def __init__(self, name, body, radius, stiffness, point=None, plane_point=None, normal=None, *,
                  tangent=None, **law):
         super().__init__(name, body, radius, stiffness, point, plane_point, normal, **law)
-        from .contact import tangents
+        from .contact import plane_tangents
 
-        if tangent is None:
-            self.t1, self.t2 = tangents(self.n)
-        else:
-            owner = f"SpatialPenaltySphereOnPlane '{name}'"
-            t1 = _vec(owner, "tangent", tangent, 3)
-            t1 = t1 - (t1 @ self.n) * self.n
-            if np.linalg.norm(t1) < 1e-9:
-                raise ModelError(f"{owner}: tangent must not be parallel to the normal, got {tangent!r}")
-            self.t1 = t1 / np.linalg.norm(t1)
-            self.t2 = np.cross(self.n, self.t1)
+        self.t1, self.t2 = plane_tangents(f"SpatialPenaltySphereOnPlane '{name}'", self.n, tangent)
 
     def resolve(self, lookup):
         owner = f"SpatialPenaltySphereOnPlane '{self.name}'"
@@ -996,14 +995,7 @@ class SpatialPenaltySpherePair(_PenaltyLaw):
         self._set_law(stiffness, restitution, v_ref, damping, mu, eps_v, exponent)
 
     def resolve(self, lookup):
-        owner = f"SpatialPenaltySpherePair '{self.name}'"
-        for role in ("a", "b"):
-            body = lookup(getattr(self, role), role)
-            if getattr(body, "node", None) is None or not getattr(body.node, "rotation_blocks", ()):
-                raise ModelError(f"{owner}: {role} must be a spatial body, got {getattr(body, 'name', body)!r}")
-            setattr(self, role, body)
-        if self.a is self.b:
-            raise ModelError(f"{owner}: bodies a and b are the same ('{self.a.name}')")
+        _resolve_two_bodies(self, f"SpatialPenaltySpherePair '{self.name}'", lookup)
         pa, pb = self._points
         self.sa = np.asarray(self.a.local((0.0, 0.0, 0.0) if pa is None else pa, "point_a"), dtype=float)
         self.sb = np.asarray(self.b.local((0.0, 0.0, 0.0) if pb is None else pb, "point_b"), dtype=float)
@@ -1073,14 +1065,7 @@ class SpatialPenaltySphereOnBodyPlane(_PenaltyLaw):
         self._set_law(stiffness, restitution, v_ref, damping, mu, eps_v, exponent)
 
     def resolve(self, lookup):
-        owner = f"SpatialPenaltySphereOnBodyPlane '{self.name}'"
-        for role in ("a", "b"):
-            body = lookup(getattr(self, role), role)
-            if getattr(body, "node", None) is None or not getattr(body.node, "rotation_blocks", ()):
-                raise ModelError(f"{owner}: {role} must be a spatial body, got {getattr(body, 'name', body)!r}")
-            setattr(self, role, body)
-        if self.a is self.b:
-            raise ModelError(f"{owner}: bodies a and b are the same ('{self.a.name}')")
+        _resolve_two_bodies(self, f"SpatialPenaltySphereOnBodyPlane '{self.name}'", lookup)
         pp, pt = self._spec
         self.pbar = np.asarray(self.a.local((0.0, 0.0, 0.0) if pp is None else pp, "plane_point"), dtype=float)
         self.s = np.asarray(self.b.local((0.0, 0.0, 0.0) if pt is None else pt, "point"), dtype=float)
