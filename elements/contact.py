@@ -33,6 +33,7 @@ import math
 
 import numpy as np
 
+from femb.base.geometry import GeometryBlock
 from femb.base.jit import kernel
 from femb.base.rotations import quat_to_matrix_t
 from femb.errors import ModelError
@@ -90,6 +91,7 @@ class ContactElement(Element):
     """
 
     n_contacts = 1
+    glyph = "contact"  # how pictures draw it (femb.io.frames)
 
     def __init__(self, name, e_N=0.0, mu=0.0, e_F=0.0):
         super().__init__(name)
@@ -97,6 +99,102 @@ class ContactElement(Element):
         self.e_N = _scalar(owner, "e_N (normal restitution)", e_N, 0.0, 1.0)
         self.mu = _scalar(owner, "mu (friction coefficient)", mu, 0.0)
         self.e_F = _scalar(owner, "e_F (tangential restitution)", e_F, 0.0, 1.0)
+
+    @classmethod
+    def contact_frames(cls, P, qe):
+        """Contact points, normals, tangents and gaps of a batch at one state (for output).
+
+        Parameters
+        ----------
+        P : ndarray, shape (nel, npar)
+            The batch's packed parameters.
+        qe : ndarray, shape (nel, ndx)
+            Coordinates of each element's nodes.
+
+        Returns
+        -------
+        c : ndarray (nel, 3)
+            Contact point (m), where the surfaces touch when the contact is closed: on a plane,
+            the sphere's point nearest the plane (c = C − R_s n); on a disc pair or pin in hole,
+            the first disc's (the hole's) surface point towards the second centre.
+        n : ndarray (nel, 3)
+            Unit direction in which the normal force λ_N pushes the body (on pairs: body b).
+        T : ndarray (nel, l, 3)
+            Direction of each friction force λ_F on that body.
+        gN : ndarray (nel,)
+            Gap (m), negative when the surfaces overlap.
+        """
+        raise NotImplementedError(f"{cls.__name__} does not describe its contact points")
+
+    @classmethod
+    def geometry(cls, p, t, qe, qde, lame, names):
+        """One vertex per contact at its contact point (see :func:`contact_block`).
+
+        ``lame`` (nel, 2 + l), when the caller knows the contact forces (a contact result):
+        state (0 open, 1 stick, 2 slip), λ_N and the friction forces λ_F; (nel, 0) otherwise
+        (forces 0, state −1: not known).
+        """
+        c, n, T, gN = cls.contact_frames(p["P"], np.asarray(qe, dtype=float))
+        lame = np.asarray(lame, dtype=float)
+        if lame.shape[1] >= 2:
+            state = lame[:, 0]
+            F = lame[:, 1:2] * n + np.einsum("ek,ekj->ej", lame[:, 2:2 + T.shape[1]], T)
+        else:
+            state, F = np.full(len(gN), -1.0), np.zeros_like(n)
+        return contact_block(cls.__name__, c, n, F, gN, state)
+
+
+def contact_block(name, points, normals, forces, gaps, states):
+    """The contacts of a batch as output geometry (VTK, pictures).
+
+    Parameters
+    ----------
+    name : str
+        The element type's name.
+    points, normals, forces : ndarray, shape (nel, 3)
+        Contact point (m), unit normal along which the normal force pushes the (second) body,
+        and the whole contact force on it (N: normal plus friction).
+    gaps : ndarray, shape (nel,)
+        g_N (m).
+    states : ndarray, shape (nel,)
+        0 open, 1 stick, 2 slip; −1 when not known.
+
+    Returns
+    -------
+    list of GeometryBlock
+        One block of vertices with point data ``contact_normal``, ``contact_force`` (N),
+        ``gap`` (m) and ``contact_state``.
+    """
+    n = len(gaps)
+    return [GeometryBlock(name, np.asarray(points, dtype=float).reshape(n, 3), [("vertex", np.arange(n)[:, None])],
+                          point_data={"contact_normal": np.asarray(normals, dtype=float).reshape(n, 3),
+                                      "contact_force": np.asarray(forces, dtype=float).reshape(n, 3),
+                                      "gap": np.asarray(gaps, dtype=float).reshape(n),
+                                      "contact_state": np.asarray(states, dtype=float).reshape(n)})]
+
+
+def _planar_points(qe, s, col=0):
+    """(r + R(θ)s (n, 3) with z = 0) of planar nodes whose (x, y, θ) start at column ``col`` of qe."""
+    th = qe[:, col + 2]
+    c, sn = np.cos(th), np.sin(th)
+    out = np.zeros((qe.shape[0], 3))
+    out[:, 0] = qe[:, col] + c * s[:, 0] - sn * s[:, 1]
+    out[:, 1] = qe[:, col + 1] + sn * s[:, 0] + c * s[:, 1]
+    return out
+
+
+def _planar3(v):
+    out = np.zeros((v.shape[0], 3))
+    out[:, :2] = v
+    return out
+
+
+def _spatial_points(qe, s, col=0):
+    """(r + R(p)s (n, 3), R (n, 3, 3)) of spatial nodes whose (r, p) start at column ``col`` of qe."""
+    from ._spatial_geometry import rotation_matrices
+
+    R = rotation_matrices(qe[:, col + 3:col + 7])
+    return qe[:, col:col + 3] + np.einsum("eij,ej->ei", R, s), R
 
 
 def _body(owner, lookup, ref, role):
@@ -185,6 +283,14 @@ class SphereOnPlane(ContactElement):
     def pack(cls, elements):
         P = np.array([[*e.s, e.radius, *e.p, *e.n] for e in elements], dtype=float)
         return {"P": np.ascontiguousarray(P)}
+
+    @classmethod
+    def contact_frames(cls, P, qe):
+        C = _planar_points(qe, P[:, 0:2])
+        n = _planar3(P[:, 5:7])
+        gN = np.einsum("ej,ej->e", n, C - _planar3(P[:, 3:5])) - P[:, 2]
+        T = _planar3(np.column_stack((P[:, 6], -P[:, 5])))[:, None, :]
+        return C - P[:, 2:3] * n, n, T, gN
 
 
 def block_corners(name, body, width, height, e_N=0.0, mu=0.0, e_F=0.0, plane_point=(0.0, 0.0),
@@ -287,6 +393,16 @@ class _DiscPair(ContactElement):
     def pack(cls, elements):
         P = np.array([[*e.sa, *e.sb, *e._law()] for e in elements], dtype=float)
         return {"P": np.ascontiguousarray(P)}
+
+    @classmethod
+    def contact_frames(cls, P, qe):
+        ca, cb = _planar_points(qe, P[:, 0:2]), _planar_points(qe, P[:, 2:4], col=3)
+        e = cb - ca
+        L = np.linalg.norm(e, axis=1)
+        u = e / np.where(L > 0.0, L, 1.0)[:, None]
+        sN = P[:, 4:5]
+        T = np.column_stack((u[:, 1], -u[:, 0], np.zeros(len(L))))[:, None, :]
+        return ca + P[:, 6:7] * u, sN * u, T, P[:, 4] * L + P[:, 5]
 
 
 class DiscOnDisc(_DiscPair):
@@ -479,3 +595,10 @@ class SpatialSphereOnPlane(ContactElement):
     def pack(cls, elements):
         P = np.array([[*e.s, e.radius, *e.p, *e.n, *e.t1, *e.t2] for e in elements], dtype=float)
         return {"P": np.ascontiguousarray(P)}
+
+    @classmethod
+    def contact_frames(cls, P, qe):
+        C, _ = _spatial_points(qe, P[:, 0:3])
+        n = P[:, 7:10]
+        gN = np.einsum("ej,ej->e", n, C - P[:, 4:7]) - P[:, 3]
+        return C - P[:, 3:4] * n, n, np.stack((P[:, 10:13], P[:, 13:16]), axis=1), gN

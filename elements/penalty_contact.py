@@ -823,6 +823,27 @@ class _PenaltyLaw(Element):
         T = np.tile(T, (nt, 1))
         return [T[:, 3 * k:3 * k + 3] for k in range(len(cls._tangent_suffixes))]
 
+    glyph = "contact"  # how pictures draw it (femb.io.frames)
+
+    @classmethod
+    def geometry(cls, p, t, qe, qde, lame, names):
+        """One vertex per contact at its contact point c, with its force on the (second) body.
+
+        Point data (:func:`femb.elements.contact.contact_block`): ``contact_normal`` n,
+        ``contact_force`` f_N n + f_T (N), ``gap`` g_N (m) and ``contact_state`` (0 open, 1 stick,
+        2 slip), from the same compiled law as the forces and the outputs.
+        """
+        from .contact import contact_block
+
+        qe, qde = np.asarray(qe, dtype=float), np.asarray(qde, dtype=float)
+        nel = qe.shape[0]
+        c, n, gN = cls.contact_frames(p["P"], qe)
+        out = cls.outputs(p, qe[None], qde[None], np.arange(nel))
+        F = out["lambda_N"][0][:, None] * n
+        for sfx, tk in zip(cls._tangent_suffixes, cls._tangent_rows(p["T"], 1)):
+            F = F + out["lambda_F" + sfx][0][:, None] * tk
+        return contact_block(cls.__name__, c, n, F, gN, out["state"][0])
+
 
 class _PenaltySphereOnPlane(_PenaltyLaw):
     """Shared parameters, validation and packing of the planar and spatial sphere-on-plane types."""
@@ -858,6 +879,16 @@ class _PenaltySphereOnPlane(_PenaltyLaw):
     @classmethod
     def _state_values(cls, P, xe, ve, out):
         penalty_state(P, xe, ve, 1.0 if cls.dim == 3 else 0.0, out)
+
+    @classmethod
+    def contact_frames(cls, P, qe):
+        """(contact point c = C − R_s n (nel, 3), normal n (nel, 3), gap g_N (nel,)) at one state."""
+        from .contact import _planar_points, _spatial_points
+
+        C = _planar_points(qe, P[:, 0:2]) if cls.dim == 2 else _spatial_points(qe, P[:, 0:3])[0]
+        n = P[:, 7:10]
+        gN = np.einsum("ej,ej->e", n, C - P[:, 4:7]) - P[:, 3]
+        return C - P[:, 3:4] * n, n, gN
 
     @classmethod
     def _tangents(cls, elements):
@@ -1022,6 +1053,16 @@ class SpatialPenaltySpherePair(_PenaltyLaw):
     def _state_values(cls, P, xe, ve, out):
         sphere_pair_state(P, xe, ve, out)
 
+    @classmethod
+    def contact_frames(cls, P, qe):
+        """(contact point c = C_a + w e, normal n = e/|e| (on b), gap |e| − R_a − R_b) at one state."""
+        from .contact import _spatial_points
+
+        e = _spatial_points(qe, P[:, 3:6], col=7)[0] - _spatial_points(qe, P[:, 0:3])[0]
+        L = np.linalg.norm(e, axis=1)
+        n = e / np.where(L > 0.0, L, 1.0)[:, None]
+        return _spatial_points(qe, P[:, 0:3])[0] + P[:, 8:9] * e, n, L - P[:, 6] - P[:, 7]
+
 
 class SpatialPenaltySphereOnBodyPlane(_PenaltyLaw):
     """Compliant contact of a sphere on spatial body b with a plane fixed to spatial body a.
@@ -1082,3 +1123,14 @@ class SpatialPenaltySphereOnBodyPlane(_PenaltyLaw):
     @classmethod
     def _state_values(cls, P, xe, ve, out):
         body_plane_state(P, xe, ve, out)
+
+    @classmethod
+    def contact_frames(cls, P, qe):
+        """(contact point c = C − R_s n, normal n = R_a n̄, gap n·(C − P) − R_s) at one state."""
+        from .contact import _spatial_points
+
+        Pl, Ra = _spatial_points(qe, P[:, 0:3])
+        n = np.einsum("eij,ej->ei", Ra, P[:, 3:6])
+        C = _spatial_points(qe, P[:, 6:9], col=7)[0]
+        gN = np.einsum("ej,ej->e", n, C - Pl) - P[:, 9]
+        return C - P[:, 9:10] * n, n, gN

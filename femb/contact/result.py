@@ -102,6 +102,10 @@ class ContactResult(Result):
         e["balance"] = e["balance"] + e["contact_normal"] + e["contact_friction"]
         return e
 
+    def contact_at(self, k):
+        """(state (nN,), λ_N (nN,), λ_F (nF,)) at stored step ``k``: what the contact elements draw."""
+        return self.contact["state"][k], self.contact["lam_N"][k], self.contact["lam_F"][k]
+
     def contact_state(self, name):
         """The state of contact ``name`` at every stored step, as strings (open, stick, slip)."""
         if name not in self.contact_names:

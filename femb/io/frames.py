@@ -19,7 +19,7 @@ from femb.base.geometry import GeometryBlock
 GLYPHS = {"body": 1, "body_frame": 2, "point_mass": 3, "revolute": 10, "spherical": 11,
           "prismatic": 12, "cylindrical": 13, "universal": 14, "fixed": 15, "distance": 16,
           "motor": 17, "actuator": 18,
-          "spring": 20, "bushing": 21, "torsion": 22, "load": 30, "ground": 40, "beam": 50}
+          "spring": 20, "bushing": 21, "torsion": 22, "load": 30, "ground": 40, "beam": 50, "contact": 60}
 
 #: Kinds of the blocks this module makes itself (the ground's named points).
 _OWN_KINDS = {"SpatialGround": "ground", "Ground": "ground"}
@@ -234,7 +234,7 @@ def _planar_joint(scene, g, kind, blocks, qx):
     b.cell_data["body_b"] = [x.copy() for x in minus] + [bb]
 
 
-def model_blocks(model, t, q, qd, lam):
+def model_blocks(model, t, q, qd, lam, contact=None):
     """Geometry of every element of ``model`` at one state.
 
     Parameters
@@ -243,6 +243,10 @@ def model_blocks(model, t, q, qd, lam):
     t : float
     q, qd : ndarray, shape (nq,)
     lam : ndarray, shape (nc,)
+    contact : (state (nN,), lam_N (nN,), lam_F (nF,)), optional
+        The contact states and forces of a contact result at this state (see
+        :meth:`femb.contact.result.ContactResult.contact_at`); the contact elements then draw their
+        forces.
 
     Returns
     -------
@@ -266,6 +270,9 @@ def model_blocks(model, t, q, qd, lam):
     scene = _scene(model)
     for g in model.groups:
         le = lam[g.lam] if g.nc else np.zeros((g.nel, 0))
+        if contact is not None and g.cN.shape[1] == 1:
+            st, lN, lF = (np.asarray(a, dtype=float) for a in contact)
+            le = np.column_stack((st[g.cN[:, 0]], lN[g.cN[:, 0]], lF[g.cF].reshape(g.nel, -1)))
         out = list(g.cls.geometry(g.params, t, qx[g.xdofs], qdx[g.dofs], le, g.names))
         _annotate(scene, g, out, qx)
         blocks.extend(out)
@@ -395,9 +402,11 @@ def write_vtk(result, directory, every=1, basename="frame"):
     from femb.io.vtk import TimeSeriesWriter
 
     m = result.model
+    contact_at = getattr(result, "contact_at", None)        # a contact result: its forces and states
     with TimeSeriesWriter(directory, basename=basename) as w:
         def put(k):
-            blocks = model_blocks(m, result.t[k], result.q[k], result.qd[k], result.lam[k])
+            blocks = model_blocks(m, result.t[k], result.q[k], result.qd[k], result.lam[k],
+                                  contact=None if contact_at is None else contact_at(k))
             w.write(result.t[k], blocks, field_data=scene_field_data(m, blocks))
 
         for k in range(0, result.t.size, int(every)):

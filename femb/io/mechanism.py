@@ -59,11 +59,13 @@ MIN_BODY = 1.8
 
 KINDS = {1: "body", 2: "body_frame", 3: "point_mass", 10: "revolute", 11: "spherical", 12: "prismatic",
          13: "cylindrical", 14: "universal", 15: "fixed", 16: "distance", 17: "motor", 18: "actuator", 20: "spring", 21: "bushing",
-         22: "torsion", 30: "load", 40: "ground", 50: "beam"}
+         22: "torsion", 30: "load", 40: "ground", 50: "beam", 60: "contact"}
 JOINT_KINDS = ("revolute", "spherical", "prismatic", "cylindrical", "universal", "fixed", "distance", "motor",
                "actuator")
 DRIVE_COLOUR = (200, 30, 30)
 LOAD_COLOUR = (200, 30, 30)
+#: closed contacts: the contact point and the contact force on the body
+CONTACT_COLOUR = (230, 150, 0)
 
 VIEWS = ("3d", "iso", "front", "side", "top", "plane", "xy", "xz", "yz")
 #: (azimuth, elevation) in degrees of the gravity-aware views (see :func:`view_direction`)
@@ -114,6 +116,7 @@ class Frame:
     loads: list = field(default_factory=list)      # ("force" or "torque", point (3,), vector (3,))
     beams: list = field(default_factory=list)      # (type name, pyvista mesh of its line cells)
     planar: bool = False       # bodies without frames (planar types): the mechanism of a plane
+    contacts: list = field(default_factory=list)   # (point (3,), force on the body (3,), normal (3,)): closed ones
 
 
 def read_frame(mesh, time=0.0):
@@ -155,7 +158,7 @@ def read_frame(mesh, time=0.0):
             beams.append((tname, mesh.extract_cells(lines)))
     planar = bool(bodies) and "body_frame" not in by_kind
     return Frame(time, bodies, names, centres, joints, springs, ground, g, points, _frame_loads(c, by_kind), beams,
-                 planar)
+                 planar, _frame_contacts(c, by_kind))
 
 
 class _Cells:
@@ -249,6 +252,26 @@ def _frame_loads(c, by_kind):
                 keep = np.linalg.norm(V, axis=1) > 0.0
                 loads += [(what, P[i], v) for i, v in zip(ids[keep], V[keep])]
     return loads
+
+
+def _frame_contacts(c, by_kind):
+    """[(point (3,), force (3,), normal (3,))]: the closed contacts of a frame.
+
+    Closed: state stick or slip (contact results, penalty contacts), or, where the state is not
+    known (−1), a gap ≤ 0.
+    """
+    out, P, pd = [], c.P, c.pd
+    if "contact_state" not in pd:
+        return out
+    for tname, cells in by_kind.get("contact", []):
+        ids = c.first_point(cells)
+        st = np.asarray(pd["contact_state"], dtype=float)[ids]
+        gap = np.asarray(pd["gap"], dtype=float)[ids]
+        F = np.asarray(pd["contact_force"], dtype=float)[ids]
+        n = np.asarray(pd["contact_normal"], dtype=float)[ids]
+        closed = (st > 0.0) | ((st < 0.0) & (gap <= 0.0))
+        out += [(P[i], F[j], n[j]) for j, i in enumerate(ids) if closed[j]]
+    return out
 
 
 # ---------------------------------------------------------------------------
@@ -753,6 +776,21 @@ def load_items(pv, frame, motion, shade=1.0):
     return [] if m is None else [Item("load", "load", m, _shade(LOAD_COLOUR, shade))]
 
 
+def contact_items(pv, frame, motion, shade=1.0):
+    """Closed contacts: a flat marker at the contact point and the force on the body as an arrow
+    ending there (length fixed, like the loads', along the force; along the normal when it is 0)."""
+    s = motion.joint_size
+    parts = []
+    for p, F, n in frame.contacts:
+        d = _unit(F, fallback=n)
+        parts.append(pv.Disc(center=p, inner=0.0, outer=0.5 * s, normal=_unit(n), c_res=24))
+        if float(np.linalg.norm(F)) > 0.0:
+            parts.append(pv.Arrow(start=p - 3.0 * s * d, direction=d, scale=3.0 * s, tip_length=0.3,
+                                  tip_radius=0.12, shaft_radius=0.04))
+    m = _merge(pv, parts)
+    return [] if m is None else [Item("contact", "contact", m, _shade(CONTACT_COLOUR, shade))]
+
+
 def floor_item(pv, motion):
     """A faint floor normal to gravity under the whole motion (None without gravity or in a plane)."""
     if motion.gravity is None or not np.any(motion.gravity) or motion.planar:
@@ -816,6 +854,7 @@ def frame_items(pv, frame, motion, *, shade=1.0, floor=True, traces=True):
     items += joint_items(pv, frame, motion, shade)
     items += spring_items(pv, frame, motion, shade)
     items += load_items(pv, frame, motion, shade)
+    items += contact_items(pv, frame, motion, shade)
     if traces:
         items += trace_items(pv, frame, motion, upto=frame.time)
     return [it for it in items if it.mesh is not None and it.mesh.n_points]

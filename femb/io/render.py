@@ -687,6 +687,9 @@ def _legend_labels(items):
         labels.append([names.get(kind, kind), _hex(SPRING_COLOUR)])
     if any(it.kind == "load" for it in items):
         labels.append(["load", _hex(LOAD_COLOUR)])
+    if any(it.kind == "contact" for it in items):
+        from .mechanism import CONTACT_COLOUR
+        labels.append(["contact force", _hex(CONTACT_COLOUR)])
     for it in items:
         if it.kind == "trace" and ("path", it.label) not in seen:
             seen.add(("path", it.label))

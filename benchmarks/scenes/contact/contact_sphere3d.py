@@ -36,7 +36,7 @@ def build(mass=PARAMS["mass"], radius=PARAMS["radius"], mu=PARAMS["mu"], g=PARAM
     th = 0.4 * mass * radius * radius
     mech = Mechanism("contact_sphere3d")
     mech.add(SpatialRigidBody("sphere", mass, (th, th, th), position=(0.0, 0.0, radius), velocity=v0,
-                              omega=omega0))
+                              omega=omega0, shape={"type": "sphere", "radius": radius}))
     mech.add(SpatialGravity((0.0, 0.0, -g)))
     mech.add(SpatialSphereOnPlane("floor", "sphere", radius=radius, mu=mu))
     return mech

@@ -67,7 +67,8 @@ def build(mass=PARAMS["mass"], radius=PARAMS["radius"], y0=PARAMS["y0"], g=PARAM
     theta = 0.4 * mass * radius * radius
     mech = Mechanism("penalty_backspin")
     if spatial:
-        mech.add(SpatialRigidBody("ball", mass, (theta,) * 3, position=(0.0, 0.0, y0), omega=(0.0, -omega0, 0.0)))
+        mech.add(SpatialRigidBody("ball", mass, (theta,) * 3, position=(0.0, 0.0, y0), omega=(0.0, -omega0, 0.0),
+                                  shape={"type": "sphere", "radius": radius}))
         mech.add(SpatialGravity((0.0, 0.0, -g)))
         mech.add(SpatialPenaltySphereOnPlane("floor", "ball", radius, stiffness, tangent=(1.0, 0.0, 0.0), **law))
     else:

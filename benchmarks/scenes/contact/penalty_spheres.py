@@ -66,7 +66,8 @@ def build(n=PARAMS["n"], mass=PARAMS["mass"], radius=PARAMS["radius"], g=PARAMS[
         x, y = 0.15 * (i % side), 0.15 * (i // side)
         v = (0.0, 0.0, 0.0) if lift > 0 else (*rng.uniform(-0.05, 0.05, 2), 0.0)
         w = (0.0, 0.0, 0.0) if lift > 0 else tuple(rng.uniform(-1.0, 1.0, 3))
-        mech.add(SpatialRigidBody(f"s{i}", mass, (theta,) * 3, position=(x, y, z0), velocity=v, omega=w))
+        mech.add(SpatialRigidBody(f"s{i}", mass, (theta,) * 3, position=(x, y, z0), velocity=v, omega=w,
+                                  shape={"type": "sphere", "radius": radius}))
         mech.add(SpatialPenaltySphereOnPlane(f"c{i}", f"s{i}", radius, stiffness, restitution=restitution,
                                              mu=mu, eps_v=eps_v))
     return mech
