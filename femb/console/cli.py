@@ -288,6 +288,13 @@ def cmd_list(args):
             print(f"  outputs{' (independent reference: yes)' if scene.has_reference else ''}:")
             _print_outputs(scene, "    ", detail=False)
             print()
+        contacts = registry.contact_names()
+        if contacts:
+            print("contact scenes ('femb run NAME' integrates them with the nonsmooth generalized-alpha "
+                  "scheme of femb.contact, fixed steps; 'femb bench contact NAME' validates them):")
+            for name in contacts:
+                print(f"  {name}: {registry.load(name).description}")
+            print()
         statics = registry.static_names()
         if statics:
             print("static and buckling scenes ('femb run NAME' solves them; no time integration):")
@@ -365,6 +372,8 @@ def _integrate(model, args, t_end, h, rho_inf):
     """Run the simulation of ``femb run`` (with its VTK stream and progress bar): (result, seconds)."""
     from femb.solve.solver import simulate
 
+    if getattr(model, "n_contacts", 0):
+        return _integrate_contact(model, args, t_end, h, rho_inf)
     adaptive = args.rtol is not None
     n_steps = 0
     if not adaptive:
@@ -401,6 +410,29 @@ def _integrate(model, args, t_end, h, rho_inf):
             if observer is not None and (type(exc).__name__ == "OutputError" or isinstance(exc, OSError)):
                 raise _OutputFailure(f"writing output failed: {str(exc).splitlines()[0]}") from exc
             raise
+    return result, time.perf_counter() - t0
+
+
+def _integrate_contact(model, args, t_end, h, rho_inf):
+    """``femb run`` of a model with contact elements: :func:`femb.contact.simulate` (fixed steps),
+    then the VTK series of the stored steps (every ``--every``-th, or the step nearest each ``--dt``)."""
+    import femb.contact
+    from femb.errors import OutputError
+
+    if args.rtol is not None:
+        raise UsageError("this scene has contact elements: femb.contact.simulate runs fixed steps; give --h, "
+                         "not --rtol")
+    if args.formulation != "index3" or args.no_scaling:
+        raise UsageError("--formulation and --no-scaling do not apply to the nonsmooth contact scheme "
+                         "(it enforces the joints at position, velocity and acceleration level)")
+    t0 = time.perf_counter()
+    result = femb.contact.simulate(model, t_end, h, rho_inf=rho_inf)
+    if args.vtk is not None:
+        every = args.every or (max(1, int(round(float(args.dt) / result.settings["h"]))) if args.dt else 1)
+        try:
+            result.write_vtk(args.vtk, every=every)
+        except (OutputError, OSError) as exc:
+            raise _OutputFailure(f"writing output failed: {str(exc).splitlines()[0]}") from exc
     return result, time.perf_counter() - t0
 
 
@@ -519,6 +551,20 @@ def cmd_bench_convergence(args):
         path = convergence_figure(study, args.plot)
         if not quiet:
             print(f"wrote {path}")
+    return 0
+
+
+def cmd_bench_contact(args):
+    """femb bench contact SCENE: the scene's validation tables (its module's ``main``)."""
+    from femb.study import registry
+
+    if args.scene not in registry.CONTACT_SCENES:
+        raise UsageError(f"'{args.scene}' is not a contact scene (contact scenes: "
+                         f"{', '.join(registry.contact_names())})")
+    scene = _load_scene(args.scene)
+    t0 = time.perf_counter()
+    scene.module.main()
+    print(f"({time.perf_counter() - t0:.1f} s)")
     return 0
 
 
@@ -760,6 +806,13 @@ def _add_bench_parser(sub):
     cp.add_argument("--json", metavar="FILE", help="write the study as JSON ('-' for stdout)")
     cp.add_argument("--plot", metavar="FILE", help="write the log-log error plot (PNG)")
     cp.set_defaults(func=cmd_bench_convergence)
+
+    kp = bsub.add_parser("contact", help="validation of a contact scene against its references",
+                         description="Run a contact scene's validation (docs/contact.md §5): impact times, "
+                         "rolling speeds, orders in h, Housner's restitution, … against closed forms and "
+                         "independent references, printed as a table.")
+    kp.add_argument("scene", metavar="SCENE", help="a contact scene (femb list shows them)")
+    kp.set_defaults(func=cmd_bench_contact)
 
     fp = bsub.add_parser("figures", help="the seed paper's figures for a scene, as PNG files",
                          description="Write the figures of the seed paper for a scene (time plots and "

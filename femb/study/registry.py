@@ -104,6 +104,22 @@ STATIC_SCENES = {
     "deep_arch": "femb.benchmarks.scenes.beams.deep_arch",
 }
 
+#: Scenes with unilateral contact run by the nonsmooth generalized-α of :mod:`femb.contact` (fixed
+#: steps; docs/contact.md): name -> module. ``femb run NAME`` integrates them with
+#: :func:`femb.contact.simulate`, ``femb bench contact NAME`` runs their validation against the
+#: references of docs/contact.md §5. They are not in :func:`names` (the compiled engine's
+#: time-step studies and the benchmark suite run those).
+CONTACT_SCENES = {
+    "contact_ball": "femb.benchmarks.scenes.contact.contact_ball",
+    "contact_block": "femb.benchmarks.scenes.contact.contact_block",
+    "contact_rocking": "femb.benchmarks.scenes.contact.contact_rocking",
+    "contact_slider_crank": "femb.benchmarks.scenes.contact.contact_slider_crank",
+    "contact_painleve": "femb.benchmarks.scenes.contact.contact_painleve",
+    "contact_sphere3d": "femb.benchmarks.scenes.contact.contact_sphere3d",
+    "contact_tippetop": "femb.benchmarks.scenes.contact.contact_tippetop",
+    "contact_beam_stop": "femb.benchmarks.scenes.contact.contact_beam_stop",
+}
+
 #: Run settings used for a scene file without DEFAULTS (only ρ∞; t_end and h must be given).
 FALLBACK_RHO_INF = 0.7
 
@@ -269,6 +285,16 @@ def static_names():
     return sorted(STATIC_SCENES)
 
 
+def contact_names():
+    """Names of the built-in nonsmooth contact scenes (sorted)."""
+    return sorted(CONTACT_SCENES)
+
+
+def _registered(name):
+    """The module name of a registered scene of any kind, or None."""
+    return SCENES.get(name) or STATIC_SCENES.get(name) or CONTACT_SCENES.get(name)
+
+
 def is_path(spec):
     """True when ``spec`` designates a file rather than a registry name."""
     spec = str(spec)
@@ -281,7 +307,7 @@ def load(spec):
     Parameters
     ----------
     spec : str or Path
-        A name of :data:`SCENES` or :data:`STATIC_SCENES`, or a path to a ``.py`` file defining ``build()``.
+        A name of :data:`SCENES`, :data:`STATIC_SCENES` or :data:`CONTACT_SCENES`, or a path to a ``.py`` file defining ``build()``.
 
     Returns
     -------
@@ -293,8 +319,8 @@ def load(spec):
         Unknown name, missing file, a file that fails to import, or no ``build``.
     """
     spec = str(spec)
-    if spec in SCENES or spec in STATIC_SCENES:
-        source = SCENES.get(spec) or STATIC_SCENES[spec]
+    if _registered(spec):
+        source = _registered(spec)
         module = importlib.import_module(source)
         scene = Scene(spec, module, source)
     elif is_path(spec) or Path(spec).is_file():
@@ -326,8 +352,8 @@ def scene_module(name):
     :data:`STATIC_SCENES`, or any module of the scene families (``femb.benchmarks.scenes.planar``,
     ``spatial``, ``beams``, ``contact``), registered or not.
     """
-    if name in SCENES or name in STATIC_SCENES:
-        return SCENES.get(name) or STATIC_SCENES[name]
+    if _registered(name):
+        return _registered(name)
     import importlib.util
 
     for family in ("planar", "spatial", "beams", "contact"):

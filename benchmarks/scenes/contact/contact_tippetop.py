@@ -111,8 +111,9 @@ def _invariants(R, Omega, I1, I3, a1, r1):
 def outputs(result, I1=PARAMS["I1"], I3=PARAMS["I3"], a1=PARAMS["a1"], r1=PARAMS["r1"]):
     R = _quat_matrix(result.q[:, 3:7])
     theta, jellett, spin = _invariants(R, result.qd[:, 3:6], I1, I3, a1, r1)
-    return {"theta": theta, "z": result.q[:, 2], "jellett": jellett, "spin": spin,
-            "lambda_N": result.series("ball.lambda_N")[0], "lambda_N_stem": result.series("stem.lambda_N")[0]}
+    return {"theta": theta, "z": result.q[:, 2], "jellett": jellett,
+            "lambda_N": result.series("ball.lambda_N")[0], "lambda_N_stem": result.series("stem.lambda_N")[0],
+            "spin": spin}
 
 
 # ---------------------------------------------------------------------------
