@@ -50,6 +50,7 @@ import scipy.sparse.linalg as spla
 
 from femb.errors import ModelError, ParameterError, SingularMatrixError
 from femb.system import assembly
+from femb.system import kernels as _kernels
 from femb.system.model import State
 
 
@@ -366,6 +367,113 @@ def force(model, q, body, direction, point=(0.0, 0.0, 0.0), name=None, unit="N")
 
 
 # --------------------------------------------------------------------------
+# drives as inputs: the prescribed value of a rheonomic constraint
+# --------------------------------------------------------------------------
+DRIVE_KINDS = ("position", "speed", "acceleration")
+
+
+@dataclass
+class Drive:
+    """A driven (rheonomic) constraint Φ_d(q, u) = 0 whose prescribed value u is an input.
+
+    ``kind`` says what enters the state space (docs/linearize.md §4):
+
+    * ``"position"``: the inputs are u and u̇ (two columns, ``name`` and ``name_d``);
+    * ``"speed"``: the input is u̇ (``name_d``); u joins the state (an integrator);
+    * ``"acceleration"``: the input is ü (``name_dd``); u and u̇ join the state.
+
+    Made by :func:`drive`.
+    """
+    name: str
+    unit: str
+    element: str
+    kind: str = "position"
+
+
+def drive(model, element, kind="position", name=None, unit=None):
+    """Input: the prescribed value u(t) of the driven constraint ``element`` (its time function).
+
+    The element must be rheonomic with one time function φ(t) (``DrivenAngle``,
+    ``DrivenDisplacement``, ``DrivenRevoluteAngle``, ``DrivenPrismaticDisplacement``, or a user
+    type), and the drive at rest at the reference (φ′ = φ″ = 0): its value is then an input
+    δu = δφ about the held value. ``kind``: see :class:`Drive`. Default unit: rad for a type whose
+    name says Angle, m for Displacement.
+    """
+    if kind not in DRIVE_KINDS:
+        raise ParameterError(f"drive '{element}': kind must be one of {', '.join(DRIVE_KINDS)}, got {kind!r}")
+    g, _ = _element_group(model, element)
+    if not g.cls.rheonomic or not g.time_functions or len(g.time_functions[0]) != 1:
+        raise ModelError(f"drive: {g.cls.__name__} '{element}' is not a driven constraint with one time "
+                         "function (a rheonomic constraint type such as DrivenAngle)")
+    if unit is None:
+        unit = "rad" if "Angle" in g.cls.__name__ else ("m" if "Displacement" in g.cls.__name__ else "")
+    return Drive(name or element, unit, element, kind)
+
+
+def _element_group(model, element):
+    for g in model.groups:
+        if element in g.names:
+            return g, g.names.index(element)
+    raise ModelError(f"model '{model.name}' has no element named '{element}'")
+
+
+def _check_drives_at_rest(model, t):
+    """Rheonomic constraints are linearized with their time functions held: φ′ = φ″ = 0 at t."""
+    for g in model.constraint_groups:
+        if not g.cls.rheonomic or not g.time_functions or not len(g.time_functions[0]):
+            continue
+        tf = _kernels.time_values(g, t)
+        moving = np.nonzero(np.abs(tf[:, :, 1:]).max(axis=(1, 2)) > 0.0)[0]
+        if moving.size:
+            e = int(moving[0])
+            raise ParameterError(f"linearize: the driven constraint {g.cls.__name__} '{g.names[e]}' moves at "
+                                 f"t = {t:g} (φ′ = {tf[e, 0, 1]:g}, φ″ = {tf[e, 0, 2]:g}); only drives at "
+                                 "rest (holding their value) are linearized")
+
+
+def _drive_terms(model, t, q, v, lam, drives):
+    """Per drive j: its constraint row r_j, Φ_u (the row's ∂Φ/∂u) and b_j = ∂(Φ_q)_r/∂u (nq,).
+
+    Read from the element's own ``rates`` kernel with the time function's rate set to 1 and its
+    second derivative to 0: then Φ_t = Φ_u and γ(v) = (Φ_q v)_q v + 2 b·v + Φ_uu, so that
+    (γ(e_k) − γ(−e_k))/4 = b_k exactly (the quadratic terms cancel).
+
+    Returns
+    -------
+    rows : ndarray (nd,) int; Phi_u : ndarray (nd,); b : ndarray (nd, nq)
+    """
+    nd = len(drives)
+    rows, Phi_u, b = np.zeros(nd, dtype=np.int64), np.zeros(nd), np.zeros((nd, model.nq))
+    qx, qdx = model.ext(np.asarray(q, dtype=float)), model.ext_velocity(np.asarray(v, dtype=float))
+    for j, d in enumerate(drives):
+        g, e = _element_group(model, d.element)
+        fn = _kernels.compiled_kernel(g.cls.__name__, "rates", g.cls.kernels["rates"])[0]
+        tf = _kernels.time_values(g, t)[e:e + 1].copy()
+        tf[:, :, 1], tf[:, :, 2] = 1.0, 0.0
+        xe = np.ascontiguousarray(qx[g.xdofs[e:e + 1]])
+        ve0 = np.ascontiguousarray(qdx[g.dofs[e:e + 1]])
+
+        def rates(ve):
+            Pt, gam = np.zeros((1, g.nc)), np.zeros((1, g.nc))
+            fn(g.P[e:e + 1], float(t), tf, xe, ve, Pt, gam)
+            return Pt[0], gam[0]
+
+        Pt = rates(np.zeros_like(ve0))[0]
+        live = np.nonzero(np.abs(Pt) > 1e-12 * max(1.0, np.abs(Pt).max()))[0]
+        if live.size != 1:
+            raise ModelError(f"drive: {g.cls.__name__} '{d.element}' has {live.size} rows that depend on its "
+                             "time function; one is needed")
+        r = int(live[0])
+        rows[j], Phi_u[j] = int(g.lam[e, r]), Pt[r]
+        for k, i in enumerate(g.dofs[e]):
+            if i < model.nq:
+                ek = np.zeros_like(ve0)
+                ek[0, k] = 1.0
+                b[j, i] += (rates(ek)[1][r] - rates(-ek)[1][r]) / 4.0
+    return rows, Phi_u, b
+
+
+# --------------------------------------------------------------------------
 # the reference: multipliers and accelerations of a state
 # --------------------------------------------------------------------------
 class _Blocks:
@@ -470,9 +578,12 @@ class LinearModel:
         ``Phi_q`` (nc, nq), ``W`` (nc + nn, nq) velocity-level constraints, ``Z`` (nc + nn, nq),
         ``F`` (nq, m) generalized forces of the inputs.
     basis : ndarray (2 nq, n)
-        (δq, δv) = basis @ x: the state in the model's tangent coordinates.
+        (δq, δv) = basis @ x + input_basis @ u: the state in the model's tangent coordinates.
     symmetries : list of str
         The symmetries eliminated.
+    input_basis : ndarray (2 nq, m)
+        The part of (δq, δv) set by the inputs directly (drive positions and speeds; zero columns
+        for forces).
     """
 
     A: np.ndarray
@@ -490,6 +601,7 @@ class LinearModel:
     basis: np.ndarray
     model: object = None
     symmetries: list = field(default_factory=list)
+    input_basis: np.ndarray = None
 
     @property
     def n(self):
@@ -611,8 +723,31 @@ def _state_of(model, state, t):
     return float(st.t if t is None else t), np.asarray(st.q, dtype=float), np.asarray(st.qd, dtype=float)
 
 
-def _reduce(M, K, Ct, E, Phi_q, W, Z, F, tol):
-    """The null-space reduction: (Ā, B̄, X) with (δq, δv) = X s, s = (y, w)."""
+def _drive_particular(M, Phi_q, W, drv):
+    """Particular solutions of the linearized drive rows (docs/linearize.md §4).
+
+    Φ_q G_q = −e_d Φ_u (least norm) for positions; for velocities the M-orthogonal
+    Y = M⁻¹Wᵀ(W M⁻¹ Wᵀ)⁻¹ e_d, G_v = −Y Φ_u and P_u = −Y (b·v₀), so that N_vᵀ M G_v = 0 and
+    the drive's acceleration ü does not enter the reduced dynamics.
+    """
+    nq, nd = M.shape[0], len(drv["rows"])
+    Ed = np.zeros((W.shape[0], nd))
+    Ed[drv["rows"], np.arange(nd)] = 1.0
+    Gq = np.linalg.lstsq(Phi_q, -Ed[:Phi_q.shape[0]] * drv["Phi_u"], rcond=None)[0]
+    try:
+        MiW = np.linalg.solve(M, W.T)
+        Y = MiW @ np.linalg.solve(W @ MiW, Ed)
+    except np.linalg.LinAlgError:
+        raise SingularMatrixError("linearize: drive inputs need a nonsingular M and independent constraints") from None
+    return Gq, -Y * drv["Phi_u"], -Y * drv["bv"]
+
+
+def _reduce(M, K, Ct, E, Phi_q, W, Z, F, tol, drv=None):
+    """The null-space reduction: (Ā, B̄, X) with (δq, δv) = X s, s = (y, w).
+
+    With drive inputs (``drv``: rows, Phi_u, bv, Fu) also ``(B0, B1, Xu)``: ṡ = Ā s + B̄ f + B0 u
+    + B1 u̇ and (δq, δv) = X s + Xu (u, u̇); else those are empty.
+    """
     nq = M.shape[0]
     Nq = sla.null_space(Phi_q) if Phi_q.shape[0] else np.eye(nq)
     Nv = sla.null_space(W) if W.shape[0] else np.eye(nq)
@@ -620,33 +755,40 @@ def _reduce(M, K, Ct, E, Phi_q, W, Z, F, tol):
     m, p = Nq.shape[1], Nv.shape[1]
     if p == 0:
         raise ModelError("linearize: the constraints leave no velocity free")
-    PN = P @ Nq
+    nd = 0 if drv is None else len(drv["rows"])
+    Gq, Gv, Pu = _drive_particular(M, Phi_q, W, drv) if nd else (np.zeros((nq, 0)),) * 3
+    PN, PG = P @ Nq, P @ Gq + Pu
     Ayy = Nq.T @ ((P + E) @ Nq)
     Ayw = Nq.T @ Nv
     # the kinematic relation must stay on the constraint manifold (exact for equilibria, steady motions)
     if Phi_q.shape[0]:
-        drift = np.abs(Phi_q @ np.hstack(((P + E) @ Nq, Nv))).max(initial=0.0)
+        drift = np.abs(Phi_q @ np.hstack(((P + E) @ Nq, Nv, (P + E) @ Gq + Pu))).max(initial=0.0)
         if drift > tol * max(1.0, np.abs(P).max(initial=0.0) + np.abs(E).max(initial=0.0)) * 1e2:
             raise ParameterError(f"linearize: the reference is not a steady motion of the given kind (the "
                                  f"linearized kinematics leave the constraint manifold by {drift:.3g}); "
                                  "give omega (the steady rotation) or use about='state'")
     Mr = Nv.T @ M @ Nv
     G = Nv.T @ M @ PN
+    B0y, B1y = Nq.T @ ((P + E) @ Gq + Pu), Nq.T @ Gv
     try:
         Awy = np.linalg.solve(Mr, Nv.T @ (-K @ Nq - Ct @ PN) - G @ Ayy)
         Aww = np.linalg.solve(Mr, -Nv.T @ Ct @ Nv - G @ Ayw)
         Bw = np.linalg.solve(Mr, Nv.T @ F)
+        B0w = np.linalg.solve(Mr, -G @ B0y - Nv.T @ (Ct @ PG + K @ Gq - (drv["Fu"] if nd else 0.0)))
+        B1w = np.linalg.solve(Mr, -G @ B1y - Nv.T @ (M @ PG + Ct @ Gv))
     except np.linalg.LinAlgError:
         raise SingularMatrixError("linearize: the reduced mass matrix is singular (a free velocity carries no "
                                   "mass)") from None
     Abar = np.block([[Ayy, Ayw], [Awy, Aww]])
     Bbar = np.vstack((np.zeros((m, F.shape[1])), Bw))
     X = np.block([[Nq, np.zeros((nq, p))], [PN, Nv]])
-    return Abar, Bbar, X, (Nq, Nv, P)
+    Xu = np.block([[Gq, np.zeros((nq, nd))], [PG, Gv]])
+    return Abar, Bbar, X, (Nq, Nv, P), (np.vstack((B0y, B0w)), np.vstack((B1y, B1w)), Xu)
 
 
-def _quotient(model, q, v, Abar, Bbar, X, bases, symmetries, tol):
-    """Eliminate the symmetry directions: (A, B, X) on the complement of their invariant span."""
+def _quotient(model, q, v, Abar, X, bases, symmetries, tol):
+    """Eliminate the symmetry directions: the orthonormal complement Q_W of their invariant span
+    (A, B, X on it: Q_Wᵀ A Q_W, Q_Wᵀ B, X Q_W)."""
     Nq, Nv, P = bases
     cols = []
     for sym in symmetries:
@@ -669,7 +811,7 @@ def _quotient(model, q, v, Abar, Bbar, X, bases, symmetries, tol):
         raise ParameterError(f"linearize: the given symmetries are not symmetries of the linearized model "
                              f"(their span is not invariant: leak {leak:.3g}); check the model's symmetry "
                              "(e.g. axisymmetric wheels) and the steady motion (omega)")
-    return QW.T @ Abar @ QW, QW.T @ Bbar, X @ QW
+    return QW
 
 
 def _second_order(model, t, q, v, omega, about):
@@ -728,10 +870,11 @@ def linearize(model, state=None, *, about="auto", omega=None, symmetries=(), inp
         ω_L of a steady motion (rad/s, space axes).
     symmetries : sequence of Symmetry
         Directions eliminated (:func:`translation`, :func:`rotation`, :func:`spin`).
-    inputs : sequence of Input
-        Generalized forces (:func:`torque`, :func:`force`).
+    inputs : sequence of Input or Drive
+        Generalized forces (:func:`torque`, :func:`force`) and drive values (:func:`drive`:
+        position, speed or acceleration of a driven constraint; docs/linearize.md §4).
     outputs : sequence of Output
-        (:func:`angle`, :func:`coordinate`).
+        (:func:`angle`, :func:`coordinate`, :func:`reaction`).
     states : sequence of Output, optional
         Express the state in these (as many as states, independent): named states.
     t : float, optional
@@ -749,55 +892,179 @@ def linearize(model, state=None, *, about="auto", omega=None, symmetries=(), inp
         about = "equilibrium" if not np.any(v) else "steady"
     if about not in ("equilibrium", "steady", "state"):
         raise ParameterError(f"linearize: about must be 'auto', 'equilibrium', 'steady' or 'state', got {about!r}")
+    for u in inputs:
+        if not isinstance(u, (Input, Drive)):
+            raise ParameterError(f"linearize: inputs must be Input or Drive objects (force, torque, drive), got {u!r}")
     if getattr(model, "rheonomic", False):
-        raise ModelError(f"linearize: model '{model.name}' has rheonomic (driven) constraints; not supported")
+        _check_drives_at_rest(model, t)
+    forces = [u for u in inputs if isinstance(u, Input)]
+    drives = [u for u in inputs if isinstance(u, Drive)]
     M, K, Ct, E, Phi_q, W, Z, op = _second_order(model, t, q, v, omega, about)
-    F = np.array([u.F for u in inputs]).T if inputs else np.zeros((model.nq, 0))
-    Abar, Bbar, X, bases = _reduce(M, K, Ct, E, Phi_q, W, Z, F, tol)
+    F = np.array([u.F for u in forces]).T if forces else np.zeros((model.nq, 0))
+    drv = None
+    if drives:
+        rows, Phi_u, b = _drive_terms(model, t, q, v, op["lam"], drives)
+        drv = {"rows": rows, "Phi_u": Phi_u, "bv": b @ v, "Fu": -b.T * op["lam"][rows]}
+    Abar, Bbar, X, bases, (B0, B1, Xu) = _reduce(M, K, Ct, E, Phi_q, W, Z, F, tol, drv)
     if symmetries:
-        Abar, Bbar, X = _quotient(model, q, v, Abar, Bbar, X, bases, list(symmetries), tol)
-    n = Abar.shape[0]
-    names = [f"x{i}" for i in range(n)]
-    units = [""] * n
+        QW = _quotient(model, q, v, Abar, X, bases, list(symmetries), tol)
+        Abar, Bbar, B0, B1, X = QW.T @ Abar @ QW, QW.T @ Bbar, QW.T @ B0, QW.T @ B1, X @ QW
+    lin = _Lin(Abar, Bbar, B0, B1, X, Xu)
+    lay = _Layout(inputs, Abar.shape[0])
+    Az, Bz = lay.system(lin)
+    R = _multiplier_maps(M, K, Ct, E, W, Z, F, drv) if any(o.nu >= 0 for o in outputs) else None
+    Cm, Dm = lay.outputs(outputs, lin, R)
+    Xz, Xv = lay.state_map(lin)
+    names, units = [f"x{i}" for i in range(Abar.shape[0])] + lay.znames, [""] * Abar.shape[0] + lay.zunits
     if states is not None:
-        T = _output_rows(states, X, Abar)
+        T, Dt = lay.outputs(states, lin, None)
+        n = Az.shape[0]
         if T.shape != (n, n) or np.linalg.matrix_rank(T) < n:
             raise ParameterError(f"linearize: {len(states)} states given for a state of dimension {n}, or "
                                  "they are dependent")
+        if np.abs(Dt).max(initial=0.0) > 1e-12 * max(1.0, np.abs(T).max()):
+            raise ParameterError("linearize: a named state depends directly on a drive input; give the drive "
+                                 "kind='acceleration' (its position and speed become states)")
         Ti = np.linalg.inv(T)
-        Abar, Bbar, X = T @ Abar @ Ti, T @ Bbar, X @ Ti
+        Az, Bz, Cm, Xz = T @ Az @ Ti, T @ Bz, Cm @ Ti, Xz @ Ti
         names, units = [s.name for s in states], [s.unit for s in states]
-    Rx = Ru = None
-    if any(o.nu >= 0 for o in outputs):
-        Rx, Ru = _multiplier_maps(M, K, Ct, E, W, Z, F)
-    Cm = _output_rows(outputs, X, Abar, Rx)
-    Dm = np.zeros((len(outputs), len(inputs)))
-    for i, o in enumerate(outputs):
-        if o.nu >= 0:
-            Dm[i] = Ru[o.nu]
-        elif o.rate:
-            Dm[i] = (np.concatenate((o.cq, o.cv)) @ X) @ Bbar
     desc = {"M": M, "C": Ct, "K": K, "E": E, "Phi_q": Phi_q, "W": W, "Z": Z, "F": F}
-    return LinearModel(Abar, Bbar, Cm, Dm, names, units, [u.name for u in inputs], [u.unit for u in inputs],
-                       [o.name for o in outputs], [o.unit for o in outputs], op, desc, X, model,
-                       [s.name for s in symmetries])
+    if drv is not None:
+        desc.update(drive_rows=drv["rows"], Phi_u=drv["Phi_u"], F_u=drv["Fu"], drive_basis=Xu)
+    return LinearModel(Az, Bz, Cm, Dm, names, units, lay.names, lay.units, [o.name for o in outputs],
+                       [o.unit for o in outputs], op, desc, Xz, model, [s.name for s in symmetries], Xv)
 
 
-def _output_rows(outputs, X, Abar, Rx=None):
-    rows = []
-    for o in outputs:
-        if o.nu >= 0:
-            if o.rate:
-                raise ParameterError(f"linearize: output {o.name}: the rate of a reaction is not available")
-            rows.append(Rx[o.nu] @ X)
-            continue
-        c = np.concatenate((o.cq, o.cv)) @ X
-        rows.append(c @ Abar if o.rate else c)
-    return np.array(rows).reshape(len(rows), X.shape[1])
+@dataclass
+class _Lin:
+    """ṡ = A s + Bf f + B0 u + B1 u̇, (δq, δv) = X s + Xu (u, u̇): the reduced model before the
+    inputs are arranged (Xu (2nq, 2nd): the columns of u, then of u̇)."""
+    A: np.ndarray
+    Bf: np.ndarray
+    B0: np.ndarray
+    B1: np.ndarray
+    X: np.ndarray
+    Xu: np.ndarray
 
 
-def _multiplier_maps(M, K, Ct, E, W, Z, F):
-    """δν = Rx (δq, δv) + Ru u from M δv̇' = −K δq − Ct δv − Wᵀ δν + F u and d/dt (W δv + Z δq) = 0."""
+class _Layout:
+    """Where forces and drive values go.
+
+    Inputs v in the user's order: a force its column; a position drive u and u̇, a speed drive u̇,
+    an acceleration drive ü. State z = (s, then per drive: u for speed and acceleration drives,
+    u̇ for acceleration drives). u = Uz z + Uv v, u̇ = Dz z + Dv v, ü = Az z + Av v, f = Tf v; the
+    drives without ü as a signal (position, speed) are flagged in ``no_udd``.
+    """
+
+    def __init__(self, inputs, n):
+        drives = [u for u in inputs if isinstance(u, Drive)]
+        nd, nf = len(drives), sum(isinstance(u, Input) for u in inputs)
+        kinds = [d.kind for d in drives]
+        self.n = n
+        self.nz = n + sum({"position": 0, "speed": 1, "acceleration": 2}[k] for k in kinds)
+        self.nv = nf + sum(2 if k == "position" else 1 for k in kinds)
+        self.Tf = np.zeros((nf, self.nv))
+        self.Uz, self.Dz, self.Az = (np.zeros((nd, self.nz)) for _ in range(3))
+        self.Uv, self.Dv, self.Av = (np.zeros((nd, self.nv)) for _ in range(3))
+        self.no_udd = [k != "acceleration" for k in kinds]
+        self.zrows = []                 # (z index, drive j, "u" or "ud")
+        self.names, self.units, self.znames, self.zunits = [], [], [], []
+        col, fi, j = 0, 0, 0
+        for u in inputs:
+            if isinstance(u, Input):
+                self.Tf[fi, col] = 1.0
+                self.names.append(u.name)
+                self.units.append(u.unit)
+                fi, col = fi + 1, col + 1
+            else:
+                col = self._drive(u, j, col)
+                j += 1
+
+    def _signal(self, name, unit, col=None, z=None):
+        if col is not None:
+            self.names.append(name)
+            self.units.append(unit)
+        else:
+            self.znames.append(name)
+            self.zunits.append(unit)
+
+    def _drive(self, d, j, col):
+        """Place drive ``j``; returns the next input column."""
+        zi = self.n + len(self.zrows)
+        rate, acc = (d.name + "_d", d.unit + "/s"), (d.name + "_dd", d.unit + "/s²")
+        if d.kind == "position":
+            self.Uv[j, col], self.Dv[j, col + 1] = 1.0, 1.0
+            self._signal(d.name, d.unit, col)
+            self._signal(*rate, col + 1)
+            return col + 2
+        self.Uz[j, zi] = 1.0
+        self.zrows.append((zi, j, "u"))
+        self._signal(d.name, d.unit)
+        if d.kind == "speed":
+            self.Dv[j, col] = 1.0
+            self._signal(*rate, col)
+        else:
+            self.Dz[j, zi + 1] = 1.0
+            self.zrows.append((zi + 1, j, "ud"))
+            self._signal(*rate)
+            self.Av[j, col] = 1.0
+            self._signal(*acc, col)
+        return col + 1
+
+    def system(self, lin):
+        """(A_z (nz, nz), B_z (nz, nv)) of ż = A_z z + B_z v."""
+        n = self.n
+        Az = np.zeros((self.nz, self.nz))
+        Bz = np.zeros((self.nz, self.nv))
+        Az[:n, :n] = lin.A
+        Az[:n] += lin.B0 @ self.Uz + lin.B1 @ self.Dz
+        Bz[:n] = lin.Bf @ self.Tf + lin.B0 @ self.Uv + lin.B1 @ self.Dv
+        for zi, j, what in self.zrows:          # d/dt u = u̇, d/dt u̇ = ü
+            Az[zi], Bz[zi] = (self.Dz[j], self.Dv[j]) if what == "u" else (self.Az[j], self.Av[j])
+        return Az, Bz
+
+    def state_map(self, lin):
+        """(δq, δv) = X_z z + X_v v: (X_z (2nq, nz), X_v (2nq, nv))."""
+        Xz = np.hstack((lin.X, np.zeros((lin.X.shape[0], self.nz - self.n))))
+        nd = self.Uz.shape[0]
+        Xz += lin.Xu[:, :nd] @ self.Uz + lin.Xu[:, nd:] @ self.Dz
+        return Xz, lin.Xu[:, :nd] @ self.Uv + lin.Xu[:, nd:] @ self.Dv
+
+    def outputs(self, outputs, lin, R):
+        """(C (p, nz), D (p, nv)) of the outputs."""
+        C, D = np.zeros((len(outputs), self.nz)), np.zeros((len(outputs), self.nv))
+        for i, o in enumerate(outputs):
+            c, df, d0, d1, d2 = _raw_row(o, lin, R)
+            for j, flag in enumerate(self.no_udd):
+                if flag and abs(d2[j]) > 1e-12 * max(1.0, np.abs(c).max(initial=0.0)):
+                    raise ParameterError(f"linearize: output {o.name} depends on the acceleration of a drive; "
+                                         "give that drive kind='acceleration'")
+            C[i, :self.n] = c
+            C[i] += d0 @ self.Uz + d1 @ self.Dz + d2 @ self.Az
+            D[i] = df @ self.Tf + d0 @ self.Uv + d1 @ self.Dv + d2 @ self.Av
+        return C, D
+
+
+def _raw_row(o, lin, R):
+    """One output as y = c s + df f + d0 u + d1 u̇ + d2 ü."""
+    nd = lin.B0.shape[1]
+    if o.nu >= 0:
+        if o.rate:
+            raise ParameterError(f"linearize: output {o.name}: the rate of a reaction is not available")
+        Rx, Ru, R0, R1, R2 = R
+        r = Rx[o.nu]
+        return r @ lin.X, Ru[o.nu], r @ lin.Xu[:, :nd] + R0[o.nu], r @ lin.Xu[:, nd:] + R1[o.nu], R2[o.nu]
+    cx = np.concatenate((o.cq, o.cv))
+    c = cx @ lin.X
+    cu = cx @ lin.Xu
+    if not o.rate:
+        return c, np.zeros(lin.Bf.shape[1]), cu[:nd], cu[nd:], np.zeros(nd)
+    return c @ lin.A, c @ lin.Bf, c @ lin.B0, c @ lin.B1 + cu[:nd], cu[nd:]
+
+
+def _multiplier_maps(M, K, Ct, E, W, Z, F, drv=None):
+    """δν = Rx (δq, δv) + Ru f + R0 u + R1 u̇ + R2 ü from M δv̇ = F f + F_u u − K δq − Ct δv − Wᵀ δν
+    and d/dt (W δv + Z δq + e_d (b·v₀) u + e_d Φ_u u̇) = 0."""
     try:
         MiW = np.linalg.solve(M, W.T)
         G = np.linalg.inv(W @ MiW)
@@ -806,7 +1073,13 @@ def _multiplier_maps(M, K, Ct, E, W, Z, F):
     WMi = MiW.T
     Rq = G @ (-WMi @ K + Z @ E)
     Rv = G @ (-WMi @ Ct + Z)
-    return np.hstack((Rq, Rv)), G @ (WMi @ F)
+    nd = 0 if drv is None else len(drv["rows"])
+    R0, R1, R2 = np.zeros((W.shape[0], nd)), np.zeros((W.shape[0], nd)), np.zeros((W.shape[0], nd))
+    if nd:
+        Ed = np.zeros((W.shape[0], nd))
+        Ed[drv["rows"], np.arange(nd)] = 1.0
+        R0, R1, R2 = G @ (WMi @ drv["Fu"]), G @ Ed * drv["bv"], G @ Ed * drv["Phi_u"]
+    return np.hstack((Rq, Rv)), G @ (WMi @ F), R0, R1, R2
 
 
 # --------------------------------------------------------------------------
