@@ -607,10 +607,23 @@ class LinearModel:
     def n(self):
         return self.A.shape[0]
 
+    @property
+    def sparse(self):
+        """True for the large-model form: ``A`` a LinearOperator, the descriptor pair in ``descriptor``."""
+        return isinstance(self.A, spla.LinearOperator)
+
+    def dense_A(self):
+        """A as a dense array (of a sparse model: E⁻¹ A_e column by column, refused above
+        :data:`DENSE_STATES_MAX` states)."""
+        if not self.sparse:
+            return self.A
+        _refuse_dense(self.n, "dense_A")
+        return self.A.matmat(np.eye(self.n))
+
     def to_scipy(self):
-        """``scipy.signal.StateSpace(A, B, C, D)``."""
+        """``scipy.signal.StateSpace(A, B, C, D)`` (dense; a sparse model up to :data:`DENSE_STATES_MAX` states)."""
         from scipy.signal import StateSpace
-        return StateSpace(self.A, self._B(), self._C(), self._D())
+        return StateSpace(self.dense_A(), self._B(), self._C(), self._D())
 
     def to_control(self):
         """python-control's ``StateSpace`` with named states, inputs and outputs (the ``control`` extra)."""
@@ -621,7 +634,7 @@ class LinearModel:
         def ok(names):      # python-control refuses '.' in signal names: node.coordinate → node_coordinate
             return [str(n).replace(".", "_") for n in names] or None
 
-        return control.ss(self.A, self._B(), self._C(), self._D(), states=ok(self.state_names),
+        return control.ss(self.dense_A(), self._B(), self._C(), self._D(), states=ok(self.state_names),
                           inputs=ok(self.input_names), outputs=ok(self.output_names))
 
     def _B(self):
@@ -633,8 +646,14 @@ class LinearModel:
     def _D(self):
         return np.zeros((self._C().shape[0], self._B().shape[1])) if not self.D.size else self.D
 
-    def eig(self):
-        """Damped modes of A (:class:`DampedModes`)."""
+    def eig(self, n_modes=None, sigma=0.0, tol=1e-12):
+        """Damped modes of A (:class:`DampedModes`): all of them (dense), or of a sparse model the
+        ``n_modes`` eigenvalues nearest ``sigma`` (shift-invert on the descriptor pair, :func:`_sparse_eig`)."""
+        if self.sparse:
+            if n_modes is None:
+                raise ParameterError(f"eig: a sparse linear model ({self.n} states) needs n_modes (the number of "
+                                     "eigenvalues nearest sigma)")
+            return _sparse_eig(self, int(n_modes), float(sigma), tol)
         lam, X = sla.eig(self.A)
         order = np.lexsort((-lam.imag, lam.real))
         return DampedModes(lam[order], X[:, order], self.basis @ X[:, order], self.model, self.operating_point)
@@ -851,7 +870,7 @@ def _second_order(model, t, q, v, omega, about):
 
 
 def linearize(model, state=None, *, about="auto", omega=None, symmetries=(), inputs=(), outputs=(),
-              states=None, t=None, tol=1e-8):
+              states=None, t=None, tol=1e-8, sparse="auto"):
     """Linearize ``model`` about an equilibrium, a steady motion or a state: a :class:`LinearModel`.
 
     Parameters
@@ -880,6 +899,11 @@ def linearize(model, state=None, *, about="auto", omega=None, symmetries=(), inp
     t : float, optional
     tol : float
         Relative tolerance of the checks.
+    sparse : {"auto", True, False}
+        The large-model form (docs/linearize.md §5): sparse null-space bases, ``A`` a
+        ``scipy.sparse.linalg.LinearOperator`` (E⁻¹A_e of the sparse descriptor pair in
+        ``descriptor["E"]``, ``["A"]``), B, C, D dense (n × m, p × n); about equilibria, with force
+        inputs and non-reaction outputs. "auto": when ``model.nq`` > :data:`SPARSE_ABOVE`.
 
     Returns
     -------
@@ -897,6 +921,11 @@ def linearize(model, state=None, *, about="auto", omega=None, symmetries=(), inp
             raise ParameterError(f"linearize: inputs must be Input or Drive objects (force, torque, drive), got {u!r}")
     if getattr(model, "rheonomic", False):
         _check_drives_at_rest(model, t)
+    if sparse not in ("auto", True, False):
+        raise ParameterError(f"linearize: sparse must be 'auto', True or False, got {sparse!r}")
+    if sparse is True or (sparse == "auto" and model.nq > SPARSE_ABOVE):
+        _refuse_sparse(model, symmetries, states, inputs, outputs, v)
+        return _linearize_sparse(model, t, q, v, list(inputs), list(outputs), tol)
     forces = [u for u in inputs if isinstance(u, Input)]
     drives = [u for u in inputs if isinstance(u, Drive)]
     M, K, Ct, E, Phi_q, W, Z, op = _second_order(model, t, q, v, omega, about)
@@ -1080,6 +1109,197 @@ def _multiplier_maps(M, K, Ct, E, W, Z, F, drv=None):
         Ed[drv["rows"], np.arange(nd)] = 1.0
         R0, R1, R2 = G @ (WMi @ drv["Fu"]), G @ Ed * drv["bv"], G @ Ed * drv["Phi_u"]
     return np.hstack((Rq, Rv)), G @ (WMi @ F), R0, R1, R2
+
+
+# --------------------------------------------------------------------------
+# large models: sparse null-space bases, a descriptor pair, A as a LinearOperator
+# --------------------------------------------------------------------------
+#: Free velocities above which ``linearize(..., sparse="auto")`` builds the sparse form.
+SPARSE_ABOVE = 2000
+#: States up to which a sparse model may be made dense (``to_scipy``, ``to_control``, ``dense_A``).
+DENSE_STATES_MAX = 5000
+#: Constraint rows up to which the sparse basis picks its dependent coordinates by a dense pivoted QR.
+SPARSE_CONSTRAINTS_MAX = 5000
+
+
+def _refuse_dense(n, what):
+    if n > DENSE_STATES_MAX:
+        gb = 8.0 * n * n / 1e9
+        raise ParameterError(f"{what}: the linear model has {n} states; a dense A would take {gb:.3g} GB "
+                             f"(limit {DENSE_STATES_MAX} states). Use lin.A (a LinearOperator), lin.B, lin.C, "
+                             "lin.D and the sparse descriptor pair lin.descriptor['E'], ['A'], or lin.eig(n_modes)")
+
+
+def sparse_null_space(W, tol=1e-10):
+    """A sparse basis N of the null space of W by coordinate partitioning (Wehage & Haug, J. Mech.
+    Des. 104 (1982) 247–255).
+
+    The dependent coordinates d are r columns of W chosen by a pivoted QR of the columns that
+    the constraints touch (dense, r × those columns); every other coordinate is independent, and
+    N = [−W_d⁻¹ W_i; I] (rows permuted back): sparse, as W_i is non-zero only on the touched columns.
+
+    Parameters
+    ----------
+    W : sparse (r, n), full row rank
+
+    Returns
+    -------
+    N : csc (n, n − r); ind : ndarray (n − r,) the independent coordinates (N[ind] = I)
+    """
+    W = sp.csc_matrix(W)
+    r, n = W.shape
+    if r == 0:
+        return sp.identity(n, format="csc"), np.arange(n)
+    if r > SPARSE_CONSTRAINTS_MAX:
+        raise ParameterError(f"linearize: {r} constraint rows; the sparse basis handles up to "
+                             f"{SPARSE_CONSTRAINTS_MAX} (its pivoting is dense in the rows)")
+    J = np.unique(W.nonzero()[1])
+    _, R, piv = sla.qr(W[:, J].toarray(), mode="economic", pivoting=True)
+    d = np.abs(np.diag(R))
+    if d.size < r or d[r - 1] <= tol * d[0]:
+        raise SingularMatrixError(f"linearize: the {r} constraint rows are dependent (rank < {r})")
+    dep = J[piv[:r]]
+    ind = np.setdiff1d(np.arange(n), dep)
+    Wi = W[:, ind]
+    k = np.nonzero(np.diff(Wi.indptr))[0]               # independent coordinates the constraints touch
+    Dn = -np.linalg.solve(W[:, dep].toarray(), Wi[:, k].toarray())
+    rows = np.concatenate((ind, np.repeat(dep, k.size)))
+    cols = np.concatenate((np.arange(ind.size), np.tile(k, r)))
+    N = sp.csc_matrix((np.concatenate((np.ones(ind.size), Dn.ravel())), (rows, cols)), shape=(n, ind.size))
+    N.eliminate_zeros()
+    return N, ind
+
+
+def _refuse_sparse(model, symmetries, states, inputs, outputs, v):
+    why = None
+    if np.any(v):
+        why = "a reference in motion (the sparse form is about equilibria)"
+    elif symmetries:
+        why = "symmetries"
+    elif states is not None:
+        why = "named states"
+    elif any(isinstance(u, Drive) for u in inputs):
+        why = "drive inputs"
+    elif any(o.nu >= 0 for o in outputs):
+        why = "reaction outputs"
+    if why:
+        raise ParameterError(f"linearize: model '{model.name}' is large ({model.nq} free velocities > "
+                             f"{SPARSE_ABOVE}: the sparse form); it does not take {why}. Pass sparse=False "
+                             "for the dense form (memory ~ (2 nq)² doubles)")
+
+
+def _linearize_sparse(model, t, q, v, inputs, outputs, tol):
+    """The sparse form about an equilibrium (docs/linearize.md §5): E ẋ = A_e x + B_e u with
+    E = diag(I, N_vᵀ M N_v), A_e = [[0, L_q N_v], [−N_vᵀ K N_q, −N_vᵀ C N_v]], B_e = [0; N_vᵀ F];
+    ``A`` = E⁻¹A_e as a LinearOperator (one sparse LU of the reduced mass)."""
+    b_ = _Blocks(model, t, q, v)
+    _check_admissible(model, v, b_, 1e-8)
+    vd, lam, mu = reference(model, t, q, v, b_)
+    _check_steady(model, q, v, vd, None, "equilibrium", 1e-8)
+    st = State(t, q, v, vd, lam)
+    M = assembly.mass_matrix(model, q).tocsr()
+    K = assembly.tangent_stiffness(model, st)
+    C = assembly.tangent_damping(model, st)
+    if model.nn:
+        ZA, HA = assembly.velocity_constraint_jacobians(model, t, q, v, mu)
+        K = K + HA
+        if ZA.nnz and np.abs(ZA.data).max() > 0.0:
+            raise ParameterError("linearize: the sparse form needs velocity constraints without a(q, t)")
+    Phi_q = b_.B.tocsr()
+    W = sp.vstack((Phi_q, b_.A)).tocsr()
+    Nq, ind_q = sparse_null_space(Phi_q)
+    Nv, _ = sparse_null_space(W) if model.nn else (Nq, ind_q)
+    m, p = Nq.shape[1], Nv.shape[1]
+    Mr = (Nv.T @ M @ Nv).tocsc()
+    Kr, Cr = (Nv.T @ K @ Nq).tocsr(), (Nv.T @ C @ Nv).tocsr()
+    Ayw = Nv[ind_q].tocsr()
+    try:
+        lu = spla.splu(Mr)
+    except RuntimeError:
+        raise SingularMatrixError("linearize: the reduced mass matrix is singular (a free velocity carries no "
+                                  "mass)") from None
+    F = np.array([u.F for u in inputs]).T if inputs else np.zeros((model.nq, 0))
+    Be = np.vstack((np.zeros((m, F.shape[1])), Nv.T @ F))
+    B = np.vstack((np.zeros((m, F.shape[1])), lu.solve(Be[m:]) if F.shape[1] else Be[m:]))
+
+    def matvec(x):
+        x = np.asarray(x).ravel()
+        xy, xw = x[:m], x[m:]
+        rhs = -(Kr @ xy) - Cr @ xw
+        w = lu.solve(rhs) if not np.iscomplexobj(rhs) else lu.solve(rhs.real) + 1j * lu.solve(rhs.imag)
+        return np.concatenate((Ayw @ xw, w))
+
+    n = m + p
+    A = spla.LinearOperator((n, n), matvec=matvec, dtype=float)
+    E = sp.block_diag((sp.identity(m), Mr), format="csc")
+    Ae = sp.bmat([[None, Ayw], [-Kr, -Cr]], format="csc") if m else sp.bmat([[-Cr]], format="csc")
+    X = sp.block_diag((Nq, Nv), format="csr")
+    Cm, Dm = _sparse_outputs(outputs, X, Ae, B, lu, m)
+    op = {"t": t, "q": q, "v": v, "vd": vd, "lam": lam, "mu": mu}
+    desc = {"M": M, "C": C, "K": K, "Phi_q": Phi_q, "W": W, "F": F, "E": E, "A": Ae, "B": Be,
+            "Nq": Nq, "Nv": Nv, "lu_Mr": lu, "identity_kinematics": p == m and not model.nn}
+    return LinearModel(A, B, Cm, Dm, [f"x{i}" for i in range(n)], [""] * n, [u.name for u in inputs],
+                       [u.unit for u in inputs], [o.name for o in outputs], [o.unit for o in outputs], op, desc,
+                       X, model, [], np.zeros((2 * model.nq, F.shape[1])))
+
+
+def _sparse_outputs(outputs, X, Ae, B, lu, m):
+    """Rows c X of the outputs; of a rate output (c X) E⁻¹ A_e and D = (c X) B (E symmetric)."""
+    Cm = np.zeros((len(outputs), X.shape[1]))
+    Dm = np.zeros((len(outputs), B.shape[1]))
+    for i, o in enumerate(outputs):
+        r = X.T @ np.concatenate((o.cq, o.cv))
+        if o.rate:
+            y = np.concatenate((r[:m], lu.solve(r[m:])))
+            Cm[i] = Ae.T @ y
+            Dm[i] = r @ B
+        else:
+            Cm[i] = r
+    return Cm, Dm
+
+
+def _sparse_eig(lin, k, sigma, tol):
+    """The ``k`` eigenvalues nearest ``sigma`` of E ẋ = A_e x by ARPACK in shift-invert mode.
+
+    (A_e − σE)⁻¹E is applied by one sparse LU: of the reduced K + σC + σ²M (size of y) when the
+    kinematics are ẏ = w (holonomic constraints), else of A_e − σE.
+    """
+    d = lin.descriptor
+    E, Ae = d["E"], d["A"]
+    n = lin.n
+    if not 1 <= k < n - 1:
+        raise ParameterError(f"eig: n_modes must be between 1 and {n - 2}, got {k}")
+    s = sigma
+    try:
+        if d["identity_kinematics"]:
+            m = n // 2
+            Mr, Kr, Cr = E[m:, m:], -Ae[m:, :m], -Ae[m:, m:]
+            lu = spla.splu((Kr + s * Cr + s * s * Mr).tocsc())
+            CsM = (Cr + s * Mr).tocsr()
+
+            def solve(b):
+                by, bw = b[:m], b[m:]
+                rhs = -(Mr @ bw) - CsM @ by
+                xy = _lu_solve(lu, rhs)
+                return np.concatenate((xy, by + s * xy))
+        else:
+            lu = spla.splu((Ae - s * E).tocsc())
+
+            def solve(b):
+                return _lu_solve(lu, E @ b)
+    except RuntimeError as err:
+        raise SingularMatrixError(f"eig: the shifted matrix is singular at sigma = {s:g} ({err}); a model with "
+                                  "rigid-body modes needs a shift away from 0") from None
+    Op = spla.LinearOperator((n, n), matvec=solve, dtype=float)
+    v0 = np.random.default_rng(0).standard_normal(n)
+    theta, V = spla.eigs(Op, k=k, which="LM", tol=tol, v0=v0, ncv=min(n, max(2 * k + 1, k + 40)))
+    lam = s + 1.0 / theta
+    order = np.lexsort((-lam.imag, np.abs(lam)))
+    return DampedModes(lam[order], V[:, order], lin.basis @ V[:, order], lin.model, lin.operating_point)
+
+
+def _lu_solve(lu, b):
+    return lu.solve(b) if not np.iscomplexobj(b) else lu.solve(b.real) + 1j * lu.solve(b.imag)
 
 
 # --------------------------------------------------------------------------
