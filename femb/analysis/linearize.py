@@ -1214,7 +1214,7 @@ def _linearize_sparse(model, t, q, v, inputs, outputs, tol):
     Kr, Cr = (Nv.T @ K @ Nq).tocsr(), (Nv.T @ C @ Nv).tocsr()
     Ayw = Nv[ind_q].tocsr()
     try:
-        lu = spla.splu(Mr)
+        lu = spla.splu(Mr, permc_spec="MMD_AT_PLUS_A")
     except RuntimeError:
         raise SingularMatrixError("linearize: the reduced mass matrix is singular (a free velocity carries no "
                                   "mass)") from None
@@ -1274,7 +1274,7 @@ def _sparse_eig(lin, k, sigma, tol):
         if d["identity_kinematics"]:
             m = n // 2
             Mr, Kr, Cr = E[m:, m:], -Ae[m:, :m], -Ae[m:, m:]
-            lu = spla.splu((Kr + s * Cr + s * s * Mr).tocsc())
+            lu = spla.splu((Kr + s * Cr + s * s * Mr).tocsc(), permc_spec="MMD_AT_PLUS_A")
             CsM = (Cr + s * Mr).tocsr()
 
             def solve(b):
