@@ -37,7 +37,6 @@ import sys
 import time
 
 import numpy as np
-from scipy.optimize import brentq
 
 from femb import Mechanism
 from femb.analysis import linearize as fl
@@ -183,11 +182,13 @@ def eigenvalues(v, p=None):
 
 def weave_speed(p=None, bracket=(3.0, 5.0)):
     """The speed where the weave pair crosses the imaginary axis (m/s)."""
+    from scipy.optimize import brentq      # here: scipy.optimize takes a second to import
     return brentq(lambda v: max(e.real for e in eigenvalues(v, p) if abs(e.imag) > 1e-9), *bracket, xtol=1e-13)
 
 
 def capsize_speed(p=None, bracket=(5.0, 8.0)):
     """The speed where the real capsize root crosses zero (m/s)."""
+    from scipy.optimize import brentq
     return brentq(lambda v: max(e.real for e in eigenvalues(v, p) if abs(e.imag) <= 1e-9), *bracket, xtol=1e-13)
 
 
