@@ -36,6 +36,15 @@ space; their span S is invariant under A (checked), and the reduced system is A 
 complement of S, its block of the block-triangular form [Q_S, Q_W]ᵀ A [Q_S, Q_W] — the eigenvalues
 of the steady motion proper, without the zero eigenvalues of the drift, none of them filtered.
 
+**Drive inputs** (:func:`drive`): the prescribed value u of a driven constraint enters through
+a particular solution of its linearized row, δq = N_q y + G_q u, δv = N_v w + P δq + P_u u + G_v u̇,
+M-orthogonal at velocity level (N_vᵀ M G_v = 0) so that ü drops out of the reduced dynamics; the
+input is (u, u̇), u̇ or ü (docs/linearize.md §4).
+
+**Large models** (``sparse``): coordinate-partitioned sparse null-space bases (Wehage & Haug,
+J. Mech. Des. 104 (1982) 247–255), the sparse descriptor pair E ẋ = A_e x + B_e u and A = E⁻¹A_e as a
+LinearOperator; modes by shift-invert (docs/linearize.md §5).
+
 References: Arnold & Brüls, Multibody Syst. Dyn. 18 (2007) 185–202 (sign conventions, K_t, C_t);
 Meijaard, Papadopoulos, Ruina & Schwab, Proc. R. Soc. A 463 (2007) 1955–1982 (the Whipple bicycle).
 """
@@ -395,9 +404,24 @@ def drive(model, element, kind="position", name=None, unit=None):
 
     The element must be rheonomic with one time function φ(t) (``DrivenAngle``,
     ``DrivenDisplacement``, ``DrivenRevoluteAngle``, ``DrivenPrismaticDisplacement``, or a user
-    type), and the drive at rest at the reference (φ′ = φ″ = 0): its value is then an input
-    δu = δφ about the held value. ``kind``: see :class:`Drive`. Default unit: rad for a type whose
-    name says Angle, m for Displacement.
+    type), and the drive at rest at the reference (φ′ = φ″ = 0, checked by :func:`linearize`):
+    its value is then an input δu = δφ about the held value.
+
+    Parameters
+    ----------
+    model : Model
+    element : str
+        The driven constraint's name.
+    kind : {"position", "speed", "acceleration"}
+        The input signal (:class:`Drive`): (u, u̇), u̇ (u a state) or ü (u, u̇ states).
+    name : str, optional
+        Input name (default the element's); its rate and acceleration get ``_d``, ``_dd``.
+    unit : str, optional
+        Unit of u (default rad for a type whose name says Angle, m for Displacement).
+
+    Returns
+    -------
+    Drive
     """
     if kind not in DRIVE_KINDS:
         raise ParameterError(f"drive '{element}': kind must be one of {', '.join(DRIVE_KINDS)}, got {kind!r}")
@@ -431,7 +455,7 @@ def _check_drives_at_rest(model, t):
                                  "rest (holding their value) are linearized")
 
 
-def _drive_terms(model, t, q, v, lam, drives):
+def _drive_terms(model, t, q, v, drives):
     """Per drive j: its constraint row r_j, Φ_u (the row's ∂Φ/∂u) and b_j = ∂(Φ_q)_r/∂u (nq,).
 
     Read from the element's own ``rates`` kernel with the time function's rate set to 1 and its
@@ -647,8 +671,9 @@ class LinearModel:
         return np.zeros((self._C().shape[0], self._B().shape[1])) if not self.D.size else self.D
 
     def eig(self, n_modes=None, sigma=0.0, tol=1e-12):
-        """Damped modes of A (:class:`DampedModes`): all of them (dense), or of a sparse model the
-        ``n_modes`` eigenvalues nearest ``sigma`` (shift-invert on the descriptor pair, :func:`_sparse_eig`)."""
+        """Damped modes of A (:class:`DampedModes`): all of them (dense form; ``n_modes``, ``sigma`` and
+        ``tol`` are then not used), or of a sparse model the ``n_modes`` eigenvalues nearest ``sigma``
+        (shift-invert on the descriptor pair, :func:`_sparse_eig`; ARPACK's relative tolerance ``tol``)."""
         if self.sparse:
             if n_modes is None:
                 raise ParameterError(f"eig: a sparse linear model ({self.n} states) needs n_modes (the number of "
@@ -932,7 +957,7 @@ def linearize(model, state=None, *, about="auto", omega=None, symmetries=(), inp
     F = np.array([u.F for u in forces]).T if forces else np.zeros((model.nq, 0))
     drv = None
     if drives:
-        rows, Phi_u, b = _drive_terms(model, t, q, v, op["lam"], drives)
+        rows, Phi_u, b = _drive_terms(model, t, q, v, drives)
         drv = {"rows": rows, "Phi_u": Phi_u, "bv": b @ v, "Fu": -b.T * op["lam"][rows]}
     Abar, Bbar, X, bases, (B0, B1, Xu) = _reduce(M, K, Ct, E, Phi_q, W, Z, F, tol, drv)
     if symmetries:
@@ -1009,7 +1034,8 @@ class _Layout:
                 col = self._drive(u, j, col)
                 j += 1
 
-    def _signal(self, name, unit, col=None, z=None):
+    def _signal(self, name, unit, col=None):
+        """Name an input column (``col`` given) or the next added state."""
         if col is not None:
             self.names.append(name)
             self.units.append(unit)
