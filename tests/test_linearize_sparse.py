@@ -36,8 +36,8 @@ def test_sparse_and_dense_linearizations_agree():
     model = _beam()
     assert model.nc == 9
     ins, outs = _io(model)
-    d = fl.linearize(model, inputs=ins, outputs=outs, sparse=False)
-    s = fl.linearize(model, inputs=ins, outputs=outs, sparse=True)
+    d = fl.linearize(model, inputs=ins, outputs=outs)
+    s = fl.linearize_sparse(model, inputs=ins, outputs=outs)
     assert s.sparse and not d.sparse
     As = s.dense_A()
     ed, es = np.linalg.eigvals(d.A), np.linalg.eigvals(As)
@@ -56,9 +56,9 @@ def test_sparse_and_dense_linearizations_agree():
 
 def test_sparse_modes_match_dense_modes():
     model = _beam()
-    s = fl.linearize(model, sparse=True)
+    s = fl.linearize_sparse(model)
     got = s.eig(n_modes=10).eigenvalues
-    ev = fl.linearize(model, sparse=False).eig().eigenvalues
+    ev = fl.linearize(model).eig().eigenvalues
     want = ev[np.argsort(np.abs(ev))][:10]
     assert max(np.min(np.abs(got - w)) for w in want) < 1e-9 * np.abs(want).max()
     with pytest.raises(ParameterError, match="needs n_modes"):
@@ -75,12 +75,14 @@ def test_auto_threshold_and_refusals(monkeypatch):
         lin.to_scipy()
     monkeypatch.setattr(fl, "DENSE_STATES_MAX", 5000)
     np.testing.assert_allclose(lin.to_scipy().A, lin.dense_A())
-    with pytest.raises(ParameterError, match="large .* does not take symmetries"):
-        fl.linearize(model, symmetries=[fl.translation((1.0, 0.0, 0.0))])
-    with pytest.raises(ParameterError, match="does not take reaction outputs"):
+    assert not fl.linearize(model, outputs=[fl.reaction(model, "pin", 0)]).sparse   # dense: it takes reactions
+    monkeypatch.setattr(fl, "DENSE_STATES_MAX", 40)
+    with pytest.raises(ParameterError, match="large .* does not take reaction outputs, and the dense form"):
         fl.linearize(model, outputs=[fl.reaction(model, "pin", 0)])
-    with pytest.raises(ParameterError, match="sparse must be"):
-        fl.linearize(model, sparse="yes")
+    with pytest.raises(ParameterError, match="does not take symmetries"):
+        fl.linearize(model, symmetries=[fl.translation((1.0, 0.0, 0.0))])
+    with pytest.raises(ParameterError, match="linearize_sparse: .* does not take reaction outputs"):
+        fl.linearize_sparse(model, outputs=[fl.reaction(model, "pin", 0)])
 
 
 def test_sparse_form_with_rolling_constraints():
@@ -96,8 +98,8 @@ def test_sparse_form_with_rolling_constraints():
     mech.add(RollingDisc("contact", "coin", r, (0.0, 1.0, 0.0)))
     mech.add(SpatialGravity((0.0, 0.0, -g)))
     model = mech.compile()
-    d = fl.linearize(model, sparse=False)
-    s = fl.linearize(model, sparse=True)
+    d = fl.linearize(model)
+    s = fl.linearize_sparse(model)
     assert not s.descriptor["identity_kinematics"]
     ed, es = np.linalg.eigvals(d.A), np.linalg.eigvals(s.dense_A())
     assert max(np.min(np.abs(es - e)) for e in ed) < 1e-6      # a 6-fold (defective) zero: ε^(1/2)

@@ -41,7 +41,7 @@ a particular solution of its linearized row, δq = N_q y + G_q u, δv = N_v w + 
 M-orthogonal at velocity level (N_vᵀ M G_v = 0) so that ü drops out of the reduced dynamics; the
 input is (u, u̇), u̇ or ü (docs/linearize.md §4).
 
-**Large models** (``sparse``): coordinate-partitioned sparse null-space bases (Wehage & Haug,
+**Large models** (:func:`linearize_sparse`): coordinate-partitioned sparse null-space bases (Wehage & Haug,
 J. Mech. Des. 104 (1982) 247–255), the sparse descriptor pair E ẋ = A_e x + B_e u and A = E⁻¹A_e as a
 LinearOperator; modes by shift-invert (docs/linearize.md §5).
 
@@ -895,7 +895,7 @@ def _second_order(model, t, q, v, omega, about):
 
 
 def linearize(model, state=None, *, about="auto", omega=None, symmetries=(), inputs=(), outputs=(),
-              states=None, t=None, tol=1e-8, sparse="auto"):
+              states=None, t=None, tol=1e-8):
     """Linearize ``model`` about an equilibrium, a steady motion or a state: a :class:`LinearModel`.
 
     Parameters
@@ -924,15 +924,13 @@ def linearize(model, state=None, *, about="auto", omega=None, symmetries=(), inp
     t : float, optional
     tol : float
         Relative tolerance of the checks.
-    sparse : {"auto", True, False}
-        The large-model form (docs/linearize.md §5): sparse null-space bases, ``A`` a
-        ``scipy.sparse.linalg.LinearOperator`` (E⁻¹A_e of the sparse descriptor pair in
-        ``descriptor["E"]``, ``["A"]``), B, C, D dense (n × m, p × n); about equilibria, with force
-        inputs and non-reaction outputs. "auto": when ``model.nq`` > :data:`SPARSE_ABOVE`.
 
     Returns
     -------
     LinearModel
+        Dense; for a model with more than :data:`SPARSE_ABOVE` free velocities, when the request
+        fits it (an equilibrium, force inputs, no symmetries, named states or reactions), the sparse
+        form of :func:`linearize_sparse`.
     """
     t, q, v = _state_of(model, state, t)
     if q.shape != (model.nx,) or v.shape != (model.nq,):
@@ -946,11 +944,14 @@ def linearize(model, state=None, *, about="auto", omega=None, symmetries=(), inp
             raise ParameterError(f"linearize: inputs must be Input or Drive objects (force, torque, drive), got {u!r}")
     if getattr(model, "rheonomic", False):
         _check_drives_at_rest(model, t)
-    if sparse not in ("auto", True, False):
-        raise ParameterError(f"linearize: sparse must be 'auto', True or False, got {sparse!r}")
-    if sparse is True or (sparse == "auto" and model.nq > SPARSE_ABOVE):
-        _refuse_sparse(model, symmetries, states, inputs, outputs, v)
-        return _linearize_sparse(model, t, q, v, list(inputs), list(outputs), tol)
+    if model.nq > SPARSE_ABOVE:
+        why = _dense_only(symmetries, states, inputs, outputs, v)
+        if why is None:
+            return _linearize_sparse(model, t, q, v, list(inputs), list(outputs), tol)
+        if 2 * model.nq > DENSE_STATES_MAX:
+            raise ParameterError(f"linearize: model '{model.name}' is large ({model.nq} free velocities); the "
+                                 f"sparse form does not take {why}, and the dense form would need "
+                                 f"{8.0 * (2 * model.nq) ** 2 / 1e9:.3g} GB per matrix")
     forces = [u for u in inputs if isinstance(u, Input)]
     drives = [u for u in inputs if isinstance(u, Drive)]
     M, K, Ct, E, Phi_q, W, Z, op = _second_order(model, t, q, v, omega, about)
@@ -1140,7 +1141,7 @@ def _multiplier_maps(M, K, Ct, E, W, Z, F, drv=None):
 # --------------------------------------------------------------------------
 # large models: sparse null-space bases, a descriptor pair, A as a LinearOperator
 # --------------------------------------------------------------------------
-#: Free velocities above which ``linearize(..., sparse="auto")`` builds the sparse form.
+#: Free velocities above which :func:`linearize` builds the sparse form (when the request fits it).
 SPARSE_ABOVE = 2000
 #: States up to which a sparse model may be made dense (``to_scipy``, ``to_control``, ``dense_A``).
 DENSE_STATES_MAX = 5000
@@ -1196,22 +1197,55 @@ def sparse_null_space(W, tol=1e-10):
     return N, ind
 
 
-def _refuse_sparse(model, symmetries, states, inputs, outputs, v):
-    why = None
+def _dense_only(symmetries, states, inputs, outputs, v):
+    """What of a request needs the dense form (None: the sparse form takes it)."""
     if np.any(v):
-        why = "a reference in motion (the sparse form is about equilibria)"
-    elif symmetries:
-        why = "symmetries"
-    elif states is not None:
-        why = "named states"
-    elif any(isinstance(u, Drive) for u in inputs):
-        why = "drive inputs"
-    elif any(o.nu >= 0 for o in outputs):
-        why = "reaction outputs"
-    if why:
-        raise ParameterError(f"linearize: model '{model.name}' is large ({model.nq} free velocities > "
-                             f"{SPARSE_ABOVE}: the sparse form); it does not take {why}. Pass sparse=False "
-                             "for the dense form (memory ~ (2 nq)² doubles)")
+        return "a reference in motion (the sparse form is about equilibria)"
+    for cond, why in ((symmetries, "symmetries"), (states is not None, "named states"),
+                      (any(isinstance(u, Drive) for u in inputs), "drive inputs"),
+                      (any(o.nu >= 0 for o in outputs), "reaction outputs")):
+        if cond:
+            return why
+    return None
+
+
+def linearize_sparse(model, state=None, *, inputs=(), outputs=(), t=None, tol=1e-8):
+    """The large-model form of :func:`linearize` about an equilibrium (docs/linearize.md §5).
+
+    Sparse coordinate-partitioned null-space bases (:func:`sparse_null_space`), ``A`` a
+    ``scipy.sparse.linalg.LinearOperator`` (E⁻¹A_e of the sparse descriptor pair in
+    ``descriptor["E"]``, ``["A"]``, ``["B"]``), B, C, D dense (n × m, p × n), ``basis`` sparse.
+    :func:`linearize` returns it by itself above :data:`SPARSE_ABOVE` free velocities.
+
+    Parameters
+    ----------
+    model : Model
+    state : as in :func:`linearize`; an equilibrium (v = 0)
+    inputs : sequence of Input
+        Generalized forces (no drives).
+    outputs : sequence of Output
+        Coordinates and angles, and their rates (no reactions).
+    t : float, optional
+    tol : float
+
+    Returns
+    -------
+    LinearModel
+        ``sparse`` True.
+    """
+    t, q, v = _state_of(model, state, t)
+    if q.shape != (model.nx,) or v.shape != (model.nq,):
+        raise ParameterError(f"linearize: the state does not fit model '{model.name}' (q: {model.nx}, v: {model.nq})")
+    why = _dense_only((), None, inputs, outputs, v)
+    if why is not None:
+        raise ParameterError(f"linearize_sparse: model '{model.name}': the sparse form does not take {why}; "
+                             "use linearize (the dense form)")
+    for u in inputs:
+        if not isinstance(u, Input):
+            raise ParameterError(f"linearize_sparse: inputs must be Input objects (force, torque), got {u!r}")
+    if getattr(model, "rheonomic", False):
+        _check_drives_at_rest(model, t)
+    return _linearize_sparse(model, t, q, v, list(inputs), list(outputs), tol)
 
 
 def _linearize_sparse(model, t, q, v, inputs, outputs, tol):
