@@ -36,6 +36,15 @@ space; their span S is invariant under A (checked), and the reduced system is A 
 complement of S, its block of the block-triangular form [Q_S, Q_W]ᵀ A [Q_S, Q_W] — the eigenvalues
 of the steady motion proper, without the zero eigenvalues of the drift, none of them filtered.
 
+**Drive inputs** (:func:`drive`): the prescribed value u of a driven constraint enters through
+a particular solution of its linearized row, δq = N_q y + G_q u, δv = N_v w + P δq + P_u u + G_v u̇,
+M-orthogonal at velocity level (N_vᵀ M G_v = 0) so that ü drops out of the reduced dynamics; the
+input is (u, u̇), u̇ or ü (docs/linearize.md §4).
+
+**Large models** (:func:`linearize_sparse`): coordinate-partitioned sparse null-space bases (Wehage & Haug,
+J. Mech. Des. 104 (1982) 247–255), the sparse descriptor pair E ẋ = A_e x + B_e u and A = E⁻¹A_e as a
+LinearOperator; modes by shift-invert (docs/linearize.md §5).
+
 References: Arnold & Brüls, Multibody Syst. Dyn. 18 (2007) 185–202 (sign conventions, K_t, C_t);
 Meijaard, Papadopoulos, Ruina & Schwab, Proc. R. Soc. A 463 (2007) 1955–1982 (the Whipple bicycle).
 """
@@ -50,6 +59,7 @@ import scipy.sparse.linalg as spla
 
 from femb.errors import ModelError, ParameterError, SingularMatrixError
 from femb.system import assembly
+from femb.system import kernels as _kernels
 from femb.system.model import State
 
 
@@ -366,6 +376,128 @@ def force(model, q, body, direction, point=(0.0, 0.0, 0.0), name=None, unit="N")
 
 
 # --------------------------------------------------------------------------
+# drives as inputs: the prescribed value of a rheonomic constraint
+# --------------------------------------------------------------------------
+DRIVE_KINDS = ("position", "speed", "acceleration")
+
+
+@dataclass
+class Drive:
+    """A driven (rheonomic) constraint Φ_d(q, u) = 0 whose prescribed value u is an input.
+
+    ``kind`` says what enters the state space (docs/linearize.md §4):
+
+    * ``"position"``: the inputs are u and u̇ (two columns, ``name`` and ``name_d``);
+    * ``"speed"``: the input is u̇ (``name_d``); u joins the state (an integrator);
+    * ``"acceleration"``: the input is ü (``name_dd``); u and u̇ join the state.
+
+    Made by :func:`drive`.
+    """
+    name: str
+    unit: str
+    element: str
+    kind: str = "position"
+
+
+def drive(model, element, kind="position", name=None, unit=None):
+    """Input: the prescribed value u(t) of the driven constraint ``element`` (its time function).
+
+    The element must be rheonomic with one time function φ(t) (``DrivenAngle``,
+    ``DrivenDisplacement``, ``DrivenRevoluteAngle``, ``DrivenPrismaticDisplacement``, or a user
+    type), and the drive at rest at the reference (φ′ = φ″ = 0, checked by :func:`linearize`):
+    its value is then an input δu = δφ about the held value.
+
+    Parameters
+    ----------
+    model : Model
+    element : str
+        The driven constraint's name.
+    kind : {"position", "speed", "acceleration"}
+        The input signal (:class:`Drive`): (u, u̇), u̇ (u a state) or ü (u, u̇ states).
+    name : str, optional
+        Input name (default the element's); its rate and acceleration get ``_d``, ``_dd``.
+    unit : str, optional
+        Unit of u (default rad for a type whose name says Angle, m for Displacement).
+
+    Returns
+    -------
+    Drive
+    """
+    if kind not in DRIVE_KINDS:
+        raise ParameterError(f"drive '{element}': kind must be one of {', '.join(DRIVE_KINDS)}, got {kind!r}")
+    g, _ = _element_group(model, element)
+    if not g.cls.rheonomic or not g.time_functions or len(g.time_functions[0]) != 1:
+        raise ModelError(f"drive: {g.cls.__name__} '{element}' is not a driven constraint with one time "
+                         "function (a rheonomic constraint type such as DrivenAngle)")
+    if unit is None:
+        unit = "rad" if "Angle" in g.cls.__name__ else ("m" if "Displacement" in g.cls.__name__ else "")
+    return Drive(name or element, unit, element, kind)
+
+
+def _element_group(model, element):
+    for g in model.groups:
+        if element in g.names:
+            return g, g.names.index(element)
+    raise ModelError(f"model '{model.name}' has no element named '{element}'")
+
+
+def _check_drives_at_rest(model, t):
+    """Rheonomic constraints are linearized with their time functions held: φ′ = φ″ = 0 at t."""
+    for g in model.constraint_groups:
+        if not g.cls.rheonomic or not g.time_functions or not len(g.time_functions[0]):
+            continue
+        tf = _kernels.time_values(g, t)
+        moving = np.nonzero(np.abs(tf[:, :, 1:]).max(axis=(1, 2)) > 0.0)[0]
+        if moving.size:
+            e = int(moving[0])
+            raise ParameterError(f"linearize: the driven constraint {g.cls.__name__} '{g.names[e]}' moves at "
+                                 f"t = {t:g} (φ′ = {tf[e, 0, 1]:g}, φ″ = {tf[e, 0, 2]:g}); only drives at "
+                                 "rest (holding their value) are linearized")
+
+
+def _drive_terms(model, t, q, v, drives):
+    """Per drive j: its constraint row r_j, Φ_u (the row's ∂Φ/∂u) and b_j = ∂(Φ_q)_r/∂u (nq,).
+
+    Read from the element's own ``rates`` kernel with the time function's rate set to 1 and its
+    second derivative to 0: then Φ_t = Φ_u and γ(v) = (Φ_q v)_q v + 2 b·v + Φ_uu, so that
+    (γ(e_k) − γ(−e_k))/4 = b_k exactly (the quadratic terms cancel).
+
+    Returns
+    -------
+    rows : ndarray (nd,) int; Phi_u : ndarray (nd,); b : ndarray (nd, nq)
+    """
+    nd = len(drives)
+    rows, Phi_u, b = np.zeros(nd, dtype=np.int64), np.zeros(nd), np.zeros((nd, model.nq))
+    qx, qdx = model.ext(np.asarray(q, dtype=float)), model.ext_velocity(np.asarray(v, dtype=float))
+    for j, d in enumerate(drives):
+        g, e = _element_group(model, d.element)
+        fn = _kernels.compiled_kernel(g.cls.__name__, "rates", g.cls.kernels["rates"])[0]
+        tf = _kernels.time_values(g, t)[e:e + 1].copy()
+        tf[:, :, 1], tf[:, :, 2] = 1.0, 0.0
+        xe = np.ascontiguousarray(qx[g.xdofs[e:e + 1]])
+        ve0 = np.ascontiguousarray(qdx[g.dofs[e:e + 1]])
+
+        def rates(ve):
+            Pt, gam = np.zeros((1, g.nc)), np.zeros((1, g.nc))
+            fn(g.P[e:e + 1], float(t), tf, xe, ve, Pt, gam)
+            return Pt[0], gam[0]
+
+        Pt = rates(np.zeros_like(ve0))[0]
+        live = np.nonzero(np.abs(Pt) > 1e-12 * max(1.0, np.abs(Pt).max()))[0]
+        if live.size != 1:
+            raise ModelError(f"drive: {g.cls.__name__} '{d.element}' has {live.size} rows that depend on its "
+                             "time function; one is needed")
+        r = int(live[0])
+        rows[j], Phi_u[j] = int(g.lam[e, r]), Pt[r]
+        for k, i in enumerate(g.dofs[e]):
+            if i < model.nq:
+                ek = np.zeros_like(ve0)
+                ek[0, k] = 1.0
+                b[j, i] += (rates(ek)[1][r] - rates(-ek)[1][r]) / 4.0
+    return rows, Phi_u, b
+
+
+# --------------------------------------------------------------------------
 # the reference: multipliers and accelerations of a state
 # --------------------------------------------------------------------------
 class _Blocks:
@@ -470,9 +602,12 @@ class LinearModel:
         ``Phi_q`` (nc, nq), ``W`` (nc + nn, nq) velocity-level constraints, ``Z`` (nc + nn, nq),
         ``F`` (nq, m) generalized forces of the inputs.
     basis : ndarray (2 nq, n)
-        (δq, δv) = basis @ x: the state in the model's tangent coordinates.
+        (δq, δv) = basis @ x + input_basis @ u: the state in the model's tangent coordinates.
     symmetries : list of str
         The symmetries eliminated.
+    input_basis : ndarray (2 nq, m)
+        The part of (δq, δv) set by the inputs directly (drive positions and speeds; zero columns
+        for forces).
     """
 
     A: np.ndarray
@@ -490,15 +625,29 @@ class LinearModel:
     basis: np.ndarray
     model: object = None
     symmetries: list = field(default_factory=list)
+    input_basis: np.ndarray = None
 
     @property
     def n(self):
         return self.A.shape[0]
 
+    @property
+    def sparse(self):
+        """True for the large-model form: ``A`` a LinearOperator, the descriptor pair in ``descriptor``."""
+        return isinstance(self.A, spla.LinearOperator)
+
+    def dense_A(self):
+        """A as a dense array (of a sparse model: E⁻¹ A_e column by column, refused above
+        :data:`DENSE_STATES_MAX` states)."""
+        if not self.sparse:
+            return self.A
+        _refuse_dense(self.n, "dense_A")
+        return self.A.matmat(np.eye(self.n))
+
     def to_scipy(self):
-        """``scipy.signal.StateSpace(A, B, C, D)``."""
+        """``scipy.signal.StateSpace(A, B, C, D)`` (dense; a sparse model up to :data:`DENSE_STATES_MAX` states)."""
         from scipy.signal import StateSpace
-        return StateSpace(self.A, self._B(), self._C(), self._D())
+        return StateSpace(self.dense_A(), self._B(), self._C(), self._D())
 
     def to_control(self):
         """python-control's ``StateSpace`` with named states, inputs and outputs (the ``control`` extra)."""
@@ -509,7 +658,7 @@ class LinearModel:
         def ok(names):      # python-control refuses '.' in signal names: node.coordinate → node_coordinate
             return [str(n).replace(".", "_") for n in names] or None
 
-        return control.ss(self.A, self._B(), self._C(), self._D(), states=ok(self.state_names),
+        return control.ss(self.dense_A(), self._B(), self._C(), self._D(), states=ok(self.state_names),
                           inputs=ok(self.input_names), outputs=ok(self.output_names))
 
     def _B(self):
@@ -521,8 +670,15 @@ class LinearModel:
     def _D(self):
         return np.zeros((self._C().shape[0], self._B().shape[1])) if not self.D.size else self.D
 
-    def eig(self):
-        """Damped modes of A (:class:`DampedModes`)."""
+    def eig(self, n_modes=None, sigma=0.0, tol=1e-12):
+        """Damped modes of A (:class:`DampedModes`): all of them (dense form; ``n_modes``, ``sigma`` and
+        ``tol`` are then not used), or of a sparse model the ``n_modes`` eigenvalues nearest ``sigma``
+        (shift-invert on the descriptor pair, :func:`_sparse_eig`; ARPACK's relative tolerance ``tol``)."""
+        if self.sparse:
+            if n_modes is None:
+                raise ParameterError(f"eig: a sparse linear model ({self.n} states) needs n_modes (the number of "
+                                     "eigenvalues nearest sigma)")
+            return _sparse_eig(self, int(n_modes), float(sigma), tol)
         lam, X = sla.eig(self.A)
         order = np.lexsort((-lam.imag, lam.real))
         return DampedModes(lam[order], X[:, order], self.basis @ X[:, order], self.model, self.operating_point)
@@ -611,8 +767,31 @@ def _state_of(model, state, t):
     return float(st.t if t is None else t), np.asarray(st.q, dtype=float), np.asarray(st.qd, dtype=float)
 
 
-def _reduce(M, K, Ct, E, Phi_q, W, Z, F, tol):
-    """The null-space reduction: (Ā, B̄, X) with (δq, δv) = X s, s = (y, w)."""
+def _drive_particular(M, Phi_q, W, drv):
+    """Particular solutions of the linearized drive rows (docs/linearize.md §4).
+
+    Φ_q G_q = −e_d Φ_u (least norm) for positions; for velocities the M-orthogonal
+    Y = M⁻¹Wᵀ(W M⁻¹ Wᵀ)⁻¹ e_d, G_v = −Y Φ_u and P_u = −Y (b·v₀), so that N_vᵀ M G_v = 0 and
+    the drive's acceleration ü does not enter the reduced dynamics.
+    """
+    nq, nd = M.shape[0], len(drv["rows"])
+    Ed = np.zeros((W.shape[0], nd))
+    Ed[drv["rows"], np.arange(nd)] = 1.0
+    Gq = np.linalg.lstsq(Phi_q, -Ed[:Phi_q.shape[0]] * drv["Phi_u"], rcond=None)[0]
+    try:
+        MiW = np.linalg.solve(M, W.T)
+        Y = MiW @ np.linalg.solve(W @ MiW, Ed)
+    except np.linalg.LinAlgError:
+        raise SingularMatrixError("linearize: drive inputs need a nonsingular M and independent constraints") from None
+    return Gq, -Y * drv["Phi_u"], -Y * drv["bv"]
+
+
+def _reduce(M, K, Ct, E, Phi_q, W, Z, F, tol, drv=None):
+    """The null-space reduction: (Ā, B̄, X) with (δq, δv) = X s, s = (y, w).
+
+    With drive inputs (``drv``: rows, Phi_u, bv, Fu) also ``(B0, B1, Xu)``: ṡ = Ā s + B̄ f + B0 u
+    + B1 u̇ and (δq, δv) = X s + Xu (u, u̇); else those are empty.
+    """
     nq = M.shape[0]
     Nq = sla.null_space(Phi_q) if Phi_q.shape[0] else np.eye(nq)
     Nv = sla.null_space(W) if W.shape[0] else np.eye(nq)
@@ -620,33 +799,40 @@ def _reduce(M, K, Ct, E, Phi_q, W, Z, F, tol):
     m, p = Nq.shape[1], Nv.shape[1]
     if p == 0:
         raise ModelError("linearize: the constraints leave no velocity free")
-    PN = P @ Nq
+    nd = 0 if drv is None else len(drv["rows"])
+    Gq, Gv, Pu = _drive_particular(M, Phi_q, W, drv) if nd else (np.zeros((nq, 0)),) * 3
+    PN, PG = P @ Nq, P @ Gq + Pu
     Ayy = Nq.T @ ((P + E) @ Nq)
     Ayw = Nq.T @ Nv
     # the kinematic relation must stay on the constraint manifold (exact for equilibria, steady motions)
     if Phi_q.shape[0]:
-        drift = np.abs(Phi_q @ np.hstack(((P + E) @ Nq, Nv))).max(initial=0.0)
+        drift = np.abs(Phi_q @ np.hstack(((P + E) @ Nq, Nv, (P + E) @ Gq + Pu))).max(initial=0.0)
         if drift > tol * max(1.0, np.abs(P).max(initial=0.0) + np.abs(E).max(initial=0.0)) * 1e2:
             raise ParameterError(f"linearize: the reference is not a steady motion of the given kind (the "
                                  f"linearized kinematics leave the constraint manifold by {drift:.3g}); "
                                  "give omega (the steady rotation) or use about='state'")
     Mr = Nv.T @ M @ Nv
     G = Nv.T @ M @ PN
+    B0y, B1y = Nq.T @ ((P + E) @ Gq + Pu), Nq.T @ Gv
     try:
         Awy = np.linalg.solve(Mr, Nv.T @ (-K @ Nq - Ct @ PN) - G @ Ayy)
         Aww = np.linalg.solve(Mr, -Nv.T @ Ct @ Nv - G @ Ayw)
         Bw = np.linalg.solve(Mr, Nv.T @ F)
+        B0w = np.linalg.solve(Mr, -G @ B0y - Nv.T @ (Ct @ PG + K @ Gq - (drv["Fu"] if nd else 0.0)))
+        B1w = np.linalg.solve(Mr, -G @ B1y - Nv.T @ (M @ PG + Ct @ Gv))
     except np.linalg.LinAlgError:
         raise SingularMatrixError("linearize: the reduced mass matrix is singular (a free velocity carries no "
                                   "mass)") from None
     Abar = np.block([[Ayy, Ayw], [Awy, Aww]])
     Bbar = np.vstack((np.zeros((m, F.shape[1])), Bw))
     X = np.block([[Nq, np.zeros((nq, p))], [PN, Nv]])
-    return Abar, Bbar, X, (Nq, Nv, P)
+    Xu = np.block([[Gq, np.zeros((nq, nd))], [PG, Gv]])
+    return Abar, Bbar, X, (Nq, Nv, P), (np.vstack((B0y, B0w)), np.vstack((B1y, B1w)), Xu)
 
 
-def _quotient(model, q, v, Abar, Bbar, X, bases, symmetries, tol):
-    """Eliminate the symmetry directions: (A, B, X) on the complement of their invariant span."""
+def _quotient(model, q, v, Abar, X, bases, symmetries, tol):
+    """Eliminate the symmetry directions: the orthonormal complement Q_W of their invariant span
+    (A, B, X on it: Q_Wᵀ A Q_W, Q_Wᵀ B, X Q_W)."""
     Nq, Nv, P = bases
     cols = []
     for sym in symmetries:
@@ -669,7 +855,7 @@ def _quotient(model, q, v, Abar, Bbar, X, bases, symmetries, tol):
         raise ParameterError(f"linearize: the given symmetries are not symmetries of the linearized model "
                              f"(their span is not invariant: leak {leak:.3g}); check the model's symmetry "
                              "(e.g. axisymmetric wheels) and the steady motion (omega)")
-    return QW.T @ Abar @ QW, QW.T @ Bbar, X @ QW
+    return QW
 
 
 def _second_order(model, t, q, v, omega, about):
@@ -728,10 +914,11 @@ def linearize(model, state=None, *, about="auto", omega=None, symmetries=(), inp
         ω_L of a steady motion (rad/s, space axes).
     symmetries : sequence of Symmetry
         Directions eliminated (:func:`translation`, :func:`rotation`, :func:`spin`).
-    inputs : sequence of Input
-        Generalized forces (:func:`torque`, :func:`force`).
+    inputs : sequence of Input or Drive
+        Generalized forces (:func:`torque`, :func:`force`) and drive values (:func:`drive`:
+        position, speed or acceleration of a driven constraint; docs/linearize.md §4).
     outputs : sequence of Output
-        (:func:`angle`, :func:`coordinate`).
+        (:func:`angle`, :func:`coordinate`, :func:`reaction`).
     states : sequence of Output, optional
         Express the state in these (as many as states, independent): named states.
     t : float, optional
@@ -741,6 +928,9 @@ def linearize(model, state=None, *, about="auto", omega=None, symmetries=(), inp
     Returns
     -------
     LinearModel
+        Dense; for a model with more than :data:`SPARSE_ABOVE` free velocities, when the request
+        fits it (an equilibrium, force inputs, no symmetries, named states or reactions), the sparse
+        form of :func:`linearize_sparse`.
     """
     t, q, v = _state_of(model, state, t)
     if q.shape != (model.nx,) or v.shape != (model.nq,):
@@ -749,55 +939,188 @@ def linearize(model, state=None, *, about="auto", omega=None, symmetries=(), inp
         about = "equilibrium" if not np.any(v) else "steady"
     if about not in ("equilibrium", "steady", "state"):
         raise ParameterError(f"linearize: about must be 'auto', 'equilibrium', 'steady' or 'state', got {about!r}")
+    for u in inputs:
+        if not isinstance(u, (Input, Drive)):
+            raise ParameterError(f"linearize: inputs must be Input or Drive objects (force, torque, drive), got {u!r}")
     if getattr(model, "rheonomic", False):
-        raise ModelError(f"linearize: model '{model.name}' has rheonomic (driven) constraints; not supported")
+        _check_drives_at_rest(model, t)
+    if model.nq > SPARSE_ABOVE:
+        why = _dense_only(symmetries, states, inputs, outputs, v)
+        if why is None:
+            return _linearize_sparse(model, t, q, v, list(inputs), list(outputs), tol)
+        if 2 * model.nq > DENSE_STATES_MAX:
+            raise ParameterError(f"linearize: model '{model.name}' is large ({model.nq} free velocities); the "
+                                 f"sparse form does not take {why}, and the dense form would need "
+                                 f"{8.0 * (2 * model.nq) ** 2 / 1e9:.3g} GB per matrix")
+    forces = [u for u in inputs if isinstance(u, Input)]
+    drives = [u for u in inputs if isinstance(u, Drive)]
     M, K, Ct, E, Phi_q, W, Z, op = _second_order(model, t, q, v, omega, about)
-    F = np.array([u.F for u in inputs]).T if inputs else np.zeros((model.nq, 0))
-    Abar, Bbar, X, bases = _reduce(M, K, Ct, E, Phi_q, W, Z, F, tol)
+    F = np.array([u.F for u in forces]).T if forces else np.zeros((model.nq, 0))
+    drv = None
+    if drives:
+        rows, Phi_u, b = _drive_terms(model, t, q, v, drives)
+        drv = {"rows": rows, "Phi_u": Phi_u, "bv": b @ v, "Fu": -b.T * op["lam"][rows]}
+    Abar, Bbar, X, bases, (B0, B1, Xu) = _reduce(M, K, Ct, E, Phi_q, W, Z, F, tol, drv)
     if symmetries:
-        Abar, Bbar, X = _quotient(model, q, v, Abar, Bbar, X, bases, list(symmetries), tol)
-    n = Abar.shape[0]
-    names = [f"x{i}" for i in range(n)]
-    units = [""] * n
+        QW = _quotient(model, q, v, Abar, X, bases, list(symmetries), tol)
+        Abar, Bbar, B0, B1, X = QW.T @ Abar @ QW, QW.T @ Bbar, QW.T @ B0, QW.T @ B1, X @ QW
+    lin = _Lin(Abar, Bbar, B0, B1, X, Xu)
+    lay = _Layout(inputs, Abar.shape[0])
+    Az, Bz = lay.system(lin)
+    R = _multiplier_maps(M, K, Ct, E, W, Z, F, drv) if any(o.nu >= 0 for o in outputs) else None
+    Cm, Dm = lay.outputs(outputs, lin, R)
+    Xz, Xv = lay.state_map(lin)
+    names, units = [f"x{i}" for i in range(Abar.shape[0])] + lay.znames, [""] * Abar.shape[0] + lay.zunits
     if states is not None:
-        T = _output_rows(states, X, Abar)
+        T, Dt = lay.outputs(states, lin, None)
+        n = Az.shape[0]
         if T.shape != (n, n) or np.linalg.matrix_rank(T) < n:
             raise ParameterError(f"linearize: {len(states)} states given for a state of dimension {n}, or "
                                  "they are dependent")
+        if np.abs(Dt).max(initial=0.0) > 1e-12 * max(1.0, np.abs(T).max()):
+            raise ParameterError("linearize: a named state depends directly on a drive input; give the drive "
+                                 "kind='acceleration' (its position and speed become states)")
         Ti = np.linalg.inv(T)
-        Abar, Bbar, X = T @ Abar @ Ti, T @ Bbar, X @ Ti
+        Az, Bz, Cm, Xz = T @ Az @ Ti, T @ Bz, Cm @ Ti, Xz @ Ti
         names, units = [s.name for s in states], [s.unit for s in states]
-    Rx = Ru = None
-    if any(o.nu >= 0 for o in outputs):
-        Rx, Ru = _multiplier_maps(M, K, Ct, E, W, Z, F)
-    Cm = _output_rows(outputs, X, Abar, Rx)
-    Dm = np.zeros((len(outputs), len(inputs)))
-    for i, o in enumerate(outputs):
-        if o.nu >= 0:
-            Dm[i] = Ru[o.nu]
-        elif o.rate:
-            Dm[i] = (np.concatenate((o.cq, o.cv)) @ X) @ Bbar
     desc = {"M": M, "C": Ct, "K": K, "E": E, "Phi_q": Phi_q, "W": W, "Z": Z, "F": F}
-    return LinearModel(Abar, Bbar, Cm, Dm, names, units, [u.name for u in inputs], [u.unit for u in inputs],
-                       [o.name for o in outputs], [o.unit for o in outputs], op, desc, X, model,
-                       [s.name for s in symmetries])
+    if drv is not None:
+        desc.update(drive_rows=drv["rows"], Phi_u=drv["Phi_u"], F_u=drv["Fu"], drive_basis=Xu)
+    return LinearModel(Az, Bz, Cm, Dm, names, units, lay.names, lay.units, [o.name for o in outputs],
+                       [o.unit for o in outputs], op, desc, Xz, model, [s.name for s in symmetries], Xv)
 
 
-def _output_rows(outputs, X, Abar, Rx=None):
-    rows = []
-    for o in outputs:
-        if o.nu >= 0:
-            if o.rate:
-                raise ParameterError(f"linearize: output {o.name}: the rate of a reaction is not available")
-            rows.append(Rx[o.nu] @ X)
-            continue
-        c = np.concatenate((o.cq, o.cv)) @ X
-        rows.append(c @ Abar if o.rate else c)
-    return np.array(rows).reshape(len(rows), X.shape[1])
+@dataclass
+class _Lin:
+    """ṡ = A s + Bf f + B0 u + B1 u̇, (δq, δv) = X s + Xu (u, u̇): the reduced model before the
+    inputs are arranged (Xu (2nq, 2nd): the columns of u, then of u̇)."""
+    A: np.ndarray
+    Bf: np.ndarray
+    B0: np.ndarray
+    B1: np.ndarray
+    X: np.ndarray
+    Xu: np.ndarray
 
 
-def _multiplier_maps(M, K, Ct, E, W, Z, F):
-    """δν = Rx (δq, δv) + Ru u from M δv̇' = −K δq − Ct δv − Wᵀ δν + F u and d/dt (W δv + Z δq) = 0."""
+class _Layout:
+    """Where forces and drive values go.
+
+    Inputs v in the user's order: a force its column; a position drive u and u̇, a speed drive u̇,
+    an acceleration drive ü. State z = (s, then per drive: u for speed and acceleration drives,
+    u̇ for acceleration drives). u = Uz z + Uv v, u̇ = Dz z + Dv v, ü = Az z + Av v, f = Tf v; the
+    drives without ü as a signal (position, speed) are flagged in ``no_udd``.
+    """
+
+    def __init__(self, inputs, n):
+        drives = [u for u in inputs if isinstance(u, Drive)]
+        nd, nf = len(drives), sum(isinstance(u, Input) for u in inputs)
+        kinds = [d.kind for d in drives]
+        self.n = n
+        self.nz = n + sum({"position": 0, "speed": 1, "acceleration": 2}[k] for k in kinds)
+        self.nv = nf + sum(2 if k == "position" else 1 for k in kinds)
+        self.Tf = np.zeros((nf, self.nv))
+        self.Uz, self.Dz, self.Az = (np.zeros((nd, self.nz)) for _ in range(3))
+        self.Uv, self.Dv, self.Av = (np.zeros((nd, self.nv)) for _ in range(3))
+        self.no_udd = [k != "acceleration" for k in kinds]
+        self.zrows = []                 # (z index, drive j, "u" or "ud")
+        self.names, self.units, self.znames, self.zunits = [], [], [], []
+        col, fi, j = 0, 0, 0
+        for u in inputs:
+            if isinstance(u, Input):
+                self.Tf[fi, col] = 1.0
+                self.names.append(u.name)
+                self.units.append(u.unit)
+                fi, col = fi + 1, col + 1
+            else:
+                col = self._drive(u, j, col)
+                j += 1
+
+    def _signal(self, name, unit, col=None):
+        """Name an input column (``col`` given) or the next added state."""
+        if col is not None:
+            self.names.append(name)
+            self.units.append(unit)
+        else:
+            self.znames.append(name)
+            self.zunits.append(unit)
+
+    def _drive(self, d, j, col):
+        """Place drive ``j``; returns the next input column."""
+        zi = self.n + len(self.zrows)
+        rate, acc = (d.name + "_d", d.unit + "/s"), (d.name + "_dd", d.unit + "/s²")
+        if d.kind == "position":
+            self.Uv[j, col], self.Dv[j, col + 1] = 1.0, 1.0
+            self._signal(d.name, d.unit, col)
+            self._signal(*rate, col + 1)
+            return col + 2
+        self.Uz[j, zi] = 1.0
+        self.zrows.append((zi, j, "u"))
+        self._signal(d.name, d.unit)
+        if d.kind == "speed":
+            self.Dv[j, col] = 1.0
+            self._signal(*rate, col)
+        else:
+            self.Dz[j, zi + 1] = 1.0
+            self.zrows.append((zi + 1, j, "ud"))
+            self._signal(*rate)
+            self.Av[j, col] = 1.0
+            self._signal(*acc, col)
+        return col + 1
+
+    def system(self, lin):
+        """(A_z (nz, nz), B_z (nz, nv)) of ż = A_z z + B_z v."""
+        n = self.n
+        Az = np.zeros((self.nz, self.nz))
+        Bz = np.zeros((self.nz, self.nv))
+        Az[:n, :n] = lin.A
+        Az[:n] += lin.B0 @ self.Uz + lin.B1 @ self.Dz
+        Bz[:n] = lin.Bf @ self.Tf + lin.B0 @ self.Uv + lin.B1 @ self.Dv
+        for zi, j, what in self.zrows:          # d/dt u = u̇, d/dt u̇ = ü
+            Az[zi], Bz[zi] = (self.Dz[j], self.Dv[j]) if what == "u" else (self.Az[j], self.Av[j])
+        return Az, Bz
+
+    def state_map(self, lin):
+        """(δq, δv) = X_z z + X_v v: (X_z (2nq, nz), X_v (2nq, nv))."""
+        Xz = np.hstack((lin.X, np.zeros((lin.X.shape[0], self.nz - self.n))))
+        nd = self.Uz.shape[0]
+        Xz += lin.Xu[:, :nd] @ self.Uz + lin.Xu[:, nd:] @ self.Dz
+        return Xz, lin.Xu[:, :nd] @ self.Uv + lin.Xu[:, nd:] @ self.Dv
+
+    def outputs(self, outputs, lin, R):
+        """(C (p, nz), D (p, nv)) of the outputs."""
+        C, D = np.zeros((len(outputs), self.nz)), np.zeros((len(outputs), self.nv))
+        for i, o in enumerate(outputs):
+            c, df, d0, d1, d2 = _raw_row(o, lin, R)
+            for j, flag in enumerate(self.no_udd):
+                if flag and abs(d2[j]) > 1e-12 * max(1.0, np.abs(c).max(initial=0.0)):
+                    raise ParameterError(f"linearize: output {o.name} depends on the acceleration of a drive; "
+                                         "give that drive kind='acceleration'")
+            C[i, :self.n] = c
+            C[i] += d0 @ self.Uz + d1 @ self.Dz + d2 @ self.Az
+            D[i] = df @ self.Tf + d0 @ self.Uv + d1 @ self.Dv + d2 @ self.Av
+        return C, D
+
+
+def _raw_row(o, lin, R):
+    """One output as y = c s + df f + d0 u + d1 u̇ + d2 ü."""
+    nd = lin.B0.shape[1]
+    if o.nu >= 0:
+        if o.rate:
+            raise ParameterError(f"linearize: output {o.name}: the rate of a reaction is not available")
+        Rx, Ru, R0, R1, R2 = R
+        r = Rx[o.nu]
+        return r @ lin.X, Ru[o.nu], r @ lin.Xu[:, :nd] + R0[o.nu], r @ lin.Xu[:, nd:] + R1[o.nu], R2[o.nu]
+    cx = np.concatenate((o.cq, o.cv))
+    c = cx @ lin.X
+    cu = cx @ lin.Xu
+    if not o.rate:
+        return c, np.zeros(lin.Bf.shape[1]), cu[:nd], cu[nd:], np.zeros(nd)
+    return c @ lin.A, c @ lin.Bf, c @ lin.B0, c @ lin.B1 + cu[:nd], cu[nd:]
+
+
+def _multiplier_maps(M, K, Ct, E, W, Z, F, drv=None):
+    """δν = Rx (δq, δv) + Ru f + R0 u + R1 u̇ + R2 ü from M δv̇ = F f + F_u u − K δq − Ct δv − Wᵀ δν
+    and d/dt (W δv + Z δq + e_d (b·v₀) u + e_d Φ_u u̇) = 0."""
     try:
         MiW = np.linalg.solve(M, W.T)
         G = np.linalg.inv(W @ MiW)
@@ -806,7 +1129,237 @@ def _multiplier_maps(M, K, Ct, E, W, Z, F):
     WMi = MiW.T
     Rq = G @ (-WMi @ K + Z @ E)
     Rv = G @ (-WMi @ Ct + Z)
-    return np.hstack((Rq, Rv)), G @ (WMi @ F)
+    nd = 0 if drv is None else len(drv["rows"])
+    R0, R1, R2 = np.zeros((W.shape[0], nd)), np.zeros((W.shape[0], nd)), np.zeros((W.shape[0], nd))
+    if nd:
+        Ed = np.zeros((W.shape[0], nd))
+        Ed[drv["rows"], np.arange(nd)] = 1.0
+        R0, R1, R2 = G @ (WMi @ drv["Fu"]), G @ Ed * drv["bv"], G @ Ed * drv["Phi_u"]
+    return np.hstack((Rq, Rv)), G @ (WMi @ F), R0, R1, R2
+
+
+# --------------------------------------------------------------------------
+# large models: sparse null-space bases, a descriptor pair, A as a LinearOperator
+# --------------------------------------------------------------------------
+#: Free velocities above which :func:`linearize` builds the sparse form (when the request fits it).
+SPARSE_ABOVE = 2000
+#: States up to which a sparse model may be made dense (``to_scipy``, ``to_control``, ``dense_A``).
+DENSE_STATES_MAX = 5000
+#: Constraint rows up to which the sparse basis picks its dependent coordinates by a dense pivoted QR.
+SPARSE_CONSTRAINTS_MAX = 5000
+
+
+def _refuse_dense(n, what):
+    if n > DENSE_STATES_MAX:
+        gb = 8.0 * n * n / 1e9
+        raise ParameterError(f"{what}: the linear model has {n} states; a dense A would take {gb:.3g} GB "
+                             f"(limit {DENSE_STATES_MAX} states). Use lin.A (a LinearOperator), lin.B, lin.C, "
+                             "lin.D and the sparse descriptor pair lin.descriptor['E'], ['A'], or lin.eig(n_modes)")
+
+
+def sparse_null_space(W, tol=1e-10):
+    """A sparse basis N of the null space of W by coordinate partitioning (Wehage & Haug, J. Mech.
+    Des. 104 (1982) 247–255).
+
+    The dependent coordinates d are r columns of W chosen by a pivoted QR of the columns that
+    the constraints touch (dense, r × those columns); every other coordinate is independent, and
+    N = [−W_d⁻¹ W_i; I] (rows permuted back): sparse, as W_i is non-zero only on the touched columns.
+
+    Parameters
+    ----------
+    W : sparse (r, n), full row rank
+
+    Returns
+    -------
+    N : csc (n, n − r); ind : ndarray (n − r,) the independent coordinates (N[ind] = I)
+    """
+    W = sp.csc_matrix(W)
+    r, n = W.shape
+    if r == 0:
+        return sp.identity(n, format="csc"), np.arange(n)
+    if r > SPARSE_CONSTRAINTS_MAX:
+        raise ParameterError(f"linearize: {r} constraint rows; the sparse basis handles up to "
+                             f"{SPARSE_CONSTRAINTS_MAX} (its pivoting is dense in the rows)")
+    J = np.unique(W.nonzero()[1])
+    _, R, piv = sla.qr(W[:, J].toarray(), mode="economic", pivoting=True)
+    d = np.abs(np.diag(R))
+    if d.size < r or d[r - 1] <= tol * d[0]:
+        raise SingularMatrixError(f"linearize: the {r} constraint rows are dependent (rank < {r})")
+    dep = J[piv[:r]]
+    ind = np.setdiff1d(np.arange(n), dep)
+    Wi = W[:, ind]
+    k = np.nonzero(np.diff(Wi.indptr))[0]               # independent coordinates the constraints touch
+    Dn = -np.linalg.solve(W[:, dep].toarray(), Wi[:, k].toarray())
+    rows = np.concatenate((ind, np.repeat(dep, k.size)))
+    cols = np.concatenate((np.arange(ind.size), np.tile(k, r)))
+    N = sp.csc_matrix((np.concatenate((np.ones(ind.size), Dn.ravel())), (rows, cols)), shape=(n, ind.size))
+    N.eliminate_zeros()
+    return N, ind
+
+
+def _dense_only(symmetries, states, inputs, outputs, v):
+    """What of a request needs the dense form (None: the sparse form takes it)."""
+    if np.any(v):
+        return "a reference in motion (the sparse form is about equilibria)"
+    for cond, why in ((symmetries, "symmetries"), (states is not None, "named states"),
+                      (any(isinstance(u, Drive) for u in inputs), "drive inputs"),
+                      (any(o.nu >= 0 for o in outputs), "reaction outputs")):
+        if cond:
+            return why
+    return None
+
+
+def linearize_sparse(model, state=None, *, inputs=(), outputs=(), t=None, tol=1e-8):
+    """The large-model form of :func:`linearize` about an equilibrium (docs/linearize.md §5).
+
+    Sparse coordinate-partitioned null-space bases (:func:`sparse_null_space`), ``A`` a
+    ``scipy.sparse.linalg.LinearOperator`` (E⁻¹A_e of the sparse descriptor pair in
+    ``descriptor["E"]``, ``["A"]``, ``["B"]``), B, C, D dense (n × m, p × n), ``basis`` sparse.
+    :func:`linearize` returns it by itself above :data:`SPARSE_ABOVE` free velocities.
+
+    Parameters
+    ----------
+    model : Model
+    state : as in :func:`linearize`; an equilibrium (v = 0)
+    inputs : sequence of Input
+        Generalized forces (no drives).
+    outputs : sequence of Output
+        Coordinates and angles, and their rates (no reactions).
+    t : float, optional
+    tol : float
+
+    Returns
+    -------
+    LinearModel
+        ``sparse`` True.
+    """
+    t, q, v = _state_of(model, state, t)
+    if q.shape != (model.nx,) or v.shape != (model.nq,):
+        raise ParameterError(f"linearize: the state does not fit model '{model.name}' (q: {model.nx}, v: {model.nq})")
+    why = _dense_only((), None, inputs, outputs, v)
+    if why is not None:
+        raise ParameterError(f"linearize_sparse: model '{model.name}': the sparse form does not take {why}; "
+                             "use linearize (the dense form)")
+    for u in inputs:
+        if not isinstance(u, Input):
+            raise ParameterError(f"linearize_sparse: inputs must be Input objects (force, torque), got {u!r}")
+    if getattr(model, "rheonomic", False):
+        _check_drives_at_rest(model, t)
+    return _linearize_sparse(model, t, q, v, list(inputs), list(outputs), tol)
+
+
+def _linearize_sparse(model, t, q, v, inputs, outputs, tol):
+    """The sparse form about an equilibrium (docs/linearize.md §5): E ẋ = A_e x + B_e u with
+    E = diag(I, N_vᵀ M N_v), A_e = [[0, L_q N_v], [−N_vᵀ K N_q, −N_vᵀ C N_v]], B_e = [0; N_vᵀ F];
+    ``A`` = E⁻¹A_e as a LinearOperator (one sparse LU of the reduced mass)."""
+    b_ = _Blocks(model, t, q, v)
+    _check_admissible(model, v, b_, 1e-8)
+    vd, lam, mu = reference(model, t, q, v, b_)
+    _check_steady(model, q, v, vd, None, "equilibrium", 1e-8)
+    st = State(t, q, v, vd, lam)
+    M = assembly.mass_matrix(model, q).tocsr()
+    K = assembly.tangent_stiffness(model, st)
+    C = assembly.tangent_damping(model, st)
+    if model.nn:
+        ZA, HA = assembly.velocity_constraint_jacobians(model, t, q, v, mu)
+        K = K + HA
+        if ZA.nnz and np.abs(ZA.data).max() > 0.0:
+            raise ParameterError("linearize: the sparse form needs velocity constraints without a(q, t)")
+    Phi_q = b_.B.tocsr()
+    W = sp.vstack((Phi_q, b_.A)).tocsr()
+    Nq, ind_q = sparse_null_space(Phi_q)
+    Nv, _ = sparse_null_space(W) if model.nn else (Nq, ind_q)
+    m, p = Nq.shape[1], Nv.shape[1]
+    Mr = (Nv.T @ M @ Nv).tocsc()
+    Kr, Cr = (Nv.T @ K @ Nq).tocsr(), (Nv.T @ C @ Nv).tocsr()
+    Ayw = Nv[ind_q].tocsr()
+    try:
+        lu = spla.splu(Mr, permc_spec="MMD_AT_PLUS_A")
+    except RuntimeError:
+        raise SingularMatrixError("linearize: the reduced mass matrix is singular (a free velocity carries no "
+                                  "mass)") from None
+    F = np.array([u.F for u in inputs]).T if inputs else np.zeros((model.nq, 0))
+    Be = np.vstack((np.zeros((m, F.shape[1])), Nv.T @ F))
+    B = np.vstack((np.zeros((m, F.shape[1])), lu.solve(Be[m:]) if F.shape[1] else Be[m:]))
+
+    def matvec(x):
+        x = np.asarray(x).ravel()
+        xy, xw = x[:m], x[m:]
+        rhs = -(Kr @ xy) - Cr @ xw
+        w = lu.solve(rhs) if not np.iscomplexobj(rhs) else lu.solve(rhs.real) + 1j * lu.solve(rhs.imag)
+        return np.concatenate((Ayw @ xw, w))
+
+    n = m + p
+    A = spla.LinearOperator((n, n), matvec=matvec, dtype=float)
+    E = sp.block_diag((sp.identity(m), Mr), format="csc")
+    Ae = sp.bmat([[None, Ayw], [-Kr, -Cr]], format="csc") if m else sp.bmat([[-Cr]], format="csc")
+    X = sp.block_diag((Nq, Nv), format="csr")
+    Cm, Dm = _sparse_outputs(outputs, X, Ae, B, lu, m)
+    op = {"t": t, "q": q, "v": v, "vd": vd, "lam": lam, "mu": mu}
+    desc = {"M": M, "C": C, "K": K, "Phi_q": Phi_q, "W": W, "F": F, "E": E, "A": Ae, "B": Be,
+            "Nq": Nq, "Nv": Nv, "lu_Mr": lu, "identity_kinematics": p == m and not model.nn}
+    return LinearModel(A, B, Cm, Dm, [f"x{i}" for i in range(n)], [""] * n, [u.name for u in inputs],
+                       [u.unit for u in inputs], [o.name for o in outputs], [o.unit for o in outputs], op, desc,
+                       X, model, [], np.zeros((2 * model.nq, F.shape[1])))
+
+
+def _sparse_outputs(outputs, X, Ae, B, lu, m):
+    """Rows c X of the outputs; of a rate output (c X) E⁻¹ A_e and D = (c X) B (E symmetric)."""
+    Cm = np.zeros((len(outputs), X.shape[1]))
+    Dm = np.zeros((len(outputs), B.shape[1]))
+    for i, o in enumerate(outputs):
+        r = X.T @ np.concatenate((o.cq, o.cv))
+        if o.rate:
+            y = np.concatenate((r[:m], lu.solve(r[m:])))
+            Cm[i] = Ae.T @ y
+            Dm[i] = r @ B
+        else:
+            Cm[i] = r
+    return Cm, Dm
+
+
+def _sparse_eig(lin, k, sigma, tol):
+    """The ``k`` eigenvalues nearest ``sigma`` of E ẋ = A_e x by ARPACK in shift-invert mode.
+
+    (A_e − σE)⁻¹E is applied by one sparse LU: of the reduced K + σC + σ²M (size of y) when the
+    kinematics are ẏ = w (holonomic constraints), else of A_e − σE.
+    """
+    d = lin.descriptor
+    E, Ae = d["E"], d["A"]
+    n = lin.n
+    if not 1 <= k < n - 1:
+        raise ParameterError(f"eig: n_modes must be between 1 and {n - 2}, got {k}")
+    s = sigma
+    try:
+        if d["identity_kinematics"]:
+            m = n // 2
+            Mr, Kr, Cr = E[m:, m:], -Ae[m:, :m], -Ae[m:, m:]
+            lu = spla.splu((Kr + s * Cr + s * s * Mr).tocsc(), permc_spec="MMD_AT_PLUS_A")
+            CsM = (Cr + s * Mr).tocsr()
+
+            def solve(b):
+                by, bw = b[:m], b[m:]
+                rhs = -(Mr @ bw) - CsM @ by
+                xy = _lu_solve(lu, rhs)
+                return np.concatenate((xy, by + s * xy))
+        else:
+            lu = spla.splu((Ae - s * E).tocsc())
+
+            def solve(b):
+                return _lu_solve(lu, E @ b)
+    except RuntimeError as err:
+        raise SingularMatrixError(f"eig: the shifted matrix is singular at sigma = {s:g} ({err}); a model with "
+                                  "rigid-body modes needs a shift away from 0") from None
+    Op = spla.LinearOperator((n, n), matvec=solve, dtype=float)
+    v0 = np.random.default_rng(0).standard_normal(n)
+    theta, V = spla.eigs(Op, k=k, which="LM", tol=tol, v0=v0, ncv=min(n, max(2 * k + 1, k + 40)))
+    lam = s + 1.0 / theta
+    order = np.lexsort((-lam.imag, np.abs(lam)))
+    return DampedModes(lam[order], V[:, order], lin.basis @ V[:, order], lin.model, lin.operating_point)
+
+
+def _lu_solve(lu, b):
+    return lu.solve(b) if not np.iscomplexobj(b) else lu.solve(b.real) + 1j * lu.solve(b.imag)
 
 
 # --------------------------------------------------------------------------

@@ -86,6 +86,8 @@ SCENES = {
     "rigid_chain_3d": "femb.benchmarks.scenes.spatial.rigid_chain_3d",
     "spin_up_3d": "femb.benchmarks.scenes.beams.spin_up_3d",
     "flexible_fourbar_3d": "femb.benchmarks.scenes.beams.flexible_fourbar_3d",
+    # rolling without slip: velocity-level (non-holonomic) constraints (docs/linearize.md)
+    "whipple_bicycle": "femb.benchmarks.scenes.spatial.whipple_bicycle",
     # penalty (compliant) contact: force elements of the compiled engine (docs/contact.md)
     "penalty_ball": "femb.benchmarks.scenes.contact.penalty_ball",
     "penalty_backspin": "femb.benchmarks.scenes.contact.penalty_backspin",

@@ -26,8 +26,9 @@ full 3-D model, its rolling contacts as velocity-level constraints. Inside the s
 (4.292–6.024 m/s) the lean decays, below it the weave grows; :func:`roll_perturbation` runs it and
 fits the lean to the modes of the linearization (:func:`fit_lean`), so that the growth or decay
 rate measured in the nonlinear run is compared with the real part of the weave eigenvalue.
-``--run`` prints that table (``femb run benchmarks/scenes/spatial/whipple_bicycle.py --set
-roll_rate=0.1`` runs the scene).
+``--run`` prints that table. The scene is registered: ``femb list whipple_bicycle``, ``femb run
+whipple_bicycle --set v=3 --set roll_rate=0.1 --t-end 2`` (outputs lean, steer, speed and the
+normal contact forces).
 """
 from __future__ import annotations
 
@@ -36,7 +37,6 @@ import sys
 import time
 
 import numpy as np
-from scipy.optimize import brentq
 
 from femb import Mechanism
 from femb.analysis import linearize as fl
@@ -47,13 +47,18 @@ from femb.elements.spatial_joints import RevoluteJoint
 
 from femb.benchmarks.references.whipple_linear import BENCHMARK
 
-#: run settings of the nonlinear run (the scene protocol of femb.study.registry)
+#: run settings of the nonlinear run (the scene protocol of femb.study.registry; ``femb run whipple_bicycle``)
 DEFAULTS = {"t_end": 5.0, "h": 1e-3, "rho_inf": 0.7}
 PARAMETERS = {"v": ("forward speed", "m/s"), "roll_rate": ("initial lean rate", "rad/s"),
               "p": ("parameter set, a dict (default: the benchmark bicycle of Meijaard et al. 2007)", "-")}
 OUTPUTS = {"lean": ("lean angle φ of the rear frame (right positive)", "rad"),
            "steer": ("steer angle δ of the front frame relative to the rear frame", "rad"),
-           "speed": ("forward speed of the rear wheel centre", "m/s")}
+           "speed": ("forward speed of the rear wheel centre", "m/s"),
+           "N_rear": ("normal force of the ground on the rear wheel", "N"),
+           "N_front": ("normal force of the ground on the front wheel", "N")}
+#: the h-convergence study (femb bench convergence whipple_bicycle): femb's own run at the smallest
+#: step is the reference (no independent solution of the nonlinear 3-D bicycle)
+CONVERGENCE = {"t_end": 1.0, "h": [4e-3, 2e-3, 1e-3, 5e-4], "q": ["lean", "steer"], "lambda": ["N_rear", "N_front"]}
 
 #: Table 2 of Meijaard et al. (2007)
 TABLE2 = {"weave_speed": 4.29238253634111, "capsize_speed": 6.02426201538837,
@@ -68,8 +73,11 @@ def _inertia(xx, yy, zz, xz=0.0):
     return np.array([[xx, 0.0, xz], [0.0, yy, 0.0], [xz, 0.0, zz]])
 
 
-def build(v=5.0, p=None, roll_rate=0.0):
+def build(v=4.6, p=None, roll_rate=0.5):
     """The bicycle upright and running straight at speed ``v`` (m/s), as a :class:`~femb.Mechanism`.
+
+    The defaults are a run inside the self-stable speed range (4.292–6.024 m/s) started with a
+    lean rate of 0.5 rad/s: the weave decays.
 
     Parameters
     ----------
@@ -174,11 +182,13 @@ def eigenvalues(v, p=None):
 
 def weave_speed(p=None, bracket=(3.0, 5.0)):
     """The speed where the weave pair crosses the imaginary axis (m/s)."""
+    from scipy.optimize import brentq      # here: scipy.optimize takes a second to import
     return brentq(lambda v: max(e.real for e in eigenvalues(v, p) if abs(e.imag) > 1e-9), *bracket, xtol=1e-13)
 
 
 def capsize_speed(p=None, bracket=(5.0, 8.0)):
     """The speed where the real capsize root crosses zero (m/s)."""
+    from scipy.optimize import brentq
     return brentq(lambda v: max(e.real for e in eigenvalues(v, p) if abs(e.imag) <= 1e-9), *bracket, xtol=1e-13)
 
 
@@ -213,7 +223,9 @@ def outputs(result):
     """Lean, steer and speed over the stored steps (the scene protocol)."""
     m = result.model
     lean, steer = lean_steer(m, result.q)
-    return {"lean": lean, "steer": steer, "speed": result.qd[:, m.node_vindex["rear_wheel"][0]].copy()}
+    lam = np.asarray(result.lam)
+    return {"lean": lean, "steer": steer, "speed": result.qd[:, m.node_vindex["rear_wheel"][0]].copy(),
+            "N_rear": -lam[:, m.lam_indices("rear_contact")[0]], "N_front": -lam[:, m.lam_indices("front_contact")[0]]}
 
 
 def roll_perturbation(v, roll_rate=0.1, t_end=5.0, h=1e-3, p=None):
@@ -361,7 +373,7 @@ def _time_whole(runs=3):
     its eigenvalues at 101 speeds (the numba cache warm, as after the first run)."""
     import resource
     import subprocess
-    code = "from femb.benchmarks import whipple_bicycle as wb; wb.study()"
+    code = "from femb.benchmarks.scenes.spatial import whipple_bicycle as wb; wb.study()"
     times, cpu = [], []
     for _ in range(runs):
         r0 = resource.getrusage(resource.RUSAGE_CHILDREN)
