@@ -13,7 +13,7 @@ E. Anderson et al., LAPACK Users' Guide, 3rd ed., SIAM 1999 (band LU with partia
 from numba import njit
 
 from femb.base.jit import engine
-from femb.engine.layout import (ENTRY, INNER, IP_DENSE, IP_KL, IP_KU, IP_N)
+from femb.engine.layout import (SEPARATE, ENTRY, INNER, IP_DENSE, IP_KL, IP_KU, IP_N)
 
 
 @engine(**ENTRY)
@@ -242,7 +242,7 @@ def dense_lu_solve(Af, N, ipiv, rel_tol, b):
     return st
 
 
-@njit(**INNER)
+@engine(**SEPARATE)
 def factor(Af, ip, env, ipiv, rel_tol):
     """Factorize the iteration matrix in its storage (dense or band, fixed per model)."""
     if ip[IP_DENSE] != 0:
@@ -250,7 +250,7 @@ def factor(Af, ip, env, ipiv, rel_tol):
     return band_lu(Af, ip[IP_N], ip[IP_KL], ip[IP_KU], env, ipiv, rel_tol)
 
 
-@njit(**INNER)
+@engine(**SEPARATE)
 def solve(Af, ip, env, ipiv, b):
     """Solve with the factors of :func:`factor`, in place on ``b`` (permuted order)."""
     if ip[IP_DENSE] != 0:
