@@ -64,14 +64,14 @@ def kkt_solve(G, C, P, N, W, t, q, qd, K, out):
     gam = fview1(W, W_GAM)
     Pt = fview1(W, W_PT)
     call(evaluate, G, C, t, (q, qd, fview1(W, W_ZQ), fview1(W, W_ZL)), nv >= 0, (1.0, 0.0, 0.0), (KB, kr, N.Phi))
-    if call(factor, KB, ip, iview2(C, C_ENV), kpiv, 1e-13) != 0:
+    if factor(KB, ip, iview2(C, C_ENV), kpiv, 1e-13) != 0:
         return 1
     call(rates, G, C, t, q, qd, Pt, gam)
     for i in range(nv):
         kx[iperm[i]] = -kr[i]                 # r = −f with q̈ = λ = 0
     for j in range(nc):
         kx[iperm[nv + j]] = -gam[j]
-    call(solve, KB, ip, iview2(C, C_ENV), kpiv, kx)
+    solve(KB, ip, iview2(C, C_ENV), kpiv, kx)
     for i in range(nv):
         out[i] = kx[iperm[i]]
     P.stats[NS_KKT] += 1
@@ -162,7 +162,7 @@ def refine_accelerations(G, C, P, S, N, W, t, h, ncorr):
             kx[iperm[i]] = -kr[i]
         for j in range(nc):
             kx[iperm[nv + j]] = -(Bu[j] + gam[j]) / kappa if active[j] != 0 else 0.0
-        call(solve, N.AB, ip, iview2(C, C_ENV), N.ipiv, kx)
+        solve(N.AB, ip, iview2(C, C_ENV), N.ipiv, kx)
         for i in range(nv):
             d = kappa * kx[iperm[i]]
             du[i] = d
@@ -191,7 +191,7 @@ def project_normal_velocity(G, C, ip, W, t, q, qd, target, K):
         kx[iperm[i]] = 0.0
     for j in range(nc):
         kx[iperm[nv + j]] = target[j] - Bv[j] if active[j] != 0 else 0.0
-    call(solve, KB, ip, iview2(C, C_ENV), kpiv, kx)
+    solve(KB, ip, iview2(C, C_ENV), kpiv, kx)
     for i in range(nv):
         qd[i] += kx[iperm[i]]
 

@@ -325,7 +325,7 @@ def factor_matrix(C, P, N, h, sg, ggl, k):
     ip, fp, si, sf, stats = P
     if ggl:
         call(ggl_matrix, C, N.AB, sg)
-    if call(factor, N.AB, ip, iview2(C, C_ENV), N.ipiv, fp[FP_SINGTOL]) != 0:
+    if factor(N.AB, ip, iview2(C, C_ENV), N.ipiv, fp[FP_SINGTOL]) != 0:
         si[SI_LUVALID] = 0
         return ST_DIVERGED_SINGULAR if k > 0 else ST_SINGULAR
     si[SI_LUVALID] = 1
@@ -352,7 +352,7 @@ def solve_correction(C, P, N, g, c, sr, ggl):
     if ggl:
         for j in range(nc):
             rhs[iperm[nv + nc + j]] = -sr * g[j]
-    call(solve, N.AB, ip, iview2(C, C_ENV), N.ipiv, rhs)
+    solve(N.AB, ip, iview2(C, C_ENV), N.ipiv, rhs)
     P.stats[NS_SOLVE] += 1
 
 
