@@ -18,11 +18,12 @@ import math
 from numba import njit
 
 from femb.base.jit import engine, fview1, iview1, iview2
-from femb.engine.layout import (C_ACTIVE, C_ENV, C_IPERM, C_TFCOEF, C_TFKIND, C_TFOFF, C_W, C_XMAP, ENTRY,
+from femb.engine.layout import (SEPARATE, C_ACTIVE, C_ENV, C_IPERM, C_TFCOEF, C_TFKIND, C_TFOFF, C_W, C_XMAP, ENTRY,
     FP_AF, FP_AM, FP_BETA, FP_CQ, FP_CV, FP_EPUS, FP_ERTOL, FP_L, FP_NEWTC, FP_SCALED, FP_TOLQ, INNER, IP_GGL,
     IP_NC, IP_NN, IP_NV, NS_KKT, NS_REFINE, REFINE_CHECK, REFINE_HGROW, REFINE_SHARE,
     SF_ERRPREV, SF_RCHECKH, SI_LUVALID, SI_NOGROW, SI_PROJ, SI_RCOUNT, SI_RMODE, W_ATOLV, W_BV, W_DU, W_EQ,
     W_EV, W_GAM, W_JN, W_KB, W_KBACC, W_KPIV, W_KPIVACC, W_KR, W_KX, W_LK, W_PT, W_QPP_NEW, W_TGT, W_ZL, W_ZQ)
+from femb.engine.link import call
 from femb.engine.linalg import (copy_into, factor, solve)
 from femb.engine.evaluate import (eval_time_functions, evaluate, jacobian_times, rates)
 
@@ -62,10 +63,10 @@ def kkt_solve(G, C, P, N, W, t, q, qd, K, out):
     kx = fview1(W, W_KX)
     gam = fview1(W, W_GAM)
     Pt = fview1(W, W_PT)
-    evaluate(G, C, t, (q, qd, fview1(W, W_ZQ), fview1(W, W_ZL)), nv >= 0, (1.0, 0.0, 0.0), (KB, kr, N.Phi))
+    call(evaluate, G, C, t, (q, qd, fview1(W, W_ZQ), fview1(W, W_ZL)), nv >= 0, (1.0, 0.0, 0.0), (KB, kr, N.Phi))
     if factor(KB, ip, iview2(C, C_ENV), kpiv, 1e-13) != 0:
         return 1
-    rates(G, C, t, q, qd, Pt, gam)
+    call(rates, G, C, t, q, qd, Pt, gam)
     for i in range(nv):
         kx[iperm[i]] = -kr[i]                 # r = −f with q̈ = λ = 0
     for j in range(nc):
@@ -77,7 +78,7 @@ def kkt_solve(G, C, P, N, W, t, q, qd, K, out):
     return 0
 
 
-@njit(**INNER)
+@engine(**SEPARATE)
 def kkt_estimate(G, C, P, S, N, W, t, h, hbar, use_v):
     """q̈ᵖᵖ at the step just taken, for its error estimate (of q; with ``use_v`` of q and q̇), into
     the work array ``qpp_new`` of W.
@@ -105,7 +106,7 @@ def kkt_estimate(G, C, P, S, N, W, t, h, hbar, use_v):
             si[SI_RCOUNT] -= 1
         if due or si[SI_RMODE] == 0:
             ncorr = 2 if due else 1
-            refine_accelerations(G, C, P, S, N, W, t, h, ncorr)
+            call(refine_accelerations, G, C, P, S, N, W, t, h, ncorr)
             if not due:
                 return 0
             # the second correction's share of the error estimate (stepsize.md §3 with Δq̈ᵖᵖ = du)
@@ -126,10 +127,10 @@ def kkt_estimate(G, C, P, S, N, W, t, h, hbar, use_v):
                 si[SI_RMODE] = 0
                 return 0
             si[SI_RMODE] = 1
-    return kkt_solve(G, C, P, N, W, t, S.q, S.qd, (fview1(W, W_KB), iview1(W, W_KPIV)), out)
+    return call(kkt_solve, G, C, P, N, W, t, S.q, S.qd, (fview1(W, W_KB), iview1(W, W_KPIV)), out)
 
 
-@njit(**INNER)
+@engine(**SEPARATE)
 def refine_accelerations(G, C, P, S, N, W, t, h, ncorr):
     """``ncorr`` corrections of (q̈, λ) = the step's, towards the KKT solution, with the Newton
     matrix of the step (:func:`kkt_estimate`); q̈ into W's ``qpp_new``, the last increment κ z into
@@ -148,15 +149,15 @@ def refine_accelerations(G, C, P, S, N, W, t, h, ncorr):
     lk = fview1(W, W_LK)
     copy_into(out, S.qdd)
     copy_into(lk, S.lam)
-    rates(G, C, t, q, qd, fview1(W, W_PT), gam)
+    call(rates, G, C, t, q, qd, fview1(W, W_PT), gam)
     if fp[FP_SCALED] != 0.0:
         kappa = (1.0 - fp[FP_AM]) / (1.0 - fp[FP_AF])
     else:
         kappa = (1.0 - fp[FP_AM]) / (h * h * fp[FP_BETA] * (1.0 - fp[FP_AF]))
     active = iview1(C, C_ACTIVE)
     for it in range(ncorr):
-        evaluate(G, C, t, (q, qd, out, lk), nv < 0, (0.0, 0.0, 0.0), (N.AB, kr, N.Phi))
-        jacobian_times(G, C, t, q, out, Bu)
+        call(evaluate, G, C, t, (q, qd, out, lk), nv < 0, (0.0, 0.0, 0.0), (N.AB, kr, N.Phi))
+        call(jacobian_times, G, C, t, q, out, Bu)
         for i in range(nv):
             kx[iperm[i]] = -kr[i]
         for j in range(nc):
@@ -185,7 +186,7 @@ def project_normal_velocity(G, C, ip, W, t, q, qd, target, K):
     nc = ip[IP_NC]
     iperm = iview1(C, C_IPERM)
     active = iview1(C, C_ACTIVE)
-    jacobian_times(G, C, t, q, qd, Bv)
+    call(jacobian_times, G, C, t, q, qd, Bv)
     for i in range(nv):
         kx[iperm[i]] = 0.0
     for j in range(nc):
@@ -221,7 +222,7 @@ def error_norm(ip, fp, C, W, q0, q1, qd0, qd1, use_v):
 
 
 # ---- the parts of the time loop ---------------------------------------------------------------
-@njit(**INNER)
+@engine(**SEPARATE)
 def resynchronise(G, C, P, S, N, W, t, h, h_prev):
     """Re-synchronise a and the normal velocity with a new step size (stepsize.md §2), in place.
 
@@ -246,9 +247,9 @@ def resynchronise(G, C, P, S, N, W, t, h, h_prev):
     tgt = fview1(W, W_TGT)
     acc = (fview1(W, W_KBACC), iview1(W, W_KPIVACC))
     # Φ_t at t: the time functions at t (Python ones were asked for before the step)
-    eval_time_functions(t, iview1(C, C_TFKIND), iview1(C, C_TFOFF), fview1(C, C_TFCOEF), N.tfv)
-    jacobian_times(G, C, t, q, jn, Bv)
-    rates(G, C, t, q, qd, Pt, fview1(W, W_GAM))
+    call(eval_time_functions, t, iview1(C, C_TFKIND), iview1(C, C_TFOFF), fview1(C, C_TFCOEF), N.tfv)
+    call(jacobian_times, G, C, t, q, jn, Bv)
+    call(rates, G, C, t, q, qd, Pt, fview1(W, W_GAM))
     for j in range(nc):
         tgt[j] = -Pt[j] + h * h * fp[FP_CQ] * Bv[j]
     # velocity-constraint rows (the last nn): the scheme keeps A q̇ + a = 0 exactly, no h² term
@@ -256,14 +257,14 @@ def resynchronise(G, C, P, S, N, W, t, h, h_prev):
         tgt[j] = -Pt[j]
     if si[SI_PROJ] == 1:
         # the Newton matrix of the accepted step: its constraint rows are B
-        project_normal_velocity(G, C, ip, W, t, q, qd, tgt, (N.AB, N.ipiv))
+        call(project_normal_velocity, G, C, ip, W, t, q, qd, tgt, (N.AB, N.ipiv))
         return 0
     if si[SI_PROJ] != 2:
         # no factorization at the accepted state (a trial was rejected): one here
-        if kkt_solve(G, C, P, N, W, t, q, qd, acc, fview1(W, W_QPP_NEW)) != 0:
+        if call(kkt_solve, G, C, P, N, W, t, q, qd, acc, fview1(W, W_QPP_NEW)) != 0:
             return 1
         si[SI_PROJ] = 2
-    project_normal_velocity(G, C, ip, W, t, q, qd, tgt, acc)
+    call(project_normal_velocity, G, C, ip, W, t, q, qd, tgt, acc)
     return 0
 
 

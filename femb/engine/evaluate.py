@@ -18,11 +18,12 @@ from numba import njit
 
 from femb.base.jit import (
     call_constraint, call_force, call_rates, call_velocity_constraint, engine, fview1, fview2, fview3, iview1, iview2, iview3)
-from femb.engine.layout import (B_BASE, B_HASC, B_KERNEL, B_RATES, B_ROLE, C_ACTIVE, C_BATCHES, C_FCONST,
+from femb.engine.layout import (SEPARATE, B_BASE, B_HASC, B_KERNEL, B_RATES, B_ROLE, C_ACTIVE, C_BATCHES, C_FCONST,
     C_LAMZ, C_LIE, C_MI, C_MP, C_MX, C_QFIX, C_SCALE0, C_TFV, C_TI, C_TM, C_TN, C_W, C_WEXT, ENTRY, F_DOFS, F_FE,
     F_FQ, F_FV, F_P, F_TBLK, F_TF, F_TFI, F_TNN, F_VE, F_XDOFS, F_XE, INNER, K_BE, K_DOFS, K_GM, K_HE,
     K_LAMIDX, K_LE, K_P, K_PHE, K_PT, K_TB, K_TBLK, K_TBT, K_TF, K_TFI, K_TNN, K_VE, K_XDOFS, K_XE,
     ROLE_CONSTRAINT, ROLE_FORCE, ROLE_VELOCITY, V_DQ)
+from femb.engine.link import call
 from femb.engine.linalg import zero1, zero2, zero3
 
 
@@ -151,7 +152,7 @@ def constraint_batch(G, C, row, t, X, jac, coef, out, scale):
     ABf, r, Phi = out
     base = row[B_BASE]
     velocity = row[B_ROLE] == ROLE_VELOCITY
-    s = kernel_blocks(G, C, row, t, q, qd, lam, jac, coef[1], cK)
+    s = call(kernel_blocks, G, C, row, t, q, qd, lam, jac, coef[1], cK)
     sd = s if coef[1] != 0.0 else 0.0          # the factor of Ψ_q in the velocity rows (1/γ', or none)
     lamidx = iview2(G, base + K_LAMIDX)
     Be = fview3(G, base + K_BE)
@@ -182,7 +183,7 @@ def constraint_batch(G, C, row, t, X, jac, coef, out, scale):
     return scale
 
 
-@njit(**INNER)
+@engine(**SEPARATE)
 def kernel_blocks(G, C, row, t, q, v, lam, jac, cC, cK):
     """Gather the batch's coordinates, velocities ``v`` and multipliers, run its constraint kernel (or
     velocity-constraint kernel: Ψ into Φ_e, A into B_e, Ψ_t into the batch's Pt, Ψ_q into V_DQ) at
@@ -226,7 +227,7 @@ def constraint_blocks(G, C, row, t, q, v):
     """Run the batch's constraint kernel at (t, q) without Jacobian; its B_e blocks stay in G.
     The velocities gathered into the batch's ``ve`` are those of ``v`` (a velocity-constraint batch:
     its A, which does not depend on them, with zero multipliers)."""
-    kernel_blocks(G, C, row, t, q, v, fview1(C, C_LAMZ), v.shape[0] < 0, 0.0, 0.0)
+    call(kernel_blocks, G, C, row, t, q, v, fview1(C, C_LAMZ), v.shape[0] < 0, 0.0, 0.0)
 
 
 @engine(**ENTRY)
@@ -244,7 +245,7 @@ def rates(G, C, t, q, qd, Phi_t, gam):
         Pt = fview2(G, base + K_PT)
         gm = fview2(G, base + K_GM)
         if batches[b, B_ROLE] == ROLE_VELOCITY:
-            kernel_blocks(G, C, batches[b], t, q, qd, fview1(C, C_LAMZ), qd.shape[0] >= 0, 0.0, 0.0)
+            call(kernel_blocks, G, C, batches[b], t, q, qd, fview1(C, C_LAMZ), qd.shape[0] >= 0, 0.0, 0.0)
             velocity_rates(fview2(G, base + K_PHE), fview3(G, base + K_BE), fview3(G, base + V_DQ),
                            fview2(G, base + K_VE), Pt, gm)
         else:

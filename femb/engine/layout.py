@@ -25,6 +25,11 @@ INNER = dict(ENTRY, no_cpython_wrapper=True)
 #: inlined into their caller by numba (``inline="always"``), so that a pack's arrays are not
 #: passed as separate machine arguments at every call (docs/engine.md, "The named packs")
 STAGE = dict(INNER, inline="always")
+#: the large stages that several others call (the Newton step, evaluate's kernel blocks, the LU
+#: factorization and solve, the error estimate, ...): no wrappers, a cache entry of their own, and
+#: called through ``femb.engine.link.call`` by symbol, so that each is optimized and compiled once
+#: instead of once more in every caller (docs/engine.md, "Compile time")
+SEPARATE = INNER
 
 # ---- the model constants in the pack C (built by name in femb/solve/codegen.py, Compiled) ----------
 #: (name, kind) of each array of C, in pack order; C_<NAME> is its number. Kind: f/i (float64 or

@@ -13,7 +13,8 @@ E. Anderson et al., LAPACK Users' Guide, 3rd ed., SIAM 1999 (band LU with partia
 from numba import njit
 
 from femb.base.jit import engine
-from femb.engine.layout import (ENTRY, INNER, IP_DENSE, IP_KL, IP_KU, IP_N)
+from femb.engine.layout import (SEPARATE, ENTRY, INNER, IP_DENSE, IP_KL, IP_KU, IP_N)
+from femb.engine.link import call
 
 
 @engine(**ENTRY)
@@ -130,7 +131,7 @@ def band_solve(ABf, N, kl, ku, env, ipiv, b):
                 b[i] -= ABf[o + i] * bj
 
 
-@njit(**INNER)
+@engine(**SEPARATE)
 def dense_lu(Af, N, ipiv, rel_tol):
     """LU with partial pivoting of a dense row-major matrix in place, skipping zeros.
 
@@ -206,7 +207,7 @@ def dense_lu(Af, N, ipiv, rel_tol):
     return 0
 
 
-@njit(**INNER)
+@engine(**SEPARATE)
 def dense_solve(Af, N, ipiv, b):
     """Solve with the factors of :func:`dense_lu`, in place on ``b`` (permuted order), nonzeros only."""
     A = Af.reshape((N, N))
@@ -236,9 +237,9 @@ def dense_solve(Af, N, ipiv, b):
 @engine(**ENTRY)
 def dense_lu_solve(Af, N, ipiv, rel_tol, b):
     """:func:`dense_lu` then, if regular, :func:`dense_solve` on ``b``; returns the LU's status (for tests)."""
-    st = dense_lu(Af, N, ipiv, rel_tol)
+    st = call(dense_lu, Af, N, ipiv, rel_tol)
     if st == 0:
-        dense_solve(Af, N, ipiv, b)
+        call(dense_solve, Af, N, ipiv, b)
     return st
 
 
@@ -246,17 +247,17 @@ def dense_lu_solve(Af, N, ipiv, rel_tol, b):
 def factor(Af, ip, env, ipiv, rel_tol):
     """Factorize the iteration matrix in its storage (dense or band, fixed per model)."""
     if ip[IP_DENSE] != 0:
-        return dense_lu(Af, ip[IP_N], ipiv, rel_tol)
-    return band_lu(Af, ip[IP_N], ip[IP_KL], ip[IP_KU], env, ipiv, rel_tol)
+        return call(dense_lu, Af, ip[IP_N], ipiv, rel_tol)
+    return call(band_lu, Af, ip[IP_N], ip[IP_KL], ip[IP_KU], env, ipiv, rel_tol)
 
 
 @njit(**INNER)
 def solve(Af, ip, env, ipiv, b):
     """Solve with the factors of :func:`factor`, in place on ``b`` (permuted order)."""
     if ip[IP_DENSE] != 0:
-        dense_solve(Af, ip[IP_N], ipiv, b)
+        call(dense_solve, Af, ip[IP_N], ipiv, b)
     else:
-        band_solve(Af, ip[IP_N], ip[IP_KL], ip[IP_KU], env, ipiv, b)
+        call(band_solve, Af, ip[IP_N], ip[IP_KL], ip[IP_KU], env, ipiv, b)
 
 
 @njit(**INNER)

@@ -16,6 +16,7 @@ from femb.engine.layout import (STAGE, C_TFCOEF, C_TFKIND, C_TFOFF, ENTRY, FP_CQ
     SI_LUFRESH, SI_NFAIL, SI_NOGROW, SI_PROJ, SI_REJECTED, SI_RMODE, SI_SAVED, SI_STEP, SI_STORED, ST_CHUNK,
     ST_DONE, ST_GO, ST_HMIN, ST_KKT_SINGULAR, ST_NEED_TF, W_ATOLV, W_A_S, W_EQ, W_EV, W_JN, W_JNEW, W_KB,
     W_KBACC, W_KPIV, W_KPIVACC, W_LAM_S, W_PLAM_S, W_PQDD_S, W_QDD_S, W_QD_S, W_QPP, W_QPP_NEW, W_Q_S, W_WQ)
+from femb.engine.link import call
 from femb.engine.evaluate import eval_time_functions
 from femb.engine.linalg import copy_into
 from femb.engine.newton import newton_step
@@ -71,7 +72,7 @@ def run(G, C, W, P, S, N, O, n_chunk):
         if status != ST_GO:
             return status
         newton_weights(C, fp, S.q, fview1(W, W_ATOLV), adaptive, fview1(W, W_WQ))
-        k = newton_step(G, C, P, S, N, t1, h, h_prev if h_prev > 0.0 else h, fview1(W, W_WQ))
+        k = call(newton_step, G, C, P, S, N, t1, h, h_prev if h_prev > 0.0 else h, fview1(W, W_WQ))
         if k < 0:
             if not adaptive:
                 return k
@@ -151,7 +152,7 @@ def begin_trial(G, C, P, S, N, W, t, t1, h, adaptive):
         si[SI_HASPREV_S] = si[SI_HASPREV]
         sf[SF_FREF_S] = sf[SF_FREF]
         if h != h_prev and si[SI_HAVEJ] != 0:
-            if resynchronise(G, C, P, S, N, W, t, h, h_prev) != 0:
+            if call(resynchronise, G, C, P, S, N, W, t, h, h_prev) != 0:
                 info[0] = t
                 return ST_KKT_SINGULAR
         si[SI_SAVED] = 1
@@ -159,7 +160,7 @@ def begin_trial(G, C, P, S, N, W, t, t1, h, adaptive):
         if sf[SF_TFTIME] != t1:
             info[0] = t1
             return ST_NEED_TF
-    eval_time_functions(t1, iview1(C, C_TFKIND), iview1(C, C_TFOFF), fview1(C, C_TFCOEF), N.tfv)
+    call(eval_time_functions, t1, iview1(C, C_TFKIND), iview1(C, C_TFOFF), fview1(C, C_TFCOEF), N.tfv)
     if adaptive:
         si[SI_SAVED] = 0
     return ST_GO
@@ -176,7 +177,7 @@ def adaptive_error(G, C, P, S, N, W, t1, h, h_prev):
     Cq = fp[FP_CQ]
     Cv = fp[FP_CV]
     hbar = 0.5 * (h + (h_prev if h_prev > 0.0 else h))
-    if kkt_estimate(G, C, P, S, N, W, t1, h, hbar, nv >= 0) != 0:
+    if call(kkt_estimate, G, C, P, S, N, W, t1, h, hbar, nv >= 0) != 0:
         return ST_KKT_SINGULAR, -1.0
     qpp = fview1(W, W_QPP)
     qpp_new = fview1(W, W_QPP_NEW)
@@ -208,7 +209,7 @@ def fixed_step_check(G, C, P, S, N, W, n, t1, h):
     phase = n % ip[IP_CHECK]
     if not (phase == 0 or (phase == 1 and si[SI_HAVEJ] != 0)):
         return ST_GO, err
-    if kkt_estimate(G, C, P, S, N, W, t1, h, h, nv < 0) != 0:
+    if call(kkt_estimate, G, C, P, S, N, W, t1, h, h, nv < 0) != 0:
         return ST_KKT_SINGULAR, err
     qpp = fview1(W, W_QPP)
     qpp_new = fview1(W, W_QPP_NEW)

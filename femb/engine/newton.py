@@ -50,12 +50,13 @@ from numba import njit
 
 from femb.base.jit import engine, fview1, fview2, fview3, iview1, iview2
 from femb.base.rotations import s2, s3, s7
-from femb.engine.layout import (STAGE, C_BW, C_D, C_ENV, C_FL, C_GGLW, C_IPERM, C_LIE, C_PAIRS, C_PN, C_ROT, C_TETA,
+from femb.engine.layout import (SEPARATE, STAGE, C_BW, C_D, C_ENV, C_FL, C_GGLW, C_IPERM, C_LIE, C_PAIRS, C_PN, C_ROT, C_TETA,
     C_TN, C_W, C_XMAP, ENTRY, FP_AF, FP_AM, FP_ATOL, FP_BETA, FP_GAMMA, FP_L, FP_NEWTC, FP_PHITOL, FP_RTOL,
     FP_SCALED, FP_SINGTOL, FP_XTOL, INNER, IP_CARRY, IP_FULL, IP_GGL, IP_MAXIT, IP_MINIT, IP_NC, IP_NTEST,
     IP_NV, IP_PRED, NEWTON_CARRY_ETA, NEWTON_ETA_EXP, NEWTON_FROZEN_MAX, NS_EVAL, NS_FACT, NS_ROUNDOFF,
     NS_SOLVE, SF_ETA, SF_FREF, SF_LUH, SI_CARRY, SI_HASPREV, SI_LUFRESH, SI_LUVALID, ST_DIVERGED_SINGULAR,
     ST_MAXITER, ST_NONFINITE, ST_SINGULAR)
+from femb.engine.link import call
 from femb.engine.linalg import (factor, solve, zero1)
 from femb.engine.evaluate import (constraint_B, copy_B, evaluate, rates)
 
@@ -119,7 +120,7 @@ def newton_first_accept(eta0, size, phi_ratio, fresh):
     return fresh and eta0 >= 0.0 and eta0 * size <= 1.0 and eta0 * phi_ratio <= 1.0
 
 
-@njit(**INNER)
+@engine(**SEPARATE)
 def newton_step(G, C, P, S, N, t1, h, h_prev, wq):
     """One step t1 − h → t1 of the generalized-α scheme, in place: index 3 or stabilized index 2.
 
@@ -164,10 +165,10 @@ def newton_step(G, C, P, S, N, t1, h, h_prev, wq):
     redo = False
     while True:
         jac = redo or (((full and k == 0) or si[SI_LUVALID] == 0) if ntest == 0 else not have_lu)
-        scale = evaluate(G, C, t1, (S.q, S.qd, S.qdd, S.lam), jac, (c * bp, c * gp, c), (N.AB, N.r, N.Phi))
+        scale = call(evaluate, G, C, t1, (S.q, S.qd, S.qdd, S.lam), jac, (c * bp, c * gp, c), (N.AB, N.r, N.Phi))
         stats[NS_EVAL] += 1
         if ggl:
-            velocity_residual(G, C, t1, S.q, S.qd, jac, lie, g)
+            call(velocity_residual, G, C, t1, S.q, S.qd, jac, lie, g)
         if not redo:
             F = scale if scale > F_ref else F_ref
             err_f, err_phi, status = measure_residual(C, P, N, t1, k, F, gp, ggl)
@@ -254,7 +255,7 @@ def newton_begin(G, C, P, S, x, t1, h, h_prev, ggl, lie):
     ntest = ip[IP_NTEST]
     if ggl:
         # B(q_n) for the step (time functions at t_{n+1}: they are evaluated before the step)
-        constraint_B(G, C, t1, S.q, S.qd, fview2(C, C_BW)[0])
+        call(constraint_B, G, C, t1, S.q, S.qd, fview2(C, C_BW)[0])
     predict(C, P, S, x, h, h_prev, lie)
     if ggl:
         zero1(fview2(C, C_GGLW)[0])
@@ -323,7 +324,7 @@ def factor_matrix(C, P, N, h, sg, ggl, k):
     """
     ip, fp, si, sf, stats = P
     if ggl:
-        ggl_matrix(C, N.AB, sg)
+        call(ggl_matrix, C, N.AB, sg)
     if factor(N.AB, ip, iview2(C, C_ENV), N.ipiv, fp[FP_SINGTOL]) != 0:
         si[SI_LUVALID] = 0
         return ST_DIVERGED_SINGULAR if k > 0 else ST_SINGULAR
@@ -434,7 +435,7 @@ def predict(C, P, S, x, h, h_prev, lie):
         lam[j] = g
 
 
-@njit(**INNER)
+@engine(**SEPARATE)
 def velocity_residual(G, C, t1, q, qd, jac, lie, g):
     """Index 2: g = B(q) q̇ + Φ_t, from the blocks the last ``evaluate`` left (rotation nodes:
     ``evaluate`` left B T(D) when it built the matrix, kept for :func:`ggl_matrix`, and B itself
@@ -445,11 +446,11 @@ def velocity_residual(G, C, t1, q, qd, jac, lie, g):
     E = fview2(C, C_GGLW)
     if lie:
         if jac:
-            copy_B(G, C, Bw[2])
-        constraint_B(G, C, t1, q, qd, Bq)
+            call(copy_B, G, C, Bw[2])
+        call(constraint_B, G, C, t1, q, qd, Bq)
     else:
-        copy_B(G, C, Bq)
-    rates(G, C, t1, q, qd, E[2], E[3])
+        call(copy_B, G, C, Bq)
+    call(rates, G, C, t1, q, qd, E[2], E[3])
     for j in range(g.shape[0]):
         g[j] = E[2][j]
     for kk in range(fl.shape[0]):

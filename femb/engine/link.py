@@ -1,0 +1,90 @@
+"""Calls between the engine's stages by symbol: every stage is optimized and compiled once.
+
+numba links the LLVM module of every compiled callee into the module of its caller and runs the
+whole -O3 pipeline and the machine-code generation again over the result (numba 0.68,
+``numba/core/codegen.py``, ``CPUCodeLibrary.finalize``): a stage at depth d of the call tree is
+optimized and code-generated d + 1 times, and the engine's compile time grows with the sum over
+its functions of the size of their subtrees (docs/engine.md, "Compile time").
+
+``call(stage, *args)`` in compiled code calls ``stage`` (a numba dispatcher of the engine) without
+linking it: the caller's module only *declares* the stage's native function under a symbol of its
+own (``femb.stage.<numba's name of the function>``), and that symbol is given the address of the
+stage's compiled code (``llvmlite.binding.add_symbol``) before the caller is loaded: while the
+caller compiles (the call is typed) and, when the caller comes from the disk cache, by a hook that
+numba runs before it loads the caller's object code (the library's ``reload_init``). The call is
+numba's native calling convention, as a linked call that LLVM does not inline (the engine's
+stages are not inlined by LLVM: they are large and called from several places), and an error
+status of the stage propagates to the caller.
+
+With the JIT disabled (``NUMBA_DISABLE_JIT=1``) ``call(stage, *args)`` is ``stage(*args)``.
+"""
+import functools
+import importlib
+
+import llvmlite.binding as ll
+from numba.core import cgutils, types
+from numba.extending import intrinsic
+
+from femb.base.jit import jit_disabled
+
+#: the stages' symbols registered in this process: symbol -> address
+_SYMBOLS = {}
+
+
+def stage_symbol(disp, argtypes):
+    """Compile (or load from the cache) the stage ``disp`` for ``argtypes`` and register the address
+    of its native function under its symbol; returns (symbol, compile result)."""
+    argtypes = tuple(argtypes)
+    if argtypes not in disp.overloads:
+        disp.compile(argtypes)
+    cres = disp.overloads[argtypes]
+    name = cres.fndesc.llvm_func_name
+    symbol = "femb.stage." + name
+    if symbol not in _SYMBOLS:
+        addr = cres.library.get_pointer_to_function(name)
+        if not addr:
+            raise RuntimeError(f"femb engine: no native code for stage {disp.py_func.__name__}")
+        ll.add_symbol(symbol, addr)
+        _SYMBOLS[symbol] = addr
+    return symbol, cres
+
+
+def _register(module, name, argtypes):
+    """The hook run before a caller is loaded from the cache: its stage's symbol (picklable:
+    module and function by name, the argument types)."""
+    stage_symbol(getattr(importlib.import_module(module), name), argtypes)
+
+
+@intrinsic
+def _call(typingctx, stage, *args):
+    if not isinstance(stage, types.Dispatcher):
+        return None
+    disp = stage.dispatcher
+    argtypes = tuple(types.unliteral(a) for a in args)
+    symbol, cres = stage_symbol(disp, argtypes)
+    restype = cres.signature.return_type
+    hook = functools.partial(_register, disp.py_func.__module__, disp.py_func.__name__, argtypes)
+    # numba hands the arguments after the stage to the code generation as one tuple
+    sig = restype(stage, types.StarArgTuple.from_types(args))
+
+    def codegen(context, builder, sig_, llargs):
+        context.active_code_library._reload_init.add(hook)
+        want = cres.signature.args
+        have = cgutils.unpack_tuple(builder, llargs[1], len(args))
+        vals = [context.cast(builder, v, a, w) for v, a, w in zip(have, args, want)]
+        fnty = context.call_conv.get_function_type(restype, want)
+        fn = cgutils.get_or_insert_function(builder.module, fnty, symbol)
+        status, res = context.call_conv.call_function(builder, fn, restype, want, vals)
+        with cgutils.if_unlikely(builder, status.is_error):
+            context.call_conv.return_status_propagate(builder, status)
+        return res
+
+    return sig, codegen
+
+
+def _call_python(stage, *args):
+    return stage(*args)
+
+
+#: ``call(stage, *args)``: the stage's result, the stage compiled once and called by symbol
+call = _call_python if jit_disabled() else _call

@@ -1,0 +1,89 @@
+"""The engine's large stages are compiled once and called by symbol (femb/engine/link.py).
+
+numba links a compiled callee's LLVM module into every caller and optimizes and code-generates it
+again there; the stages called through ``femb.engine.link.call`` must not be: their code is defined
+in their own library only, and the callers declare the stage's symbol (docs/engine.md, "Compile
+time"). The trajectories through these calls are checked bit for bit by test_engine_reference.py.
+"""
+import numpy as np
+import pytest
+
+from femb.base.jit import jit_disabled
+
+pytestmark = pytest.mark.skipif(jit_disabled(), reason="compiled code only")
+
+#: stages called by symbol, by the name numba gives their functions
+SEPARATE = ("newton_step", "kkt_estimate", "resynchronise", "refine_accelerations", "kkt_solve", "evaluate",
+            "kernel_blocks", "velocity_residual", "dense_lu", "band_lu", "dense_solve", "band_solve")
+
+
+def _functions(disp):
+    """(defined, declared) function names of the only compiled version of ``disp``."""
+    (cres,) = disp.overloads.values()
+    mod = cres.library._get_module_for_linking()
+    defined = [f.name for f in mod.functions if not f.is_declaration]
+    declared = [f.name for f in mod.functions if f.is_declaration]
+    return defined, declared
+
+
+def _stage(name):
+    import sys
+    for m in ("linalg", "evaluate", "newton", "control"):
+        d = getattr(sys.modules[f"femb.engine.{m}"], name, None)
+        if hasattr(d, "overloads"):
+            return d
+    raise LookupError(name)
+
+
+def _named(names, stage):
+    """The names among ``names`` of the native functions of ``stage`` (or their symbols)."""
+    own = {c.fndesc.llvm_func_name for c in _stage(stage).overloads.values()}
+    return [n for n in names if n in own or n.removeprefix("femb.stage.") in own]
+
+
+def test_run_defines_none_of_the_separate_stages_and_calls_them_by_symbol():
+    from femb import engine
+    engine.ensure_engine(verbose=False)
+    defined, declared = _functions(engine.run)
+    for stage in SEPARATE:
+        assert not _named(defined, stage), f"{stage} is compiled into run again"
+    for stage in ("newton_step", "kkt_estimate", "resynchronise"):
+        (sym,) = _named(declared, stage)
+        assert sym.startswith("femb.stage.")
+
+
+def test_each_separate_stage_is_defined_in_one_library_of_the_engine():
+    """Over all entry points and their stages, each stage's code is in its own library only."""
+    import sys
+    from femb import engine
+    from femb.engine import link
+    engine.ensure_engine(verbose=False)
+    owners = {}
+    mods = [sys.modules[f"femb.engine.{m}"] for m in ("linalg", "evaluate", "newton", "control", "loop")]
+    disps = {id(d): d for m in mods for d in vars(m).values() if hasattr(d, "overloads") and d.overloads}
+    for d in disps.values():
+        defined, _ = _functions(d)
+        for stage in SEPARATE:
+            if _named(defined, stage):
+                owners.setdefault(stage, []).append(d.py_func.__name__)
+    for stage in SEPARATE:
+        assert owners.get(stage) == [stage], (stage, owners.get(stage))
+    # every symbol a caller declares is registered with the address of the stage's code
+    assert all(addr != 0 for addr in link._SYMBOLS.values()) and len(link._SYMBOLS) >= len(SEPARATE)
+
+
+def test_a_call_by_symbol_returns_what_the_stage_returns():
+    """dense_lu_solve calls dense_lu and dense_solve by symbol: its solution and status are the
+    stage's (a singular matrix reports 1)."""
+    from femb import engine
+    rng = np.random.default_rng(3)
+    n = 7
+    A = rng.normal(size=(n, n)) + n * np.eye(n)
+    b = rng.normal(size=n)
+    x = b.copy()
+    piv = np.zeros(3 * n + 2 * n * n, dtype=np.int64)
+    assert engine.dense_lu_solve(A.ravel().copy(), n, piv, 1e-13, x) == 0
+    assert np.allclose(A @ x, b, rtol=1e-12, atol=1e-12)
+    S = A.copy()
+    S[:, 2] = S[:, 4]
+    assert engine.dense_lu_solve(S.ravel().copy(), n, piv, 1e-13, b.copy()) == 1
