@@ -40,7 +40,8 @@ import scipy.linalg as sla
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from femb.contact import assemble
+from femb.contact import assemble, core
+from femb.contact.dense import DenseModel
 from femb.contact.prox import direction, prox_disc, prox_nonnegative
 from femb.system import assembly, kernels
 
@@ -63,6 +64,10 @@ class StepState:
     x: np.ndarray = None    # the previous step's unknowns (initial guess)
     gN: np.ndarray = None   # g_N(q_n) and g̈_N(q_n, u_n, u̇_n): locate impacts inside a step
     gNdd: np.ndarray = None
+
+
+#: largest system solved by the compiled LU (femb/contact/core.py: increment); larger dense systems use LAPACK
+DENSE_COMPILED_LU = 200
 
 
 class StepFailure(Exception):
@@ -140,6 +145,9 @@ class NonsmoothStep:
         diagM = (self.M if self.M is not None else assembly.mass_matrix(model, model.q0)).diagonal()
         w = model.force_weight
         self.m_ref = float(np.mean(diagM[w == 1.0])) if np.any(w == 1.0) else float(np.mean(diagM))
+        self._r_cache = None
+        if self.dense:
+            self._dense_setup()
 
     def set_h(self, h):
         """Use step size h (impact steps are split at the impact, docs/contact.md §2.4)."""
@@ -147,6 +155,98 @@ class NonsmoothStep:
         c = (1.0 - self.af) / (1.0 - self.am)
         self.c_u = self.h * self.gamma * c        # ∂u_{n+1}/∂u̇_{n+1}, ∂P/∂λ
         self.c_q = self.h * self.h * self.beta * c     # ∂Δq/∂u̇_{n+1}, ∂κ̂/∂λ
+
+    # ------------------------------------------------------------------ the dense, compiled path
+    def _dense_setup(self):
+        """Work arrays of the compiled iteration (femb/contact/core.py) for small systems."""
+        lay, k, l, nx = self.lay, self.lay.nN, self.lay.nF, self.nx
+        self.dm = DenseModel(self.model)
+        self._o = np.ascontiguousarray(self.offsets, dtype=np.int64)
+        sizes = [idx.size for idx in lay.friction]
+        fptr = np.concatenate(([0], np.cumsum(sizes))).astype(np.int64)
+        fidx = np.concatenate([np.asarray(i, dtype=np.int64) for i in lay.friction] + [np.zeros(0, np.int64)])
+        self._lay = (np.ascontiguousarray(self.owner, dtype=np.int64), fptr, np.ascontiguousarray(fidx))
+        self._fixed_law = (np.ascontiguousarray(lay.mu, dtype=float), np.ascontiguousarray(lay.e_N, dtype=float),
+                           np.ascontiguousarray(self.e_F, dtype=float),
+                           np.ascontiguousarray(self.model.force_weight, dtype=float))
+        self._sets = np.zeros((5, k), dtype=np.int8)
+        self._out = tuple(np.zeros(nx) for _ in range(2)) + tuple(np.zeros(k) for _ in range(3)) + \
+            tuple(np.zeros(l) for _ in range(3))
+        self._J = np.zeros((nx, nx))
+        self._dx = np.zeros(nx)
+        dm = self.dm
+        self._mq = (dm.M, dm.K1, dm.C1, dm.B, dm.WN, dm.WF)
+        self._mv = (dm.f, dm.Phi, dm.Phi_t, dm.gam, dm.gN, dm.zN, dm.zF)
+        model, n = self.model, self.model.nq
+        xmap = np.asarray(model.xmap, dtype=np.int64) if model.lie else np.arange(n, dtype=np.int64)
+        rot = np.asarray(model.rot_blocks, dtype=np.int64).ravel() if model.lie else np.zeros(0, np.int64)
+        self._cmp = (np.ascontiguousarray(xmap), np.ascontiguousarray(rot))
+        self._kout = (np.zeros(model.nx),) + tuple(np.zeros(n) for _ in range(2)) + \
+            tuple(np.zeros(a) for a in (k, l, k, k, l)) + (np.zeros(n),)
+
+    def _dense_kinematics(self, s, x):
+        """:meth:`kinematics` compiled: a dict of views into work arrays (copied by :meth:`_dense_result`)."""
+        par = np.array([self.h, self.am, self.af, self.beta, self.gamma])
+        core.kinematics(x, self._o, self._st, par, self._cmp, self._kout)
+        return dict(zip(("q", "u", "abar", "lbar_N", "lbar_F", "PN", "kN_hat", "PF"), self._kout))
+
+    def _dense_residual(self, s, x, ev, frozen):
+        """Evaluate the model at the iterate's kinematics ``ev`` and the compiled residual; returns the error."""
+        o, dm = self.offsets, self.dm
+        dm.evaluate(s.t + self.h, ev["q"], ev["u"], x[o[5]:o[6]], x[o[8]:o[9]], x[o[10]:o[11]])
+        if frozen is not None:
+            self._sets[:] = frozen
+        par = np.array([self.h, self.tol, self.c_q, self.c_u, self.m_ref, 0.0 if frozen is None else 1.0])
+        self._par = par
+        kin = (ev["u"], ev["PN"], ev["kN_hat"], ev["PF"], s.gNd, s.gFd)
+        return core.residual(x, self._o, self._mq, self._mv, kin, self._law, self._lay, par, self._sets, self._out)
+
+    def _dense_result(self, ev):
+        """The iterate's quantities (owned copies) as :meth:`evaluate` gives them, and its index sets."""
+        dm = self.dm
+        ev = {key: a.copy() for key, a in ev.items()}
+        ev.update(gN=dm.gN.copy(), WN=dm.WN.copy(), WF=dm.WF.copy(), zN=dm.zN.copy(), zF=dm.zF.copy())
+        for key, a in zip(("gNd", "xiN", "gNdd", "gF", "xiF", "gFdd"), self._out[2:]):
+            ev[key] = a.copy()
+        sets = tuple(self._sets[i].astype(bool) for i in range(5))
+        return ev, sets
+
+    def _dense_increment(self, x):
+        """The Newton increment at the iterate of the last :meth:`_dense_residual` (None: no factorization)."""
+        J, R = self._J, self._out[0]
+        core.jacobian(x, self._o, self._mq, self._law, self._lay, self._par, self._sets, self._out[2:], J)
+        if not np.all(np.isfinite(J)):
+            return None
+        if self.nx <= DENSE_COMPILED_LU:
+            if core.increment(J, R, self._dx) == 0:
+                return self._dx.copy()
+            return np.linalg.lstsq(J, -R, rcond=1e-11)[0]
+        return self.newton_increment(J, R)
+
+    def newton_dense(self, s, x0, max_iter=None):
+        """:meth:`newton` without ``fixed_z`` on the compiled dense path (same iterates, same result)."""
+        x = x0.copy()
+        frozen = None
+        f = np.ascontiguousarray
+        self._st = (f(s.q), f(s.u), f(s.ud), f(s.abar), f(s.lam_N), f(s.lam_F), f(s.lbar_N), f(s.lbar_F))
+        for it in range(1, (max_iter or self.max_iter) + 1):
+            ev = self._dense_kinematics(s, x)
+            err = self._dense_residual(s, x, ev, frozen)
+            if not np.isfinite(err):
+                return (x, *self._dense_result(ev), it, False, err)
+            if err <= self.tol:
+                if frozen is not None:       # converged with the sets held: a solution if they are its own
+                    err = self._dense_residual(s, x, ev, None)
+                return (x, *self._dense_result(ev), it, err <= self.tol, err)
+            if it == self.freeze_after:
+                frozen = self._sets.copy()
+            dx = self._dense_increment(x)
+            if dx is None:
+                return (x, *self._dense_result(ev), it, False, err)
+            x = x + dx
+        ev = self._dense_kinematics(s, x)
+        err = self._dense_residual(s, x, ev, None)
+        return (x, *self._dense_result(ev), self.max_iter, err <= self.tol, err)
 
     # ------------------------------------------------------------------ bookkeeping
     def split(self, x):
@@ -169,9 +269,17 @@ class NonsmoothStep:
         return dict(q=q, u=u, abar=abar, lbar_N=lbN, lbar_F=lbF, PN=PN, kN_hat=kN_hat, PF=PF)
 
     def prox_r(self, q, t):
-        """Prox parameters r_i = 1/(W M⁻¹ Wᵀ)_ii per normal and tangent row (Studer 2009)."""
-        ev = assemble.evaluate(self.model, t, q, np.zeros(self.model.nq), dense=True)
-        Wd = np.vstack((ev["WN"], ev["WF"]))
+        """Prox parameters r_i = 1/(W M⁻¹ Wᵀ)_ii per normal and tangent row (Studer 2009).
+
+        W at (q, t) is taken from the last converged iterate when that is the state asked for (the
+        start of a step is the end of the step before), else evaluated."""
+        c = self._r_cache
+        if c is not None and c[0] is q and c[1] == t:
+            WN, WF = c[2], c[3]
+        else:
+            ev = assemble.evaluate(self.model, t, q, np.zeros(self.model.nq), dense=True)
+            WN, WF = ev["WN"], ev["WF"]
+        Wd = np.vstack((WN, WF))
         if Wd.shape[0] == 0:
             return np.zeros(0), np.zeros(0)
         if self.Minv is not None:
@@ -393,6 +501,8 @@ class NonsmoothStep:
         -------
         (x, ev, sets, iterations, converged, error)
         """
+        if fixed_z is None and self.dense:
+            return self.newton_dense(s, x0, max_iter)
         x = x0.copy()
         err = np.inf
         frozen = None
@@ -508,6 +618,11 @@ class NonsmoothStep:
         R, _, ev, sets = self.system(s, x)
         return x, ev, sets, self.max_fp, False, err
 
+    def _remember(self, s, ev):
+        """Keep W of a step's solution for the prox parameters of the step that starts there."""
+        if self.dense:
+            self._r_cache = (ev["q"], s.t + self.h, ev["WN"], ev["WF"])
+
     def solve(self, s):
         """One step from s: semismooth Newton, the fixed point if Newton fails.
 
@@ -520,16 +635,21 @@ class NonsmoothStep:
         StepFailure
         """
         self.rN, self.rF = self.prox_r(s.q, s.t)
+        if self.dense:
+            self._law = (self.rN, self.rF) + self._fixed_law
         x0 = s.x if s.x is not None else np.zeros(self.nx)
         x, ev, sets, it, ok, err = self.newton(s, x0)
         if ok:
+            self._remember(s, ev)
             return x, ev, sets, dict(method="newton", iterations=it, error=err)
         x1, ev1, sets1, it1, ok1, err1 = self.fixed_point(s, x0)
         if ok1:
+            self._remember(s, ev1)
             return x1, ev1, sets1, dict(method="fixed_point", iterations=it + it1, error=err1)
         if np.all(np.isfinite(x1)):             # Newton again, from where the fixed point got to
             x2, ev2, sets2, it2, ok2, err2 = self.newton(s, x1)
             if ok2:
+                self._remember(s, ev2)
                 return x2, ev2, sets2, dict(method="fixed_point", iterations=it + it1 + it2, error=err2)
         raise StepFailure(f"semismooth Newton: {it} iterations, residual {err:.3e}; prox fixed point: "
                           f"{it1} iterations, last change {err1:.3e} (tolerance {self.tol:.1e})", x, sets)
