@@ -28,6 +28,7 @@ import numpy as np
 
 from femb.base.jit import kernel
 from femb.base.rotations import quat_exp_into, quat_mul_into
+from femb.contact.batches import evaluate_batches
 
 
 @kernel(allocates=True)
@@ -456,3 +457,69 @@ def _compose(q0, d, xmap, rot, q):
         nrm = np.sqrt(p[0] * p[0] + p[1] * p[1] + p[2] * p[2] + p[3] * p[3])
         for c in range(4):
             q[xs + c] = p[c] / nrm
+
+
+@kernel(allocates=True)
+def _evaluate(x, o, mdl, t, kout, dq):
+    """The model at the iterate's kinematics (femb/contact/batches.py)."""
+    recs, qx, ux, f0, removed = mdl
+    q, u = kout[0], kout[1]
+    qx[:q.size] = q
+    ux[:u.size] = u
+    mult = (x[o[5]:o[6]], x[o[8]:o[9]], x[o[10]:o[11]])
+    evaluate_batches(recs, t, qx, ux, mult, True, dq, f0, removed)
+
+
+@kernel(allocates=True)
+def newton_loop(x, mdl, st, law, lay, par, work):
+    """The semismooth Newton iterations of one step (NonsmoothStep.newton_dense) in one call.
+
+    ``x`` (nx,) the initial guess, overwritten by the last iterate; ``mdl`` = (batch records, q_ext, v_ext,
+    f0, removed) (:class:`femb.contact.dense.DenseModel`); ``st`` the step's start (:func:`kinematics`);
+    ``par`` = (h, tol, c_q, c_u, m_ref, 0, α_m, α_f, β, γ, t_{n+1}, max_iter, freeze_after); ``work`` =
+    (o, cmp, kout, out, dq, mq, mv, J, dx, sets, (ġ_N⁻, γ_F⁻)). The index sets are held after
+    ``freeze_after`` iterations; a result reached with held sets is a solution only if they are its
+    own. Returns (0 converged or 1 not, iterations, error); the work arrays hold the last iterate's
+    quantities.
+    """
+    o, cmp, kout, out, dq, mq, mv, J, dx, sets, sd = work
+    kp = np.array([par[0], par[6], par[7], par[8], par[9]])
+    rp = par[:6].copy()
+    rp[5] = 0.0
+    t1, tol = par[10], par[1]
+    max_iter, freeze_after = int(par[11]), int(par[12])
+    kin = (kout[1], kout[5], kout[6], kout[7], sd[0], sd[1])
+    R = out[0]
+    for it in range(1, max_iter + 1):
+        kinematics(x, o, st, kp, cmp, kout)
+        _evaluate(x, o, mdl, t1, kout, dq)
+        err = residual(x, o, mq, mv, kin, law, lay, rp, sets, out)
+        if not np.isfinite(err):
+            return 1, it, err
+        if err <= tol:
+            if rp[5] != 0.0:            # converged with the sets held: a solution if they are its own
+                rp[5] = 0.0
+                err = residual(x, o, mq, mv, kin, law, lay, rp, sets, out)
+            return (0 if err <= tol else 1), it, err
+        if it == freeze_after:
+            rp[5] = 1.0
+        jacobian(x, o, mq, law, lay, rp, sets, out[2:], J)
+        if not np.all(np.isfinite(J)):
+            return 1, it, err
+        if increment(J, R, dx) != 0:
+            dx[:] = np.linalg.lstsq(J, -R, rcond=1e-11)[0]
+        x += dx
+    kinematics(x, o, st, kp, cmp, kout)
+    _evaluate(x, o, mdl, t1, kout, dq)
+    rp[5] = 0.0
+    err = residual(x, o, mq, mv, kin, law, lay, rp, sets, out)
+    return (0 if err <= tol else 1), max_iter, err
+
+
+@kernel(allocates=True)
+def prox_parameters(WN, WF, Minv, rN, rF):
+    """r_i = 1/(W M⁻¹ Wᵀ)_ii for the normal and tangent rows (NonsmoothStep.prox_r; Studer 2009, §3.4)."""
+    for W, r in ((WN, rN), (WF, rF)):
+        for i in range(W.shape[0]):
+            g = W[i] @ (Minv @ W[i])
+            r[i] = 1.0 / max(g, 1e-300)

@@ -16,26 +16,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from femb.base.jit import kernel
+from femb.contact.batches import evaluate_batches
 from femb.system import kernels
 
 
 def _flat(rows, cols, ncols):
     return (np.asarray(rows, dtype=np.int64) * ncols + np.asarray(cols, dtype=np.int64)).ravel()
-
-
-@kernel
-def _add_at(flat, idx, vals, sel, sign):
-    """flat[idx[a]] += sign vals[sel[a]] (unbuffered: repeated indices add up)."""
-    for a in range(idx.size):
-        flat[idx[a]] += sign * vals[sel[a]]
-
-
-@kernel
-def _put_at(flat, idx, vals, sel):
-    """flat[idx[a]] = vals[sel[a]]."""
-    for a in range(idx.size):
-        flat[idx[a]] = vals[sel[a]]
 
 
 def _entries(free_rows, free_cols, rows, cols, ncols):
@@ -50,33 +36,54 @@ def _entries(free_rows, free_cols, rows, cols, ncols):
     return sel, _flat(R, C, ncols)
 
 
-class _Batch:
-    """One batch's kernel, its preallocated outputs and the global positions of its entries."""
+def _i(a):
+    return np.ascontiguousarray(a, dtype=np.int64)
 
-    def __init__(self, g, role, nq):
-        self.g, self.role = g, role
-        self.fn = kernels.compiled_kernel(g.cls.__name__, role, g.cls.kernels[role])[0]
-        nel, nd = g.dofs.shape
-        self.P, self.xdofs, self.dofs = g.P, g.xdofs, g.dofs
-        self.static_tf = not any(len(row) for row in (g.time_functions or [[]]))
-        self.tf = np.zeros((nel, 0, 3))
-        self.xe = np.zeros(g.xdofs.shape)
-        self.ve = np.zeros(g.dofs.shape)
-        free = g.dofs < nq
-        self.vec_sel = np.nonzero(free.ravel())[0].astype(np.int64)   # entries of (nel, nd) on free dofs
-        self.vec_idx = g.dofs.ravel()[self.vec_sel].astype(np.int64)
-        self.mat_sel, self.mat_idx = _entries(free, free, g.dofs, g.dofs, nq)
-        self.Mat = np.zeros((nel, nd, nd))                            # fq / Me / H
-        self.Mat2 = np.zeros((nel, nd, nd))                           # fv
-        self.Vec = np.zeros((nel, nd))                                # fe
 
-    def time_values(self, t):
-        return self.tf if self.static_tf else kernels.time_values(self.g, t)
-
-    def gather(self, qx, ux=None):
-        np.take(qx, self.xdofs, out=self.xe)
-        if ux is not None:
-            np.take(ux, self.dofs, out=self.ve)
+def _record(g, kind, nq):
+    """The record ``(meta, bf, bi)`` of one batch (femb/contact/batches.py); ``kind`` 0 force, 1 constraint,
+    2 contact. Returns (record, time_values_array or None when the batch has no time functions)."""
+    cls = g.cls
+    role = ("force", "constraint", "contact")[kind]
+    addr = kernels.compiled_kernel(cls.__name__, role, cls.kernels[role])[1]
+    addr2 = kernels.compiled_kernel(cls.__name__, "rates", cls.kernels["rates"])[1] if kind == 1 else 0
+    nel, nd = g.dofs.shape
+    free = g.dofs < nq
+    z1 = np.zeros(0, dtype=np.int64)
+    vec_sel = np.nonzero(free.ravel())[0]
+    mat_sel, mat_idx = _entries(free, free, g.dofs, g.dofs, nq)
+    ntf = max((len(row) for row in (g.time_functions or [[]])), default=0)
+    tf = np.zeros((nel, ntf, 3))
+    if kind == 0:
+        rows, a, kN, cF = np.zeros((nel, 0)), 0, 0, np.zeros((nel, 0))
+        A_sel = A_idx = F_sel = F_idx = zN_sel = zF_sel = z1
+        V2, V3a, V2b, V2c = np.zeros((nel, nd)), np.zeros((nel, nd, nd)), np.zeros((1, 1)), np.zeros((1, 1))
+        le = np.zeros((1, 1))
+    elif kind == 1:
+        rows, a, kN, cF = g.lam, g.nc, 0, np.zeros((nel, 0))
+        A_sel, A_idx = _entries(np.ones((nel, a), bool), free, rows, g.dofs, nq)
+        F_sel = F_idx = zN_sel = zF_sel = z1
+        V2, V3a, V2b, V2c = np.zeros((nel, a)), np.zeros((nel, a, nd)), np.zeros((nel, a)), np.zeros((nel, a))
+        le = np.zeros((nel, a))
+    else:
+        kN, cF = g.cN.shape[1], g.cF
+        rows, a = g.cN, kN + cF.shape[1]
+        both = np.concatenate((g.cN, cF), axis=1)
+        normal = np.zeros((nel, a), bool)
+        normal[:, :kN] = True
+        A_sel, A_idx = _entries(normal, free, both, g.dofs, nq)
+        F_sel, F_idx = _entries(~normal, free, both, g.dofs, nq)
+        zN_sel, zF_sel = np.nonzero(normal.ravel())[0], np.nonzero(~normal.ravel())[0]
+        V2, V3a, V2b, V2c = np.zeros((nel, kN)), np.zeros((nel, a, nd)), np.zeros((nel, a)), np.zeros((1, 1))
+        le = np.zeros((nel, a))
+    damped = int(kind == 0 and bool(g.traits.get("force_depends_on_qd", True)))
+    meta = np.array([kind, addr, addr2, damped, kN], dtype=np.int64)
+    f = np.ascontiguousarray
+    bf = (f(g.P, dtype=float), tf, np.zeros(g.xdofs.shape), np.zeros((nel, nd)), le, V2, V3a, V2b,
+          np.zeros((nel, nd, nd)), V2c)
+    bi = (_i(g.xdofs), _i(g.dofs), _i(rows), _i(vec_sel), _i(g.dofs.ravel()[vec_sel]), mat_sel, mat_idx,
+          _i(A_sel), _i(A_idx), _i(F_sel), _i(F_idx), _i(zN_sel), _i(zF_sel), _i(cF))
+    return (meta, bf, bi), (tf if ntf else None)
 
 
 class DenseModel:
@@ -94,15 +101,11 @@ class DenseModel:
         n, m = model.nq, model.nc
         self.n, self.m = n, m
         self.k, self.l = int(getattr(model, "n_contacts", 0)), int(getattr(model, "n_friction", 0))
-        self.mass = [_Batch(g, "mass", n) for g in model.mass_groups] if not model.constant_mass else []
-        self.force = [_Batch(g, "force", n) for g in model.force_groups]
-        self.cons = [_Batch(g, "constraint", n) for g in model.constraint_groups]
-        self.rates = [_Batch(g, "rates", n) for g in model.constraint_groups]
-        self.contact = [_Batch(g, "contact", n) for g in getattr(model, "contact_groups", [])]
-        self._constraint_layout()
-        self._contact_layout()
+        self.mass = [] if model.constant_mass else list(model.mass_groups)
+        self.mass_fn = [kernels.compiled_kernel(g.cls.__name__, "mass", g.cls.kernels["mass"])[0] for g in self.mass]
+        self.mass_idx = [_entries(g.dofs < n, g.dofs < n, g.dofs, g.dofs, n) for g in self.mass]
         act = getattr(model, "active_constraints", None)
-        self.removed = np.zeros(0, dtype=np.int64) if act is None else np.nonzero(~np.asarray(act, bool))[0]
+        self.removed = _i(np.zeros(0) if act is None else np.nonzero(~np.asarray(act, bool))[0])
         self.M = model.M_const.toarray() if model.constant_mass else np.zeros((n, n))
         self.f, self.K1, self.C1 = np.zeros(n), np.zeros((n, n)), np.zeros((n, n))
         self.f0 = np.array(model.f_const[:n], dtype=float)
@@ -110,126 +113,60 @@ class DenseModel:
         k, l = self.k, self.l
         self.gN, self.zN, self.zF = np.zeros(k), np.zeros(k), np.zeros(l)
         self.WN, self.WF = np.zeros((k, n)), np.zeros((l, n))
+        self.dq = tuple(a.reshape(-1) for a in (self.f, self.K1, self.C1, self.Phi, self.Phi_t, self.gam, self.B,
+                                                self.gN, self.zN, self.zF, self.WN, self.WF))
+        self._records()
+        self.qx = np.concatenate((np.zeros(model.nx), model.q_fixed))
+        self.ux = np.zeros(n + model.nfix_v)
 
-    def _constraint_layout(self):
-        n = self.n
-        for b, br in zip(self.cons, self.rates):
-            g = b.g
-            nel, nc, nd = g.nel, g.nc, g.nd
-            b.lam = g.lam.ravel().astype(np.int64)
-            b.all_sel = np.arange(nel * nc, dtype=np.int64)
-            b.B_sel, b.B_idx = _entries(np.ones((nel, nc), bool), g.dofs < n, g.lam, g.dofs, n)
-            b.le = np.zeros((nel, nc))
-            b.Phi, b.Bk = np.zeros((nel, nc)), np.zeros((nel, nc, nd))
-            br.Phi_t, br.gam = np.zeros((nel, nc)), np.zeros((nel, nc))
+    def _records(self):
+        """The typed list of batch records (femb/contact/batches.py) and the batches with time functions."""
+        from numba.typed import List
+        model, n = self.model, self.n
+        recs, self.timed = [], []
+        for kind, groups in ((0, model.force_groups), (1, model.constraint_groups),
+                             (2, getattr(model, "contact_groups", []))):
+            for g in groups:
+                rec, tf = _record(g, kind, n)
+                recs.append(rec)
+                if tf is not None:
+                    self.timed.append((g, tf))
+        self.recs = List(recs) if recs else None
 
-    def _contact_layout(self):
-        n = self.n
-        for b in self.contact:
-            g = b.g
-            nel, nd = g.dofs.shape
-            kN, kF = g.cN.shape[1], g.cF.shape[1]
-            r = kN + kF
-            b.kN = kN
-            rows = np.concatenate((g.cN, g.cF), axis=1).astype(np.int64)
-            normal = np.zeros((nel, r), bool)
-            normal[:, :kN] = True
-            b.N_sel, b.N_idx = _entries(normal, g.dofs < n, rows, g.dofs, n)
-            b.F_sel, b.F_idx = _entries(~normal, g.dofs < n, rows, g.dofs, n)
-            b.zN_sel, b.zF_sel = np.nonzero(normal.ravel())[0], np.nonzero(~normal.ravel())[0]
-            b.cN, b.cF = g.cN.ravel().astype(np.int64), g.cF.ravel().astype(np.int64)
-            b.gN_sel = np.arange(nel * kN, dtype=np.int64)
-            b.le = np.zeros((nel, r))
-            b.G, b.W, b.Z = np.zeros((nel, kN)), np.zeros((nel, r, nd)), np.zeros((nel, r))
+    def time_values(self, t):
+        """Refresh the time-function values (f, f', f'') of the batches that have them, at t."""
+        for g, tf in self.timed:
+            tf[...] = kernels.time_values(g, t)
 
     # ------------------------------------------------------------------ evaluation
     def evaluate(self, t, q, u, lam_g, lam_N, lam_F, jac=True):
         """Fill the arrays (attributes) at (t, q, u) with the multipliers given (for the curvature
-        terms of K1). Without ``jac`` only f, Φ, Φ_q, Φ_t, γ and the contact quantities."""
-        model = self.model
-        qx = np.concatenate((q, model.q_fixed))
-        ux = np.concatenate((u, np.zeros(model.nfix_v)))
-        t = float(t)
-        jac = bool(jac)
-        self.f[:] = self.f0
-        if jac:
-            self.K1.fill(0.0)
-            self.C1.fill(0.0)
-        self._mass(qx)
-        self._forces(t, qx, ux, jac)
-        self._constraints(t, qx, ux, lam_g, jac)
-        self._contacts(t, qx, ux, lam_N, lam_F, jac)
+        terms of K1). Without ``jac`` K1 and C1 are left as they are."""
+        nx = q.size
+        self.qx[:nx] = q
+        self.ux[:self.n] = u
+        f0 = self._mass(self.qx) if self.mass else self.f0
+        self.time_values(t)
+        if self.recs is not None:
+            evaluate_batches(self.recs, float(t), self.qx, self.ux, (lam_g, lam_N, lam_F), bool(jac), self.dq,
+                             f0, self.removed)
+        else:
+            self.f[:] = f0
+            if jac:
+                self.K1.fill(0.0)
+                self.C1.fill(0.0)
 
     def _mass(self, qx):
-        if not self.mass:
-            return
+        """M(q) and the constant forces with gravity M ĝ (configuration-dependent mass only)."""
         model = self.model
         self.M.fill(0.0)
-        for b in self.mass:
-            b.gather(qx)
-            b.Mat.fill(0.0)
-            b.fn(b.P, b.xe, b.Mat)
-            _add_at(self.M.reshape(-1), b.mat_idx, b.Mat.reshape(-1), b.mat_sel, 1.0)
+        f0 = self.f0.copy()
+        for g, fn, (sel, idx) in zip(self.mass, self.mass_fn, self.mass_idx):
+            Me = np.zeros((g.nel, g.nd, g.nd))
+            fn(g.P, np.ascontiguousarray(qx[g.xdofs]), Me)
+            np.add.at(self.M.reshape(-1), idx, Me.reshape(-1)[sel])
             if model.g_hat is not None:
-                fe = np.einsum("eij,ej->ei", b.Mat, model.g_hat[b.dofs])
-                _add_at(self.f, b.vec_idx, fe.reshape(-1), b.vec_sel, 1.0)
-
-    def _forces(self, t, qx, ux, jac):
-        for b in self.force:
-            b.gather(qx, ux)
-            for a in (b.Vec, b.Mat, b.Mat2):
-                a.fill(0.0)
-            b.fn(b.P, t, b.time_values(t), b.xe, b.ve, jac, b.Vec, b.Mat, b.Mat2)
-            _add_at(self.f, b.vec_idx, b.Vec.reshape(-1), b.vec_sel, 1.0)
-            if jac:
-                _add_at(self.K1.reshape(-1), b.mat_idx, b.Mat.reshape(-1), b.mat_sel, -1.0)
-                if b.g.traits.get("force_depends_on_qd", True):
-                    _add_at(self.C1.reshape(-1), b.mat_idx, b.Mat2.reshape(-1), b.mat_sel, -1.0)
-
-    def _constraints(self, t, qx, ux, lam_g, jac):
-        if not self.cons:
-            return
-        self.B.fill(0.0)
-        for b, br in zip(self.cons, self.rates):
-            b.gather(qx, ux)
-            if jac:
-                np.take(lam_g, b.g.lam, out=b.le)
-            else:
-                b.le.fill(0.0)
-            for a in (b.Phi, b.Bk, b.Mat, br.Phi_t, br.gam):
-                a.fill(0.0)
-            tf = b.time_values(t)
-            b.fn(b.P, t, tf, b.xe, b.le, jac, b.Phi, b.Bk, b.Mat)
-            _put_at(self.Phi, b.lam, b.Phi.reshape(-1), b.all_sel)
-            _add_at(self.B.reshape(-1), b.B_idx, b.Bk.reshape(-1), b.B_sel, 1.0)
-            if jac:
-                _add_at(self.K1.reshape(-1), b.mat_idx, b.Mat.reshape(-1), b.mat_sel, 1.0)
-            br.fn(b.P, t, tf, b.xe, b.ve, br.Phi_t, br.gam)
-            _put_at(self.Phi_t, b.lam, br.Phi_t.reshape(-1), b.all_sel)
-            _put_at(self.gam, b.lam, br.gam.reshape(-1), b.all_sel)
-        if self.removed.size:
-            for a in (self.Phi, self.Phi_t, self.gam, self.B):
-                a[self.removed] = 0.0
-
-    def _contacts(self, t, qx, ux, lam_N, lam_F, jac):
-        if not self.contact:
-            return
-        self.WN.fill(0.0)
-        self.WF.fill(0.0)
-        for b in self.contact:
-            b.gather(qx, ux)
-            if jac:
-                b.le[:, :b.kN] = lam_N[b.g.cN]
-                b.le[:, b.kN:] = lam_F[b.g.cF]
-            else:
-                b.le.fill(0.0)
-            for a in (b.G, b.W, b.Z, b.Mat):
-                a.fill(0.0)
-            b.fn(b.P, t, b.time_values(t), b.xe, b.ve, b.le, jac, b.G, b.W, b.Z, b.Mat)
-            _put_at(self.gN, b.cN, b.G.reshape(-1), b.gN_sel)
-            _put_at(self.zN, b.cN, b.Z.reshape(-1), b.zN_sel)
-            _put_at(self.zF, b.cF, b.Z.reshape(-1), b.zF_sel)
-            _add_at(self.WN.reshape(-1), b.N_idx, b.W.reshape(-1), b.N_sel, 1.0)
-            _add_at(self.WF.reshape(-1), b.F_idx, b.W.reshape(-1), b.F_sel, 1.0)
-            if jac:
-                _add_at(self.K1.reshape(-1), b.mat_idx, b.Mat.reshape(-1), b.mat_sel, -1.0)
+                fe = np.einsum("eij,ej->ei", Me, model.g_hat[g.dofs]).reshape(-1)
+                sel_v = np.nonzero((g.dofs < self.n).ravel())[0]
+                np.add.at(f0, g.dofs.ravel()[sel_v], fe[sel_v])
+        return f0

@@ -35,11 +35,13 @@ from __future__ import annotations
 import warnings
 from dataclasses import dataclass
 
+import numba
 import numpy as np
 import scipy.linalg as sla
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
+from femb.base.jit import jit_disabled
 from femb.contact import assemble, core
 from femb.contact.dense import DenseModel
 from femb.contact.prox import direction, prox_disc, prox_nonnegative
@@ -68,6 +70,22 @@ class StepState:
 
 #: largest system solved by the compiled LU (femb/contact/core.py: increment); larger dense systems use LAPACK
 DENSE_COMPILED_LU = 200
+
+
+def _owned(a):
+    """a as a writable, C-contiguous float64 array (the types the compiled iteration was compiled for)."""
+    if a.dtype == np.float64 and a.flags.c_contiguous and a.flags.writeable:
+        return a
+    return np.array(a, dtype=np.float64)
+
+
+def _entry_point(disp, args):
+    """The compiled function of ``disp`` for the types of ``args``, callable without the dispatcher's type
+    resolution (which costs about a millisecond for nested tuples of arrays); ``disp`` itself under
+    NUMBA_DISABLE_JIT."""
+    if jit_disabled():
+        return disp
+    return disp.compile(tuple(numba.typeof(a) for a in args))
 
 
 class StepFailure(Exception):
@@ -170,6 +188,7 @@ class NonsmoothStep:
                            np.ascontiguousarray(self.e_F, dtype=float),
                            np.ascontiguousarray(self.model.force_weight, dtype=float))
         self._sets = np.zeros((5, k), dtype=np.int8)
+        self._loop = None
         self._out = tuple(np.zeros(nx) for _ in range(2)) + tuple(np.zeros(k) for _ in range(3)) + \
             tuple(np.zeros(l) for _ in range(3))
         self._J = np.zeros((nx, nx))
@@ -183,6 +202,8 @@ class NonsmoothStep:
         self._cmp = (np.ascontiguousarray(xmap), np.ascontiguousarray(rot))
         self._kout = (np.zeros(model.nx),) + tuple(np.zeros(n) for _ in range(2)) + \
             tuple(np.zeros(a) for a in (k, l, k, k, l)) + (np.zeros(n),)
+        self._work = (self._o, self._cmp, self._kout, self._out, dm.dq, self._mq, self._mv, self._J, self._dx,
+                      self._sets)
 
     def _dense_kinematics(self, s, x):
         """:meth:`kinematics` compiled: a dict of views into work arrays (copied by :meth:`_dense_result`)."""
@@ -202,12 +223,12 @@ class NonsmoothStep:
         return core.residual(x, self._o, self._mq, self._mv, kin, self._law, self._lay, par, self._sets, self._out)
 
     def _dense_result(self, ev):
-        """The iterate's quantities (owned copies) as :meth:`evaluate` gives them, and its index sets."""
-        dm = self.dm
+        """The iterate's quantities (owned copies) that the time loop reads (a part of what :meth:`evaluate`
+        gives), and its index sets."""
+        dm, out = self.dm, self._out
         ev = {key: a.copy() for key, a in ev.items()}
-        ev.update(gN=dm.gN.copy(), WN=dm.WN.copy(), WF=dm.WF.copy(), zN=dm.zN.copy(), zF=dm.zF.copy())
-        for key, a in zip(("gNd", "xiN", "gNdd", "gF", "xiF", "gFdd"), self._out[2:]):
-            ev[key] = a.copy()
+        ev.update(gN=dm.gN.copy(), WN=dm.WN.copy(), WF=dm.WF.copy(), gNd=out[2].copy(), gNdd=out[4].copy(),
+                  gF=out[5].copy())
         sets = tuple(self._sets[i].astype(bool) for i in range(5))
         return ev, sets
 
@@ -224,11 +245,27 @@ class NonsmoothStep:
         return self.newton_increment(J, R)
 
     def newton_dense(self, s, x0, max_iter=None):
-        """:meth:`newton` without ``fixed_z`` on the compiled dense path (same iterates, same result)."""
+        """:meth:`newton` without ``fixed_z`` on the compiled dense path (same iterates, same result): the
+        whole iteration in one compiled call (constant mass), else one compiled residual and one
+        Jacobian and increment per iteration around the mass matrix evaluated here."""
         x = x0.copy()
         frozen = None
-        f = np.ascontiguousarray
+        f = _owned
         self._st = (f(s.q), f(s.u), f(s.ud), f(s.abar), f(s.lam_N), f(s.lam_F), f(s.lbar_N), f(s.lbar_F))
+        dm = self.dm
+        if not dm.mass and dm.recs is not None:
+            t1 = s.t + self.h
+            dm.time_values(t1)
+            par = np.array([self.h, self.tol, self.c_q, self.c_u, self.m_ref, 0.0, self.am, self.af, self.beta,
+                            self.gamma, t1, max_iter or self.max_iter, self.freeze_after])
+            work = self._work + ((f(s.gNd), f(s.gFd)),)
+            mdl = (dm.recs, dm.qx, dm.ux, dm.f0, dm.removed)
+            args = (x, mdl, self._st, self._law, self._lay, par, work)
+            if self._loop is None:
+                self._loop = _entry_point(core.newton_loop, args)
+            status, it, err = self._loop(*args)
+            ev = dict(zip(("q", "u", "abar", "lbar_N", "lbar_F", "PN", "kN_hat", "PF"), self._kout))
+            return (x, *self._dense_result(ev), it, status == 0, err)
         for it in range(1, (max_iter or self.max_iter) + 1):
             ev = self._dense_kinematics(s, x)
             err = self._dense_residual(s, x, ev, frozen)
@@ -279,6 +316,10 @@ class NonsmoothStep:
         else:
             ev = assemble.evaluate(self.model, t, q, np.zeros(self.model.nq), dense=True)
             WN, WF = ev["WN"], ev["WF"]
+        if self.dense and self.Minv is not None:
+            rN, rF = np.zeros(self.lay.nN), np.zeros(self.lay.nF)
+            core.prox_parameters(_owned(WN), _owned(WF), self.Minv, rN, rF)
+            return rN, rF
         Wd = np.vstack((WN, WF))
         if Wd.shape[0] == 0:
             return np.zeros(0), np.zeros(0)
