@@ -79,13 +79,30 @@ def _owned(a):
     return np.array(a, dtype=np.float64)
 
 
+def _fingerprint(a):
+    """What numba's type of ``a`` depends on, for nested tuples and typed lists of arrays (cheap to form)."""
+    if isinstance(a, np.ndarray):
+        return (a.ndim, a.dtype.char, a.flags.c_contiguous, a.flags.writeable)
+    if isinstance(a, tuple):
+        return tuple(_fingerprint(b) for b in a)
+    if isinstance(a, numba.typed.List):
+        return ("list", _fingerprint(a[0]) if len(a) else None)
+    return type(a).__name__
+
+
+_ENTRIES = {}
+
+
 def _entry_point(disp, args):
     """The compiled function of ``disp`` for the types of ``args``, callable without the dispatcher's type
-    resolution (which costs about a millisecond for nested tuples of arrays); ``disp`` itself under
-    NUMBA_DISABLE_JIT."""
+    resolution (which hashes the nested tuple types anew at every call: milliseconds here); kept per
+    process and argument structure. ``disp`` itself under NUMBA_DISABLE_JIT."""
     if jit_disabled():
         return disp
-    return disp.compile(tuple(numba.typeof(a) for a in args))
+    key = (disp.__name__, _fingerprint(args))
+    if key not in _ENTRIES:
+        _ENTRIES[key] = disp.compile(tuple(numba.typeof(a) for a in args))
+    return _ENTRIES[key]
 
 
 class StepFailure(Exception):
@@ -150,6 +167,7 @@ class NonsmoothStep:
         self.sizes = (n, n, n, m, m, m, k, k, k, l, l)
         self.offsets = np.concatenate(([0], np.cumsum(self.sizes)))
         self.nx = int(self.offsets[-1])
+        self._slices = [slice(int(self.offsets[i]), int(self.offsets[i + 1])) for i in range(11)]
         self.set_h(h)
         self.owner = np.zeros(l, dtype=np.int64)
         for i, idx in enumerate(lay.friction):
@@ -288,8 +306,7 @@ class NonsmoothStep:
     # ------------------------------------------------------------------ bookkeeping
     def split(self, x):
         """The 11 blocks of x (eq. (126))."""
-        o = self.offsets
-        return [x[o[i]:o[i + 1]] for i in range(11)]
+        return [x[sl] for sl in self._slices]
 
     def kinematics(self, s, x):
         """q, u, ā, λ̄_N, λ̄_F, P_N, κ̂_N, P_F of the iterate x (eqs. (71), (73), (125), (95), (96), (102), (113), (114))."""
