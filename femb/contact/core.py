@@ -476,13 +476,15 @@ def newton_loop(x, mdl, st, law, lay, par, work):
 
     ``x`` (nx,) the initial guess, overwritten by the last iterate; ``mdl`` = (batch records, q_ext, v_ext,
     f0, removed) (:class:`femb.contact.dense.DenseModel`); ``st`` the step's start (:func:`kinematics`);
-    ``par`` = (h, tol, c_q, c_u, m_ref, 0, α_m, α_f, β, γ, t_{n+1}, max_iter, freeze_after); ``work`` =
-    (o, cmp, kout, out, dq, mq, mv, J, dx, sets, (ġ_N⁻, γ_F⁻)). The index sets are held after
+    ``par`` = (h, tol, c_q, c_u, m_ref, 0, α_m, α_f, β, γ, t_{n+1}, max_iter, freeze_after, fixed); ``work`` =
+    (o, cmp, kout, out, dq, mq, mv, J, dx, sets, (ġ_N⁻, γ_F⁻), z_fixed). With ``fixed`` the contact rows are
+    z − z_fixed = 0 (Newton on R_s for fixed contact unknowns, the fixed point's inner problem). The index sets are held after
     ``freeze_after`` iterations; a result reached with held sets is a solution only if they are its
     own. Returns (0 converged or 1 not, iterations, error); the work arrays hold the last iterate's
     quantities.
     """
-    o, cmp, kout, out, dq, mq, mv, J, dx, sets, sd = work
+    o, cmp, kout, out, dq, mq, mv, J, dx, sets, sd, zf = work
+    fixed = par[13] != 0.0
     kp = np.array([par[0], par[6], par[7], par[8], par[9]])
     rp = par[:6].copy()
     rp[5] = 0.0
@@ -494,16 +496,24 @@ def newton_loop(x, mdl, st, law, lay, par, work):
         kinematics(x, o, st, kp, cmp, kout)
         _evaluate(x, o, mdl, t1, kout, dq)
         err = residual(x, o, mq, mv, kin, law, lay, rp, sets, out)
+        if fixed:
+            err = _fixed_rows(x, o, zf, out)
         if not np.isfinite(err):
             return 1, it, err
         if err <= tol:
             if rp[5] != 0.0:            # converged with the sets held: a solution if they are its own
                 rp[5] = 0.0
                 err = residual(x, o, mq, mv, kin, law, lay, rp, sets, out)
+                if fixed:
+                    err = _fixed_rows(x, o, zf, out)
             return (0 if err <= tol else 1), it, err
         if it == freeze_after:
             rp[5] = 1.0
         jacobian(x, o, mq, law, lay, rp, sets, out[2:], J)
+        if fixed:
+            for a in range(o[6], o[11]):
+                J[a, :] = 0.0
+                J[a, a] = 1.0
         if not np.all(np.isfinite(J)):
             return 1, it, err
         if increment(J, R, dx) != 0:
@@ -513,7 +523,23 @@ def newton_loop(x, mdl, st, law, lay, par, work):
     _evaluate(x, o, mdl, t1, kout, dq)
     rp[5] = 0.0
     err = residual(x, o, mq, mv, kin, law, lay, rp, sets, out)
+    if fixed:
+        err = _fixed_rows(x, o, zf, out)
     return (0 if err <= tol else 1), max_iter, err
+
+
+@kernel(allocates=True)
+def _fixed_rows(x, o, zf, out):
+    """The contact rows z − z_fixed = 0 of the fixed point's inner problem (eq. (145)); the new error."""
+    R, S = out[0], out[1]
+    for a in range(zf.size):
+        R[o[6] + a] = x[o[6] + a] - zf[a]
+    err = 0.0
+    for a in range(R.size):
+        e = abs(S[a] * R[a])
+        if not e <= err:
+            err = e
+    return err
 
 
 @kernel(allocates=True)

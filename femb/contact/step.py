@@ -207,6 +207,8 @@ class NonsmoothStep:
                            np.ascontiguousarray(self.model.force_weight, dtype=float))
         self._sets = np.zeros((5, k), dtype=np.int8)
         self._loop = None
+        #: the whole iteration compiled (constant mass: no mass matrix to evaluate from Python)
+        self._loop_ok = not self.dm.mass and self.dm.recs is not None
         self._out = tuple(np.zeros(nx) for _ in range(2)) + tuple(np.zeros(k) for _ in range(3)) + \
             tuple(np.zeros(l) for _ in range(3))
         self._J = np.zeros((nx, nx))
@@ -262,7 +264,17 @@ class NonsmoothStep:
             return np.linalg.lstsq(J, -R, rcond=1e-11)[0]
         return self.newton_increment(J, R)
 
-    def newton_dense(self, s, x0, max_iter=None):
+    def _dense_evaluate(self, s, x):
+        """:meth:`evaluate` on the dense path (views into work arrays; what :meth:`prox_update` reads)."""
+        f = _owned
+        self._st = (f(s.q), f(s.u), f(s.ud), f(s.abar), f(s.lam_N), f(s.lam_F), f(s.lbar_N), f(s.lbar_F))
+        ev = self._dense_kinematics(s, x)
+        self._dense_residual(s, x, ev, None)
+        out = self._out
+        ev.update(gN=self.dm.gN, xiN=out[3], gNdd=out[4], gF=out[5], xiF=out[6], gFdd=out[7])
+        return ev
+
+    def newton_dense(self, s, x0, max_iter=None, fixed_z=None):
         """:meth:`newton` without ``fixed_z`` on the compiled dense path (same iterates, same result): the
         whole iteration in one compiled call (constant mass), else one compiled residual and one
         Jacobian and increment per iteration around the mass matrix evaluated here."""
@@ -271,12 +283,13 @@ class NonsmoothStep:
         f = _owned
         self._st = (f(s.q), f(s.u), f(s.ud), f(s.abar), f(s.lam_N), f(s.lam_F), f(s.lbar_N), f(s.lbar_F))
         dm = self.dm
-        if not dm.mass and dm.recs is not None:
+        if self._loop_ok:
             t1 = s.t + self.h
             dm.time_values(t1)
             par = np.array([self.h, self.tol, self.c_q, self.c_u, self.m_ref, 0.0, self.am, self.af, self.beta,
-                            self.gamma, t1, max_iter or self.max_iter, self.freeze_after])
-            work = self._work + ((f(s.gNd), f(s.gFd)),)
+                            self.gamma, t1, max_iter or self.max_iter, self.freeze_after, fixed_z is not None])
+            zf = np.zeros(0) if fixed_z is None else _owned(fixed_z)
+            work = self._work + ((f(s.gNd), f(s.gFd)), zf)
             mdl = (dm.recs, dm.qx, dm.ux, dm.f0, dm.removed)
             args = (x, mdl, self._st, self._law, self._lay, par, work)
             if self._loop is None:
@@ -559,8 +572,8 @@ class NonsmoothStep:
         -------
         (x, ev, sets, iterations, converged, error)
         """
-        if fixed_z is None and self.dense:
-            return self.newton_dense(s, x0, max_iter)
+        if self.dense and (fixed_z is None or self._loop_ok):
+            return self.newton_dense(s, x0, max_iter, fixed_z)
         x = x0.copy()
         err = np.inf
         frozen = None
@@ -616,7 +629,7 @@ class NonsmoothStep:
 
     def prox_update(self, s, x):
         """The proximal update z ↦ p(y, z) of eq. (146), eqs. (128)–(140) in turn."""
-        ev = self.evaluate(s, x)
+        ev = self._dense_evaluate(s, x) if self.dense and self._loop_ok else self.evaluate(s, x)
         rN, rF, mu = self.rN, self.rF, self.lay.mu
         h, am, af, b, g = self.h, self.am, self.af, self.beta, self.gamma
         lN_j, lF_j = self.split(x)[8], self.split(x)[10]
