@@ -182,6 +182,7 @@ class NonsmoothStep:
         w = model.force_weight
         self.m_ref = float(np.mean(diagM[w == 1.0])) if np.any(w == 1.0) else float(np.mean(diagM))
         self._r_cache = None
+        self._r_memo = []
         if self.dense:
             self._dense_setup()
 
@@ -340,6 +341,9 @@ class NonsmoothStep:
 
         W at (q, t) is taken from the last converged iterate when that is the state asked for (the
         start of a step is the end of the step before), else evaluated."""
+        for q_, t_, rN, rF in self._r_memo:           # the same start again (a step retried shorter)
+            if q_ is q and t_ == t:
+                return rN, rF
         c = self._r_cache
         if c is not None and c[0] is q and c[1] == t:
             WN, WF = c[2], c[3]
@@ -349,6 +353,7 @@ class NonsmoothStep:
         if self.dense and self.Minv is not None:
             rN, rF = np.zeros(self.lay.nN), np.zeros(self.lay.nF)
             core.prox_parameters(_owned(WN), _owned(WF), self.Minv, rN, rF)
+            self._r_memo = [(q, t, rN, rF)] + self._r_memo[:1]
             return rN, rF
         Wd = np.vstack((WN, WF))
         if Wd.shape[0] == 0:
