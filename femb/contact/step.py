@@ -68,6 +68,8 @@ class StepState:
     gNdd: np.ndarray = None
 
 
+#: dense linear algebra (and the compiled iteration, femb/contact/core.py) up to this many unknowns
+DENSE_MAX_UNKNOWNS = 600
 #: largest system solved by the compiled LU (femb/contact/core.py: increment); larger dense systems use LAPACK
 DENSE_COMPILED_LU = 200
 
@@ -175,7 +177,7 @@ class NonsmoothStep:
         self.e_F = lay.e_F_rows
         self.M = model.M_const.tocsc() if model.constant_mass else None
         #: dense linear algebra below this many unknowns (sparse overhead dominates small systems)
-        self.dense = self.nx <= 600
+        self.dense = self.nx <= DENSE_MAX_UNKNOWNS
         self.Md = self.M.toarray() if (self.dense and self.M is not None) else None
         self.Minv = np.linalg.inv(self.Md) if self.Md is not None else None
         diagM = (self.M if self.M is not None else assembly.mass_matrix(model, model.q0)).diagonal()
