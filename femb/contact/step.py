@@ -32,7 +32,9 @@ R_s for fixed contact unknowns, then the proximal update of the contact unknowns
 """
 from __future__ import annotations
 
+import threading
 import warnings
+import weakref
 from dataclasses import dataclass
 
 import numba
@@ -93,6 +95,18 @@ def _fingerprint(a):
 
 
 _ENTRIES = {}
+_DENSE = weakref.WeakKeyDictionary()
+
+
+def _dense_model(model):
+    """The :class:`DenseModel` of ``model`` for this thread: built once (its batch records take tens of
+    milliseconds to form), reused by the next run of the same model in the same thread (a run uses
+    its work arrays only while it runs; results are copied out of them)."""
+    per_thread = _DENSE.setdefault(model, {})
+    key = threading.get_ident()
+    if key not in per_thread:
+        per_thread[key] = DenseModel(model)
+    return per_thread[key]
 
 
 def _entry_point(disp, args):
@@ -199,7 +213,7 @@ class NonsmoothStep:
     def _dense_setup(self):
         """Work arrays of the compiled iteration (femb/contact/core.py) for small systems."""
         lay, k, l, nx = self.lay, self.lay.nN, self.lay.nF, self.nx
-        self.dm = DenseModel(self.model)
+        self.dm = _dense_model(self.model)
         self._o = np.ascontiguousarray(self.offsets, dtype=np.int64)
         sizes = [idx.size for idx in lay.friction]
         fptr = np.concatenate(([0], np.cumsum(sizes))).astype(np.int64)
