@@ -32,15 +32,20 @@ R_s for fixed contact unknowns, then the proximal update of the contact unknowns
 """
 from __future__ import annotations
 
+import threading
 import warnings
+import weakref
 from dataclasses import dataclass
 
+import numba
 import numpy as np
 import scipy.linalg as sla
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from femb.contact import assemble
+from femb.base.jit import jit_disabled
+from femb.contact import assemble, core
+from femb.contact.dense import DenseModel
 from femb.contact.prox import direction, prox_disc, prox_nonnegative
 from femb.system import assembly, kernels
 
@@ -63,6 +68,57 @@ class StepState:
     x: np.ndarray = None    # the previous step's unknowns (initial guess)
     gN: np.ndarray = None   # g_N(q_n) and g̈_N(q_n, u_n, u̇_n): locate impacts inside a step
     gNdd: np.ndarray = None
+
+
+#: dense linear algebra (and the compiled iteration, femb/contact/core.py) up to this many unknowns
+DENSE_MAX_UNKNOWNS = 600
+#: largest system solved by the compiled LU (femb/contact/core.py: increment); larger dense systems use LAPACK
+DENSE_COMPILED_LU = 200
+
+
+def _owned(a):
+    """a as a writable, C-contiguous float64 array (the types the compiled iteration was compiled for)."""
+    if a.dtype == np.float64 and a.flags.c_contiguous and a.flags.writeable:
+        return a
+    return np.array(a, dtype=np.float64)
+
+
+def _fingerprint(a):
+    """What numba's type of ``a`` depends on, for nested tuples and typed lists of arrays (cheap to form)."""
+    if isinstance(a, np.ndarray):
+        return (a.ndim, a.dtype.char, a.flags.c_contiguous, a.flags.writeable)
+    if isinstance(a, tuple):
+        return tuple(_fingerprint(b) for b in a)
+    if isinstance(a, numba.typed.List):
+        return ("list", _fingerprint(a[0]) if len(a) else None)
+    return type(a).__name__
+
+
+_ENTRIES = {}
+_DENSE = weakref.WeakKeyDictionary()
+
+
+def _dense_model(model):
+    """The :class:`DenseModel` of ``model`` for this thread: built once (its batch records take tens of
+    milliseconds to form), reused by the next run of the same model in the same thread (a run uses
+    its work arrays only while it runs; results are copied out of them)."""
+    per_thread = _DENSE.setdefault(model, {})
+    key = threading.get_ident()
+    if key not in per_thread:
+        per_thread[key] = DenseModel(model)
+    return per_thread[key]
+
+
+def _entry_point(disp, args):
+    """The compiled function of ``disp`` for the types of ``args``, callable without the dispatcher's type
+    resolution (which hashes the nested tuple types anew at every call: milliseconds here); kept per
+    process and argument structure. ``disp`` itself under NUMBA_DISABLE_JIT."""
+    if jit_disabled():
+        return disp
+    key = (disp.__name__, _fingerprint(args))
+    if key not in _ENTRIES:
+        _ENTRIES[key] = disp.compile(tuple(numba.typeof(a) for a in args))
+    return _ENTRIES[key]
 
 
 class StepFailure(Exception):
@@ -127,6 +183,7 @@ class NonsmoothStep:
         self.sizes = (n, n, n, m, m, m, k, k, k, l, l)
         self.offsets = np.concatenate(([0], np.cumsum(self.sizes)))
         self.nx = int(self.offsets[-1])
+        self._slices = [slice(int(self.offsets[i]), int(self.offsets[i + 1])) for i in range(11)]
         self.set_h(h)
         self.owner = np.zeros(l, dtype=np.int64)
         for i, idx in enumerate(lay.friction):
@@ -134,12 +191,16 @@ class NonsmoothStep:
         self.e_F = lay.e_F_rows
         self.M = model.M_const.tocsc() if model.constant_mass else None
         #: dense linear algebra below this many unknowns (sparse overhead dominates small systems)
-        self.dense = self.nx <= 600
+        self.dense = self.nx <= DENSE_MAX_UNKNOWNS
         self.Md = self.M.toarray() if (self.dense and self.M is not None) else None
         self.Minv = np.linalg.inv(self.Md) if self.Md is not None else None
         diagM = (self.M if self.M is not None else assembly.mass_matrix(model, model.q0)).diagonal()
         w = model.force_weight
         self.m_ref = float(np.mean(diagM[w == 1.0])) if np.any(w == 1.0) else float(np.mean(diagM))
+        self._r_cache = None
+        self._r_memo = []
+        if self.dense:
+            self._dense_setup()
 
     def set_h(self, h):
         """Use step size h (impact steps are split at the impact, docs/contact.md §2.4)."""
@@ -148,11 +209,134 @@ class NonsmoothStep:
         self.c_u = self.h * self.gamma * c        # ∂u_{n+1}/∂u̇_{n+1}, ∂P/∂λ
         self.c_q = self.h * self.h * self.beta * c     # ∂Δq/∂u̇_{n+1}, ∂κ̂/∂λ
 
+    # ------------------------------------------------------------------ the dense, compiled path
+    def _dense_setup(self):
+        """Work arrays of the compiled iteration (femb/contact/core.py) for small systems."""
+        lay, k, l, nx = self.lay, self.lay.nN, self.lay.nF, self.nx
+        self.dm = _dense_model(self.model)
+        self._o = np.ascontiguousarray(self.offsets, dtype=np.int64)
+        sizes = [idx.size for idx in lay.friction]
+        fptr = np.concatenate(([0], np.cumsum(sizes))).astype(np.int64)
+        fidx = np.concatenate([np.asarray(i, dtype=np.int64) for i in lay.friction] + [np.zeros(0, np.int64)])
+        self._lay = (np.ascontiguousarray(self.owner, dtype=np.int64), fptr, np.ascontiguousarray(fidx))
+        self._fixed_law = (np.ascontiguousarray(lay.mu, dtype=float), np.ascontiguousarray(lay.e_N, dtype=float),
+                           np.ascontiguousarray(self.e_F, dtype=float),
+                           np.ascontiguousarray(self.model.force_weight, dtype=float))
+        self._sets = np.zeros((5, k), dtype=np.int8)
+        self._loop = None
+        #: the whole iteration compiled (constant mass: no mass matrix to evaluate from Python)
+        self._loop_ok = not self.dm.mass and self.dm.recs is not None
+        self._out = tuple(np.zeros(nx) for _ in range(2)) + tuple(np.zeros(k) for _ in range(3)) + \
+            tuple(np.zeros(l) for _ in range(3))
+        self._J = np.zeros((nx, nx))
+        self._dx = np.zeros(nx)
+        dm = self.dm
+        self._mq = (dm.M, dm.K1, dm.C1, dm.B, dm.WN, dm.WF)
+        self._mv = (dm.f, dm.Phi, dm.Phi_t, dm.gam, dm.gN, dm.zN, dm.zF)
+        model, n = self.model, self.model.nq
+        xmap = np.asarray(model.xmap, dtype=np.int64) if model.lie else np.arange(n, dtype=np.int64)
+        rot = np.asarray(model.rot_blocks, dtype=np.int64).ravel() if model.lie else np.zeros(0, np.int64)
+        self._cmp = (np.ascontiguousarray(xmap), np.ascontiguousarray(rot))
+        self._kout = (np.zeros(model.nx),) + tuple(np.zeros(n) for _ in range(2)) + \
+            tuple(np.zeros(a) for a in (k, l, k, k, l)) + (np.zeros(n),)
+        self._work = (self._o, self._cmp, self._kout, self._out, dm.dq, self._mq, self._mv, self._J, self._dx,
+                      self._sets)
+
+    def _dense_kinematics(self, s, x):
+        """:meth:`kinematics` compiled: a dict of views into work arrays (copied by :meth:`_dense_result`)."""
+        par = np.array([self.h, self.am, self.af, self.beta, self.gamma])
+        core.kinematics(x, self._o, self._st, par, self._cmp, self._kout)
+        return dict(zip(("q", "u", "abar", "lbar_N", "lbar_F", "PN", "kN_hat", "PF"), self._kout))
+
+    def _dense_residual(self, s, x, ev, frozen):
+        """Evaluate the model at the iterate's kinematics ``ev`` and the compiled residual; returns the error."""
+        o, dm = self.offsets, self.dm
+        dm.evaluate(s.t + self.h, ev["q"], ev["u"], x[o[5]:o[6]], x[o[8]:o[9]], x[o[10]:o[11]])
+        if frozen is not None:
+            self._sets[:] = frozen
+        par = np.array([self.h, self.tol, self.c_q, self.c_u, self.m_ref, 0.0 if frozen is None else 1.0])
+        self._par = par
+        kin = (ev["u"], ev["PN"], ev["kN_hat"], ev["PF"], s.gNd, s.gFd)
+        return core.residual(x, self._o, self._mq, self._mv, kin, self._law, self._lay, par, self._sets, self._out)
+
+    def _dense_result(self, ev):
+        """The iterate's quantities (owned copies) that the time loop reads (a part of what :meth:`evaluate`
+        gives), and its index sets."""
+        dm, out = self.dm, self._out
+        ev = {key: a.copy() for key, a in ev.items()}
+        ev.update(gN=dm.gN.copy(), WN=dm.WN.copy(), WF=dm.WF.copy(), gNd=out[2].copy(), gNdd=out[4].copy(),
+                  gF=out[5].copy())
+        sets = tuple(self._sets[i].astype(bool) for i in range(5))
+        return ev, sets
+
+    def _dense_increment(self, x):
+        """The Newton increment at the iterate of the last :meth:`_dense_residual` (None: no factorization)."""
+        J, R = self._J, self._out[0]
+        core.jacobian(x, self._o, self._mq, self._law, self._lay, self._par, self._sets, self._out[2:], J)
+        if not np.all(np.isfinite(J)):
+            return None
+        if self.nx <= DENSE_COMPILED_LU:
+            if core.increment(J, R, self._dx) == 0:
+                return self._dx.copy()
+            return np.linalg.lstsq(J, -R, rcond=1e-11)[0]
+        return self.newton_increment(J, R)
+
+    def _dense_evaluate(self, s, x):
+        """:meth:`evaluate` on the dense path (views into work arrays; what :meth:`prox_update` reads)."""
+        f = _owned
+        self._st = (f(s.q), f(s.u), f(s.ud), f(s.abar), f(s.lam_N), f(s.lam_F), f(s.lbar_N), f(s.lbar_F))
+        ev = self._dense_kinematics(s, x)
+        self._dense_residual(s, x, ev, None)
+        out = self._out
+        ev.update(gN=self.dm.gN, xiN=out[3], gNdd=out[4], gF=out[5], xiF=out[6], gFdd=out[7])
+        return ev
+
+    def newton_dense(self, s, x0, max_iter=None, fixed_z=None):
+        """:meth:`newton` without ``fixed_z`` on the compiled dense path (same iterates, same result): the
+        whole iteration in one compiled call (constant mass), else one compiled residual and one
+        Jacobian and increment per iteration around the mass matrix evaluated here."""
+        x = x0.copy()
+        frozen = None
+        f = _owned
+        self._st = (f(s.q), f(s.u), f(s.ud), f(s.abar), f(s.lam_N), f(s.lam_F), f(s.lbar_N), f(s.lbar_F))
+        dm = self.dm
+        if self._loop_ok:
+            t1 = s.t + self.h
+            dm.time_values(t1)
+            par = np.array([self.h, self.tol, self.c_q, self.c_u, self.m_ref, 0.0, self.am, self.af, self.beta,
+                            self.gamma, t1, max_iter or self.max_iter, self.freeze_after, fixed_z is not None])
+            zf = np.zeros(0) if fixed_z is None else _owned(fixed_z)
+            work = self._work + ((f(s.gNd), f(s.gFd)), zf)
+            mdl = (dm.recs, dm.qx, dm.ux, dm.f0, dm.removed)
+            args = (x, mdl, self._st, self._law, self._lay, par, work)
+            if self._loop is None:
+                self._loop = _entry_point(core.newton_loop, args)
+            status, it, err = self._loop(*args)
+            ev = dict(zip(("q", "u", "abar", "lbar_N", "lbar_F", "PN", "kN_hat", "PF"), self._kout))
+            return (x, *self._dense_result(ev), it, status == 0, err)
+        for it in range(1, (max_iter or self.max_iter) + 1):
+            ev = self._dense_kinematics(s, x)
+            err = self._dense_residual(s, x, ev, frozen)
+            if not np.isfinite(err):
+                return (x, *self._dense_result(ev), it, False, err)
+            if err <= self.tol:
+                if frozen is not None:       # converged with the sets held: a solution if they are its own
+                    err = self._dense_residual(s, x, ev, None)
+                return (x, *self._dense_result(ev), it, err <= self.tol, err)
+            if it == self.freeze_after:
+                frozen = self._sets.copy()
+            dx = self._dense_increment(x)
+            if dx is None:
+                return (x, *self._dense_result(ev), it, False, err)
+            x = x + dx
+        ev = self._dense_kinematics(s, x)
+        err = self._dense_residual(s, x, ev, None)
+        return (x, *self._dense_result(ev), self.max_iter, err <= self.tol, err)
+
     # ------------------------------------------------------------------ bookkeeping
     def split(self, x):
         """The 11 blocks of x (eq. (126))."""
-        o = self.offsets
-        return [x[o[i]:o[i + 1]] for i in range(11)]
+        return [x[sl] for sl in self._slices]
 
     def kinematics(self, s, x):
         """q, u, ā, λ̄_N, λ̄_F, P_N, κ̂_N, P_F of the iterate x (eqs. (71), (73), (125), (95), (96), (102), (113), (114))."""
@@ -169,9 +353,25 @@ class NonsmoothStep:
         return dict(q=q, u=u, abar=abar, lbar_N=lbN, lbar_F=lbF, PN=PN, kN_hat=kN_hat, PF=PF)
 
     def prox_r(self, q, t):
-        """Prox parameters r_i = 1/(W M⁻¹ Wᵀ)_ii per normal and tangent row (Studer 2009)."""
-        ev = assemble.evaluate(self.model, t, q, np.zeros(self.model.nq), dense=True)
-        Wd = np.vstack((ev["WN"], ev["WF"]))
+        """Prox parameters r_i = 1/(W M⁻¹ Wᵀ)_ii per normal and tangent row (Studer 2009).
+
+        W at (q, t) is taken from the last converged iterate when that is the state asked for (the
+        start of a step is the end of the step before), else evaluated."""
+        for q_, t_, rN, rF in self._r_memo:           # the same start again (a step retried shorter)
+            if q_ is q and t_ == t:
+                return rN, rF
+        c = self._r_cache
+        if c is not None and c[0] is q and c[1] == t:
+            WN, WF = c[2], c[3]
+        else:
+            ev = assemble.evaluate(self.model, t, q, np.zeros(self.model.nq), dense=True)
+            WN, WF = ev["WN"], ev["WF"]
+        if self.dense and self.Minv is not None:
+            rN, rF = np.zeros(self.lay.nN), np.zeros(self.lay.nF)
+            core.prox_parameters(_owned(WN), _owned(WF), self.Minv, rN, rF)
+            self._r_memo = [(q, t, rN, rF)] + self._r_memo[:1]
+            return rN, rF
+        Wd = np.vstack((WN, WF))
         if Wd.shape[0] == 0:
             return np.zeros(0), np.zeros(0)
         if self.Minv is not None:
@@ -393,6 +593,8 @@ class NonsmoothStep:
         -------
         (x, ev, sets, iterations, converged, error)
         """
+        if self.dense and (fixed_z is None or self._loop_ok):
+            return self.newton_dense(s, x0, max_iter, fixed_z)
         x = x0.copy()
         err = np.inf
         frozen = None
@@ -448,7 +650,7 @@ class NonsmoothStep:
 
     def prox_update(self, s, x):
         """The proximal update z ↦ p(y, z) of eq. (146), eqs. (128)–(140) in turn."""
-        ev = self.evaluate(s, x)
+        ev = self._dense_evaluate(s, x) if self.dense and self._loop_ok else self.evaluate(s, x)
         rN, rF, mu = self.rN, self.rF, self.lay.mu
         h, am, af, b, g = self.h, self.am, self.af, self.beta, self.gamma
         lN_j, lF_j = self.split(x)[8], self.split(x)[10]
@@ -508,6 +710,11 @@ class NonsmoothStep:
         R, _, ev, sets = self.system(s, x)
         return x, ev, sets, self.max_fp, False, err
 
+    def _remember(self, s, ev):
+        """Keep W of a step's solution for the prox parameters of the step that starts there."""
+        if self.dense:
+            self._r_cache = (ev["q"], s.t + self.h, ev["WN"], ev["WF"])
+
     def solve(self, s):
         """One step from s: semismooth Newton, the fixed point if Newton fails.
 
@@ -520,16 +727,21 @@ class NonsmoothStep:
         StepFailure
         """
         self.rN, self.rF = self.prox_r(s.q, s.t)
+        if self.dense:
+            self._law = (self.rN, self.rF) + self._fixed_law
         x0 = s.x if s.x is not None else np.zeros(self.nx)
         x, ev, sets, it, ok, err = self.newton(s, x0)
         if ok:
+            self._remember(s, ev)
             return x, ev, sets, dict(method="newton", iterations=it, error=err)
         x1, ev1, sets1, it1, ok1, err1 = self.fixed_point(s, x0)
         if ok1:
+            self._remember(s, ev1)
             return x1, ev1, sets1, dict(method="fixed_point", iterations=it + it1, error=err1)
         if np.all(np.isfinite(x1)):             # Newton again, from where the fixed point got to
             x2, ev2, sets2, it2, ok2, err2 = self.newton(s, x1)
             if ok2:
+                self._remember(s, ev2)
                 return x2, ev2, sets2, dict(method="fixed_point", iterations=it + it1 + it2, error=err2)
         raise StepFailure(f"semismooth Newton: {it} iterations, residual {err:.3e}; prox fixed point: "
                           f"{it1} iterations, last change {err1:.3e} (tolerance {self.tol:.1e})", x, sets)

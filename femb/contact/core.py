@@ -1,0 +1,551 @@
+"""The compiled inner iteration of the nonsmooth step for small (dense) systems.
+
+One semismooth Newton iteration of :class:`femb.contact.step.NonsmoothStep` needs, once the
+model's quantities are evaluated (:class:`femb.contact.dense.DenseModel`): the contact
+velocities and accelerations, the index sets, the residual R of eq. (127) of Capobianco, Harsch,
+Eugster & Leine (IJNME 122, 2021) with its row weights, and — when R is not yet small — its
+Jacobian and the Newton increment. These are the functions here, compiled with numba: they
+compute, entry by entry, what ``NonsmoothStep.evaluate``, ``index_sets``, ``smooth_rows``,
+``friction_rows``, ``scale``, ``jacobian`` and ``newton_increment`` compute with numpy (see their
+docstrings and docs/contact.md §1 for the equations; the module docstring of
+:mod:`femb.contact.step` for the unknowns' order).
+
+Packs (tuples of arrays) keep the argument lists short:
+
+* ``o`` (12,) int: the offsets of the 11 blocks of x = (u̇, U, Q, κ_g, Λ_g, λ_g, κ_N, Λ_N, λ_N, Λ_F, λ_F);
+* ``mq`` = (M, K1, C1, Φ_q, W_N, W_F), 2-D; ``mv`` = (f, Φ, Φ_t, γ, g_N, ζ_N, ζ_F), 1-D
+  (:class:`femb.contact.dense.DenseModel`);
+* ``kin`` = (u, P_N, κ̂_N, P_F, ġ_N⁻, γ_F⁻) of the iterate and the step's start;
+* ``law`` = (r_N, r_F, μ, e_N, e_F per tangent row, force weights w) and ``lay`` = (owner of each
+  tangent row, fptr, fidx: the tangent rows of contact i are fidx[fptr[i]:fptr[i + 1]]);
+* ``par`` = (h, tol, c_q, c_u, m_ref, frozen);
+* ``der`` = (ġ_N, ξ_N, g̈_N, γ_F, ξ_F, γ̇_F), written by :func:`residual`;
+* ``sets`` (5, nN) int8: the index sets A, B, C, D, E (written unless frozen).
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from femb.base.jit import kernel
+from femb.base.rotations import quat_exp_into, quat_mul_into
+from femb.contact.batches import evaluate_batches
+
+
+@kernel(allocates=True)
+def _direction(v):
+    """(v/|v|, (I − v̂v̂ᵀ)/|v|), and (v, I) for v = 0 (femb.contact.prox.direction)."""
+    p = v.size
+    nv = np.sqrt(np.sum(v * v))
+    D = np.eye(p)
+    if nv == 0.0:
+        return v.copy(), D
+    vh = v / nv
+    for a in range(p):
+        for b in range(p):
+            D[a, b] = (D[a, b] - vh[a] * vh[b]) / nv
+    return vh, D
+
+
+@kernel(allocates=True)
+def _derived(x, o, mq, mv, kin, law, lay, der):
+    """ġ_N = W_N u, ξ_N = ġ_N + e_N min(ġ_N⁻, 0), g̈_N = W_N u̇ + ζ_N, γ_F = W_F u, ξ_F = γ_F + e_F γ_F⁻
+    (at impacts, ġ_N⁻ < 0), γ̇_F = W_F u̇ + ζ_F."""
+    WN, WF = mq[4], mq[5]
+    zN, zF = mv[5], mv[6]
+    u, gNd_m, gFd_m = kin[0], kin[4], kin[5]
+    e_N, e_F, owner = law[3], law[4], lay[0]
+    ud = x[o[0]:o[1]]
+    gNd, xiN, gNdd, gF, xiF, gFdd = der
+    gNd[:] = WN @ u
+    gNdd[:] = WN @ ud + zN
+    for i in range(gNd.size):
+        xiN[i] = gNd[i] + e_N[i] * min(gNd_m[i], 0.0)
+    gF[:] = WF @ u
+    gFdd[:] = WF @ ud + zF
+    for j in range(gF.size):
+        xiF[j] = gF[j] + (e_F[j] * gFd_m[j] if gNd_m[owner[j]] < 0.0 else 0.0)
+
+
+@kernel(allocates=True)
+def _index_sets(x, o, mv, kin, law, lay, par, der, sets):
+    """A, B, C, D, E (eqs. (130), (133), (136), (139), (141)), the Newton tolerance as slack."""
+    gN = mv[4]
+    PN, kNh, PF = kin[1], kin[2], kin[3]
+    rN, rF, mu = law[0], law[1], law[2]
+    fptr, fidx = lay[1], lay[2]
+    h, tol = par[0], par[1]
+    gNd, xiN, gNdd, gF, xiF, gFdd = der
+    lN, lF = x[o[8]:o[9]], x[o[10]:o[11]]
+    for i in range(gN.size):
+        A = gN[i] - kNh[i] / rN[i] <= tol
+        B = A and h * (xiN[i] - PN[i] / rN[i]) <= tol
+        C = B and h * h * (gNdd[i] - lN[i] / rN[i]) <= tol
+        D = False
+        E = False
+        if A and fptr[i + 1] > fptr[i]:
+            s1 = 0.0
+            s2 = 0.0
+            for p in range(fptr[i], fptr[i + 1]):
+                j = fidx[p]
+                s1 += (rF[j] * xiF[j] - PF[j]) ** 2
+                s2 += (rF[j] * gFdd[j] - lF[j]) ** 2
+            D = np.sqrt(s1) <= mu[i] * PN[i]
+            E = D and np.sqrt(s2) <= mu[i] * lN[i]
+        sets[0, i], sets[1, i], sets[2, i], sets[3, i], sets[4, i] = A, B, C, D, E
+
+
+@kernel(allocates=True)
+def _smooth_rows(x, o, mq, mv, kin, par, R):
+    """R_s of eq. (127): the three dynamic rows and Φ, Φ_q u + Φ_t, Φ_q u̇ + γ."""
+    M, B, WN, WF = mq[0], mq[3], mq[4], mq[5]
+    f, Phi, Phi_t, gam = mv[0], mv[1], mv[2], mv[3]
+    u, h = kin[0], par[0]
+    ud, U, Q = x[o[0]:o[1]], x[o[1]:o[2]], x[o[2]:o[3]]
+    kg, Lg, lg = x[o[3]:o[4]], x[o[4]:o[5]], x[o[5]:o[6]]
+    kN, LN, lN, LF, lF = x[o[6]:o[7]], x[o[7]:o[8]], x[o[8]:o[9]], x[o[9]:o[10]], x[o[10]:o[11]]
+    R[o[0]:o[1]] = M @ ud - f + B.T @ lg - WN.T @ lN - WF.T @ lF
+    R[o[1]:o[2]] = M @ U + B.T @ Lg - WN.T @ LN - WF.T @ LF
+    R[o[2]:o[3]] = M @ Q + B.T @ kg - WN.T @ kN - 0.5 * h * (WF.T @ LF)
+    R[o[3]:o[4]] = Phi
+    R[o[4]:o[5]] = B @ u + Phi_t
+    R[o[5]:o[6]] = B @ ud + gam
+
+
+@kernel(allocates=True)
+def _contact_rows(x, o, mv, kin, law, lay, der, sets, R):
+    """The normal rows (129), (132), (135) and the friction rows (138), (142) on the index sets."""
+    gN = mv[4]
+    PN, kNh, PF = kin[1], kin[2], kin[3]
+    mu, fptr, fidx = law[2], lay[1], lay[2]
+    gNd, xiN, gNdd, gF, xiF, gFdd = der
+    LN, lN, LF, lF = x[o[7]:o[8]], x[o[8]:o[9]], x[o[9]:o[10]], x[o[10]:o[11]]
+    k = gN.size
+    for i in range(k):
+        R[o[6] + i] = gN[i] if sets[0, i] else kNh[i]
+        R[o[7] + i] = xiN[i] if sets[1, i] else PN[i]
+        R[o[8] + i] = gNdd[i] if sets[2, i] else lN[i]
+    R[o[9]:o[10]] = PF
+    R[o[10]:o[11]] = lF
+    for i in range(k):
+        if fptr[i + 1] == fptr[i] or not sets[0, i]:
+            continue
+        idx = fidx[fptr[i]:fptr[i + 1]]
+        if sets[3, i]:
+            for j in idx:
+                R[o[9] + j] = xiF[j]
+            if sets[4, i]:
+                for j in idx:
+                    R[o[10] + j] = gFdd[j]
+            else:
+                v, _ = _direction(gFdd[idx])
+                for a in range(idx.size):
+                    R[o[10] + idx[a]] = lF[idx[a]] + mu[i] * lN[i] * v[a]
+        else:
+            v, _ = _direction(xiF[idx])
+            w, _ = _direction(gF[idx])
+            for a in range(idx.size):
+                R[o[9] + idx[a]] = LF[idx[a]] + mu[i] * LN[i] * v[a]
+                R[o[10] + idx[a]] = lF[idx[a]] + mu[i] * lN[i] * w[a]
+
+
+@kernel(allocates=True)
+def _scale(o, law, lay, par, sets, S):
+    """Row weights that turn every row of R into a length (NonsmoothStep.scale)."""
+    h, m = par[0], par[4]
+    w, fptr, fidx = law[5], lay[1], lay[2]
+    n = o[1] - o[0]
+    for a in range(n):
+        S[o[0] + a] = h * h * w[a] / m
+        S[o[1] + a] = h * w[a] / m
+        S[o[2] + a] = w[a] / m
+    S[o[3]:o[4]] = 1.0
+    S[o[4]:o[5]] = h
+    S[o[5]:o[6]] = h * h
+    k = o[7] - o[6]
+    for i in range(k):
+        S[o[6] + i] = 1.0 if sets[0, i] else 1.0 / m
+        S[o[7] + i] = h if sets[1, i] else h / m
+        S[o[8] + i] = h * h if sets[2, i] else h * h / m
+    S[o[9]:o[10]] = h / m
+    S[o[10]:o[11]] = h * h / m
+    for i in range(k):
+        for p in range(fptr[i], fptr[i + 1]):
+            j = fidx[p]
+            if sets[3, i]:
+                S[o[9] + j] = h
+            if sets[4, i]:
+                S[o[10] + j] = h * h
+
+
+@kernel(allocates=True)
+def residual(x, o, mq, mv, kin, law, lay, par, sets, out):
+    """Contact velocities, index sets (unless ``par[5]``, frozen), residual R and row weights S.
+
+    ``out`` = (R, S, ġ_N, ξ_N, g̈_N, γ_F, ξ_F, γ̇_F). Returns max |S R| (0 for an empty system).
+    """
+    R, S = out[0], out[1]
+    der = (out[2], out[3], out[4], out[5], out[6], out[7])
+    _derived(x, o, mq, mv, kin, law, lay, der)
+    if par[5] == 0.0:
+        _index_sets(x, o, mv, kin, law, lay, par, der, sets)
+    _smooth_rows(x, o, mq, mv, kin, par, R)
+    _contact_rows(x, o, mv, kin, law, lay, der, sets, R)
+    _scale(o, law, lay, par, sets, S)
+    err = 0.0
+    for a in range(R.size):
+        e = abs(S[a] * R[a])
+        if not e <= err:            # NaN propagates
+            err = e
+    return err
+
+
+@kernel(allocates=True)
+def _put(J, r0, c0, blk, fac):
+    for a in range(blk.shape[0]):
+        for b in range(blk.shape[1]):
+            J[r0 + a, c0 + b] += fac * blk[a, b]
+
+
+@kernel(allocates=True)
+def _put_t(J, r0, c0, blk, fac):
+    for a in range(blk.shape[1]):
+        for b in range(blk.shape[0]):
+            J[r0 + a, c0 + b] += fac * blk[b, a]
+
+
+@kernel(allocates=True)
+def _smooth_jacobian(o, mq, par, J):
+    """Rows 0–5 of ∂R/∂x (NonsmoothStep.jacobian)."""
+    M, K1, C1, B, WN, WF = mq
+    h, cq, cu = par[0], par[2], par[3]
+    _put(J, o[0], o[0], M, 1.0)
+    _put(J, o[0], o[0], K1, cq)
+    _put(J, o[0], o[0], C1, cu)
+    _put(J, o[0], o[1], C1, 1.0)
+    _put(J, o[0], o[2], K1, 1.0)
+    _put_t(J, o[0], o[5], B, 1.0)
+    _put_t(J, o[0], o[8], WN, -1.0)
+    _put_t(J, o[0], o[10], WF, -1.0)
+    _put(J, o[1], o[1], M, 1.0)
+    _put_t(J, o[1], o[4], B, 1.0)
+    _put_t(J, o[1], o[7], WN, -1.0)
+    _put_t(J, o[1], o[9], WF, -1.0)
+    _put(J, o[2], o[2], M, 1.0)
+    _put_t(J, o[2], o[3], B, 1.0)
+    _put_t(J, o[2], o[6], WN, -1.0)
+    _put_t(J, o[2], o[9], WF, -0.5 * h)
+    _put(J, o[3], o[0], B, cq)
+    _put(J, o[3], o[2], B, 1.0)
+    _put(J, o[4], o[0], B, cu)
+    _put(J, o[4], o[1], B, 1.0)
+    _put(J, o[5], o[0], B, 1.0)
+
+
+@kernel(allocates=True)
+def _normal_jacobian(o, mq, par, sets, J):
+    """Rows of the normal contact laws (129), (132), (135) on the sets A, B, C."""
+    WN = mq[4]
+    cq, cu = par[2], par[3]
+    n = o[1] - o[0]
+    for i in range(o[7] - o[6]):
+        r6, r7, r8 = o[6] + i, o[7] + i, o[8] + i
+        if sets[0, i]:
+            for a in range(n):
+                J[r6, o[0] + a] = cq * WN[i, a]
+                J[r6, o[2] + a] = WN[i, a]
+        else:
+            J[r6, o[6] + i] = 1.0
+            J[r6, o[8] + i] = cq
+        if sets[1, i]:
+            for a in range(n):
+                J[r7, o[0] + a] = cu * WN[i, a]
+                J[r7, o[1] + a] = WN[i, a]
+        else:
+            J[r7, o[7] + i] = 1.0
+            J[r7, o[8] + i] = cu
+        if sets[2, i]:
+            for a in range(n):
+                J[r8, o[0] + a] = WN[i, a]
+        else:
+            J[r8, o[8] + i] = 1.0
+
+
+@kernel(allocates=True)
+def _friction_jacobian(x, o, mq, law, lay, par, der, sets, J):
+    """Rows of the friction laws (138), (142) (NonsmoothStep.friction_rows' derivative blocks)."""
+    WF = mq[5]
+    mu, fptr, fidx = law[2], lay[1], lay[2]
+    cu = par[3]
+    gNd, xiN, gNdd, gF, xiF, gFdd = der
+    LN, lN = x[o[7]:o[8]], x[o[8]:o[9]]
+    n = o[1] - o[0]
+    for j in range(o[10] - o[9]):                  # open or frictionless: P_F = 0, λ_F = 0
+        J[o[9] + j, o[9] + j] = 1.0
+        J[o[9] + j, o[10] + j] = cu
+        J[o[10] + j, o[10] + j] = 1.0
+    for i in range(o[7] - o[6]):
+        if fptr[i + 1] == fptr[i] or not sets[0, i]:
+            continue
+        idx = fidx[fptr[i]:fptr[i + 1]]
+        p = idx.size
+        if sets[3, i]:                             # stick at percussion level (138a)
+            for a in range(p):
+                r9 = o[9] + idx[a]
+                J[r9, o[9] + idx[a]] = 0.0
+                J[r9, o[10] + idx[a]] = 0.0
+                for c in range(n):
+                    J[r9, o[0] + c] = cu * WF[idx[a], c]
+                    J[r9, o[1] + c] = WF[idx[a], c]
+            if sets[4, i]:                         # (142a)
+                for a in range(p):
+                    r10 = o[10] + idx[a]
+                    J[r10, o[10] + idx[a]] = 0.0
+                    for c in range(n):
+                        J[r10, o[0] + c] = WF[idx[a], c]
+            else:                                  # (142b)
+                v, dv = _direction(gFdd[idx])
+                _slip_block(J, o[10] + idx, o[0], mu[i] * lN[i] * dv, WF[idx], 1.0)
+                for a in range(p):
+                    J[o[10] + idx[a], o[8] + i] = mu[i] * v[a]
+        else:                                      # slip (138b) on Λ, (142c)
+            v, dv = _direction(xiF[idx])
+            _slip_block(J, o[9] + idx, o[0], mu[i] * LN[i] * dv, WF[idx], cu)
+            _slip_block(J, o[9] + idx, o[1], mu[i] * LN[i] * dv, WF[idx], 1.0)
+            w, dw = _direction(gF[idx])
+            _slip_block(J, o[10] + idx, o[0], mu[i] * lN[i] * dw, WF[idx], cu)
+            _slip_block(J, o[10] + idx, o[1], mu[i] * lN[i] * dw, WF[idx], 1.0)
+            for a in range(p):
+                J[o[9] + idx[a], o[7] + i] = mu[i] * v[a]
+                J[o[9] + idx[a], o[10] + idx[a]] = 0.0
+                J[o[10] + idx[a], o[8] + i] = mu[i] * w[a]
+
+
+@kernel(allocates=True)
+def _slip_block(J, rows, c0, D, W, fac):
+    """J[rows, c0:c0 + n] += fac D W."""
+    DW = D @ W
+    for a in range(rows.size):
+        for c in range(W.shape[1]):
+            J[rows[a], c0 + c] += fac * DW[a, c]
+
+
+@kernel(allocates=True)
+def jacobian(x, o, mq, law, lay, par, sets, der, J):
+    """∂R/∂x at the iterate (NonsmoothStep.jacobian), dense, into J (nx, nx)."""
+    J[:, :] = 0.0
+    _smooth_jacobian(o, mq, par, J)
+    _normal_jacobian(o, mq, par, sets, J)
+    _friction_jacobian(x, o, mq, law, lay, par, der, sets, J)
+
+
+@kernel(allocates=True)
+def increment(J, R, dx):
+    """Solve J dx = −R on J equilibrated by rows and columns (LU, partial pivoting).
+
+    Returns 0 (dx written), or 1 when the equilibrated pivots spread over more than 1e11 (J is
+    treated as rank deficient: the caller takes the minimum-norm least-squares increment,
+    NonsmoothStep.newton_increment).
+    """
+    N = R.size
+    if N == 0:
+        return 0
+    r = np.ones(N)
+    c = np.ones(N)
+    A = J.copy()
+    for a in range(N):
+        m = np.max(np.abs(A[a]))
+        if m > 0.0:
+            r[a] = 1.0 / m
+            A[a] *= r[a]
+    for b in range(N):
+        m = np.max(np.abs(A[:, b]))
+        if m > 0.0:
+            c[b] = 1.0 / m
+            A[:, b] *= c[b]
+    piv = np.arange(N)
+    for k in range(N):
+        p = k
+        amax = abs(A[k, k])
+        for i in range(k + 1, N):
+            if abs(A[i, k]) > amax:
+                amax = abs(A[i, k])
+                p = i
+        piv[k] = p
+        if p != k:
+            for j in range(N):
+                A[k, j], A[p, j] = A[p, j], A[k, j]
+        if A[k, k] != 0.0:
+            inv = 1.0 / A[k, k]
+            for i in range(k + 1, N):
+                A[i, k] *= inv
+                f = A[i, k]
+                if f != 0.0:
+                    for j in range(k + 1, N):
+                        A[i, j] -= f * A[k, j]
+    dmin = abs(A[0, 0])
+    dmax = dmin
+    for k in range(1, N):
+        dmin = min(dmin, abs(A[k, k]))
+        dmax = max(dmax, abs(A[k, k]))
+    if not dmin > 1e-11 * dmax:
+        return 1
+    y = -r * R
+    for k in range(N):
+        p = piv[k]
+        if p != k:
+            y[k], y[p] = y[p], y[k]
+    for i in range(N):
+        s = y[i]
+        for j in range(i):
+            s -= A[i, j] * y[j]
+        y[i] = s
+    for i in range(N - 1, -1, -1):
+        s = y[i]
+        for j in range(i + 1, N):
+            s -= A[i, j] * y[j]
+        y[i] = s / A[i, i]
+    for a in range(N):
+        dx[a] = c[a] * y[a]
+    return 0
+
+
+@kernel(allocates=True)
+def kinematics(x, o, st, par, cmp, out):
+    """The iterate's kinematics (eqs. (71), (73), (125), (95), (96), (102), (113), (114); NonsmoothStep.kinematics).
+
+    ``st`` = (q_n, u_n, u̇_n, ā_n, λ_N,n, λ_F,n, λ̄_N,n, λ̄_F,n); ``par`` = (h, α_m, α_f, β, γ);
+    ``cmp`` = (xmap, rot): the configuration entry of each additive velocity (−1 for rotations) and
+    the (x start, v start) pairs of the rotation nodes, flattened (Model.compose); ``out`` =
+    (q, u, ā, λ̄_N, λ̄_F, P_N, κ̂_N, P_F, Δ) with Δ the increment q = q_n ∘ exp(Δ).
+    """
+    q0, u0, ud0, ab0, lN0, lF0, lbN0, lbF0 = st
+    h, am, af, b, g = par[0], par[1], par[2], par[3], par[4]
+    q, u, abar, lbN, lbF, PN, kNh, PF, d = out
+    ud, U, Q = x[o[0]:o[1]], x[o[1]:o[2]], x[o[2]:o[3]]
+    kN, LN, lN, LF, lF = x[o[6]:o[7]], x[o[7]:o[8]], x[o[8]:o[9]], x[o[9]:o[10]], x[o[10]:o[11]]
+    for a in range(u.size):
+        abar[a] = (af * ud0[a] + (1 - af) * ud[a] - am * ab0[a]) / (1 - am)
+        u[a] = u0[a] + h * ((1 - g) * ab0[a] + g * abar[a]) + U[a]
+        d[a] = h * u0[a] + h * h * ((0.5 - b) * ab0[a] + b * abar[a]) + Q[a]
+    for i in range(lbN.size):
+        lbN[i] = (af * lN0[i] + (1 - af) * lN[i] - am * lbN0[i]) / (1 - am)
+        PN[i] = LN[i] + h * ((1 - g) * lbN0[i] + g * lbN[i])
+        kNh[i] = kN[i] + h * h * ((0.5 - b) * lbN0[i] + b * lbN[i])
+    for j in range(lbF.size):
+        lbF[j] = (af * lF0[j] + (1 - af) * lF[j] - am * lbF0[j]) / (1 - am)
+        PF[j] = LF[j] + h * ((1 - g) * lbF0[j] + g * lbF[j])
+    _compose(q0, d, cmp[0], cmp[1], q)
+
+
+@kernel(allocates=True)
+def _compose(q0, d, xmap, rot, q):
+    """q = q0 ∘ exp(d) (Model.compose): additive entries, each rotation p ⊗ exp(d_θ) renormalised."""
+    q[:] = q0
+    if rot.size == 0 and xmap.size == q.size:
+        for a in range(d.size):
+            q[xmap[a]] += d[a]
+        return
+    for a in range(d.size):
+        if xmap[a] >= 0:
+            q[xmap[a]] += d[a]
+    e = np.empty(4)
+    p = np.empty(4)
+    for r in range(rot.size // 2):
+        xs, vs = rot[2 * r], rot[2 * r + 1]
+        quat_exp_into(d[vs:vs + 3], e)
+        quat_mul_into(q0[xs:xs + 4], e, p)
+        nrm = np.sqrt(p[0] * p[0] + p[1] * p[1] + p[2] * p[2] + p[3] * p[3])
+        for c in range(4):
+            q[xs + c] = p[c] / nrm
+
+
+@kernel(allocates=True)
+def _evaluate(x, o, mdl, t, kout, dq):
+    """The model at the iterate's kinematics (femb/contact/batches.py)."""
+    recs, qx, ux, f0, removed = mdl
+    q, u = kout[0], kout[1]
+    qx[:q.size] = q
+    ux[:u.size] = u
+    mult = (x[o[5]:o[6]], x[o[8]:o[9]], x[o[10]:o[11]])
+    evaluate_batches(recs, t, qx, ux, mult, True, dq, f0, removed)
+
+
+@kernel(allocates=True)
+def newton_loop(x, mdl, st, law, lay, par, work):
+    """The semismooth Newton iterations of one step (NonsmoothStep.newton_dense) in one call.
+
+    ``x`` (nx,) the initial guess, overwritten by the last iterate; ``mdl`` = (batch records, q_ext, v_ext,
+    f0, removed) (:class:`femb.contact.dense.DenseModel`); ``st`` the step's start (:func:`kinematics`);
+    ``par`` = (h, tol, c_q, c_u, m_ref, 0, α_m, α_f, β, γ, t_{n+1}, max_iter, freeze_after, fixed); ``work`` =
+    (o, cmp, kout, out, dq, mq, mv, J, dx, sets, (ġ_N⁻, γ_F⁻), z_fixed). With ``fixed`` the contact rows are
+    z − z_fixed = 0 (Newton on R_s for fixed contact unknowns, the fixed point's inner problem). The index sets are held after
+    ``freeze_after`` iterations; a result reached with held sets is a solution only if they are its
+    own. Returns (0 converged or 1 not, iterations, error); the work arrays hold the last iterate's
+    quantities.
+    """
+    o, cmp, kout, out, dq, mq, mv, J, dx, sets, sd, zf = work
+    fixed = par[13] != 0.0
+    kp = np.array([par[0], par[6], par[7], par[8], par[9]])
+    rp = par[:6].copy()
+    rp[5] = 0.0
+    t1, tol = par[10], par[1]
+    max_iter, freeze_after = int(par[11]), int(par[12])
+    kin = (kout[1], kout[5], kout[6], kout[7], sd[0], sd[1])
+    R = out[0]
+    for it in range(1, max_iter + 1):
+        kinematics(x, o, st, kp, cmp, kout)
+        _evaluate(x, o, mdl, t1, kout, dq)
+        err = residual(x, o, mq, mv, kin, law, lay, rp, sets, out)
+        if fixed:
+            err = _fixed_rows(x, o, zf, out)
+        if not np.isfinite(err):
+            return 1, it, err
+        if err <= tol:
+            if rp[5] != 0.0:            # converged with the sets held: a solution if they are its own
+                rp[5] = 0.0
+                err = residual(x, o, mq, mv, kin, law, lay, rp, sets, out)
+                if fixed:
+                    err = _fixed_rows(x, o, zf, out)
+            return (0 if err <= tol else 1), it, err
+        if it == freeze_after:
+            rp[5] = 1.0
+        jacobian(x, o, mq, law, lay, rp, sets, out[2:], J)
+        if fixed:
+            for a in range(o[6], o[11]):
+                J[a, :] = 0.0
+                J[a, a] = 1.0
+        if not np.all(np.isfinite(J)):
+            return 1, it, err
+        if increment(J, R, dx) != 0:
+            dx[:] = np.linalg.lstsq(J, -R, rcond=1e-11)[0]
+        x += dx
+    kinematics(x, o, st, kp, cmp, kout)
+    _evaluate(x, o, mdl, t1, kout, dq)
+    rp[5] = 0.0
+    err = residual(x, o, mq, mv, kin, law, lay, rp, sets, out)
+    if fixed:
+        err = _fixed_rows(x, o, zf, out)
+    return (0 if err <= tol else 1), max_iter, err
+
+
+@kernel(allocates=True)
+def _fixed_rows(x, o, zf, out):
+    """The contact rows z − z_fixed = 0 of the fixed point's inner problem (eq. (145)); the new error."""
+    R, S = out[0], out[1]
+    for a in range(zf.size):
+        R[o[6] + a] = x[o[6] + a] - zf[a]
+    err = 0.0
+    for a in range(R.size):
+        e = abs(S[a] * R[a])
+        if not e <= err:
+            err = e
+    return err
+
+
+@kernel(allocates=True)
+def prox_parameters(WN, WF, Minv, rN, rF):
+    """r_i = 1/(W M⁻¹ Wᵀ)_ii for the normal and tangent rows (NonsmoothStep.prox_r; Studer 2009, §3.4)."""
+    for W, r in ((WN, rN), (WF, rF)):
+        for i in range(W.shape[0]):
+            g = W[i] @ (Minv @ W[i])
+            r[i] = 1.0 / max(g, 1e-300)
