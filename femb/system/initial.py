@@ -439,15 +439,17 @@ def consistent_initial_state(model: Model, state: State | None = None, *, t0: fl
         matrix is singular.
     ModelError
         The model has velocity-level (non-holonomic) constraints (rolling joints) and
-        ``weights`` (the start of flexible models does not take them) or ``contacts`` (nor does
-        the contact integrator).
+        ``contacts`` (the contact integrator does not take them).
 
     Notes
     -----
     Velocity-level (non-holonomic) constraints Ψ = A(q, t) v + a(q, t) = 0 (``model.nn`` rows,
     multipliers μ): step 2 projects onto Φ_q q̇ = −Φ_t and A q̇ = −a together, step 3 solves
     [[M, Φ_qᵀ, Aᵀ], [Φ_q, 0, 0], [A, 0, 0]] [q̈; λ; μ] = [f; −γ; −(Ψ_q q̇ + Ψ_t)], and the
-    state's ``lam`` holds [λ; μ] (nc + nn).
+    state's ``lam`` holds [λ; μ] (nc + nn). With ``weights`` (deformable elements) the A rows
+    join the Φ_q rows of :func:`project_velocity` and :func:`start_accelerations` (and so of
+    :func:`settle`, whose deformation Δ keeps Φ_q Δ = 0 only: velocity constraints do not
+    restrict positions).
     """
     nn = getattr(model, "nn", 0)
     if nn and contacts:
@@ -455,11 +457,6 @@ def consistent_initial_state(model: Model, state: State | None = None, *, t0: fl
         raise ModelError(f"model '{model.name}' has {nn} velocity-level (non-holonomic) constraints "
                          f"({', '.join(names)}): the contact integrator (femb.contact.simulate) does not take them; "
                          "femb.simulate does (without contacts)")
-    if nn and weights is not None:
-        names = sorted({g.cls.__name__ for g in model.velocity_constraint_groups})
-        raise ModelError(f"model '{model.name}' has {nn} velocity-level (non-holonomic) constraints "
-                         f"({', '.join(names)}) and deformable elements: the start of flexible models "
-                         "does not take velocity constraints")
     if getattr(model, "n_contacts", 0) and not contacts:
         raise ModelError(f"model '{model.name}' has contact elements ({model.n_contacts} contacts): the compiled "
                          "engine (femb.simulate) does not treat contacts yet and would ignore them; integrate it "
@@ -527,7 +524,14 @@ def consistent_initial_state(model: Model, state: State | None = None, *, t0: fl
         if not nn:
             _check_velocity_changes(model, st.qd, qd, report_move)
             st.qd = qd
-    if nn:
+    if nn and weights is not None:
+        Phi_t, _ = assembly.constraint_rates(model, t, st.q, st.qd)
+        Psi, A, _ = assembly.velocity_constraints(model, t, st.q, st.qd)
+        qd = project_velocity(model, weights, t, st.q, st.qd, np.concatenate((-Phi_t, A @ st.qd - Psi)))
+        _check_velocity_changes(model, st.qd, qd, report_move)
+        st.qd = qd
+        st.q, st.qdd, st.lam = settle(model, weights, t, st.q, st.qd)
+    elif nn:
         qd = _project_velocity_constraints(model, t, st.q, st.qd, rows)
         _check_velocity_changes(model, st.qd, qd, report_move)
         st.qd = qd
@@ -550,6 +554,19 @@ def _velocity_rows(model, t, q, qd, rows):
     Dq, _ = assembly.velocity_constraint_jacobians(model, t, q, qd, np.zeros(model.nn))
     BA = sp.vstack((B, A)).tocsr()
     return BA, np.concatenate((Phi_t[rows], Psi - A @ qd)), np.concatenate((gam[rows], Dq @ qd + Psi_t))
+
+
+def _start_rows(model, t, q, qd):
+    """The velocity-level rows of the start: (J, idx, gam) with J = [Φ_q; A] (active holonomic rows,
+    then the ``model.nn`` velocity-constraint rows), idx their places in [λ; μ] (nc + nn), and
+    J q̈ = −gam the acceleration-level rows (γ; Ψ_q q̇ + Ψ_t)."""
+    rows = np.nonzero(active_mask(model))[0]
+    if getattr(model, "nn", 0):
+        J, _, gam = _velocity_rows(model, t, q, qd, rows)
+        return J, np.concatenate((rows, model.nc + np.arange(model.nn))), gam
+    B = assembly.constraint_jacobian(model, t, q).tocsr()[rows]
+    _, gam = assembly.constraint_rates(model, t, q, qd)
+    return B, rows, gam[rows]
 
 
 def _project_velocity_constraints(model, t, q, qd, rows):
@@ -1001,21 +1018,19 @@ def start_accelerations(model, weights, t, q, qd, what="initial accelerations"):
     InitializationError
         If the matrix is singular.
     """
-    rows = np.nonzero(active_mask(model))[0]
-    B = assembly.constraint_jacobian(model, t, q).tocsr()[rows]
-    _, gam = assembly.constraint_rates(model, t, q, qd)
+    J, idx, gam = _start_rows(model, t, q, qd)
     f = assembly.force_vector(model, t, q, qd)
     if weights is None:
         A = assembly.mass_matrix(model, q)
     else:
         A = weights.matrix(model, t, q, qd)
         f = f + weights.curvature(model, t, q, qd)
-    sol = _solve_augmented(A, B, f, -gam[rows], what)
+    sol = _solve_augmented(A, J, f, -gam, what)
     if sol is None:
         raise InitializationError(f"{what}: the matrix [[M, Φ_qᵀ], [Φ_q, 0]] is singular at t = {t:.6g} s; "
                                   f"{SINGULAR_HINT}")
-    lam = np.zeros(model.nc)
-    lam[rows] = sol[1]
+    lam = np.zeros(model.nc + getattr(model, "nn", 0))
+    lam[idx] = sol[1]
     return sol[0], lam
 
 
@@ -1065,10 +1080,11 @@ def settle(model, weights, t, q, qd):
     lam : ndarray, shape (nc,)
     """
     qdd, lam = start_accelerations(model, weights, t, q, qd)
+    J, idx, _ = _start_rows(model, t, q, qd)
     rows = np.nonzero(active_mask(model))[0]
     B = assembly.constraint_jacobian(model, t, q).tocsr()[rows]
     M = assembly.mass_matrix(model, q)
-    E = weights.c_K * (assembly.force_vector(model, t, q, qd) - M @ qdd - B.T @ lam[rows])
+    E = weights.c_K * (assembly.force_vector(model, t, q, qd) - M @ qdd - J.T @ lam[idx])
     solve = _factor_augmented(weights.matrix(model, t, q, qd, damping=False), B)
     if solve is None:
         raise InitializationError(f"the start of the deformable elements: singular matrix [[A, Φ_qᵀ], [Φ_q, 0]]; "
@@ -1126,8 +1142,10 @@ def project_velocity(model, weights, t, q, qd, target, sweeps=None):
     Parameters
     ----------
     weights : StartWeights
-    target : ndarray, shape (nc,)
-        Required Φ_q q̇ (0 on removed equations).
+    target : ndarray, shape (nc,) or (nc + nn,)
+        Required Φ_q q̇ (0 on removed equations); with velocity-level constraints
+        (``model.nn`` rows) also the required A q̇ (= −a): both are linear in q̇, and
+        their rows are projected on together (Φ_q stands for [Φ_q; A] above).
     sweeps : int, optional
         Default :data:`SWEEPS`.
 
@@ -1135,8 +1153,7 @@ def project_velocity(model, weights, t, q, qd, target, sweeps=None):
     -------
     ndarray, shape (nq,)
     """
-    rows = np.nonzero(active_mask(model))[0]
-    B = assembly.constraint_jacobian(model, t, q).tocsr()[rows]
+    B, rows, _ = _start_rows(model, t, q, qd)
     A = weights.matrix(model, t, q, qd)
     solve = _factor_augmented(A, B)
     if solve is None:
