@@ -1056,7 +1056,7 @@ def settle(model, weights, t, q, qd):
     left at q ∘ Δ is r (x + x³ − x⁴): a stiff mode is settled to O(x), a mode the step resolves
     is moved by O((c_K ω²)²), O(h⁴). Settling further (Δ = Δ_1 + 2XΔ_1, which leaves O(x²), or
     repeated passes) moved the resolved modes of the damped flexible slider-crank enough to
-    lower its step-halving order from 1.27 to 1.26 and 1.19 and to flag a node rotation
+    lower its step-halving order from 1.30 to 1.26 and 1.19 and to flag a node rotation
     as not converging (order 0.97).
 
     The accelerations returned are those of :func:`start_accelerations` at the given
