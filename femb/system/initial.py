@@ -1047,8 +1047,8 @@ def start_accelerations(model, weights, t, q, qd, what="initial accelerations"):
 
 
 def settle(model, weights, t, q, qd):
-    """Positions that carry the deformation the start's motion needs, q ∘ Δ, and the accelerations
-    and multipliers there.
+    """Positions that carry the deformation the start's motion needs, q ∘ Δ, the start's
+    accelerations, and the multipliers at q ∘ Δ.
 
     The accelerations of :func:`start_accelerations` with ``weights`` follow the
     motion quasi-statically in the modes the step does not resolve; the
