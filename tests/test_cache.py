@@ -161,9 +161,11 @@ def test_an_unwritable_cache_runs_in_memory_with_one_warning(tmp_path):
     blocker.write_text("not a directory")
     folder = _write_user_package(tmp_path / "pkg", "c")
     script = "import warnings\nwarnings.simplefilter('always')\n" + RUN.format(folder=str(folder), module="user_c")
-    # the engine compiles in memory here (about 20 s): the price of an unwritable cache
-    out = subprocess.run([sys.executable, "-c", script], env=_env(blocker / "cache"), capture_output=True,
-                         text=True, timeout=900)
+    # the engine compiles in memory here: the price of an unwritable cache. What is checked is the
+    # cache handling, not the machine code: LLVM without optimization (NUMBA_OPT=0) compiles it with
+    # about 40 % less CPU time (measured: 56 s against 98 s on a loaded machine)
+    env = dict(_env(blocker / "cache"), NUMBA_OPT="0")
+    out = subprocess.run([sys.executable, "-c", script], env=env, capture_output=True, text=True, timeout=900)
     assert out.returncode == 0, out.stderr
     assert "x =" in out.stdout
     assert out.stderr.count("CacheWarning") == 1, out.stderr

@@ -76,7 +76,6 @@ the energy integral to 3e-12 relative (of the torque's work) over [0, 0.03].
 from __future__ import annotations
 
 import numpy as np
-from scipy.integrate import solve_ivp
 
 __all__ = [
     "PARAMS", "NAMES", "Q0", "QD0", "Y0", "QDD0", "LAM0", "PUBLISHED_T003",
@@ -497,7 +496,7 @@ def body_frames(q, p=PARAMS) -> np.ndarray:
     return np.column_stack([c, phi])
 
 
-def solve(t_eval, *, rtol=1e-12, atol=1e-12, method="DOP853", y0=None) -> dict:
+def solve(t_eval, *, rtol=1e-12, atol=1e-12, method="DOP853", y0=None, cache=False) -> dict:
     """Integrate the index-1 form with :func:`scipy.integrate.solve_ivp`.
 
     Parameters
@@ -511,6 +510,10 @@ def solve(t_eval, *, rtol=1e-12, atol=1e-12, method="DOP853", y0=None) -> dict:
         of time on this non-stiff problem.
     y0 : array_like, shape (14,), optional
         Initial ``(q, q')``; default :data:`Y0` (must be consistent).
+    cache : bool, optional
+        Integrate once per process for these ``y0``, tolerances and method and
+        evaluate that dense solution at later ``t_eval`` (for references; a
+        timed run leaves it off). :func:`femb.benchmarks.references.dense.integrate`.
 
     Returns
     -------
@@ -526,6 +529,8 @@ def solve(t_eval, *, rtol=1e-12, atol=1e-12, method="DOP853", y0=None) -> dict:
     RuntimeError
         If the integrator fails.
     """
+    from femb.benchmarks.references.dense import integrate
+
     t_eval = np.atleast_1d(np.asarray(t_eval, dtype=float))
     y0 = Y0.copy() if y0 is None else np.asarray(y0, dtype=float)
 
@@ -533,17 +538,8 @@ def solve(t_eval, *, rtol=1e-12, atol=1e-12, method="DOP853", y0=None) -> dict:
         qdd, _ = accelerations(y[:7], y[7:])
         return np.concatenate([y[7:], qdd])
 
-    t_end = float(t_eval[-1])
-    if t_end > 0.0:
-        res = solve_ivp(rhs, (0.0, t_end), y0, method=method, t_eval=t_eval,
-                        rtol=rtol, atol=atol)
-        if not res.success:
-            raise RuntimeError(f"solve_ivp failed: {res.message}")
-        Y = res.y.T
-        nfev = res.nfev
-    else:
-        Y = np.tile(y0, (t_eval.size, 1))
-        nfev = 0
+    Y, nfev = integrate(rhs, y0, t_eval, key=("andrews", y0.tobytes()) if cache else None, rtol=rtol, atol=atol,
+                        method=method)
     acc = np.empty((t_eval.size, 7))
     lam = np.empty((t_eval.size, 6))
     for i, y in enumerate(Y):

@@ -39,7 +39,6 @@ evaluated at the exact state (accelerations from the equations of motion).
 from __future__ import annotations
 
 import numpy as np
-from scipy.integrate import solve_ivp
 
 __all__ = ["Chain", "solve"]
 
@@ -118,7 +117,7 @@ class Chain:
         return {"phidd": phidd, "r": r, "v": v, "a": a, "R": R}
 
 
-def solve(chain, t_eval, phi0, phid0, rtol=1e-12, atol=1e-12, method="DOP853", fine=None):
+def solve(chain, t_eval, phi0, phid0, rtol=1e-12, atol=1e-12, method="DOP853", fine=None, key=None):
     """Integrate the chain and evaluate its outputs at ``t_eval``.
 
     Parameters
@@ -134,6 +133,11 @@ def solve(chain, t_eval, phi0, phid0, rtol=1e-12, atol=1e-12, method="DOP853", f
     fine : (t_a, t_b, max_step), optional
         A window with a cap on the integrator's step (s), for short loads
         (pulses): the run is split at t_a and t_b so no step crosses them.
+    key : hashable, optional
+        What ``chain.loads`` depends on (the scene's name and parameters; the
+        chain's masses, lengths, gravity and the initial state are added):
+        the integration is then done once per process and evaluated at later
+        ``t_eval`` (:func:`femb.benchmarks.references.dense.integrate`).
 
     Returns
     -------
@@ -144,9 +148,13 @@ def solve(chain, t_eval, phi0, phid0, rtol=1e-12, atol=1e-12, method="DOP853", f
 
     Raises
     ------
+    ValueError
+        If ``t_eval`` is not increasing from t >= 0.
     RuntimeError
         If the integrator fails.
     """
+    from femb.benchmarks.references.dense import integrate
+
     t_eval = np.atleast_1d(np.asarray(t_eval, dtype=float))
     n = chain.n
     y0 = np.concatenate((np.asarray(phi0, dtype=float), np.asarray(phid0, dtype=float)))
@@ -154,28 +162,10 @@ def solve(chain, t_eval, phi0, phid0, rtol=1e-12, atol=1e-12, method="DOP853", f
     def rhs(t, y):
         return np.concatenate((y[n:], chain.accelerations(t, y[:n], y[n:])))
 
-    t_end = float(t_eval[-1])
-    if np.any(np.diff(t_eval) < 0.0) or t_eval[0] < 0.0:
-        raise ValueError("t_eval must be increasing from t >= 0")
-    # segments [(t_a, t_b, max_step)] covering [0, t_end]
-    cuts = [(0.0, t_end, np.inf)]
-    if fine is not None:
-        ta, tb, hmax = (float(v) for v in fine)
-        cuts = [(a, b, s) for a, b, s in ((0.0, min(ta, t_end), np.inf), (max(ta, 0.0), min(tb, t_end), hmax),
-                                         (max(tb, 0.0), t_end, np.inf)) if b > a]
-    Y = np.empty((t_eval.size, 2 * n))
-    Y[t_eval == 0.0] = y0
-    y, nfev = y0, 0
-    for a, b, hmax in (c for c in cuts if c[1] > c[0]):
-        inside = (t_eval > a) & (t_eval <= b)
-        te = t_eval[inside]
-        extra = te.size == 0 or te[-1] < b
-        sol = solve_ivp(rhs, (a, b), y, method=method, t_eval=np.append(te, b) if extra else te,
-                        rtol=rtol, atol=atol, max_step=hmax)
-        if not sol.success:
-            raise RuntimeError(f"solve_ivp failed on [{a}, {b}]: {sol.message}")
-        Y[inside] = sol.y.T[:-1] if extra else sol.y.T
-        y, nfev = sol.y[:, -1], nfev + sol.nfev
+    if key is not None:
+        key = ("planar_chain", key, y0.tobytes()) + tuple(a.tobytes() for a in (chain.m, chain.J, chain.l, chain.c,
+                                                                                 chain.g))
+    Y, nfev = integrate(rhs, y0, t_eval, key=key, fine=fine, rtol=rtol, atol=atol, method=method)
     out = {"t": t_eval, "phi": Y[:, :n], "phid": Y[:, n:], "nfev": nfev}
     per = [chain.state_outputs(t, y[:n], y[n:]) for t, y in zip(t_eval, Y)]
     for key in ("phidd", "r", "v", "a", "R"):

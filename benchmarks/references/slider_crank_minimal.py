@@ -80,7 +80,6 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from scipy.integrate import solve_ivp
 
 __all__ = ["PARAMS", "params", "solve", "energy", "kinematics"]
 
@@ -211,7 +210,7 @@ def _accelerations(theta, theta_d, x4, p):
     return theta_dd, x4_dd
 
 
-def solve(t_eval, *, rtol=1e-12, atol=1e-12, method="DOP853", **overrides) -> dict:
+def solve(t_eval, *, rtol=1e-12, atol=1e-12, method="DOP853", cache=False, **overrides) -> dict:
     """Integrate the minimal-coordinate model and post-process body states.
 
     Parameters
@@ -225,6 +224,10 @@ def solve(t_eval, *, rtol=1e-12, atol=1e-12, method="DOP853", **overrides) -> di
         ``solve_ivp`` method, ``"DOP853"`` (default, about 1e-10 accurate in
         theta over [0, 1] s) or ``"Radau"`` (more accurate here, 35x slower;
         preferable for very stiff springs).
+    cache : bool, optional
+        Integrate once per process for these parameters, tolerances and method
+        and evaluate that dense solution at later ``t_eval`` (for references; a
+        timed run leaves it off). :func:`femb.benchmarks.references.dense.integrate`.
     **overrides
         Any key of :data:`PARAMS` (e.g. ``k=1e5``, ``m2=0.3``, ``T=0``).
 
@@ -257,6 +260,8 @@ def solve(t_eval, *, rtol=1e-12, atol=1e-12, method="DOP853", **overrides) -> di
     RuntimeError
         If the integrator fails.
     """
+    from femb.benchmarks.references.dense import integrate
+
     p = params(**overrides)
     t_eval = np.atleast_1d(np.asarray(t_eval, dtype=float))
 
@@ -266,17 +271,9 @@ def solve(t_eval, *, rtol=1e-12, atol=1e-12, method="DOP853", **overrides) -> di
         return [th_d, x4_d, th_dd, x4_dd]
 
     y0 = [p["theta0"], p["x4_0"], p["theta_d0"], p["x4_d0"]]
-    t_end = float(t_eval[-1])
-    if t_end > 0.0:
-        res = solve_ivp(rhs, (0.0, t_end), y0, method=method, t_eval=t_eval,
-                        rtol=rtol, atol=atol)
-        if not res.success:
-            raise RuntimeError(f"solve_ivp failed: {res.message}")
-        th, x4, th_d, x4_d = res.y
-        nfev = res.nfev
-    else:  # only t = 0 requested
-        th, x4, th_d, x4_d = (np.full(t_eval.shape, v) for v in y0)
-        nfev = 0
+    key = ("slider_crank_minimal", tuple(sorted(p.items()))) if cache else None
+    Y, nfev = integrate(rhs, y0, t_eval, key=key, rtol=rtol, atol=atol, method=method)
+    th, x4, th_d, x4_d = Y.T
     return _post_process(t_eval, th, th_d, x4, x4_d, p, nfev)
 
 

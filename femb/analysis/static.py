@@ -1118,11 +1118,15 @@ class _StaticRun:
         mus, Q, model = self.mus, self.Q, self.model
         for target in targets:
             step = None                        # increment that worked after a cut-back
+            wall = None                        # the nearest load factor ahead where Newton failed
             while mu != target:
                 dmu = target - mu
                 if step is not None and abs(step) < abs(dmu):
                     dmu = math.copysign(2.0 * abs(step), dmu) if 2.0 * abs(step) < abs(dmu) else dmu
-                trial, sol, rec, step = self._increment(mu, dmu, q, lam, step)
+                if wall is not None and (mu + dmu - wall) * dmu > 0.0:
+                    dmu = wall - mu                # after a cut-back: up to the level that failed, not past it
+                trial, sol, rec, step, failed = self._increment(mu, dmu, q, lam, step)
+                wall = failed if failed is not None else (None if trial == wall else wall)
                 if len(mus) >= 2 and mus[-1] != mus[-2]:
                     # the secant continuation of the path, whichever start converged
                     s_ = (trial - mus[-1]) / (mus[-1] - mus[-2])
@@ -1133,12 +1137,16 @@ class _StaticRun:
                 self.accept(mu, sol, rec)
 
     def _increment(self, mu, dmu, q, lam, step):
-        """Solve at μ + dμ, halving dμ until Newton converges; returns (μ + dμ, solution, record, step)."""
+        """Solve at μ + dμ, halving dμ until Newton converges.
+
+        Returns (μ + dμ, solution, record, step, the last load factor that failed or None)."""
+        failed = None
         while True:
             trial = mu + dmu
             sol, rec = self._predicted(trial, q, lam)
             if sol is not None:
-                return trial, sol, rec, step
+                return trial, sol, rec, step, failed
+            failed = trial
             if self.singular:
                 # a singular tangent where Newton stalls (no stiffness against the loads, or a
                 # limit point): smaller increments do not remove it

@@ -325,7 +325,7 @@ def reference(t, mom=DATA["mom"], c0=DATA["c0"], l0=DATA["l0"]):
         raise ValueError("andrews.reference: the reference exists only for the published data "
                          "(mom = 0.033, c0 = 4530, l0 = 0.07785)")
     t = np.atleast_1d(np.asarray(t, dtype=float))
-    sol = ref.solve(t, rtol=1e-12, atol=1e-12)
+    sol = ref.solve(t, rtol=1e-12, atol=1e-12, cache=True)
     out = {}
     for k, name in enumerate(ANGLE_NAMES):
         out[name] = sol["angles"][:, k].copy()

@@ -189,7 +189,8 @@ def reference(t, mass=PARAMS["mass"], inertia=PARAMS["inertia"], radius=PARAMS["
         return (-mu / np.linalg.norm(D) ** 3 * D)[None, :], np.zeros(1)
 
     chain = Chain(d["masses"], d["inertias"], d["lengths"], d["com"], g=(0.0, 0.0), loads=loads)
-    out = reference_outputs(solve(chain, t, d["phi0"], d["phid0"]), 1)
+    out = reference_outputs(solve(chain, t, d["phi0"], d["phid0"],
+                                  key=("bead_attractor", mass, inertia, radius, px, mu, speed)), 1)
     out["description"] = ("minimal coordinate φ, scipy solve_ivp DOP853 at rtol = atol = 1e-12; reaction by "
                           "Newton–Euler (femb.benchmarks.references.planar_chain)")
     return out

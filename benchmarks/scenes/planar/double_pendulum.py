@@ -101,7 +101,7 @@ def reference(t, length=PARAMS["length"], mass=PARAMS["mass"], g=PARAMS["g"], th
 
     d = _data(length, mass, theta1, theta2, omega1, omega2)
     chain = Chain(d["masses"], d["inertias"], d["lengths"], d["com"], g=(0.0, -g))
-    out = reference_outputs(solve(chain, t, d["phi0"], d["phid0"]), 2)
+    out = reference_outputs(solve(chain, t, d["phi0"], d["phid0"], key="double_pendulum"), 2)
     out["description"] = ("minimal coordinates (two absolute angles), Lagrange's equations, scipy solve_ivp "
                           "DOP853 at rtol = atol = 1e-12; reaction by Newton–Euler "
                           "(femb.benchmarks.references.planar_chain)")

@@ -126,7 +126,8 @@ def reference(t, length=PARAMS["length"], mass=PARAMS["mass"], g=PARAMS["g"], th
         return F * np.array([[-math.sin(phi[0]), math.cos(phi[0])]]), np.array([0.5 * length * F])
 
     chain = Chain(d["masses"], d["inertias"], d["lengths"], d["com"], g=(0.0, -g), loads=loads)
-    sol = solve(chain, t, d["phi0"], d["phid0"], fine=(t_pulse - 10 * width, t_pulse + 10 * width, 1e-3))
+    sol = solve(chain, t, d["phi0"], d["phid0"], fine=(t_pulse - 10 * width, t_pulse + 10 * width, 1e-3),
+                key=("force_pulse", length, mass, g, theta0, t_pulse, width, impulse))
     out = reference_outputs(sol, 1)
     out["description"] = ("minimal coordinate φ, scipy solve_ivp DOP853 at rtol = atol = 1e-12 (step ≤ 1e-3 s "
                           "around the pulse); reaction by Newton–Euler (femb.benchmarks.references.planar_chain)")

@@ -189,7 +189,7 @@ def reference(t, **params):
     """
     from femb.benchmarks.references import slider_crank_minimal as ref
 
-    sol = ref.solve(np.atleast_1d(np.asarray(t, dtype=float)), rtol=1e-12, atol=1e-12, **params)
+    sol = ref.solve(np.atleast_1d(np.asarray(t, dtype=float)), rtol=1e-12, atol=1e-12, cache=True, **params)
     return {
         "theta": sol["theta"], "x3": sol["x3"], "x4": sol["x4"],
         "theta_d": sol["theta_d"], "x3_d": sol["x3_d"], "x4_d": sol["x4_d"],

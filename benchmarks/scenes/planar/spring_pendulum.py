@@ -89,7 +89,7 @@ def reference(t, length=PARAMS["length"], mass=PARAMS["mass"], k=PARAMS["k"], g=
         return np.zeros((1, 2)), -k * (phi - d["phi0"][0]) * np.ones(1)
 
     chain = Chain(d["masses"], d["inertias"], d["lengths"], d["com"], g=(0.0, -g), loads=loads)
-    out = reference_outputs(solve(chain, t, d["phi0"], d["phid0"]), 1)
+    out = reference_outputs(solve(chain, t, d["phi0"], d["phid0"], key=("spring_pendulum", k)), 1)
     out["description"] = ("minimal coordinate φ, scipy solve_ivp DOP853 at rtol = atol = 1e-12; reaction by "
                           "Newton–Euler (femb.benchmarks.references.planar_chain)")
     return out

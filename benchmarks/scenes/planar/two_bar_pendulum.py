@@ -81,7 +81,7 @@ def reference(t, length=PARAMS["length"], mass=PARAMS["mass"], g=PARAMS["g"]):
 
     d = _data(length, mass)
     chain = Chain(d["masses"], d["inertias"], d["lengths"], d["com"], g=(0.0, -g))
-    out = reference_outputs(solve(chain, t, d["phi0"], d["phid0"]), 2)
+    out = reference_outputs(solve(chain, t, d["phi0"], d["phid0"], key="two_bar_pendulum"), 2)
     out["description"] = ("minimal coordinates, scipy solve_ivp DOP853 at rtol = atol = 1e-12; reaction by "
                           "Newton–Euler (femb.benchmarks.references.planar_chain)")
     return out
