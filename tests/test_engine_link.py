@@ -18,11 +18,14 @@ SEPARATE = ("newton_step", "kkt_estimate", "resynchronise", "refine_acceleration
 
 
 def _functions(disp):
-    """(defined, declared) function names of the only compiled version of ``disp``."""
-    (cres,) = disp.overloads.values()
-    mod = cres.library._get_module_for_linking()
-    defined = [f.name for f in mod.functions if not f.is_declaration]
-    declared = [f.name for f in mod.functions if f.is_declaration]
+    """(defined, declared) function names over every compiled version of ``disp`` (small helpers
+    such as ``copy_into`` are compiled for several argument types when the engine is compiled in
+    this process; loaded from the cache, only the entry points and stages are)."""
+    defined, declared = [], []
+    for cres in disp.overloads.values():
+        mod = cres.library._get_module_for_linking()
+        defined += [f.name for f in mod.functions if not f.is_declaration]
+        declared += [f.name for f in mod.functions if f.is_declaration]
     return defined, declared
 
 

@@ -228,20 +228,27 @@ ROLE_ARGUMENTS = {
 _PY_KERNELS = []
 
 
-def _call_codegen(role, args):
-    """Typing and code generation of a call of a ``role`` kernel through its address."""
-    ksig = ROLE_SIGNATURES[role]
-    n = len(ksig.args)
-    addr, args = args[0], args[1:]
-    if not isinstance(addr, types.Integer) or len(args) != n:
-        return None
-    for have, want in zip(args, ksig.args):
+def kernel_args_match(args, wanted):
+    """Whether the numba types ``args`` can be passed to a kernel taking ``wanted`` (its signature's
+    arguments): C-contiguous arrays of the same dtype and rank, numbers or booleans for scalars."""
+    if len(args) != len(wanted):
+        return False
+    for have, want in zip(args, wanted):
         if isinstance(want, types.Array):
             if not (isinstance(have, types.Array) and have.dtype == want.dtype and have.ndim == want.ndim
                     and have.layout == "C"):
-                return None
+                return False
         elif not isinstance(have, (types.Number, types.Boolean)):
-            return None
+            return False
+    return True
+
+
+def _call_codegen(role, args):
+    """Typing and code generation of a call of a ``role`` kernel through its address."""
+    ksig = ROLE_SIGNATURES[role]
+    addr, args = args[0], args[1:]
+    if not isinstance(addr, types.Integer) or not kernel_args_match(args, ksig.args):
+        return None
     sig = types.none(addr, *args)
 
     def codegen(context, builder, sig_, llargs):

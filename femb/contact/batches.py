@@ -22,7 +22,8 @@ import numpy as np
 from numba.core import cgutils, types
 from numba.extending import intrinsic
 
-from femb.base.jit import _PY_KERNELS, call_constraint, call_force, call_rates, jit_disabled, kernel
+from femb.base.jit import (_PY_KERNELS, call_constraint, call_force, call_rates, jit_disabled, kernel,
+                           kernel_args_match)
 from femb.system.kernels import CONTACT_SIGNATURE
 
 
@@ -31,15 +32,9 @@ def call_contact(typingctx, addr, args):
     """Call the compiled contact kernel at ``addr`` with ``args`` = (P, t, tf, xe, ve, le, jac, gN, W, zeta, H)
     (docs/contact.md §2; the arguments travel as one tuple)."""
     ksig = CONTACT_SIGNATURE
-    if not isinstance(addr, types.Integer) or not isinstance(args, types.BaseTuple) or len(args) != len(ksig.args):
+    if not isinstance(addr, types.Integer) or not isinstance(args, types.BaseTuple) \
+            or not kernel_args_match(tuple(args), ksig.args):
         return None
-    for have, want in zip(args, ksig.args):
-        if isinstance(want, types.Array):
-            if not (isinstance(have, types.Array) and have.dtype == want.dtype and have.ndim == want.ndim
-                    and have.layout == "C"):
-                return None
-        elif not isinstance(have, (types.Number, types.Boolean)):
-            return None
     sig = types.none(addr, args)
 
     def codegen(context, builder, sig_, llargs):
