@@ -123,8 +123,11 @@ class ContactElement(Element):
             Direction of each friction force λ_F on that body.
         gN : ndarray (nel,)
             Gap (m), negative when the surfaces overlap.
+
+        None (this base class): the type is not drawn in VTK and pictures; a user's contact type
+        overrides this to be drawn.
         """
-        raise NotImplementedError(f"{cls.__name__} does not describe its contact points")
+        return None
 
     @classmethod
     def geometry(cls, p, t, qe, qde, lame, names):
@@ -134,7 +137,10 @@ class ContactElement(Element):
         state (0 open, 1 stick, 2 slip), λ_N and the friction forces λ_F; (nel, 0) otherwise
         (forces 0, state −1: not known).
         """
-        c, n, T, gN = cls.contact_frames(p["P"], np.asarray(qe, dtype=float))
+        frames = cls.contact_frames(p["P"], np.asarray(qe, dtype=float))
+        if frames is None:          # a user's contact type that does not describe its points: not drawn
+            return []
+        c, n, T, gN = frames
         lame = np.asarray(lame, dtype=float)
         if lame.shape[1] >= 2:
             state = lame[:, 0]

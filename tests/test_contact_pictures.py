@@ -175,3 +175,17 @@ def test_bouncing_ball_frames_and_picture_show_the_contact(tmp_path):
     motion = scan_motion(frames, ())
     assert "contact" in {it.kind for it in frame_items(pv, rest, motion)}
     assert "contact" not in {it.kind for it in frame_items(pv, fly, motion)}
+
+
+def test_a_contact_type_that_does_not_describe_its_points_is_not_drawn():
+    """A user's contact type without ``contact_frames`` writes no contact block (and no error)."""
+    class MySphereOnPlane(SphereOnPlane):
+        contact_frames = classmethod(lambda cls, P, qe: None)
+
+    m = femb.Mechanism("own")
+    m.add(RigidBody("b", 1.0, 0.01, position=(0.1, 0.05)))
+    m.add(MySphereOnPlane("c", "b", 0.08))
+    model = m.compile()
+    st = model.initial_state()
+    blocks = model_blocks(model, st.t, st.q, st.qd, np.zeros(model.nc))
+    assert not any("contact_force" in b.point_data for b in blocks)
