@@ -43,7 +43,7 @@ class Browser:
     async def __aenter__(self):
         import aiohttp
 
-        self._profile = tempfile.TemporaryDirectory(prefix="femb-chromium-")
+        self._profile = tempfile.TemporaryDirectory(prefix="femb-chromium-", ignore_cleanup_errors=True)
         w, h = self.size
         self._proc = subprocess.Popen(
             [chromium_path(), *FLAGS, f"--user-data-dir={self._profile.name}", "--remote-debugging-port=0",

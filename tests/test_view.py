@@ -21,6 +21,7 @@ import socket
 import subprocess
 import sys
 import time
+import urllib.parse
 from pathlib import Path
 
 import numpy as np
@@ -168,7 +169,8 @@ async def _check_player(url, n_frames, legend, png_out=None):
         await asyncio.sleep(1.5)
         assert await b.evaluate(_TIME) == t3, "pause did not stop the player"
 
-        local = (url.rstrip("/"), "data:", "blob:")
+        origin = "{0.scheme}://{0.netloc}".format(urllib.parse.urlsplit(url))
+        local = (origin, "data:", "blob:")
         remote = [u for u in b.requests if not u.startswith(local)]
         assert not remote, f"the page loaded from the network: {remote}"
 
@@ -250,3 +252,65 @@ if __name__ == "__main__":            # the documentation's screenshot
         finally:
             server.close()
     print(f"wrote {out}")
+
+
+_NOTEBOOK_CELL = """
+import femb
+from femb.elements import Gravity, Hinge, RigidBody
+mech = femb.Mechanism("pendulum")
+bar = mech.add(RigidBody("bar", mass=1.0, inertia=1 / 12, position=(0.5, 0.0), points={"O": (-0.5, 0.0)}))
+mech.add(Hinge("pivot", "ground", bar, point_b="O"))
+mech.add(Gravity((0.0, -9.81)))
+result = femb.simulate(mech.compile(), t_end=0.5, h=1e-2)
+result.view()
+"""
+
+
+def _kernel_outputs(kc, msg_id, timeout):
+    """IOPub messages of one execution, then its update_display_data (the player's iframe)."""
+    deadline = time.monotonic() + timeout
+    out, idle = [], False
+    while time.monotonic() < deadline:
+        try:
+            msg = kc.get_iopub_msg(timeout=1.0)
+        except Exception:                   # queue.Empty: nothing yet
+            continue
+        kind, content = msg["msg_type"], msg["content"]
+        out.append((kind, content))
+        if kind == "error":
+            pytest.fail("the notebook cell raised: " + "\n".join(content["traceback"])[-2000:])
+        idle = idle or (kind == "status" and content["execution_state"] == "idle"
+                        and msg["parent_header"].get("msg_id") == msg_id)
+        if idle and any(k == "update_display_data" for k, _ in out):
+            return out
+    pytest.fail(f"no player shown within {timeout:.0f} s; the kernel said {[k for k, _ in out]}")
+
+
+@needs_chromium
+def test_result_view_in_a_jupyter_kernel_shows_the_player(tmp_path):
+    """``result.view()`` run in a real Jupyter kernel (ipykernel), as in a notebook cell.
+
+    The cell must return at once (the player's server runs in the kernel's event loop), show one
+    output that is then replaced by an iframe (no warning on stderr), and the iframe's page, opened
+    in Chromium while the kernel lives on, must be the player: scene, slider over the result's
+    frames, legend.
+    """
+    jupyter_client = pytest.importorskip("jupyter_client", reason="the test extra installs ipykernel")
+    km = jupyter_client.KernelManager(kernel_name="python3")
+    km.start_kernel(cwd=str(tmp_path), env={**os.environ, "MPLBACKEND": "Agg"})
+    try:
+        kc = km.client()
+        kc.start_channels()
+        kc.wait_for_ready(timeout=120)
+        out = _kernel_outputs(kc, kc.execute(_NOTEBOOK_CELL), timeout=600)
+        stderr = [c["text"] for k, c in out if k == "stream" and c["name"] == "stderr"]
+        assert not any("Warning" in s for s in stderr), f"the cell printed warnings: {stderr}"
+        shown = [c for k, c in out if k == "display_data"]
+        update = [c for k, c in out if k == "update_display_data"][-1]
+        assert len(shown) == 1 and update["transient"]["display_id"] == shown[0]["transient"]["display_id"]
+        html = update["data"]["text/html"]
+        url = re.search(r'src="([^"]+)"', html).group(1)
+        asyncio.run(_check_player(url, 51, ["bar", "ground", "revolute joint"]))
+        kc.stop_channels()
+    finally:
+        km.shutdown_kernel(now=True)

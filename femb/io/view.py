@@ -234,7 +234,7 @@ class _Session:
 
     _count = 0
 
-    def __init__(self, pvd, view, fps):
+    def __init__(self, pvd, view, fps, title=None):
         from trame.app import get_server
 
         self.player = Player(pvd, view=view)
@@ -244,7 +244,7 @@ class _Session:
         cli = self.server.cli
         parse = cli.parse_known_args
         cli.parse_known_args = lambda args=None, namespace=None: parse([] if args is None else args, namespace)
-        title = f"femb view: {self.player.pvd.parent.name}/{self.player.pvd.name}"
+        title = title or f"femb view: {self.player.pvd.parent.name}/{self.player.pvd.name}"
         self.layout = _build_ui(self.server, self.player, title)
         _wire(self.server, self.player, fps)
 
@@ -265,7 +265,7 @@ _NOTEBOOK_SESSIONS = []      # players shown in a notebook live as long as the k
 
 def _notebook(session, port, host, height=600):
     """Show the player inline: its server starts as a task in the kernel's event loop, then an iframe."""
-    from IPython.display import HTML, display
+    from IPython.display import HTML, IFrame, display
 
     _NOTEBOOK_SESSIONS.append(session)
     layout = session.layout
@@ -276,8 +276,8 @@ def _notebook(session, port, host, height=600):
 
     async def _show():
         await session.server.ready
-        session.html = f'<iframe src="{layout.url}" style="border: none; width: 100%; height: {height}px;"></iframe>'
-        handle.update(HTML(session.html))
+        session.iframe = IFrame(layout.url, width="100%", height=height)
+        handle.update(session.iframe)
 
     asyncio.get_event_loop().create_task(_show())
 
@@ -327,14 +327,16 @@ def view(source, *, port=None, open_browser=True, view=None, fps=_FPS, host="loc
     ok, why = viewer_available()
     if not ok:
         raise OutputError(why)
-    tmp = None
+    tmp = title = None
     if hasattr(source, "write_vtk") and hasattr(source, "t"):
         import tempfile
 
         tmp = tempfile.TemporaryDirectory(prefix="femb-view-")
         every = max(1, len(source.t) // 400)
+        name = getattr(getattr(source, "model", None), "name", "") or "result"
+        title = f"femb view: {name}"
         source = source.write_vtk(tmp.name, every=every)
-    session = _Session(source, view, float(fps))
+    session = _Session(source, view, float(fps), title)
     session.tmp = tmp                      # the temporary series lives as long as the session
     if _in_notebook():
         _notebook(session, port, host)
