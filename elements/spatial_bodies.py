@@ -103,8 +103,8 @@ def rotation_input(owner, what, value):
 class FrameNode(Node):
     """A spatial frame node on R³ × SO(3): x = (r, p) (7), v = (ṙ, Ω) (6).
 
-    Class attributes (what the model compiler and the time loop need)
-    -----------------------------------------------------------------
+    Attributes
+    ----------
     kind : ``"frame"``
     coord_names : 7 names of the configuration entries x.
     velocity_names : 6 names of the velocity / tangent entries v.

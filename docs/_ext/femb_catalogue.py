@@ -67,7 +67,8 @@ def ground():
     g = mech.ground
     for k, xy in enumerate([(0.0, 0.0), (0.6, 0.0), (1.2, 0.0), (0.6, 0.4)]):
         g.add_point(f"P{k}", xy)
-    arm = mech.add(RigidBody("arm", 1.0, 0.02, (0.15, 0.0), points={"O": (-0.15, 0.0)}, omega=1.0))
+    arm = mech.add(RigidBody("arm", 1.0, 0.02, (0.15, 0.0), points={"O": (-0.15, 0.0)},
+                                velocity=(0.0, 0.15), omega=1.0))          # v = ω × (r − r_O)
     mech.add(Hinge("pin", g, arm, point_a="P0", point_b="O"))
     return mech
 
@@ -277,7 +278,7 @@ def spatial_line_joints():
                                        shape={"type": "cylinder", "radius": 0.05, "length": 0.1, "axis": (0, 0, 1)}))
     arm = mech.add(SpatialRigidBody("arm", 0.5, rod_inertia(0.5, 0.3, 0.02), position=(0.6, 0.3, 0.45),
                                     rotation=[[0, 0, 1], [0, 1, 0], [-1, 0, 0]], omega_space=(2.0, 0.0, 0.0),
-                                    velocity=(0.0, -0.3, 0.0), points={"top": (-0.15, 0, 0)}))
+                                    velocity=(0.0, 0.3, 0.0), points={"top": (-0.15, 0, 0)}))
     mech.add(PrismaticJoint("slide", "ground", block, at=(0.0, 0.0, 0.6), axis=rail),
              CylindricalJoint("post", "ground", sleeve, at=(0.0, 0.6, 0.6), axis=(0.0, 0.0, 1.0)),
              UniversalJoint("cardan", "ground", arm, axis_a=(1.0, 0.0, 0.0), axis_b=(0.0, 1.0, 0.0),

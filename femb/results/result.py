@@ -619,8 +619,15 @@ class Result:
     def series(self, name: str) -> tuple[np.ndarray, str]:
         """One named output over time: (values of shape (nt,), unit).
 
-        Names
+        Parameters
+        ----------
+        name : str
+            An output name, as listed by :meth:`outputs`; the kinds are listed under Notes.
+
+        Notes
         -----
+        The output names:
+
         ``"<body>.x"``, ``".y"``, ``".theta"``
             A planar coordinate (m, rad); append ``_d`` / ``_dd`` for its
             velocity / acceleration (``"bar.theta_d"``).

@@ -6,8 +6,8 @@ many parameter sets on a :mod:`dask.distributed` cluster — a
 running Dask scheduler — and returns a tidy :class:`pandas.DataFrame` with one
 row per case.
 
-Design
-------
+**Design.**
+
 * **Cases.** A *design* is a list of cases, each a dict ``{name: value}``. It
   is the full-factorial product of ``grid`` values, an explicit list of
   ``cases``, ``samples`` drawn in ``ranges`` (random or Latin hypercube, with
@@ -51,8 +51,7 @@ Design
   back to the client. On a multi-machine cluster DIR must be a path every
   worker can write (a shared file system, or the files stay on each machine).
 
-Columns of the result
----------------------
+**Columns of the result.**
 ``case`` (position in the design), ``case_id``, the parameters (fixed and
 varied), the run settings ``t_end``, ``h``, ``rho_inf`` (and ``rtol``,
 ``atol`` when given), one column per output at the case's final time, and
