@@ -103,25 +103,6 @@ def rotation_input(owner, what, value):
 class FrameNode(Node):
     """A spatial frame node on R³ × SO(3): x = (r, p) (7), v = (ṙ, Ω) (6).
 
-    Attributes
-    ----------
-    kind : ``"frame"``
-    coord_names : 7 names of the configuration entries x.
-    velocity_names : 6 names of the velocity / tangent entries v.
-    nx, nv : 7, 6.
-    translational : (0, 1, 2)
-        Indices (in x and in v alike) of the translations along the inertial
-        axes (gravity acts on them).
-    rotation_blocks : ((3, 3),)
-        For each rotation of the node: (start in x of its unit quaternion, 4
-        entries; start in v of its body-axes rotation vector, 3 entries). The
-        update is p ← p ⊗ quat(exp(δθ)) (renormalised), the tangent operator
-        T(δθ) of :mod:`femb.base.rotations` multiplies these columns.
-    compose, tangent, bracket :
-        The group operations as compiled functions: ``compose(x, d)`` (7,),
-        ``tangent(d)`` (6, 6), ``bracket(v, w)`` (6,)
-        (:func:`femb.base.rotations.frame_compose`, ``frame_tangent``, ``frame_bracket``).
-
     Parameters
     ----------
     name : str
@@ -145,6 +126,23 @@ class FrameNode(Node):
     qd0 : ndarray (6,)    initial v
     fixed : ndarray (7,) bool    fixed entries of x
     fixed_v : ndarray (6,) bool  fixed entries of v
+    kind : ``"frame"``
+        Class attributes from here on: what the model compiler and the time loop need.
+    coord_names : 7 names of the configuration entries x.
+    velocity_names : 6 names of the velocity / tangent entries v.
+    nx, nv : 7, 6.
+    translational : (0, 1, 2)
+        Indices (in x and in v alike) of the translations along the inertial
+        axes (gravity acts on them).
+    rotation_blocks : ((3, 3),)
+        For each rotation of the node: (start in x of its unit quaternion, 4
+        entries; start in v of its body-axes rotation vector, 3 entries). The
+        update is p ← p ⊗ quat(exp(δθ)) (renormalised), the tangent operator
+        T(δθ) of :mod:`femb.base.rotations` multiplies these columns.
+    compose, tangent, bracket :
+        The group operations as compiled functions: ``compose(x, d)`` (7,),
+        ``tangent(d)`` (6, 6), ``bracket(v, w)`` (6,)
+        (:func:`femb.base.rotations.frame_compose`, ``frame_tangent``, ``frame_bracket``).
     """
 
     kind = "frame"
