@@ -153,7 +153,7 @@ def table(t_end=DEFAULTS["t_end"], hs=(2e-4, DEFAULTS["h"]), h_ref=1e-6):
 
 def main():
     rows = table()
-    keys = list(next(iter(rows.values())))
+    keys = list(dict.fromkeys(k for r in rows.values() for k in r))
     print("woodpecker  " + " | ".join(rows))
     for k in keys:
         print(f"  {k:22s} " + " | ".join(f"{r[k]:.6g}" if k in r else "-" for r in rows.values()))
