@@ -120,6 +120,7 @@ CONTACT_SCENES = {
     "contact_sphere3d": "femb.benchmarks.scenes.contact.contact_sphere3d",
     "contact_tippetop": "femb.benchmarks.scenes.contact.contact_tippetop",
     "contact_beam_stop": "femb.benchmarks.scenes.contact.contact_beam_stop",
+    "contact_woodpecker": "femb.benchmarks.scenes.contact.contact_woodpecker",
 }
 
 #: Run settings used for a scene file without DEFAULTS (only ρ∞; t_end and h must be given).
