@@ -233,6 +233,12 @@ def _plain_log_formatter(**kw):
     return PlainLogFormatter(**kw)
 
 
+#: :func:`save_figure` gives log axes minor ticks at 2 and 5 and plain-text labels; False keeps
+#: matplotlib's defaults (ticks at 2 … 9, math-text labels), for the comparison of
+#: :mod:`femb.benchmarks.runners.figure_cost`
+PLAIN_LOG_AXES = True
+
+
 def save_figure(fig, path, dpi=90):
     """Write one of the suite's figures and close it.
 
@@ -250,7 +256,7 @@ def save_figure(fig, path, dpi=90):
     import matplotlib.pyplot as plt
     from matplotlib.ticker import LogLocator
 
-    for ax in fig.axes:
+    for ax in fig.axes if PLAIN_LOG_AXES else ():
         for axis, scale in ((ax.xaxis, ax.get_xscale()), (ax.yaxis, ax.get_yscale())):
             if scale == "log":
                 axis.set_minor_locator(LogLocator(subs=(2.0, 5.0)))
