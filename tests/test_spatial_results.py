@@ -200,9 +200,28 @@ def test_to_pandas_and_plot_on_spatial_models(top_run, crank_run, wheel_run, tmp
         names = [n for n in r.outputs() if n.endswith(("_dd", ".Mz", ".p1")) or n.startswith("energy.")]
         sel = r.to_pandas(names)
         assert list(sel.columns) == names
+        # plot reads each name through series() as to_pandas does (every name above): one panel
+        # per kind of output here (node coordinates and their rates, Ω and ω, body points,
+        # multipliers, reactions, energies), not one per output (hundreds of panels, minutes)
+        kinds = _one_output_per_kind(r.outputs())
+        assert len(kinds) >= 15
         f = tmp_path / f"{r.model.name}.png"
-        r.plot(r.outputs(), file=f)
+        fig = r.plot(kinds, file=f)
         assert f.stat().st_size > 1000
+        assert [ax.get_ylabel().split(" (")[0] for ax in fig.axes] == kinds
+
+
+def _one_output_per_kind(names):
+    """The first output name of each kind: the name after its owner, with axis letters and
+    indices replaced (``top.x``, ``top.x_d``, ``top.Omega_x``, ``guide.Fx``, ``energy.kinetic``)."""
+    import re
+
+    seen = {}
+    for n in names:
+        base = n.partition(".")[2]
+        kind = re.sub(r"[xyz](?=$|_d)|\d+$", "*", base.rsplit(".", 1)[-1])
+        seen.setdefault(("." in base, kind), n)
+    return list(seen.values())
 
 
 def test_planar_outputs_list_joint_reactions_too():

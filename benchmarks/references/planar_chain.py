@@ -116,6 +116,45 @@ class Chain:
         R = np.cumsum(net[::-1], axis=0)[::-1]     # R_i = Σ_{k≥i} (m_k a_k − F_k)
         return {"phidd": phidd, "r": r, "v": v, "a": a, "R": R}
 
+    def outputs(self, t, phi, phid):
+        """:meth:`state_outputs` at every time at once.
+
+        The same formulas over a leading time axis (one batched linear solve for φ̈); only
+        ``loads`` is called once per time. A Python loop over :meth:`state_outputs` was most of
+        the time of a reference sampled at the 10⁴ steps of a fine run.
+
+        Parameters
+        ----------
+        t : ndarray, shape (nt,)
+        phi, phid : ndarray, shape (nt, n)
+
+        Returns
+        -------
+        dict
+            ``phidd`` (nt, n); ``r``, ``v``, ``a``, ``R`` (nt, n, 2).
+        """
+        nt, n = phi.shape
+        if self.loads is None:
+            F = np.broadcast_to(self.m[:, None] * self.g[None, :], (nt, n, 2))
+            tau = np.zeros((nt, n))
+        else:
+            F, tau = np.empty((nt, n, 2)), np.empty((nt, n))
+            for i in range(nt):
+                F[i], tau[i] = self.external(t[i], phi[i], phid[i])
+        d = phi[:, :, None] - phi[:, None, :]
+        M = self.B * np.cos(d) + np.diag(self.J)
+        quad = -np.einsum("tij,tj->ti", self.B * np.sin(-d), phid ** 2)
+        e = np.stack((np.cos(phi), np.sin(phi)), axis=-1)
+        ep = np.stack((-np.sin(phi), np.cos(phi)), axis=-1)
+        Q = np.einsum("ki,tkx,tix->ti", self.L, F, ep) + tau
+        phidd = np.linalg.solve(M, (Q - quad)[..., None])[..., 0]
+        r = np.einsum("kj,tjx->tkx", self.L, e)
+        v = np.einsum("kj,tjx->tkx", self.L, phid[..., None] * ep)
+        a = np.einsum("kj,tjx->tkx", self.L, phidd[..., None] * ep - (phid ** 2)[..., None] * e)
+        net = self.m[None, :, None] * a - F
+        R = np.cumsum(net[:, ::-1], axis=1)[:, ::-1]     # R_i = Σ_{k≥i} (m_k a_k − F_k)
+        return {"phidd": phidd, "r": r, "v": v, "a": a, "R": R}
+
 
 def solve(chain, t_eval, phi0, phid0, rtol=1e-12, atol=1e-12, method="DOP853", fine=None, key=None):
     """Integrate the chain and evaluate its outputs at ``t_eval``.
@@ -167,7 +206,5 @@ def solve(chain, t_eval, phi0, phid0, rtol=1e-12, atol=1e-12, method="DOP853", f
                                                                                  chain.g))
     Y, nfev = integrate(rhs, y0, t_eval, key=key, fine=fine, rtol=rtol, atol=atol, method=method)
     out = {"t": t_eval, "phi": Y[:, :n], "phid": Y[:, n:], "nfev": nfev}
-    per = [chain.state_outputs(t, y[:n], y[n:]) for t, y in zip(t_eval, Y)]
-    for key in ("phidd", "r", "v", "a", "R"):
-        out[key] = np.array([p[key] for p in per])
+    out.update(chain.outputs(t_eval, Y[:, :n], Y[:, n:]))
     return out

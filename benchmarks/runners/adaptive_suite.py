@@ -48,7 +48,7 @@ from femb.errors import SolverError
 from femb.benchmarks.accuracy import stepsize_study as S
 from femb.benchmarks.runners.bench_common import (
     _andrews_angle_error, _fixed_step_search, _plt, _sample_outputs, clean, criterion, errors, first_line,
-    simulate_timed)
+    save_figure, simulate_timed)
 from femb.study.registry import load
 
 #: rtol (= atol) ladders of the adaptive work–precision series
@@ -398,8 +398,7 @@ def tolerance_proportionality(ctx):
     ax[1].set_title("steps against rtol", fontsize=10)
     fig.tight_layout()
     path = ctx.out / "stress_tolerance_proportionality.png"
-    fig.savefig(path, dpi=90)
-    plt.close(fig)
+    save_figure(fig, path)
     return {"title": "Tolerance proportionality: global error and steps against rtol (adaptive)",
             "settings": {"rtol": rtols, "atol": "= rtol", "rho_inf": "scene defaults",
                          "expected": "error ∝ rtol^(2/3), steps ∝ rtol^(−1/3) (error per step, k = 3; Hairer, "
@@ -513,8 +512,7 @@ def lambda_spikes(ctx):
     ax[1].legend(fontsize=8)
     fig.tight_layout()
     path = ctx.out / "stress_lambda_spikes.png"
-    fig.savefig(path, dpi=90)
-    plt.close(fig)
+    save_figure(fig, path)
     return {"title": "λ at step-size changes (adaptive)",
             "settings": {"rtol": rtols, "atol": "= rtol", "scenes": list(scenes),
                          "period-2 share": "max over steps of |Δ⁴e|/16 over max |e|, e = λ − λ_ref at the accepted "
@@ -585,8 +583,7 @@ def _wp_figure(ctx, name, title, pairs):
     fig.suptitle(title, fontsize=11)
     fig.tight_layout()
     path = ctx.out / f"stress_{name}.png"
-    fig.savefig(path, dpi=90)
-    plt.close(fig)
+    save_figure(fig, path)
     return path.name
 
 
@@ -826,8 +823,7 @@ def adaptive_only(ctx):
     ax.legend(fontsize=8)
     fig.tight_layout()
     path = ctx.out / "stress_adaptive_only.png"
-    fig.savefig(path, dpi=90)
-    plt.close(fig)
+    save_figure(fig, path)
     return {"title": "A run only the adaptive step gets through (bead attractor, 10 s)",
             "settings": {"scene": "femb.benchmarks.scenes.planar.bead_attractor", "rtol": ONLY_RTOL, "atol": ONLY_RTOL,
                          "bound": f"{ONLY_BOUND:g} rad", "fixed": "h = 10 s / N and 10 s / 2N, N = adaptive steps"},

@@ -66,7 +66,8 @@ from femb.system.model import State
 from femb.benchmarks import peers
 from femb.benchmarks.runners.adaptive_suite import TESTS as _ADAPTIVE_TESTS
 from femb.benchmarks.runners.bench_common import (
-    FAIL, FINDING, PASS, _plt, clean, criterion, first_line, scene_newton_options, simulate_timed)
+    FAIL, FINDING, PASS, _plt, clean, criterion, first_line, save_figure, scene_newton_options,
+    simulate_timed)
 
 
 
@@ -261,8 +262,7 @@ def h_to_zero(ctx):
     fig.suptitle("h → 0 on Andrews' mechanism (ρ∞ = 0.7, t ∈ [0, 1e-4] s)", fontsize=11)
     fig.tight_layout()
     path = ctx.out / "stress_h_to_zero.png"
-    fig.savefig(path, dpi=90)
-    plt.close(fig)
+    save_figure(fig, path)
     return {"title": "h → 0: conditioning, Newton iterations and λ errors (Andrews, t ∈ [0, 1e-4] s)",
             "settings": {"t_end": T, "h": hs, "rho_inf": 0.7, "reference": ref["description"]},
             "criteria": crit, "data": {"scaled": rows[True], "unscaled": rows[False],
@@ -350,8 +350,7 @@ def rho_sweep(ctx):
     ax[1].grid(True, which="both", alpha=0.3)
     fig.tight_layout()
     path = ctx.out / "stress_rho_sweep.png"
-    fig.savefig(path, dpi=90)
-    plt.close(fig)
+    save_figure(fig, path)
     return {"title": "ρ∞ sweep 0 … 1: multiplier oscillations (Andrews, seed Fig. 8)",
             "settings": {"t_end": T, "h": hs, "rho_inf": list(RHO_SWEEP),
                          "amplitude": "max over the last third of the steps of |Δ⁴e_n|/16, e = λ − λ_ref over the "
@@ -559,8 +558,7 @@ def large_h(ctx):
     ax.grid(True, axis="x", which="both", alpha=0.3)
     fig.tight_layout()
     path = ctx.out / "stress_large_h.png"
-    fig.savefig(path, dpi=90)
-    plt.close(fig)
+    save_figure(fig, path)
     return {"title": "Large h: the largest converging step of every scene, and the failure message",
             "settings": {"rho_inf": 0.7, "ladder": "h_default × 2^(k/2) up to t_end/2, then 4 bisections"},
             "criteria": crit, "data": per, "figures": [path.name]}
@@ -649,8 +647,7 @@ def _variant_figure(ctx, rows, hs, xvals, xlabel, title, name):
     fig.suptitle(title, fontsize=11)
     fig.tight_layout()
     path = ctx.out / name
-    fig.savefig(path, dpi=90)
-    plt.close(fig)
+    save_figure(fig, path)
     return path.name
 
 
@@ -831,8 +828,7 @@ def dead_centre(ctx):
         a.grid(True, which="both", alpha=0.3)
     fig.tight_layout()
     path = ctx.out / "stress_dead_centre.png"
-    fig.savefig(path, dpi=90)
-    plt.close(fig)
+    save_figure(fig, path)
     return {"title": "Dead centre: through and from a singular position of a slider–crank",
             "settings": {"t_end": T, "h": hs, "rho_inf": 0.7, "isosceles": dict(Q.PARAMS),
                          "reference": ref["description"]},
@@ -979,8 +975,7 @@ def long_runs(ctx):
     fig.suptitle(f"long runs: pendulum, h = {h:g} s, {n_steps:,} steps requested", fontsize=11)
     fig.tight_layout()
     path = ctx.out / "stress_long_runs.png"
-    fig.savefig(path, dpi=90)
-    plt.close(fig)
+    save_figure(fig, path)
     return {"title": f"Long runs: {n_steps:,} steps of a conservative pendulum at ρ∞ = 1 and 0.9",
             "settings": {"h": h, "steps": n_steps, "t_end": T, "scene": "femb.benchmarks.scenes.planar.pendulum",
                          "quick_note": ("--quick runs 20,000 steps instead of 1,000,000" if ctx.quick else "")},
@@ -1055,8 +1050,7 @@ def units(ctx):
     ax.legend(fontsize=8)
     fig.tight_layout()
     path = ctx.out / "stress_units.png"
-    fig.savefig(path, dpi=90)
-    plt.close(fig)
+    save_figure(fig, path)
     return {"title": "Unit rescaling: m/kg/s against mm/g/ms",
             "settings": {"h": hs, "rho_inf": 0.7, "conversion": "length ×1e3, mass ×1e3, time ×1e3 "
                          "(force unit g·mm/ms² = 1 N; stiffness ×1e-3, torque ×1e3)"},

@@ -54,7 +54,8 @@ from femb.errors import SolverError
 from femb.benchmarks import peers
 from femb.benchmarks.runners.bench_common import (
     GROUPS, _andrews_angle_error, _fixed_step_search, _groups_from_outputs, _sample_outputs, clean, errors,
-    first_line, margins, scene_newton_options, simulate_timed)
+    first_line, margins, save_figure, scene_newton_options,
+    simulate_timed)
 from femb.study.registry import Scene, load
 
 
@@ -584,8 +585,7 @@ def figure(wp, path):
     fig.suptitle(f"work–precision: {wp['scene']}  (t_end = {wp['t_end']:g} s; reference: "
                  f"{'independent' if wp['mode'] == 'outputs' else 'femb self-reference'})", y=0.995, fontsize=11)
     margins(fig, left=1.1, right=0.25, bottom=0.6, top=0.95, wspace=1.2, hspace=0.75)
-    fig.savefig(path, dpi=90)
-    plt.close(fig)
+    save_figure(fig, path)
     return path
 
 
@@ -625,8 +625,7 @@ def adaptive_figure(wp, path):
             ax.legend(fontsize=8)
     fig.suptitle(f"fixed against adaptive steps: {wp['scene']} (t_end = {wp['t_end']:g} s)", fontsize=11)
     margins(fig, left=1.1, right=0.25, bottom=0.6, top=0.5, wspace=1.2, hspace=0.75)
-    fig.savefig(path, dpi=90)
-    plt.close(fig)
+    save_figure(fig, path)
     return path
 
 
@@ -651,6 +650,5 @@ def headline_figure(hl, path):
     ax.set_title(f"Andrews: time to {hl['target']:g} rad on the seven angles at t = 0.03 s")
     ax.invert_yaxis()
     fig.tight_layout()
-    fig.savefig(path, dpi=90)
-    plt.close(fig)
+    save_figure(fig, path)
     return path

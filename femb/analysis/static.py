@@ -271,6 +271,43 @@ def _external(model, groups, t, q, jac):
     return f, Fq
 
 
+def _saddle_csc(K, B, b=None, c=None, d=0.0):
+    """[[K, Bᵀ], [B, 0]], bordered by the column b and the row [cᵀ, 0, d] when b is given, as one CSC matrix.
+
+    Put together from the blocks' COO entries in one step (duplicates summed): scipy.sparse's
+    block and diagonal products cost several times the LU at the sizes of beam models.
+
+    Returns
+    -------
+    A : scipy.sparse.csc_matrix, shape (N, N)
+        N = nq + nc (+ 1 with the border).
+    cols : ndarray of int, shape (nnz,)
+        The column of each stored entry of ``A`` (``A.indices`` holds the rows).
+    """
+    nq, nc = K.shape[0], B.shape[0]
+    Kc, Bc = sp.coo_matrix(K), sp.coo_matrix(B)
+    rows, cols, vals = [Kc.row, Bc.col, nq + Bc.row], [Kc.col, nq + Bc.row, Bc.col], [Kc.data, Bc.data, Bc.data]
+    N = nq + nc
+    if b is not None:
+        N += 1
+        b, c = np.asarray(b, dtype=float).ravel(), np.asarray(c, dtype=float).ravel()
+        ib, ic = np.flatnonzero(b), np.flatnonzero(c)
+        dv = [float(d)] if d != 0.0 else []
+        rows += [ib, np.full(ic.size, N - 1), [N - 1] * len(dv)]
+        cols += [np.full(ib.size, N - 1), ic, [N - 1] * len(dv)]
+        vals += [b[ib], c[ic], dv]
+    A = sp.csc_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))), shape=(N, N))
+    A.sum_duplicates()
+    return A, np.repeat(np.arange(N), np.diff(A.indptr))
+
+
+def _row_max(A, cols=None):
+    """Largest |entry| of every row of a CSC matrix (of every column with ``cols``)."""
+    out = np.zeros(A.shape[0])
+    np.maximum.at(out, A.indices if cols is None else cols, np.abs(A.data))
+    return out
+
+
 def _solve(K, B, rhs):
     """Solve [[K, Bᵀ], [B, 0]] x = rhs; None when the matrix is singular.
 
@@ -281,15 +318,14 @@ def _solve(K, B, rhs):
     non-finite solution is taken as singular. Legitimately ill-conditioned
     structures (EA L²/EI up to 1e12) pass.
     """
-    nc = B.shape[0]
-    A = sp.bmat([[K, B.T], [B, None]], format="csc") if nc else sp.csc_matrix(K)
+    A, cols = _saddle_csc(K, B)
     N = A.shape[0]
-    rmax = np.asarray(abs(A).max(axis=1).todense()).ravel()
+    rmax = _row_max(A)
     if np.any(rmax == 0.0) or not np.all(np.isfinite(rmax)):
         return None
-    D = sp.diags(1.0 / np.sqrt(rmax))
-    As = (D @ A @ D).tocsc()
-    b = D @ rhs
+    D = 1.0 / np.sqrt(rmax)
+    As = sp.csc_matrix((D[A.indices] * A.data * D[cols], A.indices, A.indptr), shape=(N, N))
+    b = D * rhs
     if N <= DENSE_LIMIT:
         lu, piv, info = sla.lapack.dgetrf(As.toarray())
         d = np.abs(np.diag(lu))
@@ -305,7 +341,7 @@ def _solve(K, B, rhs):
         if not np.all(np.isfinite(d)) or d.min() <= 1e-15 * d.max():
             return None
         y = lu.solve(b)
-    x = D @ y
+    x = D * y
     return x if np.all(np.isfinite(x)) else None
 
 
@@ -316,29 +352,26 @@ def _solve_bordered(K, B, b, c, d, rhs):
     with one more unknown (the load factor) and one more equation (the arc-length
     condition). It is not symmetric, so it is equilibrated by rows and then by
     columns (each scaled by the inverse of its largest entry) before the LU
-    factorization (sparse LU at every size); the singularity test is that of
+    factorization (sparse LU at every size; the blocks are put together and scaled as
+    arrays of one COO/CSC matrix: scipy.sparse's block and diagonal products cost
+    several times the LU at the beams' sizes); the singularity test is that of
     :func:`_solve` (a pivot below 1e-15 of the largest). At a limit point K is singular but this matrix is not
     (Keller 1977; Allgower & Georg 1990, Ch. 2).
     """
-    nq, nc = K.shape[0], B.shape[0]
-    bcol = sp.csc_matrix(np.asarray(b, dtype=float).reshape(nq, 1))
-    crow = sp.csr_matrix(np.asarray(c, dtype=float).reshape(1, nq))
-    dd = sp.csr_matrix(np.array([[float(d)]]))
-    if nc:
-        A = sp.bmat([[K, B.T, bcol], [B, None, None], [crow, None, dd]], format="csr")
-    else:
-        A = sp.bmat([[K, bcol], [crow, dd]], format="csr")
-    rmax = np.asarray(abs(A).max(axis=1).todense()).ravel()
+    A, cols = _saddle_csc(K, B, b, c, d)
+    N = A.shape[0]
+    rmax = _row_max(A)
     if np.any(rmax == 0.0) or not np.all(np.isfinite(rmax)):
         return None
-    Dr = sp.diags(1.0 / rmax)
-    A1 = (Dr @ A).tocsc()
-    cmax = np.asarray(abs(A1).max(axis=0).todense()).ravel()
+    r_inv = 1.0 / rmax
+    data = A.data * r_inv[A.indices]
+    cmax = np.zeros(N)
+    np.maximum.at(cmax, cols, np.abs(data))
     if np.any(cmax == 0.0):
         return None
-    Dc = sp.diags(1.0 / cmax)
-    As = (A1 @ Dc).tocsc()
-    bs = Dr @ rhs
+    c_inv = 1.0 / cmax
+    As = sp.csc_matrix((data * c_inv[cols], A.indices, A.indptr), shape=(N, N))
+    bs = r_inv * rhs
     try:                                   # sparse LU at every size: the beams' matrices are banded
         lu = spla.splu(As)
     except RuntimeError:
@@ -346,8 +379,7 @@ def _solve_bordered(K, B, b, c, d, rhs):
     dg = np.abs(lu.U.diagonal())
     if not np.all(np.isfinite(dg)) or dg.min() <= 1e-15 * dg.max():
         return None
-    y = lu.solve(bs)
-    x = Dc @ y
+    x = c_inv * lu.solve(bs)
     return x if np.all(np.isfinite(x)) else None
 
 
