@@ -1,0 +1,353 @@
+"""The time loop of :func:`femb.contact.simulate` compiled: many steps in one numba call.
+
+For models on the dense, compiled path of :class:`femb.contact.step.NonsmoothStep` (constant mass
+matrix, at most ``DENSE_MAX_UNKNOWNS`` unknowns, no time functions, no equations removed as
+redundant) :func:`run_steps` does what the Python loop of :mod:`femb.contact.simulate` does per
+step (``_step``, ``_split_at_impact``, ``_free_flight``, ``_accept``, ``_Recorder``), with the
+same algorithm: the step's semismooth Newton iteration (:func:`femb.contact.core.newton_loop`,
+called as it is), the impact location of docs/contact.md §2.4 (free flight to just before the
+impact, the impact in a substep of ≤ 3d, the rest), the state advance (eqs. (71), (96), (114) of
+Capobianco, Harsch, Eugster & Leine, IJNME 122 (2021)), the contact work, the impact events and
+every stored output, written into preallocated arrays.
+
+It returns to Python only when a (sub)step's Newton iteration does not converge (the Python loop
+then takes that whole step, with the prox fixed point and the diagnosis of a failure), when the
+event or substep arrays are full (Python enlarges them and the step is taken again), or at the end.
+
+The substeps of one step are a stack of tasks (h_k, depth_k) run in order from the current state,
+which is what the recursion of the Python loop amounts to once no substep fails: a task either
+accepts its step, or pushes the rest of its step after a free flight, or its two substeps around
+an imminent impact.
+
+Packs (tuples) keep the argument lists short:
+
+* ``P`` (3, L): rows of states; row 0 the current state, 1 a step's solution, 2 a free flight's.
+  A row holds, at the offsets ``F`` (index constants ``_T`` … ``_ITS`` below): t, q, u, u̇, ā, λ_N,
+  λ_F, λ̄_N, λ̄_F, ġ_N, γ_F, x (eq. (126)), g_N, g̈_N, r_N, r_F (prox parameters at q), P_N, P_F, the
+  index sets A–E, the (sub)step's contact work (normal, friction) and Newton iterations;
+* ``ctx`` = (F, mdl, lay, fixed_law, work, cst, M⁻¹, scratch): what
+  :meth:`NonsmoothStep._dense_setup` built, and ``cst`` = (tol, m_ref, α_m, α_f, β, γ, max_iter,
+  freeze_after, h_fixed, vel_tol, gap_tol, locate);
+* ``rec`` = (out, ev_f, ev_u, its, cnt, wsum): the stored steps ``out`` = (t, q, u, u̇, λ_g, g_N, ġ_N,
+  λ_N, Λ_N, P_N, state, γ_F, λ_F, Λ_F, P_F, work) (rows = steps), the events (t, step, contact,
+  ġ_N⁻, ġ_N⁺, Λ_N, P_N) and (u⁻, u⁺), the Newton iterations per accepted (sub)step, the counters
+  (events, substeps) and the contact work so far.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from femb.base.jit import kernel
+from femb.contact.batches import evaluate_batches
+from femb.contact.core import newton_loop, prox_parameters
+from femb.contact.result import OPEN, SLIP, STICK
+
+#: the fields of a state row, in order (their offsets are ``F[i]:F[i + 1]``)
+FIELDS = ("t", "q", "u", "ud", "abar", "lam_N", "lam_F", "lbar_N", "lbar_F", "gNd", "gFd", "x", "gN", "gNdd",
+          "rN", "rF", "PN", "PF", "sets", "work", "its")
+(_T, _Q, _U, _UD, _AB, _LN, _LF, _LBN, _LBF, _GND, _GFD, _X, _GN, _GNDD, _RN, _RF, _PN, _PF, _SETS, _WORK,
+ _ITS) = range(21)
+#: (sub)steps done; Newton did not converge (the Python loop takes the step); arrays full
+DONE, PYTHON, FULL = 0, 1, 2
+
+
+def offsets(nqx, n, nc_x, k, l):
+    """The offsets F (22,) of the fields of a state row for nqx configuration entries, n velocities,
+    nc_x unknowns x, k normal and l tangent rows."""
+    sizes = (1, nqx, n, n, n, k, l, k, l, k, l, nc_x, k, k, k, l, k, l, 5 * k, 2, 1)
+    return np.concatenate(([0], np.cumsum(sizes))).astype(np.int64)
+
+
+@kernel(allocates=True)
+def first_root(a, b, c, lo, hi, closed):
+    """The smallest real root r of a r² + b r + c = 0 with lo < r < hi (lo ≤ r ≤ hi if ``closed``); NaN if none.
+
+    The roots by the cancellation-free form r₁ = q/a, r₂ = c/q, q = −(b + sign(b)√(b² − 4ac))/2
+    (Press et al., Numerical Recipes, §5.6); a linear equation when a = 0.
+    """
+    r1 = np.nan
+    r2 = np.nan
+    if a != 0.0:
+        if c == 0.0:
+            r1, r2 = 0.0, -b / a
+        else:
+            disc = b * b - 4.0 * a * c
+            if disc >= 0.0:
+                qq = -0.5 * (b + math.copysign(math.sqrt(disc), b))
+                r1, r2 = qq / a, c / qq
+    elif b != 0.0:
+        r1 = -c / b
+    best = np.nan
+    for r in (r1, r2):
+        inside = (lo <= r <= hi) if closed else (lo < r < hi)
+        if inside and not r >= best:
+            best = r
+    return best
+
+
+@kernel(allocates=True)
+def _field(row, F, i):
+    return row[F[i]:F[i + 1]]
+
+
+@kernel(allocates=True)
+def _solve(P, si, ri, h, ctx):
+    """One Newton solve of a (sub)step of size h from row ``si`` into row ``ri`` (NonsmoothStep.solve
+    without its fixed point). Returns True when it converged."""
+    F, mdl, lay, fixed_law, work, cst, Minv, scr = ctx
+    s, r = P[si], P[ri]
+    st = (_field(s, F, _Q), _field(s, F, _U), _field(s, F, _UD), _field(s, F, _AB), _field(s, F, _LN),
+          _field(s, F, _LF), _field(s, F, _LBN), _field(s, F, _LBF))
+    law = (_field(s, F, _RN), _field(s, F, _RF), fixed_law[0], fixed_law[1], fixed_law[2], fixed_law[3])
+    x = _field(r, F, _X)
+    x[:] = _field(s, F, _X)
+    am, af, beta, gamma = cst[2], cst[3], cst[4], cst[5]
+    c = (1.0 - af) / (1.0 - am)
+    t1 = s[F[_T]] + h
+    par = np.array([h, cst[0], h * h * beta * c, h * gamma * c, cst[1], 0.0, am, af, beta, gamma, t1, cst[6],
+                    cst[7], 0.0])
+    wk = work + ((_field(s, F, _GND), _field(s, F, _GFD)), scr[0])
+    status, it, err = newton_loop(x, mdl, st, law, lay, par, wk)
+    if status != 0:
+        return False
+    _store_solution(s, r, F, work, t1, it)
+    prox_parameters(work[5][4], work[5][5], Minv, _field(r, F, _RN), _field(r, F, _RF))
+    return True
+
+
+@kernel(allocates=True)
+def _store_solution(s, r, F, work, t1, it):
+    """Row r from the converged iterate in the work arrays (NonsmoothStep._dense_result, _advance) and the
+    contact work ½(u_n + u_{n+1})·(W_NᵀP_N, W_FᵀP_F) of the (sub)step (simulate._accept)."""
+    o, kout, out, mq, mv, sets = work[0], work[2], work[3], work[5], work[6], work[9]
+    x = _field(r, F, _X)
+    r[F[_T]] = t1
+    for i, a in ((_Q, 0), (_U, 1), (_AB, 2), (_LBN, 3), (_LBF, 4), (_PN, 5), (_PF, 7)):
+        _field(r, F, i)[:] = kout[a]
+    _field(r, F, _UD)[:] = x[o[0]:o[1]]
+    _field(r, F, _LN)[:] = x[o[8]:o[9]]
+    _field(r, F, _LF)[:] = x[o[10]:o[11]]
+    _field(r, F, _GND)[:] = out[2]
+    _field(r, F, _GFD)[:] = out[5]
+    _field(r, F, _GNDD)[:] = out[4]
+    _field(r, F, _GN)[:] = mv[4]
+    k = sets.shape[1]
+    for j in range(5):
+        for i in range(k):
+            r[F[_SETS] + j * k + i] = sets[j, i]
+    um = 0.5 * (_field(s, F, _U) + kout[1])
+    r[F[_WORK]] = um @ (mq[4].T @ kout[5])
+    r[F[_WORK] + 1] = um @ (mq[5].T @ kout[7])
+    r[F[_ITS]] = it
+
+
+@kernel(allocates=True)
+def _free_gNdd(s, ctx, gdd):
+    """g̈_N at the state row s without contact forces, bilateral constraints kept (simulate._free_gNdd):
+    M u̇ + Φ_qᵀλ = f, Φ_q u̇ = −γ, then g̈_N = W_N u̇ + ζ_N."""
+    F, mdl, lay, fixed_law, work, cst, Minv, scr = ctx
+    recs, qx, ux, f0, removed = mdl
+    o, mq, mv, dq = work[0], work[5], work[6], work[4]
+    q, u, x = _field(s, F, _Q), _field(s, F, _U), _field(s, F, _X)
+    qx[:q.size] = q
+    ux[:u.size] = u
+    mult = (x[o[5]:o[6]], x[o[8]:o[9]], x[o[10]:o[11]])
+    evaluate_batches(recs, s[F[_T]], qx, ux, mult, False, dq, f0, removed)
+    M, B = mq[0], mq[3]
+    n, m = M.shape[0], B.shape[0]
+    K = np.zeros((n + m, n + m))
+    K[:n, :n] = M
+    K[n:, :n] = B
+    K[:n, n:] = B.T
+    rhs = np.concatenate((mv[0], -mv[3]))
+    ud = np.linalg.solve(K, rhs)[:n]
+    gdd[:] = mq[4] @ ud + mv[5]
+
+
+@kernel(allocates=True)
+def _impact_time(P, si, ri, H, ctx):
+    """Earliest τ ∈ (0, H) at which an open contact closes in the (sub)step from row si solved into row ri
+    (simulate._impact_time); NaN if none."""
+    F, cst = ctx[0], ctx[5]
+    gap_tol, vel_tol = cst[10], cst[9]
+    s, r = P[si], P[ri]
+    k = F[_GN + 1] - F[_GN]
+    gdd_free = ctx[7][1]
+    have_free = False
+    best = np.nan
+    for i in range(k):
+        g, gd = s[F[_GN] + i], s[F[_GND] + i]
+        if not (r[F[_SETS] + i] != 0.0 and (g > gap_tol or abs(gd) > vel_tol)):
+            continue
+        gdd = s[F[_GNDD] + i]
+        if g <= gap_tol and gd > 0.0:
+            if not have_free:
+                _free_gNdd(s, ctx, gdd_free)
+                have_free = True
+            gdd = gdd_free[i]
+        tau = first_root(0.5 * gdd, gd, g, 0.0, H, False)
+        if np.isnan(tau) and g - r[F[_GN] + i] > 0.0:
+            tau = H * g / (g - r[F[_GN] + i])
+        if not np.isnan(tau) and not tau >= best:
+            best = tau
+    return best
+
+
+@kernel(allocates=True)
+def _free_flight(P, tau, ctx):
+    """A step of size ≤ tau from row 0 into row 2 after which the contacts open at row 0 are still open,
+    halved up to 8 times (simulate._free_flight). Returns (converged, its size or NaN)."""
+    F, cst = ctx[0], ctx[5]
+    gap_tol = cst[10]
+    s, r = P[0], P[2]
+    k = F[_GN + 1] - F[_GN]
+    for _ in range(8):
+        if not _solve(P, 0, 2, tau, ctx):
+            return False, np.nan
+        closes = False
+        for i in range(k):
+            was_open = s[F[_GN] + i] > gap_tol or s[F[_GND] + i] > 0.0
+            closes = closes or (was_open and r[F[_SETS] + i] != 0.0)
+        if not closes:
+            return True, tau
+        tau *= 0.5
+    return True, np.nan
+
+
+@kernel(allocates=True)
+def _accept(P, ri, n, ctx, rec):
+    """Book the (sub)step solved into row ri from row 0 (simulate._accept): iterations, contact work,
+    impacts; row 0 becomes its solution. Returns False when the event or substep arrays are full."""
+    F, cst = ctx[0], ctx[5]
+    vel_tol = cst[9]
+    ev_f, ev_u, its, cnt, wsum = rec[1], rec[2], rec[3], rec[4], rec[5]
+    s, r = P[0], P[ri]
+    if cnt[1] >= its.size:
+        return False
+    its[cnt[1]] = int(r[F[_ITS]])
+    cnt[1] += 1
+    wsum[0] += r[F[_WORK]]
+    wsum[1] += r[F[_WORK] + 1]
+    k = F[_GN + 1] - F[_GN]
+    o = ctx[4][0]
+    for i in range(k):
+        A, B, C = r[F[_SETS] + i], r[F[_SETS] + k + i], r[F[_SETS] + 2 * k + i]
+        closed = A != 0.0 and (B != 0.0 or C != 0.0)
+        if not (s[F[_GND] + i] < -vel_tol and closed and r[F[_PN] + i] > 0.0):
+            continue
+        if cnt[0] >= ev_f.shape[0]:
+            return False
+        dt = r[F[_T]] - s[F[_T]]
+        tau = first_root(0.5 * s[F[_GNDD] + i], s[F[_GND] + i], max(s[F[_GN] + i], 0.0), 0.0, dt, True)
+        e = cnt[0]
+        ev_f[e, 0] = r[F[_T]] if np.isnan(tau) else s[F[_T]] + tau
+        ev_f[e, 1], ev_f[e, 2] = n, i
+        ev_f[e, 3], ev_f[e, 4] = s[F[_GND] + i], r[F[_GND] + i]
+        ev_f[e, 5], ev_f[e, 6] = r[F[_X] + o[7] + i], r[F[_PN] + i]
+        ev_u[e, 0, :] = _field(s, F, _U)
+        ev_u[e, 1, :] = _field(r, F, _U)
+        cnt[0] += 1
+    P[0, :] = P[ri]
+    return True
+
+
+@kernel(allocates=True)
+def _task(P, h, depth, ctx, stack):
+    """One task of a step (simulate._step): solve from row 0 over h; accept (returns 0), or push the rest
+    after a free flight (1, row 2 to accept) or the two substeps around an imminent impact (2).
+    Returns -1 when a Newton iteration did not converge. ``stack`` = (hs, depths, top (1,))."""
+    cst = ctx[5]
+    if not _solve(P, 0, 1, h, ctx):
+        return -1
+    d = 1e-4 * cst[8]
+    tau = np.nan
+    if cst[11] != 0.0 and depth < 40 and h > 3 * d:
+        tau = _impact_time(P, 0, 1, h, ctx)
+    if np.isnan(tau):
+        return 0
+    hs, ds, top = stack
+    if tau > 2 * d:
+        ok, h1 = _free_flight(P, tau - 1e-3 * d, ctx)
+        if not ok:
+            return -1
+        if not np.isnan(h1):
+            hs[top[0]], ds[top[0]] = h - h1, depth + 1
+            top[0] += 1
+            return 1
+    first = min(tau + d, 0.5 * h)
+    hs[top[0]], ds[top[0]] = h - first, depth + 1
+    hs[top[0] + 1], ds[top[0] + 1] = first, depth + 1
+    top[0] += 2
+    return 2
+
+
+@kernel(allocates=True)
+def _one_step(P, h, n, ctx, rec):
+    """Step n of size h from row 0 (simulate._step, its substeps as a stack of tasks). Returns DONE,
+    PYTHON or FULL; row 0 holds the state at its end (with its last (sub)step's solution)."""
+    hs, ds, top = np.zeros(128), np.zeros(128, dtype=np.int64), np.zeros(1, dtype=np.int64)
+    hs[0], ds[0], top[0] = h, 0, 1
+    while top[0] > 0:
+        top[0] -= 1
+        hk, dk = hs[top[0]], ds[top[0]]
+        kind = _task(P, hk, dk, ctx, (hs, ds, top))
+        if kind < 0:
+            return PYTHON
+        if kind == 2:                   # two substeps pushed, nothing to accept yet
+            continue
+        if not _accept(P, 2 if kind == 1 else 1, n, ctx, rec):
+            return FULL
+    return DONE
+
+
+@kernel(allocates=True)
+def store(P, n, ctx, rec):
+    """Row n of the stored steps from row 0 (simulate._Recorder.store, simulate._states)."""
+    F, lay, cst, o = ctx[0], ctx[2], ctx[5], ctx[4][0]
+    t, q, u, ud, lam, gN, gNd, lN, LN, PN, state, gF, lF, LF, PF, work = rec[0]
+    s = P[0]
+    x = _field(s, F, _X)
+    t[n] = s[F[_T]]
+    q[n] = _field(s, F, _Q)
+    u[n] = _field(s, F, _U)
+    ud[n] = _field(s, F, _UD)
+    lam[n] = x[o[5]:o[6]]
+    gN[n] = _field(s, F, _GN)
+    gNd[n] = _field(s, F, _GND)
+    lN[n] = x[o[8]:o[9]]
+    LN[n] = x[o[7]:o[8]]
+    PN[n] = _field(s, F, _PN)
+    gF[n] = _field(s, F, _GFD)
+    lF[n] = x[o[10]:o[11]]
+    LF[n] = x[o[9]:o[10]]
+    PF[n] = _field(s, F, _PF)
+    work[n] = rec[5]
+    k = gN.shape[1]
+    fptr, fidx = lay[1], lay[2]
+    for i in range(k):
+        A, B, C = s[F[_SETS] + i], s[F[_SETS] + k + i], s[F[_SETS] + 2 * k + i]
+        state[n, i] = OPEN
+        if A != 0.0 and (B != 0.0 or C != 0.0):
+            v = 0.0
+            for p in range(fptr[i], fptr[i + 1]):
+                v += s[F[_GFD] + fidx[p]] ** 2
+            state[n, i] = SLIP if fptr[i + 1] > fptr[i] and np.sqrt(v) > cst[9] else STICK
+
+
+@kernel(allocates=True)
+def run_steps(P, h, n0, n1, ctx, rec):
+    """Steps n0 … n1 of size h from row 0, each stored (:func:`store`). Returns (status, n): DONE and n1 + 1,
+    or PYTHON / FULL and the step n not taken (the counters and the work sum as at its start)."""
+    cnt, wsum = rec[4], rec[5]
+    for n in range(n0, n1 + 1):
+        c0, c1, w0, w1 = cnt[0], cnt[1], wsum[0], wsum[1]
+        save = P[0].copy()
+        status = _one_step(P, h, n, ctx, rec)
+        if status != DONE:
+            cnt[0], cnt[1], wsum[0], wsum[1] = c0, c1, w0, w1
+            P[0, :] = save
+            return status, n
+        store(P, n, ctx, rec)
+    return DONE, n1 + 1
