@@ -137,9 +137,13 @@ def _store_solution(s, r, F, work, t1, it):
     for j in range(5):
         for i in range(k):
             r[F[_SETS] + j * k + i] = sets[j, i]
-    um = 0.5 * (_field(s, F, _U) + kout[1])
-    r[F[_WORK]] = um @ (mq[4].T @ kout[5])
-    r[F[_WORK] + 1] = um @ (mq[5].T @ kout[7])
+    u0, u1 = _field(s, F, _U), kout[1]
+    for j, (W, p) in enumerate(((mq[4], kout[5]), (mq[5], kout[7]))):
+        w = 0.0                                    # ½(u_n + u_{n+1})·Wᵀp
+        for i in range(W.shape[0]):
+            for a in range(W.shape[1]):
+                w += 0.5 * (u0[a] + u1[a]) * W[i, a] * p[i]
+        r[F[_WORK] + j] = w
     r[F[_ITS]] = it
 
 
