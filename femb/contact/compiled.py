@@ -119,6 +119,15 @@ def _context(stepper, F, vel_tol, locate):
             (np.zeros(0), np.zeros(stepper.lay.nN)))
 
 
+def _entry(dm, args):
+    """The compiled :func:`femb.contact.loop.run_steps` for the argument types of ``dm``'s model (kept on the
+    DenseModel: forming the types of its batch records anew costs milliseconds a run)."""
+    fn = getattr(dm, "_loop_entry", None)
+    if fn is None:
+        fn = dm._loop_entry = _entry_point(loop.run_steps, args)
+    return fn
+
+
 def _python_step(stepper, P, F, n, arr, ctx, loop_args):
     """Step n by the Python loop (its Newton iteration did not converge in the compiled loop): stored, row 0
     advanced. Raises StepFailure as the Python loop does."""
@@ -155,7 +164,7 @@ def run(stepper, s, rec, nsteps, h, info):
     n = 1
     while n <= nsteps:
         args = (P, float(h), n, nsteps, ctx, arr.pack())
-        status, n = _entry_point(loop.run_steps, args)(*args)
+        status, n = _entry(stepper.dm, args)(*args)
         if status == loop.FULL:
             arr.grow()
         elif status == loop.PYTHON:

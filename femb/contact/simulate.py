@@ -36,18 +36,20 @@ def _solve_kkt(lu, model, rhs_q, rhs_c):
     return x[:model.nq], x[model.nq:]
 
 
-def initial_contact_forces(model, lay, st, gap_tol, vel_tol, max_iter=5000):
+def initial_contact_forces(model, lay, st, gap_tol, vel_tol, max_iter=5000, ev=None):
     """Accelerations and contact forces at t₀ for the contacts that are closed (g_N ≤ gap_tol and
     abs(ġ_N) ≤ vel_tol): the acceleration-level contact problem (Signorini on g̈_N, Coulomb on γ̇_F
     or the slip law on γ_F), solved by a projected Jacobi fixed point with prox parameters
     1/(W M⁻¹ Wᵀ)_ii (Studer 2009, §3.4).
+
+    ``ev``: ``assemble.evaluate(model, st.t, st.q, st.qd)`` if the caller has it.
 
     Returns
     -------
     (ud, lam_g, lam_N, lam_F)
     """
     t, q, u = st.t, st.q, st.qd
-    ev = assemble.evaluate(model, t, q, u)
+    ev = assemble.evaluate(model, t, q, u) if ev is None else ev
     WN, WF = ev["WN"], ev["WF"]
     closed = (ev["gN"] <= gap_tol) & (np.abs(WN @ u) <= vel_tol)
     lN, lF = np.zeros(lay.nN), np.zeros(lay.nF)
@@ -245,7 +247,7 @@ def _start(model, lay, stepper, t0, vel_tol):
         i = bad[0]
         raise ModelError(f"contact '{lay.names[i]}' starts penetrated: g_N = {ev0['gN'][i]:.6g} m < 0 at t0 = {t0:g}; "
                          "place the bodies apart or touching")
-    init = initial_contact_forces(model, lay, st, 1e-9 * L, vel_tol)
+    init = initial_contact_forces(model, lay, st, 1e-9 * L, vel_tol, ev=ev0)
     if init is None:
         probe = StepState(t0, st.q, st.qd, *([None] * 8))
         name, why = diagnose(model, lay, probe, 1e-9 * L, vel_tol)
