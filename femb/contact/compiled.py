@@ -38,7 +38,7 @@ class _Arrays:
             a[0] = b[0]
         self.ev_f, self.ev_u = np.zeros((16, 7)), np.zeros((16, 2, n))
         self.its = np.zeros(max(64, 2 * nsteps), dtype=np.int64)
-        self.cnt = np.zeros(2, dtype=np.int64)
+        self.cnt = np.zeros(3, dtype=np.int64)
         self.wsum = np.array(rec0[-1][0], dtype=float)
         self.methods_fp = 0
 
@@ -79,7 +79,7 @@ class _Arrays:
                        v_after=float(f[4]), Lambda_N=float(f[5]), P_N=float(f[6]), u_before=uu[0].copy(),
                        u_after=uu[1].copy()) for f, uu in zip(self.ev_f[:self.cnt[0]], self.ev_u[:self.cnt[0]])]
         return dict(t=t, q=q, qd=u, qdd=ud, lam=lam, contact=contact, iterations=self.its[:self.cnt[1]].copy(),
-                    fixed_point_steps=self.methods_fp, events=events)
+                    fixed_point_steps=self.methods_fp + int(self.cnt[2]), events=events)
 
 
 def _rec0(rec):
@@ -113,7 +113,8 @@ def _get_state(P, F):
 def _context(stepper, F, vel_tol, locate):
     dm = stepper.dm
     cst = np.array([stepper.tol, stepper.m_ref, stepper.am, stepper.af, stepper.beta, stepper.gamma, stepper.max_iter,
-                    stepper.freeze_after, stepper.h_fixed, vel_tol, 1e-9 * stepper.model.length_scale, float(locate)])
+                    stepper.freeze_after, stepper.h_fixed, vel_tol, 1e-9 * stepper.model.length_scale, float(locate),
+                    stepper.max_fp])
     mdl = (dm.recs, dm.qx, dm.ux, dm.f0, dm.removed)
     return (F, mdl, stepper._lay, stepper._fixed_law, stepper._work, cst, _owned(stepper.Minv),
             (np.zeros(0), np.zeros(stepper.lay.nN)))

@@ -41,7 +41,7 @@ import numpy as np
 
 from femb.base.jit import kernel
 from femb.contact.batches import evaluate_batches
-from femb.contact.core import newton_loop, prox_parameters
+from femb.contact.core import _direction, _evaluate, kinematics, newton_loop, prox_parameters, residual
 from femb.contact.result import OPEN, SLIP, STICK
 
 #: the fields of a state row, in order (their offsets are ``F[i]:F[i + 1]``)
@@ -56,7 +56,7 @@ DONE, PYTHON, FULL = 0, 1, 2
 def offsets(nqx, n, nc_x, k, l):
     """The offsets F (22,) of the fields of a state row for nqx configuration entries, n velocities,
     nc_x unknowns x, k normal and l tangent rows."""
-    sizes = (1, nqx, n, n, n, k, l, k, l, k, l, nc_x, k, k, k, l, k, l, 5 * k, 2, 1)
+    sizes = (1, nqx, n, n, n, k, l, k, l, k, l, nc_x, k, k, k, l, k, l, 5 * k, 2, 2)
     return np.concatenate(([0], np.cumsum(sizes))).astype(np.int64)
 
 
@@ -93,28 +93,176 @@ def _field(row, F, i):
 
 
 @kernel(allocates=True)
-def _solve(P, si, ri, h, ctx):
-    """One Newton solve of a (sub)step of size h from row ``si`` into row ``ri`` (NonsmoothStep.solve
-    without its fixed point). Returns True when it converged."""
+def _newton(P, si, x, h, zf, ctx):
+    """The compiled semismooth Newton iteration (femb.contact.core.newton_loop) of a (sub)step of size h from
+    row si, from and into x; with contact unknowns held at zf when zf is not empty (the fixed point's inner
+    problem, eq. (145)). Returns (converged, iterations); the work arrays hold the last iterate's values."""
     F, mdl, lay, fixed_law, work, cst, Minv, scr = ctx
-    s, r = P[si], P[ri]
+    s = P[si]
     st = (_field(s, F, _Q), _field(s, F, _U), _field(s, F, _UD), _field(s, F, _AB), _field(s, F, _LN),
           _field(s, F, _LF), _field(s, F, _LBN), _field(s, F, _LBF))
     law = (_field(s, F, _RN), _field(s, F, _RF), fixed_law[0], fixed_law[1], fixed_law[2], fixed_law[3])
-    x = _field(r, F, _X)
-    x[:] = _field(s, F, _X)
     am, af, beta, gamma = cst[2], cst[3], cst[4], cst[5]
     c = (1.0 - af) / (1.0 - am)
-    t1 = s[F[_T]] + h
-    par = np.array([h, cst[0], h * h * beta * c, h * gamma * c, cst[1], 0.0, am, af, beta, gamma, t1, cst[6],
-                    cst[7], 0.0])
-    wk = work + ((_field(s, F, _GND), _field(s, F, _GFD)), scr[0])
+    par = np.array([h, cst[0], h * h * beta * c, h * gamma * c, cst[1], 0.0, am, af, beta, gamma, s[F[_T]] + h,
+                    cst[6], cst[7], 1.0 if zf.size else 0.0])
+    wk = work + ((_field(s, F, _GND), _field(s, F, _GFD)), zf)
     status, it, err = newton_loop(x, mdl, st, law, lay, par, wk)
-    if status != 0:
+    return status == 0, it
+
+
+@kernel(allocates=True)
+def _solve(P, si, ri, h, ctx):
+    """One (sub)step of size h from row ``si`` into row ``ri`` (NonsmoothStep.solve): semismooth Newton, the
+    prox fixed point if it fails, Newton again from where the fixed point got to. Returns True when one of
+    them converged (False: the Python loop takes the step and raises its StepFailure)."""
+    F, work, Minv = ctx[0], ctx[4], ctx[6]
+    s, r = P[si], P[ri]
+    x = _field(r, F, _X)
+    x[:] = _field(s, F, _X)
+    ok, it = _newton(P, si, x, h, ctx[7][0], ctx)
+    method = 0.0
+    if not ok:
+        x[:] = _field(s, F, _X)
+        ok, it1 = _fixed_point(P, si, x, h, ctx)
+        it += it1
+        method = 1.0
+        if not ok and np.all(np.isfinite(x)):
+            ok, it2 = _newton(P, si, x, h, ctx[7][0], ctx)
+            it += it2
+    if not ok:
         return False
-    _store_solution(s, r, F, work, t1, it)
+    _store_solution(s, r, F, work, s[F[_T]] + h, it)
+    r[F[_ITS] + 1] = method
     prox_parameters(work[5][4], work[5][5], Minv, _field(r, F, _RN), _field(r, F, _RF))
     return True
+
+
+@kernel(allocates=True)
+def _fixed_point(P, si, x, h, ctx):
+    """The prox fixed point of eqs. (144)–(146) (NonsmoothStep.fixed_point) from and into x. Returns
+    (converged, iterations); on convergence the work arrays hold the model and residual at x."""
+    F, work, cst = ctx[0], ctx[4], ctx[5]
+    o = work[0]
+    s = P[si]
+    k, l = o[7] - o[6], o[11] - o[10]
+    m_ref, tol = cst[1], cst[0]
+    sc = np.concatenate((np.full(k, 1.0 / m_ref), np.full(k, h / m_ref), np.full(k, h * h / m_ref),
+                         np.full(l, h / m_ref), np.full(l, h * h / m_ref)))
+    z = x[o[6]:].copy()
+    z1 = np.zeros(z.size)
+    for it in range(1, int(cst[12]) + 1):
+        x[o[6]:] = z
+        ok, _ = _newton(P, si, x, h, z, ctx)
+        if not ok:
+            return False, it
+        _prox_update(P, si, x, h, ctx, z1)
+        err = 0.0
+        for a in range(z.size):
+            err = max(err, abs(z1[a] - z[a]) * sc[a])
+        z[:] = z1
+        if err <= tol:
+            x[o[6]:] = z
+            _evaluate_at(P, si, x, h, ctx)
+            return True, it
+    x[o[6]:] = z
+    return False, int(cst[12])
+
+
+@kernel(allocates=True)
+def _evaluate_at(P, si, x, h, ctx):
+    """Kinematics, model and residual (index sets from the iterate) at x (NonsmoothStep._dense_evaluate)."""
+    F, mdl, lay, fixed_law, work, cst = ctx[0], ctx[1], ctx[2], ctx[3], ctx[4], ctx[5]
+    o, cmp, kout, out, dq, mq, mv, sets = work[0], work[1], work[2], work[3], work[4], work[5], work[6], work[9]
+    s = P[si]
+    st = (_field(s, F, _Q), _field(s, F, _U), _field(s, F, _UD), _field(s, F, _AB), _field(s, F, _LN),
+          _field(s, F, _LF), _field(s, F, _LBN), _field(s, F, _LBF))
+    am, af, beta, gamma = cst[2], cst[3], cst[4], cst[5]
+    c = (1.0 - af) / (1.0 - am)
+    kinematics(x, o, st, np.array([h, am, af, beta, gamma]), cmp, kout)
+    _evaluate(x, o, mdl, s[F[_T]] + h, kout, dq)
+    law = (_field(s, F, _RN), _field(s, F, _RF), fixed_law[0], fixed_law[1], fixed_law[2], fixed_law[3])
+    kin = (kout[1], kout[5], kout[6], kout[7], _field(s, F, _GND), _field(s, F, _GFD))
+    rp = np.array([h, cst[0], h * h * beta * c, h * gamma * c, cst[1], 0.0])
+    residual(x, o, mq, mv, kin, law, lay, rp, sets, out)
+
+
+@kernel(allocates=True)
+def _prox_update(P, si, x, h, ctx, z1):
+    """The proximal update z ↦ p(y, z) of eq. (146), eqs. (128)–(140) in turn (NonsmoothStep.prox_update),
+    into z1 = (κ_N, Λ_N, λ_N, Λ_F, λ_F)."""
+    F, lay, fixed_law, work, cst = ctx[0], ctx[2], ctx[3], ctx[4], ctx[5]
+    o, kout, out, mv = work[0], work[2], work[3], work[6]
+    s = P[si]
+    _evaluate_at(P, si, x, h, ctx)
+    rN, gN, kNh, PN0, xiN, gNdd = _field(s, F, _RN), mv[4], kout[6], kout[5], out[3], out[4]
+    k, l = rN.size, o[11] - o[10]
+    kN, LN, lN, LF, lF = z1[:k], z1[k:2 * k], z1[2 * k:3 * k], z1[3 * k:3 * k + l], z1[3 * k + l:]
+    A = np.zeros(k, dtype=np.bool_)
+    PN = np.zeros(k)
+    for i in range(k):
+        kN[i] = max(kNh[i] - rN[i] * gN[i], 0.0)                                   # (128)
+        A[i] = rN[i] * gN[i] - kNh[i] <= 0.0
+        PN[i] = max(PN0[i] - rN[i] * xiN[i], 0.0) if A[i] else 0.0                  # (131)
+        B = A[i] and rN[i] * xiN[i] - PN0[i] <= 0.0
+        lN[i] = max(x[o[8] + i] - rN[i] * gNdd[i], 0.0) if B else 0.0              # (134)
+    slip = _prox_friction(s, x, ctx, (A, PN, lN), LF, lF)
+    am, af, b, g = cst[2], cst[3], cst[4], cst[5]
+    lN0, lbN0 = _field(s, F, _LN), _field(s, F, _LBN)
+    for i in range(k):
+        lbN = (af * lN0[i] + (1 - af) * lN[i] - am * lbN0[i]) / (1 - am)
+        LN[i] = PN[i] - h * ((1 - g) * lbN0[i] + g * lbN)                          # (95)
+        kN[i] = kN[i] - h * h * ((0.5 - b) * lbN0[i] + b * lbN)                    # (102)
+    lF0, lbF0 = _field(s, F, _LF), _field(s, F, _LBF)
+    for j in range(l):
+        lbF = (af * lF0[j] + (1 - af) * lF[j] - am * lbF0[j]) / (1 - am)
+        LF[j] = LF[j] - h * ((1 - g) * lbF0[j] + g * lbF)                          # (113), LF held P_F
+    mu, fptr, fidx, xiF = fixed_law[0], lay[1], lay[2], out[6]
+    for i in range(k):                                   # slip: Λ_F from Λ_N (friction_rows)
+        if fptr[i + 1] > fptr[i] and slip[i]:
+            idx = fidx[fptr[i]:fptr[i + 1]]
+            v, _ = _direction(xiF[idx])
+            for a in range(idx.size):
+                LF[idx[a]] = -mu[i] * LN[i] * v[a]
+
+
+@kernel(allocates=True)
+def _prox_friction(s, x, ctx, normal, PF, lF):
+    """P_F (137) and λ_F (139), (140) per contact into PF, lF; returns which contacts slip (140b)."""
+    F, lay, fixed_law, work = ctx[0], ctx[2], ctx[3], ctx[4]
+    o, kout, out = work[0], work[2], work[3]
+    A, PN, lN = normal
+    mu, fptr, fidx = fixed_law[0], lay[1], lay[2]
+    rF, PF0, xiF, gF, gFdd = _field(s, F, _RF), kout[7], out[6], out[5], out[7]
+    PF[:] = 0.0
+    lF[:] = 0.0
+    slip = np.zeros(A.size, dtype=np.bool_)
+    for i in range(A.size):
+        if fptr[i + 1] == fptr[i] or not A[i]:
+            continue
+        idx = fidx[fptr[i]:fptr[i + 1]]
+        arg = PF0[idx] - rF[idx] * xiF[idx]
+        _prox_disc_into(arg, mu[i] * PN[i], PF, idx)
+        if np.sqrt(np.sum(arg * arg)) <= mu[i] * PN[i]:
+            lj = np.empty(idx.size)
+            for a in range(idx.size):
+                lj[a] = x[o[10] + idx[a]] - rF[idx[a]] * gFdd[idx[a]]
+            _prox_disc_into(lj, mu[i] * lN[i], lF, idx)
+        else:
+            v, _ = _direction(gF[idx])
+            for a in range(idx.size):
+                lF[idx[a]] = -mu[i] * lN[i] * v[a]
+            slip[i] = True
+    return slip
+
+
+@kernel(allocates=True)
+def _prox_disc_into(v, radius, out, idx):
+    """out[idx] = prox of v onto the disc of the radius (femb.contact.prox.prox_disc)."""
+    nv = np.sqrt(np.sum(v * v))
+    f = 1.0 if nv <= radius else radius / nv
+    for a in range(idx.size):
+        out[idx[a]] = f * v[a] if f != 1.0 else v[a]
 
 
 @kernel(allocates=True)
@@ -232,6 +380,7 @@ def _accept(P, ri, n, ctx, rec):
         return False
     its[cnt[1]] = int(r[F[_ITS]])
     cnt[1] += 1
+    cnt[2] += int(r[F[_ITS] + 1])
     wsum[0] += r[F[_WORK]]
     wsum[1] += r[F[_WORK] + 1]
     k = F[_GN + 1] - F[_GN]
@@ -346,11 +495,11 @@ def run_steps(P, h, n0, n1, ctx, rec):
     or PYTHON / FULL and the step n not taken (the counters and the work sum as at its start)."""
     cnt, wsum = rec[4], rec[5]
     for n in range(n0, n1 + 1):
-        c0, c1, w0, w1 = cnt[0], cnt[1], wsum[0], wsum[1]
+        c0, c1, c2, w0, w1 = cnt[0], cnt[1], cnt[2], wsum[0], wsum[1]
         save = P[0].copy()
         status = _one_step(P, h, n, ctx, rec)
         if status != DONE:
-            cnt[0], cnt[1], wsum[0], wsum[1] = c0, c1, w0, w1
+            cnt[0], cnt[1], cnt[2], wsum[0], wsum[1] = c0, c1, c2, w0, w1
             P[0, :] = save
             return status, n
         store(P, n, ctx, rec)
