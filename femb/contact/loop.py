@@ -49,7 +49,9 @@ FIELDS = ("t", "q", "u", "ud", "abar", "lam_N", "lam_F", "lbar_N", "lbar_F", "gN
           "rN", "rF", "PN", "PF", "sets", "work", "its")
 (_T, _Q, _U, _UD, _AB, _LN, _LF, _LBN, _LBF, _GND, _GFD, _X, _GN, _GNDD, _RN, _RF, _PN, _PF, _SETS, _WORK,
  _ITS) = range(21)
-#: (sub)steps done; Newton did not converge (the Python loop takes the step); arrays full
+#: splits in progress at most (simulate._step splits up to depth 40)
+_MAX_SPLITS = 48
+#: (sub)steps done; no solution found (the Python loop takes the step); arrays full
 DONE, PYTHON, FULL = 0, 1, 2
 
 
@@ -410,7 +412,8 @@ def _accept(P, ri, n, ctx, rec):
 def _task(P, h, depth, ctx, stack):
     """One task of a step (simulate._step): solve from row 0 over h; accept (returns 0), or push the rest
     after a free flight (1, row 2 to accept) or the two substeps around an imminent impact (2).
-    Returns -1 when a Newton iteration did not converge. ``stack`` = (hs, depths, top (1,))."""
+    Returns -1 when its solve found no solution (a free flight without one: the unsplit step, 0).
+    ``stack`` = (hs, depths, top (1,))."""
     cst = ctx[5]
     if not _solve(P, 0, 1, h, ctx):
         return -1
@@ -423,8 +426,8 @@ def _task(P, h, depth, ctx, stack):
     hs, ds, top = stack
     if tau > 2 * d:
         ok, h1 = _free_flight(P, tau - 1e-3 * d, ctx)
-        if not ok:
-            return -1
+        if not ok:                      # no solution in the free flight: the unsplit step (simulate._step)
+            return 0
         if not np.isnan(h1):
             hs[top[0]], ds[top[0]] = h - h1, depth + 1
             top[0] += 1
@@ -437,20 +440,47 @@ def _task(P, h, depth, ctx, stack):
 
 
 @kernel(allocates=True)
-def _one_step(P, h, n, ctx, rec):
+def _one_step(P, h, n, ctx, rec, fr):
     """Step n of size h from row 0 (simulate._step, its substeps as a stack of tasks). Returns DONE,
-    PYTHON or FULL; row 0 holds the state at its end (with its last (sub)step's solution)."""
+    PYTHON or FULL; row 0 holds the state at its end (with its last (sub)step's solution).
+
+    ``fr`` = (rows, counters, tops, count): a frame per split task in progress, with its start state and
+    unsplit solution, the counters and the work sum at the split, and the task-stack position of its
+    substeps. A substep without a solution abandons the innermost split in progress, which takes its
+    unsplit step instead (the StepFailure handler of simulate._step); without a split in progress the
+    Python loop takes the step."""
+    SV, FC, FT, nf = fr
+    cnt, wsum = rec[4], rec[5]
     hs, ds, top = np.zeros(128), np.zeros(128, dtype=np.int64), np.zeros(1, dtype=np.int64)
     hs[0], ds[0], top[0] = h, 0, 1
+    nf[0] = 0
     while top[0] > 0:
         top[0] -= 1
-        hk, dk = hs[top[0]], ds[top[0]]
-        kind = _task(P, hk, dk, ctx, (hs, ds, top))
+        while nf[0] > 0 and FT[nf[0] - 1] > top[0]:         # splits whose substeps are all done
+            nf[0] -= 1
+        t0 = top[0]
+        kind = _task(P, hs[t0], ds[t0], ctx, (hs, ds, top))
+        ri = 2 if kind == 1 else 1
         if kind < 0:
-            return PYTHON
-        if kind == 2:                   # two substeps pushed, nothing to accept yet
-            continue
-        if not _accept(P, 2 if kind == 1 else 1, n, ctx, rec):
+            if nf[0] == 0:
+                return PYTHON
+            nf[0] -= 1
+            f = nf[0]
+            P[0, :] = SV[2 * f]
+            P[1, :] = SV[2 * f + 1]
+            cnt[0], cnt[1], cnt[2] = int(FC[f, 0]), int(FC[f, 1]), int(FC[f, 2])
+            wsum[0], wsum[1] = FC[f, 3], FC[f, 4]
+            top[0] = FT[f]
+        elif kind > 0:                                       # a split: its frame before anything is booked
+            f = nf[0]
+            SV[2 * f, :] = P[0]
+            SV[2 * f + 1, :] = P[1]
+            FC[f, 0], FC[f, 1], FC[f, 2], FC[f, 3], FC[f, 4] = cnt[0], cnt[1], cnt[2], wsum[0], wsum[1]
+            FT[f] = t0
+            nf[0] += 1
+            if kind == 2:                                    # two substeps pushed, nothing to accept yet
+                continue
+        if not _accept(P, ri, n, ctx, rec):
             return FULL
     return DONE
 
@@ -494,10 +524,12 @@ def run_steps(P, h, n0, n1, ctx, rec):
     """Steps n0 … n1 of size h from row 0, each stored (:func:`store`). Returns (status, n): DONE and n1 + 1,
     or PYTHON / FULL and the step n not taken (the counters and the work sum as at its start)."""
     cnt, wsum = rec[4], rec[5]
+    fr = (np.zeros((2 * _MAX_SPLITS, P.shape[1])), np.zeros((_MAX_SPLITS, 5)), np.zeros(_MAX_SPLITS, dtype=np.int64),
+          np.zeros(1, dtype=np.int64))
     for n in range(n0, n1 + 1):
         c0, c1, c2, w0, w1 = cnt[0], cnt[1], cnt[2], wsum[0], wsum[1]
         save = P[0].copy()
-        status = _one_step(P, h, n, ctx, rec)
+        status = _one_step(P, h, n, ctx, rec, fr)
         if status != DONE:
             cnt[0], cnt[1], cnt[2], wsum[0], wsum[1] = c0, c1, c2, w0, w1
             P[0, :] = save
