@@ -130,7 +130,7 @@ def _entry(dm, args):
 
 
 def _python_step(stepper, P, F, n, arr, ctx, loop_args):
-    """Step n by the Python loop (its Newton iteration did not converge in the compiled loop): stored, row 0
+    """Step n by the Python loop (its own solve found no solution in the compiled loop): stored, row 0
     advanced. Raises StepFailure as the Python loop does."""
     sim = importlib.import_module("femb.contact.simulate")
     h, vel_tol, locate = loop_args

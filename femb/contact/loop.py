@@ -10,14 +10,16 @@ impact, the impact in a substep of ≤ 3d, the rest), the state advance (eqs. (7
 Capobianco, Harsch, Eugster & Leine, IJNME 122 (2021)), the contact work, the impact events and
 every stored output, written into preallocated arrays.
 
-It returns to Python only when a (sub)step's Newton iteration does not converge (the Python loop
-then takes that whole step, with the prox fixed point and the diagnosis of a failure), when the
-event or substep arrays are full (Python enlarges them and the step is taken again), or at the end.
+A (sub)step's solve is the Python one's: semismooth Newton, the prox fixed point of eqs. (144)–(146)
+when it fails, Newton again from there. A substep without a solution abandons the innermost split
+in progress, which takes its unsplit step (as ``_step`` catches a StepFailure). The call returns to
+Python only when a step's own solve finds no solution (the Python loop then takes that step from
+the same state and raises its ContactError with the diagnosis), when the event or substep arrays are
+full (Python enlarges them and the step is taken again), or at the end.
 
 The substeps of one step are a stack of tasks (h_k, depth_k) run in order from the current state,
-which is what the recursion of the Python loop amounts to once no substep fails: a task either
-accepts its step, or pushes the rest of its step after a free flight, or its two substeps around
-an imminent impact.
+which is the order of the recursion of the Python loop: a task either accepts its step, or pushes
+the rest of its step after a free flight, or its two substeps around an imminent impact.
 
 Packs (tuples) keep the argument lists short:
 
@@ -27,7 +29,7 @@ Packs (tuples) keep the argument lists short:
   index sets A–E, the (sub)step's contact work (normal, friction) and Newton iterations;
 * ``ctx`` = (F, mdl, lay, fixed_law, work, cst, M⁻¹, scratch): what
   :meth:`NonsmoothStep._dense_setup` built, and ``cst`` = (tol, m_ref, α_m, α_f, β, γ, max_iter,
-  freeze_after, h_fixed, vel_tol, gap_tol, locate);
+  freeze_after, h_fixed, vel_tol, gap_tol, locate, max_fixed_point);
 * ``rec`` = (out, ev_f, ev_u, its, cnt, wsum): the stored steps ``out`` = (t, q, u, u̇, λ_g, g_N, ġ_N,
   λ_N, Λ_N, P_N, state, γ_F, λ_F, Λ_F, P_F, work) (rows = steps), the events (t, step, contact,
   ġ_N⁻, ġ_N⁺, Λ_N, P_N) and (u⁻, u⁺), the Newton iterations per accepted (sub)step, the counters
