@@ -17,7 +17,9 @@ of ``repeats`` runs interleaved in one process (each run once before, so that no
 
 The ratios ``closed / smooth`` and ``open / smooth`` are the issue's "step with contact against
 the same model's smooth step (contacts open)"; ``closed / open`` is the cost of the contacts in
-the same stepper.
+the same stepper. ``closed_py`` and ``open_py`` are the same runs through the Python time loop
+(``compiled=False``, the reference of the compiled loop, docs/contact.md §7): the last column is
+their time over the compiled loop's.
 """
 from __future__ import annotations
 
@@ -68,6 +70,8 @@ def cases():
     for name, models, T, h in (("ball", ball, 0.5, 2e-3), ("slider-crank", crank, 0.02, 1e-4)):
         out[name] = {"closed": (lambda m=models["closed"], T=T, h=h: simulate(m, T, h, rho_inf=0.8)),
                      "open": (lambda m=models["open"], T=T, h=h: simulate(m, T, h, rho_inf=0.8)),
+                     "closed_py": (lambda m=models["closed"], T=T, h=h: simulate(m, T, h, rho_inf=0.8, compiled=False)),
+                     "open_py": (lambda m=models["open"], T=T, h=h: simulate(m, T, h, rho_inf=0.8, compiled=False)),
                      "smooth": (lambda m=models["smooth"], T=T, h=h: femb.simulate(m, t_end=T, h=h, rho_inf=0.8))}
     return out
 
@@ -89,10 +93,11 @@ def measure(repeats=5):
 
 def report(ms):
     lines = ["| model | closed (ms/step) | open (ms/step) | smooth, engine (ms/step) | closed / smooth | "
-             "open / smooth | closed / open |", "|---|---|---|---|---|---|---|"]
+             "open / smooth | closed / open | Python loop / compiled loop: closed, open |", "|---|---|---|---|---|---|---|---|"]
     for m, r in ms.items():
         c, o, s = r["closed"], r["open"], r["smooth"]
-        lines.append(f"| {m} | {c:.4f} | {o:.4f} | {s:.4f} | {c / s:.1f} | {o / s:.1f} | {c / o:.2f} |")
+        lines.append(f"| {m} | {c:.4f} | {o:.4f} | {s:.4f} | {c / s:.1f} | {o / s:.1f} | {c / o:.2f} | "
+                     f"{r['closed_py'] / c:.1f}, {r['open_py'] / o:.1f} |")
     return lines
 
 

@@ -47,6 +47,24 @@ def _direction(v):
 
 
 @kernel(allocates=True)
+def _gemv(A, v, y, alpha, trans):
+    """y += alpha A v (``trans``: alpha Aᵀ v), by loops: BLAS calls on the few-row matrices of a contact step
+    cost more in call and temporary-array overhead than the products themselves."""
+    if trans:
+        for i in range(A.shape[0]):
+            c = alpha * v[i]
+            if c != 0.0:
+                for j in range(A.shape[1]):
+                    y[j] += c * A[i, j]
+    else:
+        for i in range(A.shape[0]):
+            acc = 0.0
+            for j in range(A.shape[1]):
+                acc += A[i, j] * v[j]
+            y[i] += alpha * acc
+
+
+@kernel(allocates=True)
 def _derived(x, o, mq, mv, kin, law, lay, der):
     """ġ_N = W_N u, ξ_N = ġ_N + e_N min(ġ_N⁻, 0), g̈_N = W_N u̇ + ζ_N, γ_F = W_F u, ξ_F = γ_F + e_F γ_F⁻
     (at impacts, ġ_N⁻ < 0), γ̇_F = W_F u̇ + ζ_F."""
@@ -56,12 +74,16 @@ def _derived(x, o, mq, mv, kin, law, lay, der):
     e_N, e_F, owner = law[3], law[4], lay[0]
     ud = x[o[0]:o[1]]
     gNd, xiN, gNdd, gF, xiF, gFdd = der
-    gNd[:] = WN @ u
-    gNdd[:] = WN @ ud + zN
+    gNd[:] = 0.0
+    _gemv(WN, u, gNd, 1.0, False)
+    gNdd[:] = zN
+    _gemv(WN, ud, gNdd, 1.0, False)
     for i in range(gNd.size):
         xiN[i] = gNd[i] + e_N[i] * min(gNd_m[i], 0.0)
-    gF[:] = WF @ u
-    gFdd[:] = WF @ ud + zF
+    gF[:] = 0.0
+    _gemv(WF, u, gF, 1.0, False)
+    gFdd[:] = zF
+    _gemv(WF, ud, gFdd, 1.0, False)
     for j in range(gF.size):
         xiF[j] = gF[j] + (e_F[j] * gFd_m[j] if gNd_m[owner[j]] < 0.0 else 0.0)
 
@@ -103,12 +125,21 @@ def _smooth_rows(x, o, mq, mv, kin, par, R):
     ud, U, Q = x[o[0]:o[1]], x[o[1]:o[2]], x[o[2]:o[3]]
     kg, Lg, lg = x[o[3]:o[4]], x[o[4]:o[5]], x[o[5]:o[6]]
     kN, LN, lN, LF, lF = x[o[6]:o[7]], x[o[7]:o[8]], x[o[8]:o[9]], x[o[9]:o[10]], x[o[10]:o[11]]
-    R[o[0]:o[1]] = M @ ud - f + B.T @ lg - WN.T @ lN - WF.T @ lF
-    R[o[1]:o[2]] = M @ U + B.T @ Lg - WN.T @ LN - WF.T @ LF
-    R[o[2]:o[3]] = M @ Q + B.T @ kg - WN.T @ kN - 0.5 * h * (WF.T @ LF)
+    for r, y, lam_g, lam_N, lam_F, fF in ((0, ud, lg, lN, lF, 1.0), (1, U, Lg, LN, LF, 1.0),
+                                          (2, Q, kg, kN, LF, 0.5 * h)):
+        Rr = R[o[r]:o[r + 1]]
+        Rr[:] = 0.0
+        _gemv(M, y, Rr, 1.0, False)
+        if r == 0:
+            Rr -= f
+        _gemv(B, lam_g, Rr, 1.0, True)
+        _gemv(WN, lam_N, Rr, -1.0, True)
+        _gemv(WF, lam_F, Rr, -fF, True)
     R[o[3]:o[4]] = Phi
-    R[o[4]:o[5]] = B @ u + Phi_t
-    R[o[5]:o[6]] = B @ ud + gam
+    R[o[4]:o[5]] = Phi_t
+    _gemv(B, u, R[o[4]:o[5]], 1.0, False)
+    R[o[5]:o[6]] = gam
+    _gemv(B, ud, R[o[5]:o[6]], 1.0, False)
 
 
 @kernel(allocates=True)
@@ -545,7 +576,14 @@ def _fixed_rows(x, o, zf, out):
 @kernel(allocates=True)
 def prox_parameters(WN, WF, Minv, rN, rF):
     """r_i = 1/(W M⁻¹ Wᵀ)_ii for the normal and tangent rows (NonsmoothStep.prox_r; Studer 2009, §3.4)."""
+    n = Minv.shape[0]
     for W, r in ((WN, rN), (WF, rF)):
         for i in range(W.shape[0]):
-            g = W[i] @ (Minv @ W[i])
+            g = 0.0
+            for a in range(n):
+                if W[i, a] != 0.0:
+                    acc = 0.0
+                    for b in range(n):
+                        acc += Minv[a, b] * W[i, b]
+                    g += W[i, a] * acc
             r[i] = 1.0 / max(g, 1e-300)

@@ -14,6 +14,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from femb.contact import assemble
+from femb.contact.loop import first_root
 from femb.contact.prox import prox_disc
 from femb.contact.result import OPEN, SLIP, STICK, ContactResult
 from femb.contact.step import NonsmoothStep, StepFailure, StepState
@@ -35,18 +36,20 @@ def _solve_kkt(lu, model, rhs_q, rhs_c):
     return x[:model.nq], x[model.nq:]
 
 
-def initial_contact_forces(model, lay, st, gap_tol, vel_tol, max_iter=5000):
+def initial_contact_forces(model, lay, st, gap_tol, vel_tol, max_iter=5000, ev=None):
     """Accelerations and contact forces at t₀ for the contacts that are closed (g_N ≤ gap_tol and
     abs(ġ_N) ≤ vel_tol): the acceleration-level contact problem (Signorini on g̈_N, Coulomb on γ̇_F
     or the slip law on γ_F), solved by a projected Jacobi fixed point with prox parameters
     1/(W M⁻¹ Wᵀ)_ii (Studer 2009, §3.4).
+
+    ``ev``: ``assemble.evaluate(model, st.t, st.q, st.qd)`` if the caller has it.
 
     Returns
     -------
     (ud, lam_g, lam_N, lam_F)
     """
     t, q, u = st.t, st.q, st.qd
-    ev = assemble.evaluate(model, t, q, u)
+    ev = assemble.evaluate(model, t, q, u) if ev is None else ev
     WN, WF = ev["WN"], ev["WF"]
     closed = (ev["gN"] <= gap_tol) & (np.abs(WN @ u) <= vel_tol)
     lN, lF = np.zeros(lay.nN), np.zeros(lay.nF)
@@ -157,7 +160,7 @@ def _states(ev, sets, lay, vel_tol):
 
 
 def simulate(model, t_end, h, *, rho_inf=0.8, t0=0.0, tol=None, max_iter=40, max_fixed_point=400,
-             locate_impacts=True):
+             locate_impacts=True, compiled=None):
     """Integrate a model with contacts by the nonsmooth generalized-α method, fixed steps.
 
     Parameters
@@ -178,6 +181,11 @@ def simulate(model, t_end, h, *, rho_inf=0.8, t0=0.0, tol=None, max_iter=40, max
     locate_impacts : bool
         Split a step in which an open contact closes at the impact (docs/contact.md §2.4), so
         the impact law sees the velocity at the impact and not at the step's start.
+    compiled : bool, optional
+        Run the steps in the compiled time loop (:mod:`femb.contact.loop`, docs/contact.md §7):
+        None (default) where it applies (dense systems with a constant mass matrix, no time
+        functions), False the Python loop (the reference), True the compiled loop or a
+        ParameterError where it does not apply. Both give the same results (to round-off).
 
     Returns
     -------
@@ -209,6 +217,13 @@ def simulate(model, t_end, h, *, rho_inf=0.8, t0=0.0, tol=None, max_iter=40, max
     rec = _Recorder(model, lay)
     rec.store(s, x0, ev0, np.zeros(lay.nN, dtype=np.int8), stepper, (0.0, 0.0))
     init_time = time.perf_counter() - t_init
+    if compiled is None or compiled:
+        from femb.contact import compiled as fast
+        if fast.applies(stepper):
+            return fast.run(stepper, s, rec, nsteps, h, (vel_tol, locate_impacts, rho_inf, init_time))
+        if compiled:
+            raise ParameterError("compiled=True: the compiled time loop needs the dense path with a constant mass "
+                                 "matrix, no time functions and no redundant equations (docs/contact.md §7)")
     t_loop = time.perf_counter()
     for n in range(1, nsteps + 1):
         try:
@@ -232,7 +247,7 @@ def _start(model, lay, stepper, t0, vel_tol):
         i = bad[0]
         raise ModelError(f"contact '{lay.names[i]}' starts penetrated: g_N = {ev0['gN'][i]:.6g} m < 0 at t0 = {t0:g}; "
                          "place the bodies apart or touching")
-    init = initial_contact_forces(model, lay, st, 1e-9 * L, vel_tol)
+    init = initial_contact_forces(model, lay, st, 1e-9 * L, vel_tol, ev=ev0)
     if init is None:
         probe = StepState(t0, st.q, st.qd, *([None] * 8))
         name, why = diagnose(model, lay, probe, 1e-9 * L, vel_tol)
@@ -266,10 +281,10 @@ def _impact_time(stepper, s, ev, sets, H, gap_tol, vel_tol):
         if s.gN[i] <= gap_tol and s.gNd[i] > 0.0:   # leaving: its g̈_N(t_n) holds its contact force; the free one
             free = _free_gNdd(stepper.model, s) if free is None else free
             gdd = free[i]
-        a, b, c = 0.5 * gdd, s.gNd[i], s.gN[i]
-        roots = np.roots([a, b, c]) if abs(a) > 0.0 else np.array([-c / b]) if b != 0.0 else np.zeros(0)
-        roots = [r.real for r in np.atleast_1d(roots) if abs(r.imag) == 0.0 and 0.0 < r.real < H]
-        tau = min(roots) if roots else H * c / (c - ev["gN"][i]) if c - ev["gN"][i] > 0.0 else None
+        c = s.gN[i]
+        tau = first_root(0.5 * gdd, s.gNd[i], c, 0.0, H, False)
+        if np.isnan(tau):
+            tau = H * c / (c - ev["gN"][i]) if c - ev["gN"][i] > 0.0 else None
         if tau is not None and (best is None or tau < best):
             best = tau
     return best
@@ -396,10 +411,8 @@ class _Recorder:
         """Impacts of a (sub)step: a contact closed at its end that began approaching (ġ_N < 0), P_N > 0."""
         closed = sets[0] & (sets[1] | sets[2])
         for i in np.nonzero((s.gNd < -vel_tol) & closed & (ev["PN"] > 0.0))[0]:
-            a, b, c = 0.5 * s.gNdd[i], s.gNd[i], max(s.gN[i], 0.0)      # impact time inside the (sub)step
-            roots = [r.real for r in np.atleast_1d(np.roots([a, b, c]) if a else [-c / b])
-                     if abs(r.imag) == 0.0 and 0.0 <= r.real <= new.t - s.t]
-            self.events.append(dict(t=s.t + min(roots) if roots else new.t, step=n, contact=self.lay.names[i],
+            tau = first_root(0.5 * s.gNdd[i], s.gNd[i], max(s.gN[i], 0.0), 0.0, new.t - s.t, True)   # impact time
+            self.events.append(dict(t=new.t if np.isnan(tau) else s.t + tau, step=n, contact=self.lay.names[i],
                                     v_before=float(s.gNd[i]), v_after=float(new.gNd[i]), Lambda_N=float(parts[7][i]),
                                     P_N=float(ev["PN"][i]), u_before=s.u.copy(), u_after=new.u.copy()))
 
@@ -411,14 +424,23 @@ class _Recorder:
             contact[k] = contact[k].reshape(nt, lay.nN)
         for k in ("gam_F", "lam_F", "Lam_F", "P_F"):
             contact[k] = contact[k].reshape(nt, lay.nF)
-        its = np.array(self.iterations, dtype=np.int64)
-        return ContactResult(
-            model=m, t=np.array(self.t), q=np.array(self.q), qd=np.array(self.u), qdd=np.array(self.ud),
-            lam=np.array(self.lam).reshape(nt, m.nc), newton_iterations=its, status=status,
-            message=message, wall_time=wall, init_time=init_time,
-            stats={"steps": nt - 1, "substeps": int(its.size),
-                   "fixed_point_steps": int(sum(1 for x in self.methods if x != "newton"))},
-            settings={"h": h, "rho_inf": rho_inf, "tol": tol, "scheme": "nonsmooth generalized-alpha "
-                      "(Capobianco, Harsch, Eugster & Leine 2021)"},
-            contact=contact, contact_names=list(lay.names), friction_rows=[r.copy() for r in lay.friction],
-            events=list(self.events))
+        steps = dict(t=np.array(self.t), q=np.array(self.q), qd=np.array(self.u), qdd=np.array(self.ud),
+                     lam=np.array(self.lam).reshape(nt, m.nc), contact=contact,
+                     iterations=np.array(self.iterations, dtype=np.int64),
+                     fixed_point_steps=int(sum(1 for x in self.methods if x != "newton")), events=list(self.events))
+        return contact_result(m, lay, steps, (h, rho_inf, tol, init_time, wall, status, message))
+
+
+def contact_result(model, lay, steps, run):
+    """The :class:`ContactResult` of the stored ``steps`` (dict: t, q, qd, qdd, lam, contact, iterations,
+    fixed_point_steps, events) and ``run`` = (h, rho_inf, tol, init_time, wall, status, message)."""
+    h, rho_inf, tol, init_time, wall, status, message = run
+    its = steps["iterations"]
+    return ContactResult(
+        model=model, t=steps["t"], q=steps["q"], qd=steps["qd"], qdd=steps["qdd"], lam=steps["lam"],
+        newton_iterations=its, status=status, message=message, wall_time=wall, init_time=init_time,
+        stats={"steps": steps["t"].size - 1, "substeps": int(its.size), "fixed_point_steps": steps["fixed_point_steps"]},
+        settings={"h": h, "rho_inf": rho_inf, "tol": tol, "scheme": "nonsmooth generalized-alpha "
+                  "(Capobianco, Harsch, Eugster & Leine 2021)"},
+        contact=steps["contact"], contact_names=list(lay.names), friction_rows=[r.copy() for r in lay.friction],
+        events=steps["events"])

@@ -1,0 +1,185 @@
+"""The Python side of the compiled time loop (:mod:`femb.contact.loop`): its arrays, its entry, the
+steps it hands back to the Python loop, and the result.
+
+:func:`applies` says whether a model's steps can run compiled; :func:`run` takes the steps 1 … N
+from the starting state and returns what :func:`femb.contact.simulate` returns, with the same
+contents as its Python loop (docs/contact.md §7).
+"""
+from __future__ import annotations
+
+import importlib
+import time
+
+import numpy as np
+
+from femb.base.jit import jit_disabled
+from femb.contact import loop
+from femb.contact.step import StepFailure, StepState, _entry_point, _owned
+from femb.errors import ContactError
+
+_F = loop.FIELDS.index
+
+
+def applies(stepper):
+    """Whether the steps of ``stepper``'s model run in the compiled loop: the dense path with the whole
+    Newton iteration compiled (constant mass), no time functions, no equations removed as redundant."""
+    if jit_disabled() or not stepper.dense or not stepper._loop_ok or stepper.Minv is None:
+        return False
+    return not stepper.dm.timed and stepper.dm.removed.size == 0
+
+
+class _Arrays:
+    """The preallocated outputs of a run: stored steps, events, iterations, counters."""
+
+    def __init__(self, rec0, nsteps, lay, n):
+        nt = nsteps + 1
+        self.out = tuple(np.zeros((nt,) + np.shape(a)[1:], dtype=a.dtype) for a in rec0)
+        for a, b in zip(self.out, rec0):
+            a[0] = b[0]
+        self.ev_f, self.ev_u = np.zeros((16, 7)), np.zeros((16, 2, n))
+        self.its = np.zeros(max(64, 2 * nsteps), dtype=np.int64)
+        self.cnt = np.zeros(3, dtype=np.int64)
+        self.wsum = np.array(rec0[-1][0], dtype=float)
+        self.methods_fp = 0
+
+    def pack(self):
+        return self.out, self.ev_f, self.ev_u, self.its, self.cnt, self.wsum
+
+    def grow(self):
+        """Double the arrays that are full (events, substeps)."""
+        if self.cnt[0] + 64 >= self.ev_f.shape[0]:
+            self.ev_f = np.concatenate((self.ev_f, np.zeros_like(self.ev_f)))
+            self.ev_u = np.concatenate((self.ev_u, np.zeros_like(self.ev_u)))
+        if self.cnt[1] + 256 >= self.its.size:
+            self.its = np.concatenate((self.its, np.zeros_like(self.its)))
+
+    def add_events(self, events, names, n):
+        """Events and iterations of a step the Python loop took."""
+        for e in events:
+            self.grow()
+            k = self.cnt[0]
+            self.ev_f[k] = (e["t"], e["step"], names.index(e["contact"]), e["v_before"], e["v_after"],
+                            e["Lambda_N"], e["P_N"])
+            self.ev_u[k] = (e["u_before"], e["u_after"])
+            self.cnt[0] += 1
+
+    def add_iterations(self, its, methods):
+        for it, m in zip(its, methods):
+            self.grow()
+            self.its[self.cnt[1]] = it
+            self.cnt[1] += 1
+            self.methods_fp += m != "newton"
+
+    def steps(self, nt, names):
+        """The dict of :func:`femb.contact.simulate.contact_result` for the first nt stored steps."""
+        t, q, u, ud, lam, gN, gNd, lN, LN, PN, state, gF, lF, LF, PF, work = (a[:nt] for a in self.out)
+        contact = dict(gN=gN, gN_d=gNd, lam_N=lN, Lam_N=LN, P_N=PN, state=state, gam_F=gF, lam_F=lF, Lam_F=LF,
+                       P_F=PF, work_N=work[:, 0].copy(), work_F=work[:, 1].copy())
+        events = [dict(t=float(f[0]), step=int(f[1]), contact=names[int(f[2])], v_before=float(f[3]),
+                       v_after=float(f[4]), Lambda_N=float(f[5]), P_N=float(f[6]), u_before=uu[0].copy(),
+                       u_after=uu[1].copy()) for f, uu in zip(self.ev_f[:self.cnt[0]], self.ev_u[:self.cnt[0]])]
+        return dict(t=t, q=q, qd=u, qdd=ud, lam=lam, contact=contact, iterations=self.its[:self.cnt[1]].copy(),
+                    fixed_point_steps=self.methods_fp + int(self.cnt[2]), events=events)
+
+
+def _rec0(rec):
+    """The stored first step of a :class:`femb.contact.simulate._Recorder` as rows of the output arrays."""
+    c = rec.c
+    rows = (rec.t, rec.q, rec.u, rec.ud, rec.lam, c["gN"], c["gN_d"], c["lam_N"], c["Lam_N"], c["P_N"],
+            c["state"], c["gam_F"], c["lam_F"], c["Lam_F"], c["P_F"])
+    out = tuple(np.array(r, dtype=np.int8 if r is c["state"] else float).reshape(1, -1) for r in rows[1:])
+    return (np.array(rec.t, dtype=float),) + out + (np.array([[c["work_N"][0], c["work_F"][0]]]),)
+
+
+def _put_state(P, F, s, stepper):
+    """Row 0 of P from the StepState s (with its prox parameters, as the Python loop's next solve forms them)."""
+    row = P[0]
+    vals = dict(t=s.t, q=s.q, u=s.u, ud=s.ud, abar=s.abar, lam_N=s.lam_N, lam_F=s.lam_F, lbar_N=s.lbar_N,
+                lbar_F=s.lbar_F, gNd=s.gNd, gFd=s.gFd, x=s.x, gN=s.gN, gNdd=s.gNdd)
+    vals["rN"], vals["rF"] = stepper.prox_r(s.q, s.t)
+    for key, v in vals.items():
+        i = _F(key)
+        row[F[i]:F[i + 1]] = v
+
+
+def _get_state(P, F):
+    """The StepState of row 0 of P (owned arrays)."""
+    row = P[0]
+    v = {key: row[F[i]:F[i + 1]].copy() for i, key in enumerate(loop.FIELDS)}
+    return StepState(float(v["t"][0]), v["q"], v["u"], v["ud"], v["abar"], v["lam_N"], v["lam_F"], v["lbar_N"],
+                     v["lbar_F"], v["gNd"], v["gFd"], v["x"], gN=v["gN"], gNdd=v["gNdd"])
+
+
+def _context(stepper, F, vel_tol, locate):
+    dm = stepper.dm
+    cst = np.array([stepper.tol, stepper.m_ref, stepper.am, stepper.af, stepper.beta, stepper.gamma, stepper.max_iter,
+                    stepper.freeze_after, stepper.h_fixed, vel_tol, 1e-9 * stepper.model.length_scale, float(locate),
+                    stepper.max_fp])
+    mdl = (dm.recs, dm.qx, dm.ux, dm.f0, dm.removed)
+    return (F, mdl, stepper._lay, stepper._fixed_law, stepper._work, cst, _owned(stepper.Minv),
+            (np.zeros(0), np.zeros(stepper.lay.nN)))
+
+
+def _entry(dm, args):
+    """The compiled :func:`femb.contact.loop.run_steps` for the argument types of ``dm``'s model (kept on the
+    DenseModel: forming the types of its batch records anew costs milliseconds a run)."""
+    fn = getattr(dm, "_loop_entry", None)
+    if fn is None:
+        fn = dm._loop_entry = _entry_point(loop.run_steps, args)
+    return fn
+
+
+def _python_step(stepper, P, F, n, arr, ctx, loop_args):
+    """Step n by the Python loop (its own solve found no solution in the compiled loop): stored, row 0
+    advanced. Raises StepFailure as the Python loop does."""
+    sim = importlib.import_module("femb.contact.simulate")
+    h, vel_tol, locate = loop_args
+    s = _get_state(P, F)
+    tmp = sim._Recorder(stepper.model, stepper.lay)
+    s1, x, ev, sets, work = sim._step(stepper, s, h, n, tmp, vel_tol, locate)
+    arr.add_iterations(tmp.iterations, tmp.methods)
+    arr.add_events(tmp.events, list(stepper.lay.names), n)
+    arr.wsum += work
+    _put_state(P, F, s1, stepper)
+    row = P[0]
+    row[F[_F("PN")]:F[_F("PN") + 1]] = ev["PN"]
+    row[F[_F("PF")]:F[_F("PF") + 1]] = ev["PF"]
+    row[F[_F("sets")]:F[_F("sets") + 1]] = np.concatenate([np.asarray(a, dtype=float) for a in sets])
+    loop.store(P, n, ctx, arr.pack())
+
+
+def run(stepper, s, rec, nsteps, h, info):
+    """Steps 1 … nsteps from the StepState s (stored as step 0 in ``rec``) in the compiled loop.
+
+    ``info`` = (vel_tol, locate, rho_inf, init_time). Returns the ContactResult; raises ContactError
+    as :func:`femb.contact.simulate.simulate` does."""
+    sim = importlib.import_module("femb.contact.simulate")
+    vel_tol, locate, rho_inf, init_time = info
+    model, lay = stepper.model, stepper.lay
+    t_loop = time.perf_counter()
+    F = loop.offsets(s.q.size, model.nq, stepper.nx, lay.nN, lay.nF)
+    P = np.zeros((3, int(F[-1])))
+    _put_state(P, F, s, stepper)
+    ctx = _context(stepper, F, vel_tol, locate)
+    arr = _Arrays(_rec0(rec), nsteps, lay, model.nq)
+    n = 1
+    while n <= nsteps:
+        args = (P, float(h), n, nsteps, ctx, arr.pack())
+        status, n = _entry(stepper.dm, args)(*args)
+        if status == loop.FULL:
+            arr.grow()
+        elif status == loop.PYTHON:
+            try:
+                _python_step(stepper, P, F, n, arr, ctx, (h, vel_tol, locate))
+            except StepFailure as err:
+                res = sim.contact_result(model, lay, arr.steps(n, list(lay.names)),
+                                         (h, rho_inf, stepper.tol, init_time, time.perf_counter() - t_loop, "failed",
+                                          str(err)))
+                s = _get_state(P, F)
+                name, why = sim.diagnose(model, lay, s, 1e-9 * model.length_scale, vel_tol)
+                raise ContactError(f"contact step {n} from t = {s.t:.6g} s to t = {s.t + h:.6g} s failed: {why} "
+                                   f"({err})", contact=name, t=s.t + h, step=n, result=res) from None
+            n += 1
+    wall = time.perf_counter() - t_loop
+    return sim.contact_result(model, lay, arr.steps(nsteps + 1, list(lay.names)),
+                              (h, rho_inf, stepper.tol, init_time, wall, "success", ""))
