@@ -32,7 +32,9 @@ R_s for fixed contact unknowns, then the proximal update of the contact unknowns
 """
 from __future__ import annotations
 
+import sys
 import threading
+import time
 import warnings
 import weakref
 from dataclasses import dataclass
@@ -43,7 +45,7 @@ import scipy.linalg as sla
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from femb.base.jit import jit_disabled
+from femb.base.jit import cache_writable, compile_lock, is_cached, jit_disabled
 from femb.contact import assemble, core
 from femb.contact.dense import DenseModel
 from femb.contact.prox import direction, prox_disc, prox_nonnegative
@@ -117,8 +119,27 @@ def _entry_point(disp, args):
         return disp
     key = (disp.__name__, _fingerprint(args))
     if key not in _ENTRIES:
-        _ENTRIES[key] = disp.compile(tuple(numba.typeof(a) for a in args))
+        _ENTRIES[key] = _compile_announced(disp, tuple(numba.typeof(a) for a in args))
     return _ENTRIES[key]
+
+
+def _compile_announced(disp, sig):
+    """``disp.compile(sig)``, said on stderr with the time it took when it is not in the cache (the contact
+    step and its time loop compile once per installation and set of element types: about four minutes of
+    CPU on a small machine), under a lock so that processes that need it at once compile it once."""
+    if is_cached(disp, sig):
+        return disp.compile(sig)
+    with compile_lock(f"contact.{disp.__name__}"):
+        if is_cached(disp, sig):                    # compiled by another process while this one waited
+            return disp.compile(sig)
+        print(f"femb: compiling the contact step ({disp.__name__}) for these element types, once; "
+              "several minutes on 2 cores", file=sys.stderr, flush=True)
+        t0 = time.perf_counter()
+        fn = disp.compile(sig)
+        kept = "cached for later runs" if cache_writable() else "in memory for this run only"
+        print(f"femb: contact step compiled in {time.perf_counter() - t0:.1f} s, {kept}", file=sys.stderr,
+              flush=True)
+        return fn
 
 
 class StepFailure(Exception):
