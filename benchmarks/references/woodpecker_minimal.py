@@ -22,7 +22,7 @@ against the pole's surface x = r_0 (gap = x − r_0, friction along the pole):
 3. the sleeve's upper edge on that side, at (r_M, h_M) (e_N3 = 0);
 
 Coulomb friction μ on each, e_F = 0. The published model is the small-angle linearization
-(``linear=True``): with c_X = cos φ_X ≈ 1, s_X = sin φ_X ≈ φ_X,
+(``linear=True``): with c_X = cos φ_X ≈ 1, s_X = sin φ_X ≈ φ_X::
 
     g_N = (l_M + l_G − l_S − r_0 − h_S φ_S,  r_M − r_0 + h_M φ_M,  r_M − r_0 − h_M φ_M),
     γ_F = (ẏ + l_M φ̇_M + (l_G − l_S) φ̇_S,  ẏ + r_M φ̇_M,  ẏ + r_M φ̇_M),
@@ -187,7 +187,7 @@ def initial_state(linear=True, **params):
 
 
 def sleeve_contact_angle(**params):
-    """|φ_M| at which the sleeve's edges touch the pole with exact kinematics: r_M cos φ − h_M sin φ = r_0."""
+    """The magnitude of φ_M at which the sleeve's edges touch the pole with exact kinematics: r_M cos φ − h_M sin φ = r_0."""
     p = dict(PARAMS)
     p.update(params)
     R = math.hypot(p["r_M"], p["h_M"])
