@@ -13,6 +13,7 @@ import pytest
 from femb.benchmarks.scenes.contact import contact_ball, contact_slider_crank, contact_tippetop
 from femb.contact import simulate
 from femb.contact import step as contact_step
+from femb.contact.result import SLIP
 
 
 def _both(monkeypatch, model, t_end, h, **kw):
@@ -73,4 +74,14 @@ def test_fixed_point_fallback_as_the_sparse_path(monkeypatch):
     dense, sparse = _both(monkeypatch, model, 6e-3, 2e-4, max_iter=4)
     assert dense.stats["fixed_point_steps"] >= 1
     assert dense.stats["fixed_point_steps"] == sparse.stats["fixed_point_steps"]
+    _same(dense, sparse, 1e-12)
+
+
+def test_papers_slip_law_as_the_sparse_path(monkeypatch):
+    """The slip law (138b) on the whole percussions (NonsmoothStep.slip_on_P) on every step: the compiled
+    residual and Jacobian against the numpy ones, on the tippe top (a slip whose direction turns)."""
+    monkeypatch.setattr(contact_step.NonsmoothStep, "slip_on_P", True)
+    model = contact_tippetop.build().compile()
+    dense, sparse = _both(monkeypatch, model, 0.03, 1e-3)
+    assert np.any(dense.contact["state"] == SLIP)
     _same(dense, sparse, 1e-12)

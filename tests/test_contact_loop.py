@@ -11,6 +11,7 @@ from femb.benchmarks.scenes.contact import (
     contact_tippetop)
 from femb.contact import simulate
 from femb.contact.loop import first_root
+from femb.contact.step import NonsmoothStep
 from femb.elements import Gravity, RigidBody
 from femb.elements.contact import SphereOnPlane
 from femb.errors import ContactError, ParameterError
@@ -78,6 +79,20 @@ def test_compiled_loop_equals_python_loop(name):
     _same(py, c)
     if name == "painleve impact":
         assert c.stats["fixed_point_steps"] == 1
+
+
+@pytest.mark.parametrize("name", ["backspin 50", "tippe top"])
+def test_compiled_loop_equals_python_loop_with_the_papers_slip_law(monkeypatch, name):
+    """The slip law (138b) on the whole percussions (NonsmoothStep.slip_on_P, the second pass of a step that
+    has no solution with femb's law on Λ) on every step, in both loops: a straight slip and one whose
+    direction turns."""
+    monkeypatch.setattr(NonsmoothStep, "slip_on_P", True)
+    build, t_end, h = SCENES[name]
+    model = build()
+    py = simulate(model, t_end, h, compiled=False)
+    c = simulate(model, t_end, h, compiled=True)
+    assert py.status == c.status == "success"
+    _same(py, c)
 
 
 def test_slider_crank_up_to_its_first_branch():

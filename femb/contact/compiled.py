@@ -38,9 +38,10 @@ class _Arrays:
             a[0] = b[0]
         self.ev_f, self.ev_u = np.zeros((16, 7)), np.zeros((16, 2, n))
         self.its = np.zeros(max(64, 2 * nsteps), dtype=np.int64)
-        self.cnt = np.zeros(3, dtype=np.int64)
+        self.cnt = np.zeros(4, dtype=np.int64)
         self.wsum = np.array(rec0[-1][0], dtype=float)
         self.methods_fp = 0
+        self.methods_P = 0
 
     def pack(self):
         return self.out, self.ev_f, self.ev_u, self.its, self.cnt, self.wsum
@@ -68,7 +69,8 @@ class _Arrays:
             self.grow()
             self.its[self.cnt[1]] = it
             self.cnt[1] += 1
-            self.methods_fp += m != "newton"
+            self.methods_fp += m == "fixed_point"
+            self.methods_P += m == "slip_on_P"
 
     def steps(self, nt, names):
         """The dict of :func:`femb.contact.simulate.contact_result` for the first nt stored steps."""
@@ -79,7 +81,8 @@ class _Arrays:
                        v_after=float(f[4]), Lambda_N=float(f[5]), P_N=float(f[6]), u_before=uu[0].copy(),
                        u_after=uu[1].copy()) for f, uu in zip(self.ev_f[:self.cnt[0]], self.ev_u[:self.cnt[0]])]
         return dict(t=t, q=q, qd=u, qdd=ud, lam=lam, contact=contact, iterations=self.its[:self.cnt[1]].copy(),
-                    fixed_point_steps=self.methods_fp + int(self.cnt[2]), events=events)
+                    fixed_point_steps=self.methods_fp + int(self.cnt[2]), slip_on_P_steps=self.methods_P + int(self.cnt[3]),
+                    events=events)
 
 
 def _rec0(rec):
@@ -114,7 +117,7 @@ def _context(stepper, F, vel_tol, locate):
     dm = stepper.dm
     cst = np.array([stepper.tol, stepper.m_ref, stepper.am, stepper.af, stepper.beta, stepper.gamma, stepper.max_iter,
                     stepper.freeze_after, stepper.h_fixed, vel_tol, 1e-9 * stepper.model.length_scale, float(locate),
-                    stepper.max_fp])
+                    stepper.max_fp, float(stepper.slip_on_P)])
     mdl = (dm.recs, dm.qx, dm.ux, dm.f0, dm.removed)
     return (F, mdl, stepper._lay, stepper._fixed_law, stepper._work, cst, _owned(stepper.Minv),
             (np.zeros(0), np.zeros(stepper.lay.nN)))

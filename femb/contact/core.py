@@ -18,7 +18,9 @@ Packs (tuples of arrays) keep the argument lists short:
 * ``kin`` = (u, P_N, κ̂_N, P_F, ġ_N⁻, γ_F⁻) of the iterate and the step's start;
 * ``law`` = (r_N, r_F, μ, e_N, e_F per tangent row, force weights w) and ``lay`` = (owner of each
   tangent row, fptr, fidx: the tangent rows of contact i are fidx[fptr[i]:fptr[i + 1]]);
-* ``par`` = (h, tol, c_q, c_u, m_ref, frozen);
+* ``par`` = (h, tol, c_q, c_u, m_ref, frozen, slip law on P): the last nonzero puts the slip law (138b)
+  on the whole percussions P_F, P_N (the paper's), zero on their impulsive parts Λ_F, Λ_N (femb's,
+  docs/contact.md §1.1 item 5);
 * ``der`` = (ġ_N, ξ_N, g̈_N, γ_F, ξ_F, γ̇_F), written by :func:`residual`;
 * ``sets`` (5, nN) int8: the index sets A, B, C, D, E (written unless frozen).
 """
@@ -143,8 +145,9 @@ def _smooth_rows(x, o, mq, mv, kin, par, R):
 
 
 @kernel(allocates=True)
-def _contact_rows(x, o, mv, kin, law, lay, der, sets, R):
-    """The normal rows (129), (132), (135) and the friction rows (138), (142) on the index sets."""
+def _contact_rows(x, o, mv, kin, law, lay, par, der, sets, R):
+    """The normal rows (129), (132), (135) and the friction rows (138), (142) on the index sets (the slip
+    row (138b) on Λ_F, Λ_N, or on P_F, P_N with ``par[6]``)."""
     gN = mv[4]
     PN, kNh, PF = kin[1], kin[2], kin[3]
     mu, fptr, fidx = law[2], lay[1], lay[2]
@@ -174,8 +177,12 @@ def _contact_rows(x, o, mv, kin, law, lay, der, sets, R):
         else:
             v, _ = _direction(xiF[idx])
             w, _ = _direction(gF[idx])
+            on_P = par[6] != 0.0
             for a in range(idx.size):
-                R[o[9] + idx[a]] = LF[idx[a]] + mu[i] * LN[i] * v[a]
+                if on_P:
+                    R[o[9] + idx[a]] = PF[idx[a]] + mu[i] * PN[i] * v[a]
+                else:
+                    R[o[9] + idx[a]] = LF[idx[a]] + mu[i] * LN[i] * v[a]
                 R[o[10] + idx[a]] = lF[idx[a]] + mu[i] * lN[i] * w[a]
 
 
@@ -220,7 +227,7 @@ def residual(x, o, mq, mv, kin, law, lay, par, sets, out):
     if par[5] == 0.0:
         _index_sets(x, o, mv, kin, law, lay, par, der, sets)
     _smooth_rows(x, o, mq, mv, kin, par, R)
-    _contact_rows(x, o, mv, kin, law, lay, der, sets, R)
+    _contact_rows(x, o, mv, kin, law, lay, par, der, sets, R)
     _scale(o, law, lay, par, sets, S)
     err = 0.0
     for a in range(R.size):
@@ -302,9 +309,10 @@ def _normal_jacobian(o, mq, par, sets, J):
 
 
 @kernel(allocates=True)
-def _friction_jacobian(x, o, mq, law, lay, par, der, sets, J):
+def _friction_jacobian(x, o, mq, kin, law, lay, par, der, sets, J):
     """Rows of the friction laws (138), (142) (NonsmoothStep.friction_rows' derivative blocks)."""
     WF = mq[5]
+    PN = kin[1]
     mu, fptr, fidx = law[2], lay[1], lay[2]
     cu = par[3]
     gNd, xiN, gNdd, gF, xiF, gFdd = der
@@ -338,16 +346,21 @@ def _friction_jacobian(x, o, mq, law, lay, par, der, sets, J):
                 _slip_block(J, o[10] + idx, o[0], mu[i] * lN[i] * dv, WF[idx], 1.0)
                 for a in range(p):
                     J[o[10] + idx[a], o[8] + i] = mu[i] * v[a]
-        else:                                      # slip (138b) on Λ, (142c)
+        else:                                      # slip (138b) on Λ (or on P: par[6]), (142c)
+            on_P = par[6] != 0.0
+            Ns = PN[i] if on_P else LN[i]
             v, dv = _direction(xiF[idx])
-            _slip_block(J, o[9] + idx, o[0], mu[i] * LN[i] * dv, WF[idx], cu)
-            _slip_block(J, o[9] + idx, o[1], mu[i] * LN[i] * dv, WF[idx], 1.0)
+            _slip_block(J, o[9] + idx, o[0], mu[i] * Ns * dv, WF[idx], cu)
+            _slip_block(J, o[9] + idx, o[1], mu[i] * Ns * dv, WF[idx], 1.0)
             w, dw = _direction(gF[idx])
             _slip_block(J, o[10] + idx, o[0], mu[i] * lN[i] * dw, WF[idx], cu)
             _slip_block(J, o[10] + idx, o[1], mu[i] * lN[i] * dw, WF[idx], 1.0)
             for a in range(p):
                 J[o[9] + idx[a], o[7] + i] = mu[i] * v[a]
-                J[o[9] + idx[a], o[10] + idx[a]] = 0.0
+                if on_P:                           # P_N, P_F hold cu λ_N, cu λ_F
+                    J[o[9] + idx[a], o[8] + i] = cu * mu[i] * v[a]
+                else:
+                    J[o[9] + idx[a], o[10] + idx[a]] = 0.0
                 J[o[10] + idx[a], o[8] + i] = mu[i] * w[a]
 
 
@@ -361,12 +374,12 @@ def _slip_block(J, rows, c0, D, W, fac):
 
 
 @kernel(allocates=True)
-def jacobian(x, o, mq, law, lay, par, sets, der, J):
+def jacobian(x, o, mq, kin, law, lay, par, sets, der, J):
     """∂R/∂x at the iterate (NonsmoothStep.jacobian), dense, into J (nx, nx)."""
     J[:, :] = 0.0
     _smooth_jacobian(o, mq, par, J)
     _normal_jacobian(o, mq, par, sets, J)
-    _friction_jacobian(x, o, mq, law, lay, par, der, sets, J)
+    _friction_jacobian(x, o, mq, kin, law, lay, par, der, sets, J)
 
 
 @kernel(allocates=True)
@@ -507,7 +520,8 @@ def newton_loop(x, mdl, st, law, lay, par, work):
 
     ``x`` (nx,) the initial guess, overwritten by the last iterate; ``mdl`` = (batch records, q_ext, v_ext,
     f0, removed) (:class:`femb.contact.dense.DenseModel`); ``st`` the step's start (:func:`kinematics`);
-    ``par`` = (h, tol, c_q, c_u, m_ref, 0, α_m, α_f, β, γ, t_{n+1}, max_iter, freeze_after, fixed); ``work`` =
+    ``par`` = (h, tol, c_q, c_u, m_ref, 0, α_m, α_f, β, γ, t_{n+1}, max_iter, freeze_after, fixed, slip law
+    on P); ``work`` =
     (o, cmp, kout, out, dq, mq, mv, J, dx, sets, (ġ_N⁻, γ_F⁻), z_fixed). With ``fixed`` the contact rows are
     z − z_fixed = 0 (Newton on R_s for fixed contact unknowns, the fixed point's inner problem). The index sets are held after
     ``freeze_after`` iterations; a result reached with held sets is a solution only if they are its
@@ -517,8 +531,10 @@ def newton_loop(x, mdl, st, law, lay, par, work):
     o, cmp, kout, out, dq, mq, mv, J, dx, sets, sd, zf = work
     fixed = par[13] != 0.0
     kp = np.array([par[0], par[6], par[7], par[8], par[9]])
-    rp = par[:6].copy()
+    rp = np.empty(7)
+    rp[:6] = par[:6]
     rp[5] = 0.0
+    rp[6] = par[14]
     t1, tol = par[10], par[1]
     max_iter, freeze_after = int(par[11]), int(par[12])
     kin = (kout[1], kout[5], kout[6], kout[7], sd[0], sd[1])
@@ -540,7 +556,7 @@ def newton_loop(x, mdl, st, law, lay, par, work):
             return (0 if err <= tol else 1), it, err
         if it == freeze_after:
             rp[5] = 1.0
-        jacobian(x, o, mq, law, lay, rp, sets, out[2:], J)
+        jacobian(x, o, mq, kin, law, lay, rp, sets, out[2:], J)
         if fixed:
             for a in range(o[6], o[11]):
                 J[a, :] = 0.0

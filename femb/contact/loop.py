@@ -97,10 +97,10 @@ def _field(row, F, i):
 
 
 @kernel(allocates=True)
-def _newton(P, si, x, h, zf, ctx):
+def _newton(P, si, x, h, zf, ctx, on_P):
     """The compiled semismooth Newton iteration (femb.contact.core.newton_loop) of a (sub)step of size h from
     row si, from and into x; with contact unknowns held at zf when zf is not empty (the fixed point's inner
-    problem, eq. (145)). Returns (converged, iterations); the work arrays hold the last iterate's values."""
+    problem, eq. (145)); the slip law on P_F, P_N when ``on_P`` is 1 (NonsmoothStep.slip_on_P). Returns (converged, iterations); the work arrays hold the last iterate's values."""
     F, mdl, lay, fixed_law, work, cst, Minv, scr = ctx
     s = P[si]
     st = (_field(s, F, _Q), _field(s, F, _U), _field(s, F, _UD), _field(s, F, _AB), _field(s, F, _LN),
@@ -109,7 +109,7 @@ def _newton(P, si, x, h, zf, ctx):
     am, af, beta, gamma = cst[2], cst[3], cst[4], cst[5]
     c = (1.0 - af) / (1.0 - am)
     par = np.array([h, cst[0], h * h * beta * c, h * gamma * c, cst[1], 0.0, am, af, beta, gamma, s[F[_T]] + h,
-                    cst[6], cst[7], 1.0 if zf.size else 0.0])
+                    cst[6], cst[7], 1.0 if zf.size else 0.0, on_P])
     wk = work + ((_field(s, F, _GND), _field(s, F, _GFD)), zf)
     status, it, err = newton_loop(x, mdl, st, law, lay, par, wk)
     return status == 0, it
@@ -118,22 +118,32 @@ def _newton(P, si, x, h, zf, ctx):
 @kernel(allocates=True)
 def _solve(P, si, ri, h, ctx):
     """One (sub)step of size h from row ``si`` into row ``ri`` (NonsmoothStep.solve): semismooth Newton, the
-    prox fixed point if it fails, Newton again from where the fixed point got to. Returns True when one of
-    them converged (False: the Python loop takes the step and raises its StepFailure)."""
-    F, work, Minv = ctx[0], ctx[4], ctx[6]
+    prox fixed point if it fails, Newton again from where the fixed point got to; the three again with the
+    slip law on P if all fail. Returns True when one of them converged (False: the Python loop takes the
+    step and raises its StepFailure)."""
+    F, work, cst, Minv = ctx[0], ctx[4], ctx[5], ctx[6]
     s, r = P[si], P[ri]
     x = _field(r, F, _X)
-    x[:] = _field(s, F, _X)
-    ok, it = _newton(P, si, x, h, ctx[7][0], ctx)
+    ok = False
+    it = 0
     method = 0.0
-    if not ok:
+    for k in range(2):                # femb's slip law first (unless NonsmoothStep.slip_on_P), then the paper's
+        on_P = cst[13] if k == 0 else 1.0
         x[:] = _field(s, F, _X)
-        ok, it1 = _fixed_point(P, si, x, h, ctx)
+        ok, it1 = _newton(P, si, x, h, ctx[7][0], ctx, on_P)
         it += it1
-        method = 1.0
+        method = 2.0 * k                # newton (0), fixed point (1), the second pass on P (2)
+        if ok:
+            break
+        x[:] = _field(s, F, _X)
+        ok, it1 = _fixed_point(P, si, x, h, ctx, on_P)
+        it += it1
+        method = 2.0 if k == 1 else 1.0
         if not ok and np.all(np.isfinite(x)):
-            ok, it2 = _newton(P, si, x, h, ctx[7][0], ctx)
-            it += it2
+            ok, it1 = _newton(P, si, x, h, ctx[7][0], ctx, on_P)
+            it += it1
+        if ok:
+            break
     if not ok:
         return False
     _store_solution(s, r, F, work, s[F[_T]] + h, it)
@@ -143,7 +153,7 @@ def _solve(P, si, ri, h, ctx):
 
 
 @kernel(allocates=True)
-def _fixed_point(P, si, x, h, ctx):
+def _fixed_point(P, si, x, h, ctx, on_P):
     """The prox fixed point of eqs. (144)–(146) (NonsmoothStep.fixed_point) from and into x. Returns
     (converged, iterations); on convergence the work arrays hold the model and residual at x."""
     F, work, cst = ctx[0], ctx[4], ctx[5]
@@ -157,24 +167,24 @@ def _fixed_point(P, si, x, h, ctx):
     z1 = np.zeros(z.size)
     for it in range(1, int(cst[12]) + 1):
         x[o[6]:] = z
-        ok, _ = _newton(P, si, x, h, z, ctx)
+        ok, _ = _newton(P, si, x, h, z, ctx, on_P)
         if not ok:
             return False, it
-        _prox_update(P, si, x, h, ctx, z1)
+        _prox_update(P, si, x, h, ctx, z1, on_P)
         err = 0.0
         for a in range(z.size):
             err = max(err, abs(z1[a] - z[a]) * sc[a])
         z[:] = z1
         if err <= tol:
             x[o[6]:] = z
-            _evaluate_at(P, si, x, h, ctx)
+            _evaluate_at(P, si, x, h, ctx, on_P)
             return True, it
     x[o[6]:] = z
     return False, int(cst[12])
 
 
 @kernel(allocates=True)
-def _evaluate_at(P, si, x, h, ctx):
+def _evaluate_at(P, si, x, h, ctx, on_P):
     """Kinematics, model and residual (index sets from the iterate) at x (NonsmoothStep._dense_evaluate)."""
     F, mdl, lay, fixed_law, work, cst = ctx[0], ctx[1], ctx[2], ctx[3], ctx[4], ctx[5]
     o, cmp, kout, out, dq, mq, mv, sets = work[0], work[1], work[2], work[3], work[4], work[5], work[6], work[9]
@@ -187,18 +197,18 @@ def _evaluate_at(P, si, x, h, ctx):
     _evaluate(x, o, mdl, s[F[_T]] + h, kout, dq)
     law = (_field(s, F, _RN), _field(s, F, _RF), fixed_law[0], fixed_law[1], fixed_law[2], fixed_law[3])
     kin = (kout[1], kout[5], kout[6], kout[7], _field(s, F, _GND), _field(s, F, _GFD))
-    rp = np.array([h, cst[0], h * h * beta * c, h * gamma * c, cst[1], 0.0])
+    rp = np.array([h, cst[0], h * h * beta * c, h * gamma * c, cst[1], 0.0, on_P])
     residual(x, o, mq, mv, kin, law, lay, rp, sets, out)
 
 
 @kernel(allocates=True)
-def _prox_update(P, si, x, h, ctx, z1):
+def _prox_update(P, si, x, h, ctx, z1, on_P):
     """The proximal update z ↦ p(y, z) of eq. (146), eqs. (128)–(140) in turn (NonsmoothStep.prox_update),
     into z1 = (κ_N, Λ_N, λ_N, Λ_F, λ_F)."""
     F, lay, fixed_law, work, cst = ctx[0], ctx[2], ctx[3], ctx[4], ctx[5]
     o, kout, out, mv = work[0], work[2], work[3], work[6]
     s = P[si]
-    _evaluate_at(P, si, x, h, ctx)
+    _evaluate_at(P, si, x, h, ctx, on_P)
     rN, gN, kNh, PN0, xiN, gNdd = _field(s, F, _RN), mv[4], kout[6], kout[5], out[3], out[4]
     k, l = rN.size, o[11] - o[10]
     kN, LN, lN, LF, lF = z1[:k], z1[k:2 * k], z1[2 * k:3 * k], z1[3 * k:3 * k + l], z1[3 * k + l:]
@@ -223,7 +233,7 @@ def _prox_update(P, si, x, h, ctx, z1):
         LF[j] = LF[j] - h * ((1 - g) * lbF0[j] + g * lbF)                          # (113), LF held P_F
     mu, fptr, fidx, xiF = fixed_law[0], lay[1], lay[2], out[6]
     for i in range(k):                                   # slip: Λ_F from Λ_N (friction_rows)
-        if fptr[i + 1] > fptr[i] and slip[i]:
+        if fptr[i + 1] > fptr[i] and slip[i] and on_P == 0.0:
             idx = fidx[fptr[i]:fptr[i + 1]]
             v, _ = _direction(xiF[idx])
             for a in range(idx.size):
@@ -384,7 +394,8 @@ def _accept(P, ri, n, ctx, rec):
         return False
     its[cnt[1]] = int(r[F[_ITS]])
     cnt[1] += 1
-    cnt[2] += int(r[F[_ITS] + 1])
+    cnt[2] += int(r[F[_ITS] + 1] == 1.0)        # fixed point (1), slip law on P (2)
+    cnt[3] += int(r[F[_ITS] + 1] == 2.0)
     wsum[0] += r[F[_WORK]]
     wsum[1] += r[F[_WORK] + 1]
     k = F[_GN + 1] - F[_GN]
@@ -470,7 +481,7 @@ def _one_step(P, h, n, ctx, rec, fr):
             f = nf[0]
             P[0, :] = SV[2 * f]
             P[1, :] = SV[2 * f + 1]
-            cnt[0], cnt[1], cnt[2] = int(FC[f, 0]), int(FC[f, 1]), int(FC[f, 2])
+            cnt[0], cnt[1], cnt[2], cnt[3] = int(FC[f, 0]), int(FC[f, 1]), int(FC[f, 2]), int(FC[f, 5])
             wsum[0], wsum[1] = FC[f, 3], FC[f, 4]
             top[0] = FT[f]
         elif kind > 0:                                       # a split: its frame before anything is booked
@@ -478,6 +489,7 @@ def _one_step(P, h, n, ctx, rec, fr):
             SV[2 * f, :] = P[0]
             SV[2 * f + 1, :] = P[1]
             FC[f, 0], FC[f, 1], FC[f, 2], FC[f, 3], FC[f, 4] = cnt[0], cnt[1], cnt[2], wsum[0], wsum[1]
+            FC[f, 5] = cnt[3]
             FT[f] = t0
             nf[0] += 1
             if kind == 2:                                    # two substeps pushed, nothing to accept yet
@@ -526,14 +538,14 @@ def run_steps(P, h, n0, n1, ctx, rec):
     """Steps n0 … n1 of size h from row 0, each stored (:func:`store`). Returns (status, n): DONE and n1 + 1,
     or PYTHON / FULL and the step n not taken (the counters and the work sum as at its start)."""
     cnt, wsum = rec[4], rec[5]
-    fr = (np.zeros((2 * _MAX_SPLITS, P.shape[1])), np.zeros((_MAX_SPLITS, 5)), np.zeros(_MAX_SPLITS, dtype=np.int64),
+    fr = (np.zeros((2 * _MAX_SPLITS, P.shape[1])), np.zeros((_MAX_SPLITS, 6)), np.zeros(_MAX_SPLITS, dtype=np.int64),
           np.zeros(1, dtype=np.int64))
     for n in range(n0, n1 + 1):
-        c0, c1, c2, w0, w1 = cnt[0], cnt[1], cnt[2], wsum[0], wsum[1]
+        c0, c1, c2, c3, w0, w1 = cnt[0], cnt[1], cnt[2], cnt[3], wsum[0], wsum[1]
         save = P[0].copy()
         status = _one_step(P, h, n, ctx, rec, fr)
         if status != DONE:
-            cnt[0], cnt[1], cnt[2], wsum[0], wsum[1] = c0, c1, c2, w0, w1
+            cnt[0], cnt[1], cnt[2], cnt[3], wsum[0], wsum[1] = c0, c1, c2, c3, w0, w1
             P[0, :] = save
             return status, n
         store(P, n, ctx, rec)

@@ -45,6 +45,11 @@ class ContactResult(Result):
         Tangent rows of each contact.
     events : list of dict
         Impacts: ``t``, ``step``, ``contact``, ``v_before``, ``v_after`` (ġ_N, m/s), ``Lambda_N``.
+    stats : dict
+        ``steps``; ``substeps`` (the steps split at impacts count their parts); ``fixed_point_steps``:
+        (sub)steps that the semismooth Newton method did not solve and the prox fixed point did;
+        ``slip_on_P_steps``: (sub)steps solved only with the slip law on the whole percussions
+        (docs/contact.md §1.1 item 5: a sticking contact that starts to slip).
     """
 
     contact: dict = field(default_factory=dict)

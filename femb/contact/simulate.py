@@ -427,19 +427,21 @@ class _Recorder:
         steps = dict(t=np.array(self.t), q=np.array(self.q), qd=np.array(self.u), qdd=np.array(self.ud),
                      lam=np.array(self.lam).reshape(nt, m.nc), contact=contact,
                      iterations=np.array(self.iterations, dtype=np.int64),
-                     fixed_point_steps=int(sum(1 for x in self.methods if x != "newton")), events=list(self.events))
+                     fixed_point_steps=int(sum(1 for x in self.methods if x == "fixed_point")),
+                     slip_on_P_steps=int(sum(1 for x in self.methods if x == "slip_on_P")), events=list(self.events))
         return contact_result(m, lay, steps, (h, rho_inf, tol, init_time, wall, status, message))
 
 
 def contact_result(model, lay, steps, run):
     """The :class:`ContactResult` of the stored ``steps`` (dict: t, q, qd, qdd, lam, contact, iterations,
-    fixed_point_steps, events) and ``run`` = (h, rho_inf, tol, init_time, wall, status, message)."""
+    fixed_point_steps, slip_on_P_steps, events) and ``run`` = (h, rho_inf, tol, init_time, wall, status, message)."""
     h, rho_inf, tol, init_time, wall, status, message = run
     its = steps["iterations"]
     return ContactResult(
         model=model, t=steps["t"], q=steps["q"], qd=steps["qd"], qdd=steps["qdd"], lam=steps["lam"],
         newton_iterations=its, status=status, message=message, wall_time=wall, init_time=init_time,
-        stats={"steps": steps["t"].size - 1, "substeps": int(its.size), "fixed_point_steps": steps["fixed_point_steps"]},
+        stats={"steps": steps["t"].size - 1, "substeps": int(its.size), "fixed_point_steps": steps["fixed_point_steps"],
+               "slip_on_P_steps": steps["slip_on_P_steps"]},
         settings={"h": h, "rho_inf": rho_inf, "tol": tol, "scheme": "nonsmooth generalized-alpha "
                   "(Capobianco, Harsch, Eugster & Leine 2021)"},
         contact=steps["contact"], contact_names=list(lay.names), friction_rows=[r.copy() for r in lay.friction],

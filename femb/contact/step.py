@@ -193,6 +193,11 @@ class NonsmoothStep:
     max_iter, max_fixed_point : int
     """
 
+    #: The slip law (138b) on the whole percussions P_F, P_N (the paper's) instead of their impulsive parts
+    #: Λ_F, Λ_N (docs/contact.md §1.1 item 5). False: femb's law first, the paper's for a step that has no
+    #: solution on it (:meth:`solve`); True: the paper's law on every step (tests compare the paths on it).
+    slip_on_P = False
+
     def __init__(self, model, h, alpha, lay, tol, max_iter=40, max_fixed_point=400):
         self.model, self.h, self.lay = model, float(h), lay
         self.am, self.af, self.beta, self.gamma = alpha.alpha_m, alpha.alpha_f, alpha.beta, alpha.gamma
@@ -275,9 +280,11 @@ class NonsmoothStep:
         dm.evaluate(s.t + self.h, ev["q"], ev["u"], x[o[5]:o[6]], x[o[8]:o[9]], x[o[10]:o[11]])
         if frozen is not None:
             self._sets[:] = frozen
-        par = np.array([self.h, self.tol, self.c_q, self.c_u, self.m_ref, 0.0 if frozen is None else 1.0])
+        par = np.array([self.h, self.tol, self.c_q, self.c_u, self.m_ref, 0.0 if frozen is None else 1.0,
+                        float(self.slip_on_P)])
         self._par = par
         kin = (ev["u"], ev["PN"], ev["kN_hat"], ev["PF"], s.gNd, s.gFd)
+        self._kin = kin
         return core.residual(x, self._o, self._mq, self._mv, kin, self._law, self._lay, par, self._sets, self._out)
 
     def _dense_result(self, ev):
@@ -293,7 +300,7 @@ class NonsmoothStep:
     def _dense_increment(self, x):
         """The Newton increment at the iterate of the last :meth:`_dense_residual` (None: no factorization)."""
         J, R = self._J, self._out[0]
-        core.jacobian(x, self._o, self._mq, self._law, self._lay, self._par, self._sets, self._out[2:], J)
+        core.jacobian(x, self._o, self._mq, self._kin, self._law, self._lay, self._par, self._sets, self._out[2:], J)
         if not np.all(np.isfinite(J)):
             return None
         if self.nx <= DENSE_COMPILED_LU:
@@ -325,7 +332,8 @@ class NonsmoothStep:
             t1 = s.t + self.h
             dm.time_values(t1)
             par = np.array([self.h, self.tol, self.c_q, self.c_u, self.m_ref, 0.0, self.am, self.af, self.beta,
-                            self.gamma, t1, max_iter or self.max_iter, self.freeze_after, fixed_z is not None])
+                            self.gamma, t1, max_iter or self.max_iter, self.freeze_after, fixed_z is not None,
+                            float(self.slip_on_P)])
             zf = np.zeros(0) if fixed_z is None else _owned(fixed_z)
             work = self._work + ((f(s.gNd), f(s.gFd)), zf)
             mdl = (dm.recs, dm.qx, dm.ux, dm.f0, dm.removed)
@@ -467,7 +475,9 @@ class NonsmoothStep:
 
         The slip row of (138) acts on Λ_F, Λ_N, not on P_F, P_N: the smooth share
         h((1 − γ)λ̄_F,n + γλ̄_F,n+1) of P_F follows (142c) with the slip direction of its own stage,
-        so a persistent slip whose direction turns leaves no O(h²) percussion per step.
+        so a persistent slip whose direction turns leaves no O(h²) percussion per step. With
+        ``slip_on_P`` (a step without a solution on that law, :meth:`solve`) it acts on P_F, P_N, as
+        in the paper.
         """
         mu, nF, nN = self.lay.mu, self.lay.nF, self.lay.nN
         LN, lN, LF, lF = self.split(x)[7:11]
@@ -499,10 +509,14 @@ class NonsmoothStep:
                 # smooth force's share, fixed by (142c) at its own stages): a persistent slip keeps
                 # Λ_F with Λ_N (docs/contact.md, departures)
                 v, dv = direction(xiF[idx])
-                R9[idx] = LF[idx] + mu[i] * LN[i] * v
-                Dxi[blk] = mu[i] * LN[i] * dv
+                if self.slip_on_P:
+                    R9[idx] = PF[idx] + mu[i] * PN[i] * v
+                    Dxi[blk] = mu[i] * PN[i] * dv
+                else:
+                    R9[idx] = LF[idx] + mu[i] * LN[i] * v
+                    Dxi[blk] = mu[i] * LN[i] * dv
+                    Dsm[idx] = 0.0
                 Dpn[idx, i] = mu[i] * v
-                Dsm[idx] = 0.0
                 w, dw = direction(gF[idx])
                 R10[idx] = lF[idx] + mu[i] * lN[i] * w
                 Dg[blk] = mu[i] * lN[i] * dw
@@ -699,7 +713,7 @@ class NonsmoothStep:
         kN = kN_hat - h * h * ((0.5 - b) * s.lbar_N + b * lbN)                # (102)
         LF = PF - h * ((1 - g) * s.lbar_F + g * lbF)                          # (113)
         for i, idx in enumerate(self.lay.friction):                           # slip: Λ_F from Λ_N (friction_rows)
-            if idx.size and slip[idx[0]]:
+            if idx.size and slip[idx[0]] and not self.slip_on_P:
                 v, _ = direction(ev["xiF"][idx])
                 LF[idx] = -mu[i] * LN[i] * v
         return np.concatenate((kN, LN, lN, LF, lF))
@@ -737,7 +751,9 @@ class NonsmoothStep:
             self._r_cache = (ev["q"], s.t + self.h, ev["WN"], ev["WF"])
 
     def solve(self, s):
-        """One step from s: semismooth Newton, the fixed point if Newton fails.
+        """One step from s: semismooth Newton, the fixed point if Newton fails, Newton again from where
+        the fixed point got to; if all fail, the same three with the slip law (138b) on the whole
+        percussions (``slip_on_P``, the paper's law; docs/contact.md §1.1 item 5).
 
         Returns
         -------
@@ -759,10 +775,29 @@ class NonsmoothStep:
         if ok1:
             self._remember(s, ev1)
             return x1, ev1, sets1, dict(method="fixed_point", iterations=it + it1, error=err1)
+        it2 = 0
         if np.all(np.isfinite(x1)):             # Newton again, from where the fixed point got to
             x2, ev2, sets2, it2, ok2, err2 = self.newton(s, x1)
             if ok2:
                 self._remember(s, ev2)
                 return x2, ev2, sets2, dict(method="fixed_point", iterations=it + it1 + it2, error=err2)
+        # The slip law on Λ with the stick test on P can have no solution where a sticking contact
+        # starts to slip (docs/contact.md §1.1 item 5): the step again with (138b) on P, the paper's law.
+        prev, self.slip_on_P = self.slip_on_P, True
+        try:
+            x3, ev3, sets3, it3, ok3, err3 = self.newton(s, x0)
+            n3 = it3
+            if not ok3:
+                x3, ev3, sets3, it3, ok3, err3 = self.fixed_point(s, x0)
+                n3 += it3
+                if not ok3 and np.all(np.isfinite(x3)):
+                    x3, ev3, sets3, it3, ok3, err3 = self.newton(s, x3)
+                    n3 += it3
+        finally:
+            self.slip_on_P = prev
+        if ok3:
+            self._remember(s, ev3)
+            return x3, ev3, sets3, dict(method="slip_on_P", iterations=it + it1 + it2 + n3, error=err3)
         raise StepFailure(f"semismooth Newton: {it} iterations, residual {err:.3e}; prox fixed point: "
-                          f"{it1} iterations, last change {err1:.3e} (tolerance {self.tol:.1e})", x, sets)
+                          f"{it1} iterations, last change {err1:.3e} (tolerance {self.tol:.1e}); the same with "
+                          f"the slip law on the whole percussions", x, sets)

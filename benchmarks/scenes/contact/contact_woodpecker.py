@@ -48,7 +48,7 @@ from femb.elements.contact import SphereOnPlane
 PARAMS = {"mu": 0.3, "e_N1": 0.5, "c_phi": 5.6e-3, "g": 9.81}
 GEOMETRY = {k: reference.PARAMS[k] for k in ("m_M", "J_M", "m_S", "J_S", "r_0", "r_M", "h_M", "l_M", "l_G",
                                               "h_S", "l_S")}
-DEFAULTS = {"t_end": 0.44, "h": 1e-4, "rho_inf": 0.8}
+DEFAULTS = {"t_end": 1.0, "h": 1e-4, "rho_inf": 0.8}
 PARAMETERS = {"mu": ("friction coefficient of the three contacts", "-"),
               "e_N1": ("normal restitution of the beak (the sleeve's edges: 0)", "-"),
               "c_phi": ("rotational spring sleeve-woodpecker", "N m/rad"), "g": ("gravity along -y", "m/s^2")}
