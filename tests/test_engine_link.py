@@ -40,8 +40,11 @@ def _stage(name):
 
 def _named(names, stage):
     """The names among ``names`` of the native functions of ``stage`` (or their symbols)."""
-    own = {c.fndesc.llvm_func_name for c in _stage(stage).overloads.values()}
-    return [n for n in names if n in own or n.removeprefix("femb.stage.") in own]
+    from femb.engine.link import symbol_name
+    disp = _stage(stage)
+    own = {c.fndesc.llvm_func_name for c in disp.overloads.values()}
+    own |= {symbol_name(disp, sig) for sig in disp.overloads}
+    return [n for n in names if n in own]
 
 
 def test_run_defines_none_of_the_separate_stages_and_calls_them_by_symbol():
@@ -90,3 +93,46 @@ def test_a_call_by_symbol_returns_what_the_stage_returns():
     S = A.copy()
     S[:, 2] = S[:, 4]
     assert engine.dense_lu_solve(S.ravel().copy(), n, piv, 1e-13, b.copy()) == 1
+
+
+STAGES_MODULE = '''
+import numpy as np
+from femb.base.jit import kernel
+from femb.engine.link import call
+
+
+@kernel
+def stage(x, k):
+    return k * x[0] + x[1]
+
+
+@kernel
+def middle(x, k):
+    return call(stage, x, k) + 1.0
+
+
+@kernel
+def outer(x, k):
+    return middle(x, k) * 2.0
+'''
+
+
+def test_a_caller_linking_a_cached_callee_keeps_its_stage_symbols(tmp_path):
+    """Three processes on one cache: the first compiles ``middle`` (which calls ``stage`` by symbol), the
+    second compiles ``outer``, which links ``middle`` loaded from the cache, the third loads ``outer``
+    from the cache and runs it. The third needs the hook that binds ``stage``'s symbol in ``outer``'s
+    cache entry, which numba does not hand on from a callee loaded from the cache
+    (link._keep_hooks_of_cached_functions)."""
+    import subprocess
+    import sys
+    (tmp_path / "pkg").mkdir()
+    (tmp_path / "pkg" / "stages_mod.py").write_text(STAGES_MODULE)
+    env = {k: v for k, v in __import__("os").environ.items() if k != "FEMB_DEBUG"}
+    env["FEMB_CACHE_DIR"] = str(tmp_path / "cache")
+    script = ("import sys, numpy as np; sys.path.insert(0, {folder!r}); import stages_mod as m; "
+              "x = np.array([2.0, 3.0]); print(m.{fn}(x, 5.0))")
+    for fn, want in (("middle", 14.0), ("outer", 28.0), ("outer", 28.0)):
+        out = subprocess.run([sys.executable, "-c", script.format(folder=str(tmp_path / "pkg"), fn=fn)], env=env,
+                             capture_output=True, text=True, timeout=300)
+        assert out.returncode == 0, out.stderr[-2000:]
+        assert float(out.stdout.split()[-1]) == want

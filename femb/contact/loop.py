@@ -42,6 +42,7 @@ import math
 import numpy as np
 
 from femb.base.jit import kernel
+from femb.engine.link import call
 from femb.contact.batches import evaluate_batches
 from femb.contact.core import _direction, _evaluate, kinematics, newton_loop, prox_parameters, residual
 from femb.contact.result import OPEN, SLIP, STICK
@@ -111,7 +112,7 @@ def _newton(P, si, x, h, zf, ctx, on_P):
     par = np.array([h, cst[0], h * h * beta * c, h * gamma * c, cst[1], 0.0, am, af, beta, gamma, s[F[_T]] + h,
                     cst[6], cst[7], 1.0 if zf.size else 0.0, on_P])
     wk = work + ((_field(s, F, _GND), _field(s, F, _GFD)), zf)
-    status, it, err = newton_loop(x, mdl, st, law, lay, par, wk)
+    status, it, err = call(newton_loop, x, mdl, st, law, lay, par, wk)
     return status == 0, it
 
 
@@ -136,7 +137,7 @@ def _solve(P, si, ri, h, ctx):
         if ok:
             break
         x[:] = _field(s, F, _X)
-        ok, it1 = _fixed_point(P, si, x, h, ctx, on_P)
+        ok, it1 = call(_fixed_point, P, si, x, h, ctx, on_P)
         it += it1
         method = 2.0 if k == 1 else 1.0
         if not ok and np.all(np.isfinite(x)):
@@ -170,14 +171,14 @@ def _fixed_point(P, si, x, h, ctx, on_P):
         ok, _ = _newton(P, si, x, h, z, ctx, on_P)
         if not ok:
             return False, it
-        _prox_update(P, si, x, h, ctx, z1, on_P)
+        call(_prox_update, P, si, x, h, ctx, z1, on_P)
         err = 0.0
         for a in range(z.size):
             err = max(err, abs(z1[a] - z[a]) * sc[a])
         z[:] = z1
         if err <= tol:
             x[o[6]:] = z
-            _evaluate_at(P, si, x, h, ctx, on_P)
+            call(_evaluate_at, P, si, x, h, ctx, on_P)
             return True, it
     x[o[6]:] = z
     return False, int(cst[12])
@@ -193,12 +194,12 @@ def _evaluate_at(P, si, x, h, ctx, on_P):
           _field(s, F, _LF), _field(s, F, _LBN), _field(s, F, _LBF))
     am, af, beta, gamma = cst[2], cst[3], cst[4], cst[5]
     c = (1.0 - af) / (1.0 - am)
-    kinematics(x, o, st, np.array([h, am, af, beta, gamma]), cmp, kout)
-    _evaluate(x, o, mdl, s[F[_T]] + h, kout, dq)
+    call(kinematics, x, o, st, np.array([h, am, af, beta, gamma]), cmp, kout)
+    call(_evaluate, x, o, mdl, s[F[_T]] + h, kout, dq)
     law = (_field(s, F, _RN), _field(s, F, _RF), fixed_law[0], fixed_law[1], fixed_law[2], fixed_law[3])
     kin = (kout[1], kout[5], kout[6], kout[7], _field(s, F, _GND), _field(s, F, _GFD))
     rp = np.array([h, cst[0], h * h * beta * c, h * gamma * c, cst[1], 0.0, on_P])
-    residual(x, o, mq, mv, kin, law, lay, rp, sets, out)
+    call(residual, x, o, mq, mv, kin, law, lay, rp, sets, out)
 
 
 @kernel(allocates=True)
@@ -208,7 +209,7 @@ def _prox_update(P, si, x, h, ctx, z1, on_P):
     F, lay, fixed_law, work, cst = ctx[0], ctx[2], ctx[3], ctx[4], ctx[5]
     o, kout, out, mv = work[0], work[2], work[3], work[6]
     s = P[si]
-    _evaluate_at(P, si, x, h, ctx, on_P)
+    call(_evaluate_at, P, si, x, h, ctx, on_P)
     rN, gN, kNh, PN0, xiN, gNdd = _field(s, F, _RN), mv[4], kout[6], kout[5], out[3], out[4]
     k, l = rN.size, o[11] - o[10]
     kN, LN, lN, LF, lF = z1[:k], z1[k:2 * k], z1[2 * k:3 * k], z1[3 * k:3 * k + l], z1[3 * k + l:]
@@ -370,7 +371,7 @@ def _free_flight(P, tau, ctx):
     s, r = P[0], P[2]
     k = F[_GN + 1] - F[_GN]
     for _ in range(8):
-        if not _solve(P, 0, 2, tau, ctx):
+        if not call(_solve, P, 0, 2, tau, ctx):
             return False, np.nan
         closes = False
         for i in range(k):
@@ -428,17 +429,17 @@ def _task(P, h, depth, ctx, stack):
     Returns -1 when its solve found no solution (a free flight without one: the unsplit step, 0).
     ``stack`` = (hs, depths, top (1,))."""
     cst = ctx[5]
-    if not _solve(P, 0, 1, h, ctx):
+    if not call(_solve, P, 0, 1, h, ctx):
         return -1
     d = 1e-4 * cst[8]
     tau = np.nan
     if cst[11] != 0.0 and depth < 40 and h > 3 * d:
-        tau = _impact_time(P, 0, 1, h, ctx)
+        tau = call(_impact_time, P, 0, 1, h, ctx)
     if np.isnan(tau):
         return 0
     hs, ds, top = stack
     if tau > 2 * d:
-        ok, h1 = _free_flight(P, tau - 1e-3 * d, ctx)
+        ok, h1 = call(_free_flight, P, tau - 1e-3 * d, ctx)
         if not ok:                      # no solution in the free flight: the unsplit step (simulate._step)
             return 0
         if not np.isnan(h1):
@@ -472,7 +473,7 @@ def _one_step(P, h, n, ctx, rec, fr):
         while nf[0] > 0 and FT[nf[0] - 1] > top[0]:         # splits whose substeps are all done
             nf[0] -= 1
         t0 = top[0]
-        kind = _task(P, hs[t0], ds[t0], ctx, (hs, ds, top))
+        kind = call(_task, P, hs[t0], ds[t0], ctx, (hs, ds, top))
         ri = 2 if kind == 1 else 1
         if kind < 0:
             if nf[0] == 0:
@@ -543,10 +544,10 @@ def run_steps(P, h, n0, n1, ctx, rec):
     for n in range(n0, n1 + 1):
         c0, c1, c2, c3, w0, w1 = cnt[0], cnt[1], cnt[2], cnt[3], wsum[0], wsum[1]
         save = P[0].copy()
-        status = _one_step(P, h, n, ctx, rec, fr)
+        status = call(_one_step, P, h, n, ctx, rec, fr)
         if status != DONE:
             cnt[0], cnt[1], cnt[2], cnt[3], wsum[0], wsum[1] = c0, c1, c2, c3, w0, w1
             P[0, :] = save
             return status, n
-        store(P, n, ctx, rec)
+        call(store, P, n, ctx, rec)
     return DONE, n1 + 1

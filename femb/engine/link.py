@@ -8,7 +8,8 @@ its functions of the size of their subtrees (docs/engine.md, "Compile time").
 
 ``call(stage, *args)`` in compiled code calls ``stage`` (a numba dispatcher of the engine) without
 linking it: the caller's module only *declares* the stage's native function under a symbol of its
-own (``femb.stage.<numba's name of the function>``), and that symbol is given the address of the
+own (``femb.stage.<module>.<function>.<hash of the argument types>``: the same in every process,
+unlike numba's name of the function, which carries a per-process counter), and that symbol is given the address of the
 stage's compiled code (``llvmlite.binding.add_symbol``) before the caller is loaded: while the
 caller compiles (the call is typed) and, when the caller comes from the disk cache, by a hook that
 numba runs before it loads the caller's object code (the library's ``reload_init``). The call is
@@ -16,10 +17,18 @@ numba's native calling convention, as a linked call that LLVM does not inline (t
 stages are not inlined by LLVM: they are large and called from several places), and an error
 status of the stage propagates to the caller.
 
+numba hands the hooks of a compiled function's library on to the libraries it is linked into, but
+not those of a function loaded from the disk cache (numba 0.68, ``CompileResult._rebuild`` runs the
+hooks and leaves the loaded library without them): a caller compiled now that links such a function
+would be cached without the hooks its code needs, and a later process loading it would find the
+symbols unbound. :func:`_keep_hooks_of_cached_functions` gives the loaded library its hooks back.
+
 With the JIT disabled (``NUMBA_DISABLE_JIT=1``) ``call(stage, *args)`` is ``stage(*args)``.
 """
 import functools
+import hashlib
 import importlib
+import inspect
 
 import llvmlite.binding as ll
 from numba.core import cgutils, types
@@ -29,6 +38,16 @@ from femb.base.jit import jit_disabled
 
 #: the stages' symbols registered in this process: symbol -> address
 _SYMBOLS = {}
+#: the dispatcher of each registered symbol
+_OWNERS = {}
+
+
+def symbol_name(disp, argtypes):
+    """The symbol under which callers declare the stage ``disp`` compiled for ``argtypes`` (the same
+    in every process)."""
+    f = disp.py_func
+    key = hashlib.sha1(repr(tuple(str(a) for a in argtypes)).encode()).hexdigest()[:16]
+    return f"femb.stage.{f.__module__}.{f.__qualname__}.{key}"
 
 
 def stage_symbol(disp, argtypes):
@@ -39,13 +58,17 @@ def stage_symbol(disp, argtypes):
         disp.compile(argtypes)
     cres = disp.overloads[argtypes]
     name = cres.fndesc.llvm_func_name
-    symbol = "femb.stage." + name
+    symbol = symbol_name(disp, argtypes)
     if symbol not in _SYMBOLS:
         addr = cres.library.get_pointer_to_function(name)
         if not addr:
             raise RuntimeError(f"femb engine: no native code for stage {disp.py_func.__name__}")
         ll.add_symbol(symbol, addr)
         _SYMBOLS[symbol] = addr
+        _OWNERS[symbol] = disp
+    elif _OWNERS[symbol] is not disp:
+        raise RuntimeError(f"femb engine: two stages share the symbol {symbol} (functions of the same "
+                           f"module and qualified name)")
     return symbol, cres
 
 
@@ -85,6 +108,36 @@ def _call(typingctx, stage, *args):
 def _call_python(stage, *args):
     return stage(*args)
 
+
+def _keep_hooks_of_cached_functions():
+    """Patch numba's ``CompileResult._rebuild`` (a function loaded from the disk cache) so that the
+    loaded library keeps its reload hooks, which numba passes on to the callers it is linked into
+    (``CPUCodeLibrary.finalize``). Without it, a caller compiled in a process that loaded such a
+    callee from the cache is cached without the hooks that bind its callee's stage symbols."""
+    from numba.core import compiler
+    cls = compiler.CompileResult
+    orig = cls.__dict__["_rebuild"].__func__
+    if getattr(orig, "_femb_keeps_hooks", False):
+        return
+    try:
+        params = list(inspect.signature(orig).parameters)
+        at = params.index("reload_init") - 1            # position among the arguments after cls
+    except ValueError:                                   # another numba: leave it as it is
+        return
+
+    def _rebuild(klass, *args, **kw):
+        cr = orig(klass, *args, **kw)
+        hooks = kw.get("reload_init", args[at] if at < len(args) else None)
+        if hooks:
+            cr.library._reload_init.update(hooks)
+        return cr
+
+    _rebuild._femb_keeps_hooks = True
+    cls._rebuild = classmethod(_rebuild)
+
+
+if not jit_disabled():
+    _keep_hooks_of_cached_functions()
 
 #: ``call(stage, *args)``: the stage's result, the stage compiled once and called by symbol
 call = _call_python if jit_disabled() else _call
