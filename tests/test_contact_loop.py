@@ -69,14 +69,20 @@ def _same(py, c, upto=None):
         assert py.stats == c.stats
 
 
-@pytest.mark.parametrize("name", list(SCENES))
-def test_compiled_loop_equals_python_loop(name):
+def _both_loops_agree(name):
+    """Scene ``name`` of SCENES through both loops: both succeed with the same outputs; the compiled run."""
     build, t_end, h = SCENES[name]
     model = build()
     py = simulate(model, t_end, h, compiled=False)
     c = simulate(model, t_end, h, compiled=True)
     assert py.status == c.status == "success"
     _same(py, c)
+    return c
+
+
+@pytest.mark.parametrize("name", list(SCENES))
+def test_compiled_loop_equals_python_loop(name):
+    c = _both_loops_agree(name)
     if name == "painleve impact":
         assert c.stats["fixed_point_steps"] == 1
 
@@ -87,12 +93,7 @@ def test_compiled_loop_equals_python_loop_with_the_papers_slip_law(monkeypatch, 
     has no solution with femb's law on Λ) on every step, in both loops: a straight slip and one whose
     direction turns."""
     monkeypatch.setattr(NonsmoothStep, "slip_on_P", True)
-    build, t_end, h = SCENES[name]
-    model = build()
-    py = simulate(model, t_end, h, compiled=False)
-    c = simulate(model, t_end, h, compiled=True)
-    assert py.status == c.status == "success"
-    _same(py, c)
+    _both_loops_agree(name)
 
 
 def test_slider_crank_up_to_its_first_branch():

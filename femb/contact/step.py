@@ -125,7 +125,7 @@ def _entry_point(disp, args):
 
 def _compile_announced(disp, sig):
     """``disp.compile(sig)``, said on stderr with the time it took when it is not in the cache (the contact
-    step and its time loop compile once per installation and set of element types: about four minutes of
+    step and its time loop compile once per installation and set of element types: about two minutes of
     CPU on a small machine), under a lock so that processes that need it at once compile it once."""
     if is_cached(disp, sig):
         return disp.compile(sig)
@@ -133,7 +133,7 @@ def _compile_announced(disp, sig):
         if is_cached(disp, sig):                    # compiled by another process while this one waited
             return disp.compile(sig)
         print(f"femb: compiling the contact step ({disp.__name__}) for these element types, once; "
-              "several minutes on 2 cores", file=sys.stderr, flush=True)
+              "about two minutes on 2 cores", file=sys.stderr, flush=True)
         t0 = time.perf_counter()
         fn = disp.compile(sig)
         kept = "cached for later runs" if cache_writable() else "in memory for this run only"
