@@ -159,12 +159,15 @@ def run(stepper, s, rec, nsteps, h, info):
     sim = importlib.import_module("femb.contact.simulate")
     vel_tol, locate, rho_inf, init_time = info
     model, lay = stepper.model, stepper.lay
-    t_loop = time.perf_counter()
+    t_load = time.perf_counter()
     F = loop.offsets(s.q.size, model.nq, stepper.nx, lay.nN, lay.nF)
     P = np.zeros((3, int(F[-1])))
     _put_state(P, F, s, stepper)
     ctx = _context(stepper, F, vel_tol, locate)
     arr = _Arrays(_rec0(rec), nsteps, lay, model.nq)
+    _entry(stepper.dm, (P, float(h), 1, nsteps, ctx, arr.pack()))   # compiled, or loaded from the cache
+    init_time += time.perf_counter() - t_load                         # (1–3 s): the start's time, not the loop's
+    t_loop = time.perf_counter()
     n = 1
     while n <= nsteps:
         args = (P, float(h), n, nsteps, ctx, arr.pack())
