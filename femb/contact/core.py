@@ -29,7 +29,6 @@ from __future__ import annotations
 import numpy as np
 
 from femb.base.jit import kernel
-from femb.engine.link import call
 from femb.base.rotations import quat_exp_into, quat_mul_into
 from femb.contact.batches import evaluate_batches
 
@@ -541,9 +540,9 @@ def newton_loop(x, mdl, st, law, lay, par, work):
     kin = (kout[1], kout[5], kout[6], kout[7], sd[0], sd[1])
     R = out[0]
     for it in range(1, max_iter + 1):
-        call(kinematics, x, o, st, kp, cmp, kout)
-        call(_evaluate, x, o, mdl, t1, kout, dq)
-        err = call(residual, x, o, mq, mv, kin, law, lay, rp, sets, out)
+        kinematics(x, o, st, kp, cmp, kout)
+        _evaluate(x, o, mdl, t1, kout, dq)
+        err = residual(x, o, mq, mv, kin, law, lay, rp, sets, out)
         if fixed:
             err = _fixed_rows(x, o, zf, out)
         if not np.isfinite(err):
@@ -551,26 +550,26 @@ def newton_loop(x, mdl, st, law, lay, par, work):
         if err <= tol:
             if rp[5] != 0.0:            # converged with the sets held: a solution if they are its own
                 rp[5] = 0.0
-                err = call(residual, x, o, mq, mv, kin, law, lay, rp, sets, out)
+                err = residual(x, o, mq, mv, kin, law, lay, rp, sets, out)
                 if fixed:
                     err = _fixed_rows(x, o, zf, out)
             return (0 if err <= tol else 1), it, err
         if it == freeze_after:
             rp[5] = 1.0
-        call(jacobian, x, o, mq, kin, law, lay, rp, sets, out[2:], J)
+        jacobian(x, o, mq, kin, law, lay, rp, sets, out[2:], J)
         if fixed:
             for a in range(o[6], o[11]):
                 J[a, :] = 0.0
                 J[a, a] = 1.0
         if not np.all(np.isfinite(J)):
             return 1, it, err
-        if call(increment, J, R, dx) != 0:
+        if increment(J, R, dx) != 0:
             dx[:] = np.linalg.lstsq(J, -R, rcond=1e-11)[0]
         x += dx
-    call(kinematics, x, o, st, kp, cmp, kout)
-    call(_evaluate, x, o, mdl, t1, kout, dq)
+    kinematics(x, o, st, kp, cmp, kout)
+    _evaluate(x, o, mdl, t1, kout, dq)
     rp[5] = 0.0
-    err = call(residual, x, o, mq, mv, kin, law, lay, rp, sets, out)
+    err = residual(x, o, mq, mv, kin, law, lay, rp, sets, out)
     if fixed:
         err = _fixed_rows(x, o, zf, out)
     return (0 if err <= tol else 1), max_iter, err

@@ -194,12 +194,12 @@ def _evaluate_at(P, si, x, h, ctx, on_P):
           _field(s, F, _LF), _field(s, F, _LBN), _field(s, F, _LBF))
     am, af, beta, gamma = cst[2], cst[3], cst[4], cst[5]
     c = (1.0 - af) / (1.0 - am)
-    call(kinematics, x, o, st, np.array([h, am, af, beta, gamma]), cmp, kout)
-    call(_evaluate, x, o, mdl, s[F[_T]] + h, kout, dq)
+    kinematics(x, o, st, np.array([h, am, af, beta, gamma]), cmp, kout)
+    _evaluate(x, o, mdl, s[F[_T]] + h, kout, dq)
     law = (_field(s, F, _RN), _field(s, F, _RF), fixed_law[0], fixed_law[1], fixed_law[2], fixed_law[3])
     kin = (kout[1], kout[5], kout[6], kout[7], _field(s, F, _GND), _field(s, F, _GFD))
     rp = np.array([h, cst[0], h * h * beta * c, h * gamma * c, cst[1], 0.0, on_P])
-    call(residual, x, o, mq, mv, kin, law, lay, rp, sets, out)
+    residual(x, o, mq, mv, kin, law, lay, rp, sets, out)
 
 
 @kernel(allocates=True)
