@@ -162,16 +162,18 @@ def _exudyn_model():
     return exu, mbs, sensor
 
 
-def _exudyn_settings(exu, h):
+def exudyn_settings(exu, h, t_end, sensor_period):
+    """Exudyn's settings of both peer comparisons: steps of h to t_end (adaptive, Exudyn's default: steps
+    shrink at contact switches), modified Newton, sensors every ``sensor_period``, nothing printed or written."""
     s = exu.SimulationSettings()
     ti = s.timeIntegration
-    ti.numberOfSteps = int(round(T_END / h))
-    ti.endTime = T_END
+    ti.numberOfSteps = int(round(t_end / h))
+    ti.endTime = t_end
     ti.newton.useModifiedNewton = True
-    ti.adaptiveStep = True          # Exudyn's default: steps shrink at contact switches (recommended step size)
+    ti.adaptiveStep = True
     ti.verboseMode = 0
     s.solutionSettings.writeSolutionToFile = False
-    s.solutionSettings.sensorsWritePeriod = h
+    s.solutionSettings.sensorsWritePeriod = sensor_period
     s.displayComputationTime = False
     s.displayStatistics = False
     return s
@@ -184,7 +186,7 @@ def run_exudyn(h, repeats):
         with warnings.catch_warnings():             # Exudyn's renamed-setting notices
             warnings.simplefilter("ignore", DeprecationWarning)
             exu, mbs, sensor = _exudyn_model()
-            s = _exudyn_settings(exu, h)
+            s = exudyn_settings(exu, h, T_END, h)
         buf = io.StringIO()
         t0 = time.perf_counter()
         with contextlib.redirect_stdout(buf), contextlib.redirect_stderr(buf):

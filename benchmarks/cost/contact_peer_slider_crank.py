@@ -50,7 +50,7 @@ import warnings
 
 import numpy as np
 
-from femb.benchmarks.cost.contact_peer import exudyn_version
+from femb.benchmarks.cost.contact_peer import exudyn_settings, exudyn_version
 from femb.benchmarks.scenes.contact import contact_slider_crank as scene
 
 T_END = 0.02
@@ -141,28 +141,13 @@ def exudyn_model(contacts=True):
     return exu, mbs, sensor, sc
 
 
-def _exudyn_settings(exu, h):
-    s = exu.SimulationSettings()
-    ti = s.timeIntegration
-    ti.numberOfSteps = int(round(T_END / h))
-    ti.endTime = T_END
-    ti.newton.useModifiedNewton = True
-    ti.adaptiveStep = True
-    ti.verboseMode = 0
-    s.solutionSettings.writeSolutionToFile = False
-    s.solutionSettings.sensorsWritePeriod = T_END / 20
-    s.displayComputationTime = False
-    s.displayStatistics = False
-    return s
-
-
 def exudyn_runner(h, contacts=True):
     """A function running Exudyn's model to T_END at step h and returning (wall s of SolveDynamic, crank angle)."""
     def run():
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", DeprecationWarning)
             exu, mbs, sensor, _sc = exudyn_model(contacts)
-            s = _exudyn_settings(exu, h)
+            s = exudyn_settings(exu, h, T_END, T_END / 20)
         buf = io.StringIO()
         t0 = time.perf_counter()
         try:

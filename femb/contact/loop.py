@@ -128,7 +128,7 @@ def _solve(P, si, ri, h, ctx):
     ok = False
     it = 0
     method = 0.0
-    for k in range(2):                # femb's slip law first (unless NonsmoothStep.slip_on_P), then the paper's
+    for k in range(1 if cst[13] != 0.0 else 2):     # femb's slip law first, then the paper's (once if it is set)
         on_P = cst[13] if k == 0 else 1.0
         x[:] = _field(s, F, _X)
         ok, it1 = _newton(P, si, x, h, ctx[7][0], ctx, on_P)

@@ -781,9 +781,13 @@ class NonsmoothStep:
             if ok2:
                 self._remember(s, ev2)
                 return x2, ev2, sets2, dict(method="fixed_point", iterations=it + it1 + it2, error=err2)
+        why = (f"semismooth Newton: {it} iterations, residual {err:.3e}; prox fixed point: {it1} iterations, "
+               f"last change {err1:.3e} (tolerance {self.tol:.1e})")
+        if self.slip_on_P:                      # the paper's law already: nothing else to try
+            raise StepFailure(why, x, sets)
         # The slip law on Λ with the stick test on P can have no solution where a sticking contact
         # starts to slip (docs/contact.md §1.1 item 5): the step again with (138b) on P, the paper's law.
-        prev, self.slip_on_P = self.slip_on_P, True
+        self.slip_on_P = True
         try:
             x3, ev3, sets3, it3, ok3, err3 = self.newton(s, x0)
             n3 = it3
@@ -794,10 +798,8 @@ class NonsmoothStep:
                     x3, ev3, sets3, it3, ok3, err3 = self.newton(s, x3)
                     n3 += it3
         finally:
-            self.slip_on_P = prev
+            self.slip_on_P = False
         if ok3:
             self._remember(s, ev3)
             return x3, ev3, sets3, dict(method="slip_on_P", iterations=it + it1 + it2 + n3, error=err3)
-        raise StepFailure(f"semismooth Newton: {it} iterations, residual {err:.3e}; prox fixed point: "
-                          f"{it1} iterations, last change {err1:.3e} (tolerance {self.tol:.1e}); the same with "
-                          f"the slip law on the whole percussions", x, sets)
+        raise StepFailure(why + "; the same with the slip law on the whole percussions", x, sets)
