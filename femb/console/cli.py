@@ -338,6 +338,10 @@ def cmd_run(args):
     if missing:
         raise UsageError(f"scene '{scene.name}' has no DEFAULTS for {' and '.join(missing)}: give them")
     model = _build_scene_model(scene, params)
+    if h is None and getattr(model, "n_contacts", 0):     # adaptive contact steps start from the scene's h
+        h = d["h"]
+        if h is None:
+            raise UsageError(f"scene '{scene.name}' has no DEFAULTS for --h: give the first step's size")
     result, total = _integrate(model, args, t_end, h, rho_inf)
     _report_run(scene, params, args, result, rho_inf, total)
     return 0
@@ -414,21 +418,25 @@ def _integrate(model, args, t_end, h, rho_inf):
 
 
 def _integrate_contact(model, args, t_end, h, rho_inf):
-    """``femb run`` of a model with contact elements: :func:`femb.contact.simulate` (fixed steps),
+    """``femb run`` of a model with contact elements: :func:`femb.contact.simulate` (fixed steps, or adaptive
+    with ``--rtol``),
     then the VTK series of the stored steps (every ``--every``-th, or the step nearest each ``--dt``)."""
+    import numpy as np
+
     import femb.contact
     from femb.errors import OutputError
 
-    if args.rtol is not None:
-        raise UsageError("this scene has contact elements: femb.contact.simulate runs fixed steps; give --h, "
-                         "not --rtol")
     if args.formulation != "index3" or args.no_scaling:
         raise UsageError("--formulation and --no-scaling do not apply to the nonsmooth contact scheme "
                          "(it enforces the joints at position, velocity and acceleration level)")
     t0 = time.perf_counter()
-    result = femb.contact.simulate(model, t_end, h, rho_inf=rho_inf)
+    if args.rtol is not None:              # adaptive steps (docs/contact.md §1.2); h the first step's size
+        result = femb.contact.simulate(model, t_end, h, rho_inf=rho_inf, rtol=args.rtol, atol=args.atol)
+    else:
+        result = femb.contact.simulate(model, t_end, h, rho_inf=rho_inf)
     if args.vtk is not None:
-        every = args.every or (max(1, int(round(float(args.dt) / result.settings["h"]))) if args.dt else 1)
+        h_out = result.settings["h"] or float(np.median(result.h_steps))
+        every = args.every or (max(1, int(round(float(args.dt) / h_out))) if args.dt else 1)
         try:
             result.write_vtk(args.vtk, every=every)
         except (OutputError, OSError) as exc:

@@ -393,21 +393,24 @@ def increment(J, R, dx):
     N = R.size
     if N == 0:
         return 0
-    r = np.ones(N)
-    c = np.ones(N)
     A = J.copy()
-    for a in range(N):
-        m = np.max(np.abs(A[a]))
-        if m > 0.0:
-            r[a] = 1.0 / m
-            A[a] *= r[a]
+    r = np.empty(N)
+    c = np.zeros(N)
+    piv = np.empty(N, dtype=np.int64)
+    for a in range(N):                  # rows, then columns, each divided by its largest entry
+        m = 0.0
+        for b in range(N):
+            m = max(m, abs(A[a, b]))
+        r[a] = 1.0 / m if m > 0.0 else 1.0
+        for b in range(N):
+            A[a, b] *= r[a]
+            c[b] = max(c[b], abs(A[a, b]))
     for b in range(N):
-        m = np.max(np.abs(A[:, b]))
-        if m > 0.0:
-            c[b] = 1.0 / m
-            A[:, b] *= c[b]
-    piv = np.arange(N)
-    for k in range(N):
+        c[b] = 1.0 / c[b] if c[b] > 0.0 else 1.0
+    for a in range(N):
+        for b in range(N):
+            A[a, b] *= c[b]
+    for k in range(N):                  # LU with partial pivoting; zero entries below the pivot skipped
         p = k
         amax = abs(A[k, k])
         for i in range(k + 1, N):
@@ -421,9 +424,9 @@ def increment(J, R, dx):
         if A[k, k] != 0.0:
             inv = 1.0 / A[k, k]
             for i in range(k + 1, N):
-                A[i, k] *= inv
-                f = A[i, k]
-                if f != 0.0:
+                if A[i, k] != 0.0:
+                    A[i, k] *= inv
+                    f = A[i, k]
                     for j in range(k + 1, N):
                         A[i, j] -= f * A[k, j]
     dmin = abs(A[0, 0])
@@ -433,7 +436,9 @@ def increment(J, R, dx):
         dmax = max(dmax, abs(A[k, k]))
     if not dmin > 1e-11 * dmax:
         return 1
-    y = -r * R
+    y = np.empty(N)
+    for a in range(N):
+        y[a] = -r[a] * R[a]
     for k in range(N):
         p = piv[k]
         if p != k:

@@ -5,7 +5,7 @@ matrix, at most ``DENSE_MAX_UNKNOWNS`` unknowns, no time functions, no equations
 redundant) :func:`run_steps` does what the Python loop of :mod:`femb.contact.simulate` does per
 step (``_step``, ``_split_at_impact``, ``_free_flight``, ``_accept``, ``_Recorder``), with the
 same algorithm: the step's semismooth Newton iteration (:func:`femb.contact.core.newton_loop`,
-called as it is), the impact location of docs/contact.md §2.4 (free flight to just before the
+called as it is), the impact location of docs/contact.md §1.1, item 2 (free flight to just before the
 impact, the impact in a substep of ≤ 3d, the rest), the state advance (eqs. (71), (96), (114) of
 Capobianco, Harsch, Eugster & Leine, IJNME 122 (2021)), the contact work, the impact events and
 every stored output, written into preallocated arrays.

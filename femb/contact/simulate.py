@@ -160,8 +160,8 @@ def _states(ev, sets, lay, vel_tol):
 
 
 def simulate(model, t_end, h, *, rho_inf=0.8, t0=0.0, tol=None, max_iter=40, max_fixed_point=400,
-             locate_impacts=True, compiled=None):
-    """Integrate a model with contacts by the nonsmooth generalized-α method, fixed steps.
+             locate_impacts=True, compiled=None, rtol=None, atol=None, h_max=None):
+    """Integrate a model with contacts by the nonsmooth generalized-α method, fixed or adaptive steps.
 
     Parameters
     ----------
@@ -170,7 +170,7 @@ def simulate(model, t_end, h, *, rho_inf=0.8, t0=0.0, tol=None, max_iter=40, max
     t_end : float
     h : float
         Step size (adjusted slightly so that the steps end on t_end); results are stored at
-        every step.
+        every step. With ``rtol``: the first step's size.
     rho_inf : float in [0, 1)
         Spectral radius at infinity of the smooth part (α_m, α_f, β, γ by Chung & Hulbert).
     t0 : float
@@ -179,13 +179,18 @@ def simulate(model, t_end, h, *, rho_inf=0.8, t0=0.0, tol=None, max_iter=40, max
     max_iter, max_fixed_point : int
         Semismooth Newton iterations per step; prox fixed-point iterations of the fallback.
     locate_impacts : bool
-        Split a step in which an open contact closes at the impact (docs/contact.md §2.4), so
+        Split a step in which an open contact closes at the impact (docs/contact.md §1.1, item 2), so
         the impact law sees the velocity at the impact and not at the step's start.
     compiled : bool, optional
         Run the steps in the compiled time loop (:mod:`femb.contact.loop`, docs/contact.md §7):
         None (default) where it applies (dense systems with a constant mass matrix, no time
         functions), False the Python loop (the reference), True the compiled loop or a
         ParameterError where it does not apply. Both give the same results (to round-off).
+    rtol, atol, h_max : float, optional
+        Adaptive steps (:mod:`femb.contact.adaptive`, docs/contact.md §1.2) when ``rtol`` is given:
+        error control on the smooth part as in :func:`femb.simulate` (atol defaults to 1e-3 · rtol),
+        no error test at impacts and contact changes; steps at most ``h_max``. Adaptive runs use the
+        Python loop.
 
     Returns
     -------
@@ -199,14 +204,22 @@ def simulate(model, t_end, h, *, rho_inf=0.8, t0=0.0, tol=None, max_iter=40, max
     ModelError
         A contact starts penetrated.
     ParameterError
-        Bad t_end, h, t0 or rho_inf.
+        Bad t_end, h, t0, rho_inf, rtol, atol or h_max.
     """
     if hasattr(model, "compile") and not hasattr(model, "contact_groups"):
         model = model.compile()
     _check_parameters(model, t_end, h, rho_inf, t0)
     t0, t_end = float(t0), float(t_end)
     nsteps = max(1, int(round((t_end - t0) / float(h))))
-    h = (t_end - t0) / nsteps
+    if rtol is None:
+        if atol is not None or h_max is not None:
+            raise ParameterError("atol and h_max set the adaptive steps: give rtol too, or leave them out for "
+                                 "fixed steps")
+        h = (t_end - t0) / nsteps
+    else:
+        from femb.contact import adaptive
+        adaptive.check_compiled(compiled)
+        ctl = adaptive.tolerances(rtol, atol, h_max, t_end - t0)
     L = model.length_scale
     tol = 1e-12 * L if tol is None else float(tol)
     lay = assemble.layout(model)
@@ -217,6 +230,9 @@ def simulate(model, t_end, h, *, rho_inf=0.8, t0=0.0, tol=None, max_iter=40, max
     rec = _Recorder(model, lay)
     rec.store(s, x0, ev0, np.zeros(lay.nN, dtype=np.int8), stepper, (0.0, 0.0))
     init_time = time.perf_counter() - t_init
+    if rtol is not None:
+        return adaptive.run(stepper, s, rec, (t_end, float(h)), (_step, vel_tol, locate_impacts, _states, diagnose),
+                            ctl, (tol, rho_inf, init_time))
     if compiled is None or compiled:
         from femb.contact import compiled as fast
         if fast.applies(stepper):
@@ -306,7 +322,7 @@ def _step(stepper, s, h, n, rec, vel_tol, locate, depth=0):
     acceleration (:func:`_impact_time`): the step goes in free flight to 1e-3 d before the
     impact, d = 1e-4 h (shortened until the contact is still open at its end), takes the impact in a substep
     that ends d after it (so Newton's law sees the velocity at the impact and the bodies leave at
-    once), and the rest of the step (docs/contact.md §2.4). Returns (state, x, ev, sets, (work_N,
+    once), and the rest of the step (docs/contact.md §1.1, item 2). Returns (state, x, ev, sets, (work_N,
     work_F)) at s.t + h; impacts go to ``rec.events``.
     """
     stepper.set_h(h)

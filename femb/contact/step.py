@@ -229,7 +229,7 @@ class NonsmoothStep:
             self._dense_setup()
 
     def set_h(self, h):
-        """Use step size h (impact steps are split at the impact, docs/contact.md §2.4)."""
+        """Use step size h (impact steps are split at the impact, docs/contact.md §1.1, item 2)."""
         self.h = float(h)
         c = (1.0 - self.af) / (1.0 - self.am)
         self.c_u = self.h * self.gamma * c        # ∂u_{n+1}/∂u̇_{n+1}, ∂P/∂λ
