@@ -33,7 +33,7 @@ import time
 import numpy as np
 
 from femb.contact.step import StepFailure
-from femb.errors import ContactError, ParameterError
+from femb.errors import ContactError
 from femb.solve.options import ATOL_PER_RTOL, check_positive, error_constants
 
 
@@ -46,21 +46,34 @@ def tolerances(rtol, atol, h_max, t_span):
     return rtol, atol, h_max, 1e-10 * t_span
 
 
-def weighted_error(model, s, new, h, h_prev, j_prev, ctl):
-    """The weighted RMS error of the smooth part of the step s → new of size h, and the step's jerk j_{n+1}.
+class ErrorNorm:
+    """The weighted RMS error of the smooth part of a step (docs/stepsize.md §3) for one model.
 
-    ``j_prev`` is the jerk of the step before when that one was smooth too (else None: e_v is left out);
-    ``ctl`` = (rtol, atol, C_q, C_v)."""
-    rtol, atol, Cq, Cv = ctl
-    j = (new.ud - s.ud) / h
-    e_q = Cq * h * h * (new.ud - s.ud)
-    w_q = atol + rtol * np.maximum(model.magnitude(s.q), model.magnitude(new.q))
-    parts = [e_q / w_q]
-    if j_prev is not None:
-        e_v = Cv * h ** 3 * (j - j_prev) / (0.5 * (h + h_prev))
-        parts.append(e_v / (atol + rtol * np.maximum(np.abs(s.u), np.abs(new.u))))
-    r = np.concatenate(parts)
-    return (float(np.sqrt(np.mean(r * r))) if r.size else 0.0), j
+    ``ctl`` = (rtol, atol, C_q, C_v). Calling it with the step's start and end (``q``, ``u``, ``ud``), its size
+    h, the size of the step before and that step's jerk (None when it was not smooth: e_v is left out)
+    returns (err, the step's jerk j_{n+1})."""
+
+    def __init__(self, model, ctl):
+        self.rtol, self.atol, self.Cq, self.Cv = ctl
+        n = model.nq
+        xmap = np.asarray(model.xmap) if model.lie else np.arange(n)
+        self.ix = np.maximum(xmap, 0)                  # the configuration entry of each velocity entry
+        self.add = (xmap >= 0).astype(float)           # 0 on rotations: their weight is atol alone
+
+    def __call__(self, s, new, h, h_prev, j_prev):
+        rtol, atol = self.rtol, self.atol
+        dud = new.ud - s.ud
+        mq = np.maximum(np.abs(s.q[self.ix]), np.abs(new.q[self.ix]))
+        r = (self.Cq * h * h) * dud / (atol + rtol * self.add * mq)
+        ss = float(r @ r)
+        j = dud / h
+        m = r.size
+        if j_prev is not None:
+            e_v = (self.Cv * h ** 3 / (0.5 * (h + h_prev))) * (j - j_prev)
+            rv = e_v / (atol + rtol * np.maximum(np.abs(s.u), np.abs(new.u)))
+            ss += float(rv @ rv)
+            m += rv.size
+        return (float(np.sqrt(ss / m)) if m else 0.0), j
 
 
 def next_factor(err, err_prev):
@@ -73,100 +86,127 @@ def next_factor(err, err_prev):
     return min(2.0, max(0.2, fac))
 
 
-def run(stepper, s, rec, span, step, ctl, run_info):
-    """The adaptive time loop from state s (stored) to t_end.
+class Steps:
+    """What the controller needs of a time loop: try a step, take it back, keep it, build the result.
 
-    ``span`` = (t_end, h0); ``step`` = (the one-step function of :mod:`femb.contact.simulate` with its
-    signature ``(stepper, s, h, n, rec, vel_tol, locate)``, vel_tol, locate, states, diagnose); ``ctl`` = (rtol,
-    atol, h_max, h_min); ``run_info`` = (tol, rho_inf, init_time) for the result. Returns the
-    ContactResult, or raises ContactError (with the partial result) when h falls below h_min.
+    ``try_step(h, n)`` returns (old, new, smooth) with ``old``, ``new`` having ``t``, ``q``, ``u``, ``ud``
+    (the step's start and end) and ``smooth`` whether the step had one (sub)step, no impact and no change of
+    a contact's state since the step before; or a str (the solver's message) when no solution was found
+    (nothing kept). ``undo()`` forgets the step just tried, ``keep(n)`` stores it as step n, ``state()``
+    the current StepState, ``result(h0, status, message, wall)`` the ContactResult of the kept steps.
     """
-    t_end, h = span
-    take, vel_tol, locate, states, diagnose = step
+
+
+class PythonSteps(Steps):
+    """The Python time loop (:func:`femb.contact.simulate._step` and its recorder); ``sim`` the module
+    :mod:`femb.contact.simulate`, ``run_info`` = (tol, rho_inf, init_time)."""
+
+    def __init__(self, stepper, s, rec, sim, vel_tol, locate, run_info):
+        self.stepper, self.s, self.rec, self.sim = stepper, s, rec, sim
+        self.vel_tol, self.locate, self.run_info = vel_tol, locate, run_info
+        self.state_prev = None
+
+    @property
+    def t(self):
+        return self.s.t
+
+    def try_step(self, h, n):
+        rec = self.rec
+        self.mark = (len(rec.events), len(rec.iterations), len(rec.methods))
+        try:
+            self.pending = self.sim._step(self.stepper, self.s, h, n, rec, self.vel_tol, self.locate)
+        except StepFailure as err:
+            self.undo()
+            return str(err)
+        new, x, ev, sets, work = self.pending
+        self.state_now = self.sim._states(ev, sets, self.stepper.lay, self.vel_tol)
+        smooth = (len(rec.events) == self.mark[0] and len(rec.iterations) == self.mark[1] + 1
+                  and (self.state_prev is None or not (self.state_now != self.state_prev).any()))
+        return self.s, new, smooth
+
+    def undo(self):
+        del self.rec.events[self.mark[0]:], self.rec.iterations[self.mark[1]:], self.rec.methods[self.mark[2]:]
+
+    def keep(self, n):
+        new, x, ev, sets, work = self.pending
+        self.rec.store(new, x, ev, self.state_now, self.stepper, work)
+        self.s, self.state_prev = new, self.state_now
+
+    def state(self):
+        return self.s
+
+    def result(self, h0, status, message, wall):
+        tol, rho_inf, init_time = self.run_info
+        return self.rec.result(h0, rho_inf, tol, init_time, wall, status, message)
+
+
+def run(steps, model, span, ctl, alpha, diagnose, vel_tol):
+    """The adaptive time loop over ``steps`` (:class:`Steps`) from its current state to t_end.
+
+    ``span`` = (t_end, h0); ``ctl`` = (rtol, atol, h_max, h_min); ``alpha`` the scheme's GeneralizedAlpha;
+    ``diagnose`` :func:`femb.contact.simulate.diagnose`. Returns the ContactResult, or raises ContactError
+    (with the partial result) when h falls below h_min.
+    """
+    t_end, h0 = span
     rtol, atol, h_max, h_min = ctl
-    model, lay = stepper.model, stepper.lay
-    Cq, Cv = error_constants(_alpha(stepper))
-    est = (rtol, atol, Cq, Cv)
-    tol, rho_inf, init_time = run_info
+    weighted_error = ErrorNorm(model, (rtol, atol) + tuple(error_constants(alpha)))
     t_loop = time.perf_counter()
-    state_prev = None
-    j_prev, h_prev, err_prev = None, h, None
+    j_prev, h_prev, err_prev = None, h0, None
     counts = {"rejected_steps": 0, "unchecked_steps": 0, "failed_solves": 0}
     after_reject = False
     n = 0
-    h = min(h, h_max)
-    while t_end - s.t > 1e-12 * max(abs(t_end), 1.0):
-        rest = t_end - s.t
+    h = min(h0, h_max)
+
+    def stop(why, hk):
+        res = _result(steps, h0, time.perf_counter() - t_loop, why, counts, ctl)
+        s = steps.state()
+        name, reason = (diagnose(model, steps.stepper.lay, s, 1e-9 * model.length_scale, vel_tol)
+                        if why != "h_min" else (None, "the error estimate"))
+        raise ContactError(f"contact step {n + 1} from t = {s.t:.6g} s: no step down to h = {hk:.3g} s "
+                           f"(h_min {h_min:.3g} s): {reason} ({why})", contact=name, t=s.t, step=n + 1,
+                           result=res) from None
+
+    while t_end - steps.t > 1e-12 * max(abs(t_end), 1.0):
+        rest = t_end - steps.t
         hk = rest if rest <= 1.05 * h else (0.5 * rest if rest < 2.0 * h else h)
-        mark = (len(rec.events), len(rec.iterations), len(rec.methods))
-        try:
-            new, x, ev, sets, work = take(stepper, s, hk, n + 1, rec, vel_tol, locate)
-        except StepFailure as err:
-            _rewind(rec, mark)
+        out = steps.try_step(hk, n + 1)
+        if isinstance(out, str):                 # no solution: a quarter of the step
             counts["failed_solves"] += 1
-            h = 0.25 * hk
-            j_prev, err_prev = None, None
+            h, j_prev, err_prev = 0.25 * hk, None, None
             if h < h_min:
-                res = _result(rec, h, run_info, time.perf_counter() - t_loop, "failed", str(err), counts, ctl)
-                name, why = diagnose(model, lay, s, 1e-9 * model.length_scale, vel_tol)
-                raise ContactError(f"contact step {n + 1} from t = {s.t:.6g} s: no solution down to h = {hk:.3g} s "
-                                   f"(h_min {h_min:.3g} s): {why} ({err})", contact=name, t=s.t, step=n + 1,
-                                   result=res) from None
+                stop(out, hk)
             continue
-        state = states(ev, sets, lay, vel_tol)
-        smooth = (len(rec.events) == mark[0] and len(rec.iterations) == mark[1] + 1
-                  and (state_prev is None or np.array_equal(state, state_prev)))
+        old, new, smooth = out
         if smooth:
-            err, j = weighted_error(model, s, new, hk, h_prev, j_prev, est)
+            err, j = weighted_error(old, new, hk, h_prev, j_prev)
             if not err <= 1.0:
-                _rewind(rec, mark)
+                steps.undo()
                 counts["rejected_steps"] += 1
                 h = hk * max(0.2, 0.9 * err ** (-1.0 / 3.0)) if np.isfinite(err) else 0.25 * hk
                 err_prev, after_reject = None, True
                 if h < h_min:
-                    res = _result(rec, h, run_info, time.perf_counter() - t_loop, "failed", "step size below h_min",
-                                  counts, ctl)
-                    raise ContactError(f"contact step {n + 1} from t = {s.t:.6g} s: the error estimate {err:.3g} "
-                                       f"needs h below h_min = {h_min:.3g} s", t=s.t, step=n + 1, result=res)
+                    stop("h_min", hk)
                 continue
             fac = next_factor(err, err_prev)
             h_next = hk * (min(fac, 1.0) if after_reject else fac)
             err_prev, j_prev = max(err, 1e-10), j
         else:                                   # an impact or a change of contact state: no error test
             counts["unchecked_steps"] += 1
-            h_next = min(hk, span[1])           # at most the first step's size: impacts may accumulate
+            h_next = min(hk, h0)                # at most the first step's size: impacts may accumulate
             err_prev, j_prev = None, None
         after_reject = False
-        rec.store(new, x, ev, state, stepper, work)
-        s, state_prev, h_prev = new, state, hk
         n += 1
+        steps.keep(n)
+        h_prev = hk
         h = min(max(h_next, h_min), h_max)
-    return _result(rec, span[1], run_info, time.perf_counter() - t_loop, "success", "", counts, ctl)
+    return _result(steps, h0, time.perf_counter() - t_loop, "", counts, ctl)
 
 
-def _alpha(stepper):
-    from femb.solve.alpha import GeneralizedAlpha
-    return GeneralizedAlpha.from_values(stepper.am, stepper.af, stepper.beta, stepper.gamma)
-
-
-def _rewind(rec, mark):
-    """Forget what a step that is taken again had booked (events, iterations, methods)."""
-    del rec.events[mark[0]:], rec.iterations[mark[1]:], rec.methods[mark[2]:]
-
-
-def _result(rec, h0, run_info, wall, status, message, counts, ctl):
-    tol, rho_inf, init_time = run_info
-    res = rec.result(h0, rho_inf, tol, init_time, wall, status, message)
+def _result(steps, h0, wall, message, counts, ctl):
+    res = steps.result(h0, "failed" if message else "success", message, wall)
     res.stats.update(counts)
     res.settings.update(adaptive=True, h0=h0, rtol=ctl[0], atol=ctl[1], h_max=ctl[2])
     res.settings["h"] = None
     res.h_steps = np.diff(res.t)
     res.n_rejected = counts["rejected_steps"]
     return res
-
-
-def check_compiled(compiled):
-    """The compiled loop has fixed steps only: ``compiled=True`` with rtol is a ParameterError."""
-    if compiled:
-        raise ParameterError("compiled=True: the compiled contact loop takes fixed steps only; adaptive steps "
-                             "(rtol) run in the Python loop (docs/contact.md §1.2)")

@@ -9,11 +9,13 @@ from __future__ import annotations
 
 import importlib
 import time
+from types import SimpleNamespace
 
 import numpy as np
 
 from femb.base.jit import jit_disabled
 from femb.contact import loop
+from femb.contact.adaptive import Steps
 from femb.contact.step import StepFailure, StepState, _entry_point, _owned
 from femb.errors import ContactError
 
@@ -45,6 +47,10 @@ class _Arrays:
 
     def pack(self):
         return self.out, self.ev_f, self.ev_u, self.its, self.cnt, self.wsum
+
+    def grow_steps(self):
+        """Double the stored steps' arrays (adaptive runs: the number of steps is not known ahead)."""
+        self.out = tuple(np.concatenate((a, np.zeros_like(a))) for a in self.out)
 
     def grow(self):
         """Double the arrays that are full (events, substeps)."""
@@ -117,7 +123,7 @@ def _context(stepper, F, vel_tol, locate):
     dm = stepper.dm
     cst = np.array([stepper.tol, stepper.m_ref, stepper.am, stepper.af, stepper.beta, stepper.gamma, stepper.max_iter,
                     stepper.freeze_after, stepper.h_fixed, vel_tol, 1e-9 * stepper.model.length_scale, float(locate),
-                    stepper.max_fp, float(stepper.slip_on_P)])
+                    stepper.max_fp, float(stepper.slip_on_P), stepper.h_acc])
     mdl = (dm.recs, dm.qx, dm.ux, dm.f0, dm.removed)
     return (F, mdl, stepper._lay, stepper._fixed_law, stepper._work, cst, _owned(stepper.Minv),
             (np.zeros(0), np.zeros(stepper.lay.nN)))
@@ -189,3 +195,77 @@ def run(stepper, s, rec, nsteps, h, info):
     wall = time.perf_counter() - t_loop
     return sim.contact_result(model, lay, arr.steps(nsteps + 1, list(lay.names)),
                               (h, rho_inf, stepper.tol, init_time, wall, "success", ""))
+
+
+class CompiledSteps(Steps):
+    """The compiled loop one step at a time, for the adaptive controller (:mod:`femb.contact.adaptive`):
+    each try is :func:`femb.contact.loop.run_steps` over one step of the size asked, stored as step n of the
+    arrays (a step whose own solve finds no solution goes to the Python loop, as in :func:`run`); a step
+    taken back restores row 0, the counters and the work sum. ``run_info`` = (tol, rho_inf, init_time)."""
+
+    def __init__(self, stepper, s, rec, vel_tol, locate, run_info):
+        self.sim = importlib.import_module("femb.contact.simulate")
+        self.stepper, self.vel_tol, self.locate = stepper, vel_tol, locate
+        model, lay = stepper.model, stepper.lay
+        t_load = time.perf_counter()
+        self.F = loop.offsets(s.q.size, model.nq, stepper.nx, lay.nN, lay.nF)
+        self.P = np.zeros((3, int(self.F[-1])))
+        _put_state(self.P, self.F, s, stepper)
+        self.ctx = _context(stepper, self.F, vel_tol, locate)
+        self.arr = _Arrays(_rec0(rec), 255, lay, model.nq)
+        self.entry = _entry(stepper.dm, (self.P, 1.0, 1, 1, self.ctx, self.arr.pack()))
+        tol, rho_inf, init_time = run_info
+        self.run_info = (tol, rho_inf, init_time + time.perf_counter() - t_load)
+        self.n_kept = 0
+        F = self.F
+        self._it = int(F[_F("t")])
+        self._sl = [slice(int(F[_F(k)]), int(F[_F(k) + 1])) for k in ("q", "u", "ud")]
+
+    @property
+    def t(self):
+        return float(self.P[0, self._it])
+
+    def _view(self, row):
+        q, u, ud = self._sl
+        return SimpleNamespace(t=float(row[self._it]), q=row[q], u=row[u], ud=row[ud])
+
+    def try_step(self, h, n):
+        arr = self.arr
+        if n >= arr.out[0].shape[0]:
+            arr.grow_steps()
+        self.save = (self.P[0].copy(), arr.cnt.copy(), arr.wsum.copy(), arr.methods_fp, arr.methods_P)
+        while True:
+            args = (self.P, float(h), n, n, self.ctx, arr.pack())
+            status, _ = self.entry(*args)
+            if status != loop.FULL:
+                break
+            arr.grow()
+        if status == loop.PYTHON:
+            try:
+                _python_step(self.stepper, self.P, self.F, n, arr, self.ctx, (h, self.vel_tol, self.locate))
+            except StepFailure as err:
+                self.undo()
+                return str(err)
+        c0, state = self.save[1], arr.out[10]
+        smooth = (arr.cnt[0] == c0[0] and arr.cnt[1] == c0[1] + 1
+                  and (n == 1 or not (state[n] != state[n - 1]).any()))
+        return self._view(self.save[0]), self._view(self.P[0].copy()), bool(smooth)
+
+    def undo(self):
+        row, cnt, wsum, fp, fP = self.save
+        self.P[0, :] = row
+        self.arr.cnt[:] = cnt
+        self.arr.wsum[:] = wsum
+        self.arr.methods_fp, self.arr.methods_P = fp, fP
+
+    def keep(self, n):
+        self.n_kept = n
+
+    def state(self):
+        return _get_state(self.P, self.F)
+
+    def result(self, h0, status, message, wall):
+        tol, rho_inf, init_time = self.run_info
+        lay = self.stepper.lay
+        return self.sim.contact_result(self.stepper.model, lay, self.arr.steps(self.n_kept + 1, list(lay.names)),
+                                       (h0, rho_inf, tol, init_time, wall, status, message))

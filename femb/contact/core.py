@@ -188,31 +188,35 @@ def _contact_rows(x, o, mv, kin, law, lay, par, der, sets, R):
 
 @kernel(allocates=True)
 def _scale(o, law, lay, par, sets, S):
-    """Row weights that turn every row of R into a length (NonsmoothStep.scale)."""
+    """Row weights that turn every row of R into a length (NonsmoothStep.scale); the acceleration-level rows
+    with max(h, h_acc)² (``par[7]``, NonsmoothStep.h_acc: 0 in fixed-step runs, the first step in adaptive
+    ones, whose error estimate needs u̇ solved on short steps too; docs/contact.md §1.2)."""
     h, m = par[0], par[4]
+    ha = max(h, par[7])
+    ha2 = ha * ha
     w, fptr, fidx = law[5], lay[1], lay[2]
     n = o[1] - o[0]
     for a in range(n):
-        S[o[0] + a] = h * h * w[a] / m
+        S[o[0] + a] = ha2 * w[a] / m
         S[o[1] + a] = h * w[a] / m
         S[o[2] + a] = w[a] / m
     S[o[3]:o[4]] = 1.0
     S[o[4]:o[5]] = h
-    S[o[5]:o[6]] = h * h
+    S[o[5]:o[6]] = ha2
     k = o[7] - o[6]
     for i in range(k):
         S[o[6] + i] = 1.0 if sets[0, i] else 1.0 / m
         S[o[7] + i] = h if sets[1, i] else h / m
-        S[o[8] + i] = h * h if sets[2, i] else h * h / m
+        S[o[8] + i] = ha2 if sets[2, i] else ha2 / m
     S[o[9]:o[10]] = h / m
-    S[o[10]:o[11]] = h * h / m
+    S[o[10]:o[11]] = ha2 / m
     for i in range(k):
         for p in range(fptr[i], fptr[i + 1]):
             j = fidx[p]
             if sets[3, i]:
                 S[o[9] + j] = h
             if sets[4, i]:
-                S[o[10] + j] = h * h
+                S[o[10] + j] = ha2
 
 
 @kernel(allocates=True)
@@ -526,7 +530,7 @@ def newton_loop(x, mdl, st, law, lay, par, work):
     ``x`` (nx,) the initial guess, overwritten by the last iterate; ``mdl`` = (batch records, q_ext, v_ext,
     f0, removed) (:class:`femb.contact.dense.DenseModel`); ``st`` the step's start (:func:`kinematics`);
     ``par`` = (h, tol, c_q, c_u, m_ref, 0, α_m, α_f, β, γ, t_{n+1}, max_iter, freeze_after, fixed, slip law
-    on P); ``work`` =
+    on P, h_acc of :func:`_scale`); ``work`` =
     (o, cmp, kout, out, dq, mq, mv, J, dx, sets, (ġ_N⁻, γ_F⁻), z_fixed). With ``fixed`` the contact rows are
     z − z_fixed = 0 (Newton on R_s for fixed contact unknowns, the fixed point's inner problem). The index sets are held after
     ``freeze_after`` iterations; a result reached with held sets is a solution only if they are its
@@ -536,10 +540,11 @@ def newton_loop(x, mdl, st, law, lay, par, work):
     o, cmp, kout, out, dq, mq, mv, J, dx, sets, sd, zf = work
     fixed = par[13] != 0.0
     kp = np.array([par[0], par[6], par[7], par[8], par[9]])
-    rp = np.empty(7)
+    rp = np.empty(8)
     rp[:6] = par[:6]
     rp[5] = 0.0
     rp[6] = par[14]
+    rp[7] = par[15]
     t1, tol = par[10], par[1]
     max_iter, freeze_after = int(par[11]), int(par[12])
     kin = (kout[1], kout[5], kout[6], kout[7], sd[0], sd[1])

@@ -29,7 +29,7 @@ Packs (tuples) keep the argument lists short:
   index sets A–E, the (sub)step's contact work (normal, friction) and Newton iterations;
 * ``ctx`` = (F, mdl, lay, fixed_law, work, cst, M⁻¹, scratch): what
   :meth:`NonsmoothStep._dense_setup` built, and ``cst`` = (tol, m_ref, α_m, α_f, β, γ, max_iter,
-  freeze_after, h_fixed, vel_tol, gap_tol, locate, max_fixed_point);
+  freeze_after, h_fixed, vel_tol, gap_tol, locate, max_fixed_point, slip law on P, h_acc);
 * ``rec`` = (out, ev_f, ev_u, its, cnt, wsum): the stored steps ``out`` = (t, q, u, u̇, λ_g, g_N, ġ_N,
   λ_N, Λ_N, P_N, state, γ_F, λ_F, Λ_F, P_F, work) (rows = steps), the events (t, step, contact,
   ġ_N⁻, ġ_N⁺, Λ_N, P_N) and (u⁻, u⁺), the Newton iterations per accepted (sub)step, the counters
@@ -110,7 +110,7 @@ def _newton(P, si, x, h, zf, ctx, on_P):
     am, af, beta, gamma = cst[2], cst[3], cst[4], cst[5]
     c = (1.0 - af) / (1.0 - am)
     par = np.array([h, cst[0], h * h * beta * c, h * gamma * c, cst[1], 0.0, am, af, beta, gamma, s[F[_T]] + h,
-                    cst[6], cst[7], 1.0 if zf.size else 0.0, on_P])
+                    cst[6], cst[7], 1.0 if zf.size else 0.0, on_P, cst[14]])
     wk = work + ((_field(s, F, _GND), _field(s, F, _GFD)), zf)
     status, it, err = call(newton_loop, x, mdl, st, law, lay, par, wk)
     return status == 0, it
@@ -162,8 +162,10 @@ def _fixed_point(P, si, x, h, ctx, on_P):
     s = P[si]
     k, l = o[7] - o[6], o[11] - o[10]
     m_ref, tol = cst[1], cst[0]
-    sc = np.concatenate((np.full(k, 1.0 / m_ref), np.full(k, h / m_ref), np.full(k, h * h / m_ref),
-                         np.full(l, h / m_ref), np.full(l, h * h / m_ref)))
+    ha = max(h, cst[14])                       # the acceleration rows as in core._scale
+    ha2 = ha * ha
+    sc = np.concatenate((np.full(k, 1.0 / m_ref), np.full(k, h / m_ref), np.full(k, ha2 / m_ref),
+                         np.full(l, h / m_ref), np.full(l, ha2 / m_ref)))
     z = x[o[6]:].copy()
     z1 = np.zeros(z.size)
     for it in range(1, int(cst[12]) + 1):
@@ -198,7 +200,7 @@ def _evaluate_at(P, si, x, h, ctx, on_P):
     _evaluate(x, o, mdl, s[F[_T]] + h, kout, dq)
     law = (_field(s, F, _RN), _field(s, F, _RF), fixed_law[0], fixed_law[1], fixed_law[2], fixed_law[3])
     kin = (kout[1], kout[5], kout[6], kout[7], _field(s, F, _GND), _field(s, F, _GFD))
-    rp = np.array([h, cst[0], h * h * beta * c, h * gamma * c, cst[1], 0.0, on_P])
+    rp = np.array([h, cst[0], h * h * beta * c, h * gamma * c, cst[1], 0.0, on_P, cst[14]])
     residual(x, o, mq, mv, kin, law, lay, rp, sets, out)
 
 

@@ -49,7 +49,10 @@ class ContactResult(Result):
         ``steps``; ``substeps`` (the steps split at impacts count their parts); ``fixed_point_steps``:
         (sub)steps that the semismooth Newton method did not solve and the prox fixed point did;
         ``slip_on_P_steps``: (sub)steps solved only with the slip law on the whole percussions
-        (docs/contact.md §1.1 item 5: a sticking contact that starts to slip).
+        (docs/contact.md §1.1 item 5: a sticking contact that starts to slip). Adaptive runs
+        (docs/contact.md §1.2) add ``rejected_steps``, ``unchecked_steps`` (steps with an impact or a
+        change of contact state, accepted without an error test) and ``failed_solves`` (tries without
+        a solution, taken again with h/4), and set ``h_steps`` and ``n_rejected``.
     """
 
     contact: dict = field(default_factory=dict)

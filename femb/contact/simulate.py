@@ -7,6 +7,7 @@ problem), advances it by :class:`femb.contact.step.NonsmoothStep`, and returns a
 """
 from __future__ import annotations
 
+import sys
 import time
 
 import numpy as np
@@ -112,6 +113,35 @@ def _check_parameters(model, t_end, h, rho_inf, t0):
         raise ModelError("femb.contact.simulate needs a compiled femb Model (Mechanism.compile())")
 
 
+def solver_options(model, solver):
+    """(tol, max_iter, max_fixed_point, locate_impacts) from :func:`simulate`'s ``**solver`` keywords,
+    validated; a ParameterError names an unknown or bad one."""
+    known = {"tol": None, "max_iter": 40, "max_fixed_point": 400, "locate_impacts": True}
+    bad = sorted(set(solver) - set(known))
+    if bad:
+        raise ParameterError(f"femb.contact.simulate got unknown keyword(s) {', '.join(bad)}; the solver's are "
+                             f"{', '.join(known)}")
+    o = dict(known, **solver)
+    tol = 1e-12 * model.length_scale if o["tol"] is None else _positive("tol", o["tol"])
+    counts = []
+    for name in ("max_iter", "max_fixed_point"):
+        v = o[name]
+        if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < 1:
+            raise ParameterError(f"{name} must be a positive integer, got {v!r}")
+        counts.append(int(v))
+    return tol, counts[0], counts[1], bool(o["locate_impacts"])
+
+
+def _positive(name, v):
+    try:
+        x = float(v)
+    except (TypeError, ValueError):
+        raise ParameterError(f"{name} must be a number, got {v!r}") from None
+    if not (np.isfinite(x) and x > 0.0):
+        raise ParameterError(f"{name} must be a positive finite number, got {v!r}")
+    return x
+
+
 def diagnose(model, lay, s, gap_tol, vel_tol):
     """Why a step has no consistent contact force: (contact name, reason) or (None, reason).
 
@@ -159,8 +189,7 @@ def _states(ev, sets, lay, vel_tol):
     return st
 
 
-def simulate(model, t_end, h, *, rho_inf=0.8, t0=0.0, tol=None, max_iter=40, max_fixed_point=400,
-             locate_impacts=True, compiled=None, rtol=None, atol=None, h_max=None):
+def simulate(model, t_end, h, *, rho_inf=0.8, t0=0.0, rtol=None, atol=None, h_max=None, compiled=None, **solver):
     """Integrate a model with contacts by the nonsmooth generalized-α method, fixed or adaptive steps.
 
     Parameters
@@ -174,23 +203,22 @@ def simulate(model, t_end, h, *, rho_inf=0.8, t0=0.0, tol=None, max_iter=40, max
     rho_inf : float in [0, 1)
         Spectral radius at infinity of the smooth part (α_m, α_f, β, γ by Chung & Hulbert).
     t0 : float
-    tol : float, optional
-        Newton tolerance on the residual in length units (default 1e-12 × length scale).
-    max_iter, max_fixed_point : int
-        Semismooth Newton iterations per step; prox fixed-point iterations of the fallback.
-    locate_impacts : bool
-        Split a step in which an open contact closes at the impact (docs/contact.md §1.1, item 2), so
-        the impact law sees the velocity at the impact and not at the step's start.
+    rtol, atol, h_max : float, optional
+        Adaptive steps (:mod:`femb.contact.adaptive`, docs/contact.md §1.2) when ``rtol`` is given:
+        error control on the smooth part as in :func:`femb.simulate` (atol defaults to 1e-3 · rtol),
+        no error test at impacts and contact changes; steps at most ``h_max``. The controller runs in
+        Python, each step in the loop ``compiled`` chooses.
     compiled : bool, optional
         Run the steps in the compiled time loop (:mod:`femb.contact.loop`, docs/contact.md §7):
         None (default) where it applies (dense systems with a constant mass matrix, no time
         functions), False the Python loop (the reference), True the compiled loop or a
         ParameterError where it does not apply. Both give the same results (to round-off).
-    rtol, atol, h_max : float, optional
-        Adaptive steps (:mod:`femb.contact.adaptive`, docs/contact.md §1.2) when ``rtol`` is given:
-        error control on the smooth part as in :func:`femb.simulate` (atol defaults to 1e-3 · rtol),
-        no error test at impacts and contact changes; steps at most ``h_max``. Adaptive runs use the
-        Python loop.
+    **solver
+        The step's solver, by keyword (:func:`solver_options`): ``tol`` (Newton tolerance on the
+        residual in length units, default 1e-12 × length scale), ``max_iter`` (semismooth Newton
+        iterations per step, 40), ``max_fixed_point`` (prox fixed-point iterations of the fallback,
+        400), ``locate_impacts`` (split a step in which an open contact closes at the impact,
+        docs/contact.md §1.1, item 2, so that the impact law sees the velocity at the impact; True).
 
     Returns
     -------
@@ -204,7 +232,7 @@ def simulate(model, t_end, h, *, rho_inf=0.8, t0=0.0, tol=None, max_iter=40, max
     ModelError
         A contact starts penetrated.
     ParameterError
-        Bad t_end, h, t0, rho_inf, rtol, atol or h_max.
+        Bad t_end, h, t0, rho_inf, rtol, atol, h_max or solver option.
     """
     if hasattr(model, "compile") and not hasattr(model, "contact_groups"):
         model = model.compile()
@@ -218,28 +246,34 @@ def simulate(model, t_end, h, *, rho_inf=0.8, t0=0.0, tol=None, max_iter=40, max
         h = (t_end - t0) / nsteps
     else:
         from femb.contact import adaptive
-        adaptive.check_compiled(compiled)
         ctl = adaptive.tolerances(rtol, atol, h_max, t_end - t0)
     L = model.length_scale
-    tol = 1e-12 * L if tol is None else float(tol)
+    tol, max_iter, max_fixed_point, locate_impacts = solver_options(model, solver)
     lay = assemble.layout(model)
-    stepper = NonsmoothStep(model, h, GeneralizedAlpha.from_rho_inf(rho_inf), lay, tol, max_iter, max_fixed_point)
+    alpha = GeneralizedAlpha.from_rho_inf(rho_inf)
+    stepper = NonsmoothStep(model, h, alpha, lay, tol, max_iter, max_fixed_point)
+    if rtol is not None:
+        stepper.h_acc = float(h)
     vel_tol = max(100.0 * tol / h, 1e-12)
     t_init = time.perf_counter()
     s, x0, ev0 = _start(model, lay, stepper, t0, vel_tol)
     rec = _Recorder(model, lay)
     rec.store(s, x0, ev0, np.zeros(lay.nN, dtype=np.int8), stepper, (0.0, 0.0))
     init_time = time.perf_counter() - t_init
-    if rtol is not None:
-        return adaptive.run(stepper, s, rec, (t_end, float(h)), (_step, vel_tol, locate_impacts, _states, diagnose),
-                            ctl, (tol, rho_inf, init_time))
     if compiled is None or compiled:
         from femb.contact import compiled as fast
         if fast.applies(stepper):
+            if rtol is not None:            # adaptive: the controller in Python, each step in the compiled loop
+                steps = fast.CompiledSteps(stepper, s, rec, vel_tol, locate_impacts, (tol, rho_inf, init_time))
+                return adaptive.run(steps, model, (t_end, float(h)), ctl, alpha, diagnose, vel_tol)
             return fast.run(stepper, s, rec, nsteps, h, (vel_tol, locate_impacts, rho_inf, init_time))
         if compiled:
             raise ParameterError("compiled=True: the compiled time loop needs the dense path with a constant mass "
                                  "matrix, no time functions and no redundant equations (docs/contact.md §7)")
+    if rtol is not None:
+        steps = adaptive.PythonSteps(stepper, s, rec, sys.modules[__name__], vel_tol, locate_impacts,
+                                     (tol, rho_inf, init_time))
+        return adaptive.run(steps, model, (t_end, float(h)), ctl, alpha, diagnose, vel_tol)
     t_loop = time.perf_counter()
     for n in range(1, nsteps + 1):
         try:

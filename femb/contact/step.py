@@ -197,6 +197,10 @@ class NonsmoothStep:
     #: Λ_F, Λ_N (docs/contact.md §1.1 item 5). False: femb's law first, the paper's for a step that has no
     #: solution on it (:meth:`solve`); True: the paper's law on every step (tests compare the paths on it).
     slip_on_P = False
+    #: the step size whose square weighs the acceleration-level rows of the Newton test when it exceeds h
+    #: (0: h itself). Adaptive runs set it to their first step: on steps far shorter than that, h² would let
+    #: Newton accept a stale u̇ and λ, which the error estimate reads (docs/contact.md §1.2)
+    h_acc = 0.0
 
     def __init__(self, model, h, alpha, lay, tol, max_iter=40, max_fixed_point=400):
         self.model, self.h, self.lay = model, float(h), lay
@@ -281,7 +285,7 @@ class NonsmoothStep:
         if frozen is not None:
             self._sets[:] = frozen
         par = np.array([self.h, self.tol, self.c_q, self.c_u, self.m_ref, 0.0 if frozen is None else 1.0,
-                        float(self.slip_on_P)])
+                        float(self.slip_on_P), self.h_acc])
         self._par = par
         kin = (ev["u"], ev["PN"], ev["kN_hat"], ev["PF"], s.gNd, s.gFd)
         self._kin = kin
@@ -333,7 +337,7 @@ class NonsmoothStep:
             dm.time_values(t1)
             par = np.array([self.h, self.tol, self.c_q, self.c_u, self.m_ref, 0.0, self.am, self.af, self.beta,
                             self.gamma, t1, max_iter or self.max_iter, self.freeze_after, fixed_z is not None,
-                            float(self.slip_on_P)])
+                            float(self.slip_on_P), self.h_acc])
             zf = np.zeros(0) if fixed_z is None else _owned(fixed_z)
             work = self._work + ((f(s.gNd), f(s.gFd)), zf)
             mdl = (dm.recs, dm.qx, dm.ux, dm.f0, dm.removed)
@@ -607,8 +611,11 @@ class NonsmoothStep:
         return J
 
     def scale(self, sets):
-        """Row weights that turn every row of R into a length (for the Newton test)."""
+        """Row weights that turn every row of R into a length (for the Newton test); the acceleration rows
+        with max(h, h_acc)² (core._scale)."""
         h, m = self.h, self.m_ref
+        ha = max(h, self.h_acc)
+        ha2 = ha * ha
         A, B_, C, D, E = sets
         w = self.model.force_weight
         Df = np.zeros(self.lay.nF, dtype=bool)
@@ -616,9 +623,9 @@ class NonsmoothStep:
         for i, idx in enumerate(self.lay.friction):
             Df[idx], Ef[idx] = D[i], E[i]
         n, mc = self.model.nq, self.model.nc
-        return np.concatenate((h * h * w / m, h * w / m, w / m, np.ones(mc), np.full(mc, h), np.full(mc, h * h),
-                               np.where(A, 1.0, 1.0 / m), np.where(B_, h, h / m), np.where(C, h * h, h * h / m),
-                               np.where(Df, h, h / m), np.where(Ef, h * h, h * h / m)))
+        return np.concatenate((ha2 * w / m, h * w / m, w / m, np.ones(mc), np.full(mc, h), np.full(mc, ha2),
+                               np.where(A, 1.0, 1.0 / m), np.where(B_, h, h / m), np.where(C, ha2, ha2 / m),
+                               np.where(Df, h, h / m), np.where(Ef, ha2, ha2 / m)))
 
     # ------------------------------------------------------------------ solvers
     def newton(self, s, x0, fixed_z=None, max_iter=None):
@@ -731,10 +738,12 @@ class NonsmoothStep:
                 return x, ev, sets, it, False, np.inf
             z1 = self.prox_update(s, x)
             step = np.abs(z1 - z)
+            ha = max(self.h, self.h_acc)           # the acceleration rows as in scale()
+            ha2 = ha * ha
             scale = np.concatenate((np.full(self.lay.nN, 1.0 / self.m_ref), np.full(self.lay.nN, self.h / self.m_ref),
-                                    np.full(self.lay.nN, self.h * self.h / self.m_ref),
+                                    np.full(self.lay.nN, ha2 / self.m_ref),
                                     np.full(self.lay.nF, self.h / self.m_ref),
-                                    np.full(self.lay.nF, self.h * self.h / self.m_ref)))
+                                    np.full(self.lay.nF, ha2 / self.m_ref)))
             err = float(np.max(step * scale)) if step.size else 0.0
             z = z1
             if err <= self.tol:
