@@ -21,6 +21,7 @@ from femb.contact.result import OPEN, SLIP, STICK, ContactResult
 from femb.contact.step import NonsmoothStep, StepFailure, StepState
 from femb.errors import ContactError, ModelError, ParameterError
 from femb.solve.alpha import GeneralizedAlpha
+from femb.solve.options import check_positive
 from femb.system import assembly
 from femb.system.initial import consistent_initial_state
 
@@ -122,7 +123,7 @@ def solver_options(model, solver):
         raise ParameterError(f"femb.contact.simulate got unknown keyword(s) {', '.join(bad)}; the solver's are "
                              f"{', '.join(known)}")
     o = dict(known, **solver)
-    tol = 1e-12 * model.length_scale if o["tol"] is None else _positive("tol", o["tol"])
+    tol = 1e-12 * model.length_scale if o["tol"] is None else check_positive("tol", o["tol"])
     counts = []
     for name in ("max_iter", "max_fixed_point"):
         v = o[name]
@@ -130,16 +131,6 @@ def solver_options(model, solver):
             raise ParameterError(f"{name} must be a positive integer, got {v!r}")
         counts.append(int(v))
     return tol, counts[0], counts[1], bool(o["locate_impacts"])
-
-
-def _positive(name, v):
-    try:
-        x = float(v)
-    except (TypeError, ValueError):
-        raise ParameterError(f"{name} must be a number, got {v!r}") from None
-    if not (np.isfinite(x) and x > 0.0):
-        raise ParameterError(f"{name} must be a positive finite number, got {v!r}")
-    return x
 
 
 def diagnose(model, lay, s, gap_tol, vel_tol):
