@@ -291,7 +291,7 @@ def cmd_list(args):
         contacts = registry.contact_names()
         if contacts:
             print("contact scenes ('femb run NAME' integrates them with the nonsmooth generalized-alpha "
-                  "scheme of femb.contact, fixed steps; 'femb bench contact NAME' validates them):")
+                  "scheme of femb.contact, fixed steps or --rtol; 'femb bench contact NAME' validates them):")
             for name in contacts:
                 print(f"  {name}: {registry.load(name).description}")
             print()
