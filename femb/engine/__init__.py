@@ -10,6 +10,7 @@ One module per stage of the step (docs/engine.md has the map):
 ``control``    the local error estimate, step-size control and re-synchronisation
 ``loop``       the time loop: chunks of accepted steps, fixed or adaptive
 ``build``      the entry points' signatures, their compilation and the disk cache
+``parallel``   the entry points and stages compiled at once in worker processes
 =============  ==========================================================================
 
 The package re-exports the entry points and the layout's names: ``femb.engine.run``,
@@ -24,4 +25,4 @@ from femb.engine.evaluate import (constraint_B, copy_B, eval_time_functions, eva
 from femb.engine.newton import ggl_matrix, lie_reset  # noqa: F401
 from femb.engine.control import kkt_solve, project_normal_velocity  # noqa: F401
 from femb.engine.loop import run  # noqa: F401
-from femb.engine.build import engine_signatures, ensure_engine  # noqa: F401
+from femb.engine.build import engine_signatures, ensure_engine, stage_signatures  # noqa: F401

@@ -5,12 +5,13 @@ its cache key hashes every file of this package (:func:`femb.base.jit.engine`), 
 any stage or of the layout recompiles it.
 """
 
-from femb.engine.linalg import band_lu, band_solve, dense_lu_solve
+from femb.engine.linalg import band_lu, band_solve, dense_lu, dense_lu_solve, dense_solve
 from femb.engine.evaluate import (constraint_B, copy_B, eval_time_functions, evaluate, jacobian_times,
-                                    rates)
-from femb.engine.control import kkt_solve, project_normal_velocity
+                                    kernel_blocks, rates)
+from femb.engine.control import (kkt_estimate, kkt_solve, project_normal_velocity, refine_accelerations,
+                                 resynchronise)
 from femb.engine.loop import run
-from femb.engine.newton import ggl_matrix, lie_reset
+from femb.engine.newton import ggl_matrix, lie_reset, newton_step, velocity_residual
 
 
 # ---- the engine's entry points and their one signature each -----------------------------------
@@ -45,6 +46,44 @@ def engine_signatures():
     }
 
 
+def stage_signatures():
+    """``{stage: argument types}`` of the stages that are called by symbol only (not from Python):
+    with the entry points, every compiled unit of the engine that has a cache entry of its own
+    (the parallel build, :mod:`femb.engine.parallel`, compiles each of them on its own)."""
+    from numba import types as T
+    sg = engine_signatures()
+    P, par, state, newton = sg[run][0], sg[run][3], sg[run][4], sg[run][5]
+    f1, i1 = T.float64[::1], T.int64[::1]
+    f, i, b = T.float64, T.int64, T.boolean
+    return {
+        newton_step: (P, P, par, state, newton, f, f, f, f1),
+        velocity_residual: (P, P, f, f1, f1, b, b, f1),
+        kkt_estimate: (P, P, par, state, newton, P, f, f, f, b),
+        refine_accelerations: (P, P, par, state, newton, P, f, f, i),
+        resynchronise: (P, P, par, state, newton, P, f, f, f),
+        kernel_blocks: (P, P, i1, f, f1, f1, f1, b, f, f),
+        dense_lu: (f1, i, i1, f),
+        dense_solve: (f1, i, i1, f1),
+    }
+
+
+def _declare_returns():
+    """The return type of every stage called by symbol (femb.engine.link.declare): what a caller
+    compiled without its stages is typed with; checked against the compiled stages."""
+    from numba import types as T
+    from femb.engine.link import declare
+    for disp, restype in ((newton_step, T.int64), (velocity_residual, T.none), (kkt_estimate, T.int64),
+                          (refine_accelerations, T.none), (resynchronise, T.int64), (kkt_solve, T.int64),
+                          (project_normal_velocity, T.none), (evaluate, T.float64),
+                          (kernel_blocks, T.float64), (rates, T.literal(0)), (jacobian_times, T.literal(0)),
+                          (constraint_B, T.int64), (copy_B, T.int64), (eval_time_functions, T.none),
+                          (ggl_matrix, T.none), (band_lu, T.int64), (band_solve, T.none),
+                          (dense_lu, T.int64), (dense_solve, T.none)):
+        declare(disp, restype)
+
+
+_declare_returns()
+
 #: whether the engine is loaded in this process
 _ENGINE = {"ready": False}
 
@@ -67,6 +106,7 @@ def ensure_engine(verbose=True):
     from femb.base.jit import cache_writable, compile_lock, is_cached, jit_disabled
     if _ENGINE["ready"] or jit_disabled():
         return False
+    from femb.engine.parallel import compile_in_workers
     sigs = engine_signatures()
     with compile_lock("engine"):
         missing = [d for d, sg in sigs.items() if not is_cached(d, sg)]
@@ -74,6 +114,10 @@ def ensure_engine(verbose=True):
         if missing and verbose:
             print(f"femb: compiling the engine (once per installation; {len(missing)} entry points)",
                   file=sys.stderr, flush=True)
+        if missing:
+            # the stages at once in worker processes, into the disk cache; this process then loads
+            # them (and compiles here whatever they could not)
+            compile_in_workers({**stage_signatures(), **sigs}, verbose)
         for d, sg in sigs.items():
             d.compile(sg)
             # any other argument types are a bug of the caller, not a reason to compile again

@@ -24,6 +24,16 @@ would be cached without the hooks its code needs, and a later process loading it
 symbols unbound. :func:`_keep_hooks_of_cached_functions` gives the loaded library its hooks back.
 
 With the JIT disabled (``NUMBA_DISABLE_JIT=1``) ``call(stage, *args)`` is ``stage(*args)``.
+
+**The parallel build** (:mod:`femb.engine.parallel`). A caller needs only its stages' *types* to
+compile (the argument types and the return type: its code declares the symbol, the address comes
+at load time), so the stages can be compiled in separate processes at once. Each stage declares
+its return type (:func:`declare`); a build worker (:func:`defer_stages`) types every call from
+these declarations instead of compiling the stage, and binds the stage's symbol in its own process
+to ``abort`` (the worker never runs what it compiles: it writes it to the disk cache, whose object
+code keeps the symbol unresolved, and the process that loads it binds the stage's real code). A
+declaration that differs from what the stage compiles to is an error of the engine, raised by
+:func:`stage_symbol` in every ordinary compile and checked by ``tests/test_engine_parallel.py``.
 """
 import functools
 import hashlib
@@ -40,6 +50,45 @@ from femb.base.jit import jit_disabled
 _SYMBOLS = {}
 #: the dispatcher of each registered symbol
 _OWNERS = {}
+#: the declared return type of each stage: (module, qualified name) -> numba type
+_RETURNS = {}
+#: whether this process is a build worker (calls typed from the declarations, stages not compiled)
+_WORKER = {"on": False, "placeholder": None}
+
+
+def declare(disp, restype):
+    """Declare the numba type that the stage ``disp`` returns (for every argument types)."""
+    f = disp.py_func
+    _RETURNS[(f.__module__, f.__qualname__)] = restype
+
+
+def declared_return(disp):
+    """The declared return type of ``disp``, or None."""
+    f = disp.py_func
+    return _RETURNS.get((f.__module__, f.__qualname__))
+
+
+def defer_stages():
+    """Make this process a build worker: calls by symbol are typed from the stages' declared return
+    types and their symbols are bound to ``abort``; code compiled here must not be run (it is
+    meant for the disk cache)."""
+    import ctypes
+    _WORKER["on"] = True
+    _WORKER["placeholder"] = ctypes.cast(ctypes.CDLL(None).abort, ctypes.c_void_p).value
+
+
+def _placeholder_symbol(disp, argtypes):
+    """A build worker's symbol of a stage that is not compiled in this process (bound to abort)."""
+    restype = declared_return(disp)
+    if restype is None:
+        raise RuntimeError(f"femb engine: stage {disp.py_func.__qualname__} has no declared return "
+                           f"type (femb.engine.link.declare); a build worker cannot type its calls")
+    symbol = symbol_name(disp, argtypes)
+    if symbol not in _SYMBOLS:
+        ll.add_symbol(symbol, _WORKER["placeholder"])
+        _SYMBOLS[symbol] = _WORKER["placeholder"]
+        _OWNERS[symbol] = disp
+    return symbol, restype
 
 
 def symbol_name(disp, argtypes):
@@ -57,6 +106,10 @@ def stage_symbol(disp, argtypes):
     if argtypes not in disp.overloads:
         disp.compile(argtypes)
     cres = disp.overloads[argtypes]
+    declared = declared_return(disp)
+    if declared is not None and declared != cres.signature.return_type:
+        raise RuntimeError(f"femb engine: stage {disp.py_func.__qualname__} returns "
+                           f"{cres.signature.return_type}, declared {declared} (femb.engine.link.declare)")
     name = cres.fndesc.llvm_func_name
     symbol = symbol_name(disp, argtypes)
     if symbol not in _SYMBOLS:
@@ -84,15 +137,18 @@ def _call(typingctx, stage, *args):
         return None
     disp = stage.dispatcher
     argtypes = tuple(types.unliteral(a) for a in args)
-    symbol, cres = stage_symbol(disp, argtypes)
-    restype = cres.signature.return_type
+    if _WORKER["on"]:
+        symbol, restype = _placeholder_symbol(disp, argtypes)
+        want = argtypes
+    else:
+        symbol, cres = stage_symbol(disp, argtypes)
+        restype, want = cres.signature.return_type, cres.signature.args
     hook = functools.partial(_register, disp.py_func.__module__, disp.py_func.__name__, argtypes)
     # numba hands the arguments after the stage to the code generation as one tuple
     sig = restype(stage, types.StarArgTuple.from_types(args))
 
     def codegen(context, builder, sig_, llargs):
         context.active_code_library._reload_init.add(hook)
-        want = cres.signature.args
         have = cgutils.unpack_tuple(builder, llargs[1], len(args))
         vals = [context.cast(builder, v, a, w) for v, a, w in zip(have, args, want)]
         fnty = context.call_conv.get_function_type(restype, want)
