@@ -10,7 +10,8 @@ ratios are taken against a reference run in the same process.
 * ``beam``: ms per step of the spin-up beam for n elements (h = 5 ms, a run from
   rest over [0, 1] s with the defaults, the whole ``simulate`` call timed) and the
   fitted exponent of cost against n for n ≥ 10³.
-* ``process``: whole-process wall times of the first run: ``femb cache build`` and
+* ``process``: whole-process wall times of the first run (the engine's parallel build against
+  ``FEMB_BUILD_WORKERS=1``, alternated): ``femb cache build`` and
   ``femb run andrews`` with an empty compile cache, each spatial scene with only the
   engine cached and after ``femb cache build``, a user-defined element type, and
   ``femb run andrews --t-end 0.003`` with a warm cache.
@@ -216,8 +217,13 @@ def process(runs=3, scenes=("heavy_top", "bricard", "spatial_slider_crank", "spa
                 shutil.copytree(full, d)
             return dict(base, FEMB_CACHE_DIR=d)
 
-        cold = [_whole(exe + ["run", "andrews"], fresh("empty", "cold"))[0] for _ in range(runs)]
+        cold, one = [], []                   # the engine's parallel build against one process, alternated
+        for _ in range(runs):
+            cold.append(_whole(exe + ["run", "andrews"], fresh("empty", "cold"))[0])
+            one.append(_whole(exe + ["run", "andrews"], dict(fresh("empty", "one"), FEMB_BUILD_WORKERS="1"))[0])
         rows.append(("femb run andrews, empty cache (engine and its kernels)", cold))
+        rows.append(("the same, FEMB_BUILD_WORKERS=1 (the engine compiled in one process)", one))
+        rows.append(("  ratio of the two, run by run", [a / b for a, b in zip(cold, one)]))
         for sc in scenes:
             t_eng = [_whole(exe + ["run", sc, "--t-end", "0.01"], fresh("engine", sc))[0] for _ in range(runs)]
             rows.append((f"femb run {sc} --t-end 0.01, engine cached, its kernels not", t_eng))
