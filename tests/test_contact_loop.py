@@ -161,3 +161,28 @@ def test_first_root(abc, lo_hi, closed, want):
         assert math.isnan(r)
     else:
         assert r == pytest.approx(want, rel=1e-15)
+
+
+def test_the_stages_argument_and_return_types_are_those_the_parallel_build_compiles():
+    """femb.contact.loop.stage_signatures gives each stage called by symbol the argument types that
+    run_steps calls it with, and its declared return type is what it compiles to: what the
+    engine's parallel build (femb/engine/parallel.py) compiles each stage with, in a worker of its
+    own, after runs with three sets of element types (planar, spatial, a spatial beam)."""
+    from femb.base.jit import jit_disabled
+    from femb.contact import loop
+    from femb.engine.link import declared_return
+    if jit_disabled():
+        pytest.skip("compiled code only")
+    for name in ("ball", "sphere 3d", "beam stop"):
+        build, _, h = SCENES[name]
+        simulate(build(), 5 * h, h, compiled=True)
+    wanted = {}
+    for sig in loop.run_steps.overloads:
+        for disp, argtypes in loop.stage_signatures(sig).items():
+            wanted.setdefault(disp, set()).add(tuple(argtypes))
+    assert loop.run_steps.overloads and len(wanted) == 10
+    for disp, sigs in wanted.items():
+        name = disp.py_func.__qualname__
+        assert set(disp.overloads) == sigs, name
+        for cres in disp.overloads.values():
+            assert declared_return(disp) == cres.signature.return_type, name

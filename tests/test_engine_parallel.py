@@ -12,7 +12,6 @@ import textwrap
 
 import numpy as np
 import pytest
-from numba import njit
 
 from femb.base.jit import jit_disabled
 from femb.errors import ParameterError
@@ -59,6 +58,10 @@ def test_split_puts_the_longest_first_onto_the_least_loaded_worker():
     assert shares[0][0] == "m:newton_step" and shares[1][0] == "m:run"
     assert sorted(sum(shares, [])) == sorted(names)
     assert split(names[:1], 4) == [["m:run"]]
+    # the contact loop's Newton iteration and its evaluation share their code: one worker
+    contact = [f"c:{n}" for n in ("_evaluate_at", "_impact_time", "_solve", "newton_loop", "store")]
+    a, b = split(contact, 2)
+    assert a[:2] == ["c:newton_loop", "c:_evaluate_at"] and "c:_impact_time" in b
 
 
 def test_the_number_of_workers_is_read_from_the_environment(monkeypatch):
@@ -70,14 +73,14 @@ def test_the_number_of_workers_is_read_from_the_environment(monkeypatch):
         workers_wanted()
 
 
-@njit
-def _unknown_a(x):
-    return x + 1.0
+class _Missing:
+    """A unit that no worker can find: a dispatcher's face (its function's module and name, no
+    overloads, no cache) naming a function that does not exist."""
 
-
-@njit
-def _unknown_b(x):
-    return x + 2.0
+    def __init__(self, name):
+        self.py_func = type("F", (), {"__module__": "femb.engine.loop", "__qualname__": name})
+        self.overloads = {}
+        self._cache = None
 
 
 def test_a_failing_worker_is_reported_and_leaves_its_units_to_the_caller(monkeypatch, capsys):
@@ -85,18 +88,19 @@ def test_a_failing_worker_is_reported_and_leaves_its_units_to_the_caller(monkeyp
     from femb.engine import parallel
     monkeypatch.setenv("FEMB_BUILD_WORKERS", "2")
     monkeypatch.setattr("femb.base.jit.cache_writable", lambda: True)
-    # units a worker cannot find: each worker exits with an error, none hangs
-    ran = parallel.compile_in_workers({_unknown_a: (T.float64,), _unknown_b: (T.float64,)})
+    # each worker exits with an error, none hangs, and nothing is left behind
+    ran = parallel.compile_in_workers({_Missing("no_such_stage_a"): (T.float64,),
+                                       _Missing("no_such_stage_b"): (T.float64,)})
     assert ran == 2
     err = capsys.readouterr().err
-    assert err.count("femb: an engine build worker failed (exit 1: KeyError") == 2
+    assert err.count("femb: an engine build worker failed (exit 1: AttributeError") == 2, err
     assert "this process compiles what it left" in err
 
 
 def test_nothing_in_parallel_with_one_worker_or_a_read_only_cache(monkeypatch):
     from numba import types as T
     from femb.engine import parallel
-    units = {_unknown_a: (T.float64,), _unknown_b: (T.float64,)}
+    units = {_Missing("a"): (T.float64,), _Missing("b"): (T.float64,)}
     monkeypatch.setenv("FEMB_BUILD_WORKERS", "1")
     assert parallel.compile_in_workers(units) == 0
     monkeypatch.setenv("FEMB_BUILD_WORKERS", "2")

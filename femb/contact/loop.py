@@ -553,3 +553,44 @@ def run_steps(P, h, n0, n1, ctx, rec):
             return status, n
         call(store, P, n, ctx, rec)
     return DONE, n1 + 1
+
+
+# ---- the stages called by symbol: their argument types from run_steps', their return types -------
+def stage_signatures(sig):
+    """``{stage: argument types}`` of the stages that :func:`run_steps` reaches by symbol
+    (``femb.engine.link.call``), from run_steps' own argument types ``sig`` = (P, h, n0, n1, ctx,
+    rec): what the engine's parallel build (:mod:`femb.engine.parallel`) compiles each on its own.
+    ``tests/test_contact_loop.py`` checks them against the stages compiled in one process."""
+    from numba import types as T
+    P, f, i = sig[0], T.float64, T.int64
+    ctx, rec = sig[4], sig[5]
+    f1, i1, f2 = T.float64[::1], T.int64[::1], T.float64[:, ::1]
+    mdl, lay, fixed_law, work = ctx.types[1], ctx.types[2], ctx.types[3], ctx.types[4]
+    law = T.Tuple((f1, f1) + tuple(fixed_law.types[:4]))
+    wk = T.Tuple(tuple(work.types) + (T.UniTuple(f1, 2), f1))
+    return {
+        _one_step: (P, f, i, ctx, rec, T.Tuple((f2, f2, i1, i1))),
+        store: (P, i, ctx, rec),
+        _task: (P, f, i, ctx, T.Tuple((f1, i1, i1))),
+        _solve: (P, i, i, f, ctx),
+        _impact_time: (P, i, i, f, ctx),
+        _free_flight: (P, f, ctx),
+        _fixed_point: (P, i, f1, f, ctx, f),
+        _prox_update: (P, i, f1, f, ctx, f1, f),
+        _evaluate_at: (P, i, f1, f, ctx, f),
+        newton_loop: (f1, mdl, T.UniTuple(f1, 8), law, lay, f1, wk),
+    }
+
+
+def _declare_returns():
+    """The return type of every stage called by symbol (femb.engine.link.declare)."""
+    from numba import types as T
+    from femb.engine.link import declare
+    for disp, restype in ((_one_step, T.int64), (store, T.none), (_task, T.int64), (_solve, T.boolean),
+                          (_impact_time, T.float64), (_free_flight, T.Tuple((T.boolean, T.float64))),
+                          (_fixed_point, T.Tuple((T.boolean, T.int64))), (_prox_update, T.none),
+                          (_evaluate_at, T.none), (newton_loop, T.Tuple((T.int64, T.int64, T.float64)))):
+        declare(disp, restype)
+
+
+_declare_returns()

@@ -111,22 +111,25 @@ def _dense_model(model):
     return per_thread[key]
 
 
-def _entry_point(disp, args):
+def _entry_point(disp, args, stages=None):
     """The compiled function of ``disp`` for the types of ``args``, callable without the dispatcher's type
     resolution (which hashes the nested tuple types anew at every call: milliseconds here); kept per
-    process and argument structure. ``disp`` itself under NUMBA_DISABLE_JIT."""
+    process and argument structure. ``disp`` itself under NUMBA_DISABLE_JIT. ``stages(sig)``, if given,
+    names the stages that ``disp`` calls by symbol with their argument types (compiled in parallel)."""
     if jit_disabled():
         return disp
     key = (disp.__name__, _fingerprint(args))
     if key not in _ENTRIES:
-        _ENTRIES[key] = _compile_announced(disp, tuple(numba.typeof(a) for a in args))
+        _ENTRIES[key] = _compile_announced(disp, tuple(numba.typeof(a) for a in args), stages)
     return _ENTRIES[key]
 
 
-def _compile_announced(disp, sig):
+def _compile_announced(disp, sig, stages=None):
     """``disp.compile(sig)``, said on stderr with the time it took when it is not in the cache (the contact
     step and its time loop compile once per installation and set of element types: about two minutes of
-    CPU on a small machine), under a lock so that processes that need it at once compile it once."""
+    CPU on a small machine), under a lock so that processes that need it at once compile it once. With
+    ``stages``, ``disp`` and its stages are first compiled at once in worker processes into the cache
+    (:func:`femb.engine.parallel.compile_in_workers`), and loaded from there."""
     if is_cached(disp, sig):
         return disp.compile(sig)
     with compile_lock(f"contact.{disp.__name__}"):
@@ -135,6 +138,9 @@ def _compile_announced(disp, sig):
         print(f"femb: compiling the contact step ({disp.__name__}) for these element types, once; "
               "about two minutes on 2 cores", file=sys.stderr, flush=True)
         t0 = time.perf_counter()
+        if stages is not None:
+            from femb.engine.parallel import compile_in_workers
+            compile_in_workers({disp: sig, **stages(sig)})
         fn = disp.compile(sig)
         kept = "cached for later runs" if cache_writable() else "in memory for this run only"
         print(f"femb: contact step compiled in {time.perf_counter() - t0:.1f} s, {kept}", file=sys.stderr,

@@ -19,17 +19,35 @@ its units to the calling process, which compiles them as before (one line on std
 most 4; 0 or 1 compiles in the calling process only).
 """
 import os
+import pickle
 import subprocess
 import sys
+import tempfile
 
-#: CPU seconds that each unit took to compile on its own, each in a process of its own (2-core
-#: test machine, numba 0.68; measured 2026-11-28): only their ratios matter, for the split
+#: CPU seconds that each unit took to compile on its own (2-core test machine, numba 0.68; measured
+#: 2026-11-28: the engine's units each in a process of its own, the contact loop's stages as
+#: numba's compile events counted them in one process): only their ratios matter, for the split
 COST = {"run": 9.8, "newton_step": 10.3, "evaluate": 8.3, "kernel_blocks": 2.0, "rates": 1.7,
         "dense_lu": 1.5, "kkt_solve": 1.5, "kkt_estimate": 1.3, "band_lu": 1.2, "resynchronise": 1.2,
         "refine_accelerations": 1.1, "jacobian_times": 1.0, "copy_B": 0.8, "dense_solve": 0.7,
         "band_solve": 0.6, "project_normal_velocity": 0.6, "velocity_residual": 0.4,
         "eval_time_functions": 0.4, "constraint_B": 0.4, "ggl_matrix": 0.4, "lie_reset": 0.2,
-        "dense_lu_solve": 0.2}
+        "dense_lu_solve": 0.2,
+        # the contact loop (femb/contact/loop.py, core.py), each in a worker with the units listed
+        # before it in its share (CPU seconds; the ball's loop, 2026-11-28)
+        "newton_loop": 45.6, "_evaluate_at": 34.4, "_impact_time": 29.5, "_solve": 12.3,
+        "_prox_update": 8.9, "run_steps": 8.2, "_one_step": 8.2, "store": 6.1, "_fixed_point": 4.7,
+        "_task": 2.4, "_free_flight": 2.4}
+
+#: units that share most of their code (small functions compiled into each, not called by symbol):
+#: put in the same worker, which compiles that code once (the contact loop's Newton iteration and
+#: its evaluation at a point share the kinematics, the batches' evaluation and the residual: 35 s
+#: of CPU compiled twice when apart)
+TOGETHER = (("newton_loop", "_evaluate_at"),)
+
+
+def _cost(name):
+    return COST.get(name.rsplit(":", 1)[-1].rsplit(".", 1)[-1], 1.0)
 
 
 def unit_name(disp):
@@ -55,13 +73,21 @@ def workers_wanted():
 
 def split(names, n):
     """``n`` lists of unit names, longest first onto the least loaded list (by :data:`COST`; an
-    unknown unit counts 1 s)."""
+    unknown unit counts 1 s); the units of a group of :data:`TOGETHER` go to one list."""
+    short = {u: u.rsplit(":", 1)[-1].rsplit(".", 1)[-1] for u in names}
+    items, grouped = [], set()
+    for group in TOGETHER:
+        members = [u for u in names if short[u] in group]
+        if members:
+            items.append(sorted(members, key=lambda u: group.index(short[u])))
+            grouped.update(members)
+    items += [[u] for u in names if u not in grouped]
     shares = [[] for _ in range(n)]
     load = [0.0] * n
-    for name in sorted(names, key=lambda u: -COST.get(u.rsplit(":", 1)[1].rsplit(".", 1)[-1], 1.0)):
+    for item in sorted(items, key=lambda it: -sum(_cost(u) for u in it)):
         k = load.index(min(load))
-        shares[k].append(name)
-        load[k] += COST.get(name.rsplit(":", 1)[1].rsplit(".", 1)[-1], 1.0)
+        shares[k] += item
+        load[k] += sum(_cost(u) for u in item)
     return [s for s in shares if s]
 
 
@@ -75,8 +101,12 @@ def compile_in_workers(units, verbose=True):
     if n < 2 or len(todo) < 2 or not cache_writable():
         return 0
     shares = split(todo, n)
+    # the argument types, for the workers (numba types pickle, as numba's cache index stores them)
+    fd, path = tempfile.mkstemp(prefix="femb-build-", suffix=".pkl")
+    with os.fdopen(fd, "wb") as fh:
+        pickle.dump({unit_name(d): tuple(sg) for d, sg in units.items()}, fh)
     cmd = [sys.executable, "-c", "import sys; from femb.engine.parallel import worker_main; "
-                                 "sys.exit(worker_main(sys.argv[1:]))"]
+                                 "sys.exit(worker_main(sys.argv[1:]))", path]
     # the workers import this process's femb (a checkout on sys.path may shadow an installed one)
     import femb
     root = os.path.dirname(os.path.dirname(os.path.abspath(femb.__file__)))
@@ -95,18 +125,23 @@ def compile_in_workers(units, verbose=True):
             if p.poll() is None:
                 p.kill()
                 p.wait()
+        os.unlink(path)
     return len(procs)
 
 
-def worker_main(names):
-    """A build worker: compile the named units into the disk cache (their stage calls typed from
-    the declarations, :func:`femb.engine.link.defer_stages`). Returns the exit status."""
-    import femb.engine as engine          # the package: its build module imports this one
+def worker_main(argv):
+    """A build worker: ``argv`` = [the file of the units' argument types, unit names ...]. Compiles
+    the named units into the disk cache (their stage calls typed from the declarations,
+    :func:`femb.engine.link.defer_stages`). Returns the exit status."""
+    import importlib
     from femb.engine import link
+    with open(argv[0], "rb") as fh:
+        argtypes = pickle.load(fh)
     link.defer_stages()
-    units = {unit_name(d): (d, sg) for d, sg in {**engine.stage_signatures(),
-                                                  **engine.engine_signatures()}.items()}
-    for name in names:
-        disp, sg = units[name]
-        disp.compile(tuple(sg))
+    for name in argv[1:]:
+        module, qualname = name.split(":")
+        disp = importlib.import_module(module)
+        for part in qualname.split("."):
+            disp = getattr(disp, part)
+        disp.compile(argtypes[name])
     return 0
