@@ -115,8 +115,9 @@ class ContactElement(Element):
         -------
         c : ndarray (nel, 3)
             Contact point (m), where the surfaces touch when the contact is closed: on a plane,
-            the sphere's point nearest the plane (c = C − R_s n); on a disc pair or pin in hole,
-            the first disc's (the hole's) surface point towards the second centre.
+            the sphere's point nearest the plane (c = C − R_s n); on a disc pair, pin in hole or
+            sphere pair, the first disc's (the hole's, the first sphere's) surface point towards the
+            second centre.
         n : ndarray (nel, 3)
             Unit direction in which the normal force λ_N pushes the body (on pairs: body b).
         T : ndarray (nel, l, 3)
@@ -878,11 +879,13 @@ class SpatialSpherePair(ContactElement):
         self.b = _spatial_body(owner, lookup, self.b, "b")
         if self.a is self.b:
             raise ModelError(f"{owner}: bodies a and b are the same ('{self.a.name}')")
-        try:
-            self.sa = np.asarray(self.a.local(self._pa, "point_a"), dtype=float)
-            self.sb = np.asarray(self.b.local(self._pb, "point_b"), dtype=float)
-        except ModelError as err:
-            raise ModelError(f"{owner}: {err}") from None
+        pts = []
+        for what, body, spec in (("point_a", self.a, self._pa), ("point_b", self.b, self._pb)):
+            try:
+                pts.append(np.asarray(body.local(spec, what), dtype=float))
+            except ModelError as err:
+                raise ModelError(f"{owner}: {what}: {err}") from None
+        self.sa, self.sb = pts
 
     def validate(self):
         owner = f"SpatialSpherePair '{self.name}'"
