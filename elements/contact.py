@@ -648,7 +648,8 @@ def pair_tangent(n, f, p):
 
 @kernel
 def pair_tangent_d(n, f, p, dn):
-    """δt of :func:`pair_tangent` along δn: −((δn·f)/(1+c) − (n·f)(δn·p)/(1+c)²)(n + p) − (n·f)/(1+c) δn, c = n·p."""
+    """δt of :func:`pair_tangent` along δn, with c = n·p:
+    δt = −((δn·f)/(1+c) − (n·f)(δn·p)/(1+c)²)(n + p) − (n·f)/(1+c) δn."""
     c1 = 1.0 / (1.0 + dot3(n, p))
     b = dot3(n, f) * c1
     a = (dot3(dn, f) - b * dot3(dn, p)) * c1
@@ -686,11 +687,13 @@ def _pair_undefined(gN, W, zeta, H, e, jac):
 
 @kernel
 def _pair_hessian(H, e, lam, geo, rot):
-    """H = ∂(Wᵀλ)/∂x of one pair, column by column along the 12 tangent directions (δr_a, δθ_a, δr_b, δθ_b).
+    """H = ∂(Wᵀλ)/∂x of one pair, column by column along the 12 tangent directions (δr_a, δθ_a, δr_b,
+    δθ_b).
 
     Wᵀλ is the generalized force of F = λ_N n + λ₁t₁ + λ₂t₂ on b at arm ab and −F on a at arm aa:
-    (−F, −R_aᵀ(aa × F), F, R_bᵀ(ab × F)). Along δx: δd = δr_b − δr_a + R_b(δθ_b × s_b) − R_a(δθ_a × s_a),
-    δn = (δd − (n·δd)n)/L, δF = λ_N δn + Σ λ_k δt_k, δaa = R_a(δθ_a × s_a) + R_a' δn,
+    (−F, −R_aᵀ(aa × F), F, R_bᵀ(ab × F)). Along δx: δd = δr_b − δr_a + R_b(δθ_b × s_b)
+    − R_a(δθ_a × s_a), δn = (δd − (n·δd)n)/L, δF = λ_N δn + Σ λ_k δt_k,
+    δaa = R_a(δθ_a × s_a) + R_a' δn,
     δab = R_b(δθ_b × s_b) − R_b' δn, δ(Rᵀy) = (Rᵀy) × δθ + Rᵀδy (R ← R exp(δθ~)).
     ``geo`` = (n, t₁, t₂, aa, ab, s_a, s_b, f₁, f₂, p), ``rot`` = (R_a, R_b, L, radius_a, radius_b).
     """

@@ -82,7 +82,8 @@ def _nonsmooth(kind):
     return m, True, 1
 
 
-@pytest.mark.parametrize("kind", ["sphere_plane", "disc_disc", "pin_hole", "spatial_sphere_plane", "spatial_sphere_pair"])
+@pytest.mark.parametrize("kind", ["sphere_plane", "disc_disc", "pin_hole", "spatial_sphere_plane",
+                                  "spatial_sphere_pair"])
 def test_nonsmooth_contact_block_does_the_work_of_the_contact_force(kind):
     mech, spatial, nb = _nonsmooth(kind)
     model = mech.compile()

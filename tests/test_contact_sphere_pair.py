@@ -63,7 +63,6 @@ def test_kernel_matches_finite_differences(state, seed):
 def _surface_velocities(model, q, u):
     """Velocities of b's material point at c_b − R_b n and of a's at c_a + R_a n, computed from the
     rigid-body motions (v + ω × arm, ω = R Ω), and the unit normal n."""
-    el = model.bodies  # noqa: F841 - the element's data below
     pair = next(g for g in model.contact_groups).elements[0]
     ra, Ra = q[0:3], quat_to_matrix(q[3:7])
     rb, Rb = q[7:10], quat_to_matrix(q[10:14])
@@ -75,7 +74,8 @@ def _surface_velocities(model, q, u):
 
 
 def test_slip_rows_are_the_relative_velocity_of_the_surface_points():
-    """γ_F = W_F v = (t₁, t₂)·(v_b − v_a) at the surface points, ġ_N = n·(v_b − v_a); (t₁, t₂, n) right-handed."""
+    """γ_F = W_F v = (t₁, t₂)·(v_b − v_a) at the surface points, ġ_N = n·(v_b − v_a); (t₁, t₂, n)
+    right-handed."""
     model = _general(OFFSETS["open"])
     rng = np.random.default_rng(7)
     from femb.elements.contact import SpatialSpherePair as T
@@ -163,8 +163,8 @@ def test_head_on_impact_follows_newtons_law(e_N):
         E = res.energy()
         assert E["contact_normal"][-1] == pytest.approx(lost, abs=1e-12)
         assert abs(E["contact_friction"][-1]) < 1e-15           # μ = 0: no friction work (to round-off)
-        ke = lambda k: 0.5 * (M_A * res.qd[k, 0:3] @ res.qd[k, 0:3] + M_B * res.qd[k, 6:9] @ res.qd[k, 6:9])  # noqa: E731
-        assert ke(0) - ke(-1) == pytest.approx(lost, abs=1e-12)
+        ke = [0.5 * (M_A * res.qd[k, 0:3] @ res.qd[k, 0:3] + M_B * res.qd[k, 6:9] @ res.qd[k, 6:9]) for k in (0, -1)]
+        assert ke[0] - ke[1] == pytest.approx(lost, abs=1e-12)
         assert res.contact["gN"].min() >= -1e-10 * R_A
     a, b = runs[None], runs[False]
     assert a.t.shape == b.t.shape

@@ -613,7 +613,9 @@ ENTRIES = [
           ("femb.elements.contact.SpatialSphereOnPlane", "femb.elements.contact.SpatialSpherePair"), spatial_contact,
           "A spinning ball thrown onto the floor: impacts with restitution, sliding and rolling with "
           "Coulomb friction; a second ball dropped off-centre on a sphere fixed in space (a sphere pair "
-          "with the ground) bounces off it to the floor. Integrated by :func:`femb.contact.simulate`.", t_end=0.5, h=2e-3, run="contact"),
+          "with the ground) bounces on it, rolls and starts to slide off it. Integrated by "
+          ":func:`femb.contact.simulate`.",
+          t_end=0.5, h=2e-3, run="contact"),
     Entry("planar_penalty_contact", "Penalty (compliant) contact in the plane",
           ("femb.elements.penalty_contact.PenaltySphereOnPlane",), planar_penalty_contact,
           "A spinning disc dropped on a compliant floor: Hertz stiffness with Hunt–Crossley damping and "
