@@ -39,7 +39,7 @@ from femb.base.rotations import quat_to_matrix_t
 from femb.errors import ModelError
 from femb.system.element import Element
 
-from ._spatial import cross3, dot3, mtv
+from ._spatial import cross3, dot3, mtv, mv
 
 
 # ---------------------------------------------------------------------------
@@ -115,8 +115,9 @@ class ContactElement(Element):
         -------
         c : ndarray (nel, 3)
             Contact point (m), where the surfaces touch when the contact is closed: on a plane,
-            the sphere's point nearest the plane (c = C − R_s n); on a disc pair or pin in hole,
-            the first disc's (the hole's) surface point towards the second centre.
+            the sphere's point nearest the plane (c = C − R_s n); on a disc pair, pin in hole or
+            sphere pair, the first disc's (the hole's, the first sphere's) surface point towards the
+            second centre.
         n : ndarray (nel, 3)
             Unit direction in which the normal force λ_N pushes the body (on pairs: body b).
         T : ndarray (nel, l, 3)
@@ -128,6 +129,23 @@ class ContactElement(Element):
         overrides this to be drawn.
         """
         return None
+
+    @classmethod
+    def geometry_problems(cls, P, qe):
+        """Elements of a batch whose gap or directions are undefined, or nearly so, at one state.
+
+        Parameters
+        ----------
+        P : ndarray, shape (nel, npar)
+        qe : ndarray, shape (nel, ndx)
+
+        Returns
+        -------
+        list of (int, str)
+            (index in the batch, why); empty for this base class (a type whose geometry is defined
+            everywhere). :func:`femb.contact.simulate.diagnose` reports them when a step fails.
+        """
+        return []
 
     @classmethod
     def geometry(cls, p, t, qe, qde, lame, names):
@@ -608,3 +626,314 @@ class SpatialSphereOnPlane(ContactElement):
         n = P[:, 7:10]
         gN = np.einsum("ej,ej->e", n, C - P[:, 4:7]) - P[:, 3]
         return C - P[:, 3:4] * n, n, np.stack((P[:, 10:13], P[:, 13:16]), axis=1), gN
+
+
+# ---------------------------------------------------------------------------
+# spatial: two spheres on two spatial bodies (frame nodes), outside each other
+# ---------------------------------------------------------------------------
+#: below these the pair's geometry is undefined (the kernel writes NaN, femb.contact.simulate stops with a
+#: ContactError that names the pair): centre distance |d| ≤ PAIR_MIN_DISTANCE (R_a + R_b) (no normal), or
+#: 1 + n·p ≤ PAIR_MIN_POLE (the normal turned to the opposite of its initial direction p: no tangents)
+PAIR_MIN_DISTANCE = 1e-12
+PAIR_MIN_POLE = 1e-6
+
+
+@kernel
+def pair_tangent(n, f, p):
+    """t = f − (n·f)/(1 + n·p) (n + p): the image of f (a unit vector ⊥ p) under the smallest rotation
+    that takes p to n (so |t| = 1, t ⊥ n, and (t₁, t₂, n) is right-handed when (f₁, f₂, p) is)."""
+    b = dot3(n, f) / (1.0 + dot3(n, p))
+    return (f[0] - b * (n[0] + p[0]), f[1] - b * (n[1] + p[1]), f[2] - b * (n[2] + p[2]))
+
+
+@kernel
+def pair_tangent_d(n, f, p, dn):
+    """δt of :func:`pair_tangent` along δn, with c = n·p:
+    δt = −((δn·f)/(1+c) − (n·f)(δn·p)/(1+c)²)(n + p) − (n·f)/(1+c) δn."""
+    c1 = 1.0 / (1.0 + dot3(n, p))
+    b = dot3(n, f) * c1
+    a = (dot3(dn, f) - b * dot3(dn, p)) * c1
+    return (-a * (n[0] + p[0]) - b * dn[0], -a * (n[1] + p[1]) - b * dn[1], -a * (n[2] + p[2]) - b * dn[2])
+
+
+@kernel
+def _pair_row(W, zeta, e, k, w, wd, aa, ab, Ra, Rb, V, Vq):
+    """Row k for the unit direction w(q) (rate ẇ = wd along v): γ = w·V with V the velocity of b's point at
+    arm ab relative to a's at arm aa; W = (−w, −R_aᵀ(aa × w), w, R_bᵀ(ab × w)), ζ = ẇ·V + w·V̇|_v."""
+    ma = mtv(Ra, cross3(aa, w))
+    mb = mtv(Rb, cross3(ab, w))
+    for i in range(3):
+        W[e, k, i] = -w[i]
+        W[e, k, 3 + i] = -ma[i]
+        W[e, k, 6 + i] = w[i]
+        W[e, k, 9 + i] = mb[i]
+    zeta[e, k] = dot3(wd, V) + dot3(w, Vq)
+
+
+@kernel
+def _pair_undefined(gN, W, zeta, H, e, jac):
+    """NaN in every output of element e: its geometry is undefined (see PAIR_MIN_DISTANCE)."""
+    nan = math.nan
+    gN[e, 0] = nan
+    for k in range(W.shape[1]):
+        zeta[e, k] = nan
+        for j in range(W.shape[2]):
+            W[e, k, j] = nan
+    if jac:
+        for i in range(H.shape[1]):
+            for j in range(H.shape[2]):
+                H[e, i, j] = nan
+
+
+@kernel
+def _pair_hessian(H, e, lam, geo, rot):
+    """H = ∂(Wᵀλ)/∂x of one pair, column by column along the 12 tangent directions (δr_a, δθ_a, δr_b,
+    δθ_b).
+
+    Wᵀλ is the generalized force of F = λ_N n + λ₁t₁ + λ₂t₂ on b at arm ab and −F on a at arm aa:
+    (−F, −R_aᵀ(aa × F), F, R_bᵀ(ab × F)). Along δx: δd = δr_b − δr_a + R_b(δθ_b × s_b)
+    − R_a(δθ_a × s_a), δn = (δd − (n·δd)n)/L, δF = λ_N δn + Σ λ_k δt_k,
+    δaa = R_a(δθ_a × s_a) + R_a' δn,
+    δab = R_b(δθ_b × s_b) − R_b' δn, δ(Rᵀy) = (Rᵀy) × δθ + Rᵀδy (R ← R exp(δθ~)).
+    ``geo`` = (n, t₁, t₂, aa, ab, s_a, s_b, f₁, f₂, p), ``rot`` = (R_a, R_b, L, radius_a, radius_b).
+    """
+    n, t1, t2, aa, ab, sa, sb, f1, f2, p = geo
+    Ra, Rb, L, rA, rB = rot
+    lN, l1, l2 = lam
+    F = (lN * n[0] + l1 * t1[0] + l2 * t2[0], lN * n[1] + l1 * t1[1] + l2 * t2[1],
+         lN * n[2] + l1 * t1[2] + l2 * t2[2])
+    ya = mtv(Ra, cross3(aa, F))
+    yb = mtv(Rb, cross3(ab, F))
+    z3 = (0.0, 0.0, 0.0)
+    for j in range(12):
+        blk, i = j // 3, j % 3
+        u = (1.0 if i == 0 else 0.0, 1.0 if i == 1 else 0.0, 1.0 if i == 2 else 0.0)
+        tha, thb = z3, z3
+        if blk == 0:
+            dd = (-u[0], -u[1], -u[2])
+        elif blk == 1:
+            tha = u
+            dd = mv(Ra, cross3(sa, u))
+        elif blk == 2:
+            dd = u
+        else:
+            thb = u
+            dd = mv(Rb, cross3(u, sb))
+        nd = dot3(n, dd)
+        dn = ((dd[0] - nd * n[0]) / L, (dd[1] - nd * n[1]) / L, (dd[2] - nd * n[2]) / L)
+        d1 = pair_tangent_d(n, f1, p, dn)
+        d2 = pair_tangent_d(n, f2, p, dn)
+        dF = (lN * dn[0] + l1 * d1[0] + l2 * d2[0], lN * dn[1] + l1 * d1[1] + l2 * d2[1],
+              lN * dn[2] + l1 * d1[2] + l2 * d2[2])
+        ra = mv(Ra, cross3(tha, sa))
+        rb = mv(Rb, cross3(thb, sb))
+        daa = (ra[0] + rA * dn[0], ra[1] + rA * dn[1], ra[2] + rA * dn[2])
+        dab = (rb[0] - rB * dn[0], rb[1] - rB * dn[1], rb[2] - rB * dn[2])
+        ca = cross3(ya, tha)
+        cb = cross3(yb, thb)
+        ea = mtv(Ra, cross3(daa, F))
+        fa = mtv(Ra, cross3(aa, dF))
+        eb = mtv(Rb, cross3(dab, F))
+        fb = mtv(Rb, cross3(ab, dF))
+        for r in range(3):
+            H[e, r, j] = -dF[r]
+            H[e, 3 + r, j] = -(ca[r] + ea[r] + fa[r])
+            H[e, 6 + r, j] = dF[r]
+            H[e, 9 + r, j] = cb[r] + eb[r] + fb[r]
+
+
+@kernel
+def sphere_pair_contact(P, t, tf, xe, ve, le, jac, gN, W, zeta, H):
+    """Sphere (radius R_a', centre s_a on body a) against a sphere (R_b', s_b on body b), outside each other.
+
+    c_k = r_k + R_k s_k, d = c_b − c_a, L = |d|, n = d/L, g = L − R_a' − R_b'; tangents
+    t_k = f_k − (n·f_k)/(1 + n·p)(n + p) (:func:`pair_tangent`; (f₁, f₂, p) fixed, p the initial
+    normal). Arms from the nodes to the contact points: aa = R_a s_a + R_a' n (a's surface point
+    towards b), ab = R_b s_b − R_b' n. Rows w ∈ (n, t₁, t₂): W = (−w, −R_aᵀ(aa × w), w, R_bᵀ(ab × w)),
+    the velocity V = ṙ_b − ṙ_a + ω_b × ab − ω_a × aa of b's surface point relative to a's along w
+    (ω = RΩ); ζ = ẇ·V + w·(ω_b × (ω_b × R_b s_b − R_b' ṅ) − ω_a × (ω_a × R_a s_a + R_a' ṅ)) with
+    ṅ = (ḋ − (n·ḋ)n)/L (ω is constant along x ∘ exp(εv)); H by :func:`_pair_hessian`.
+    Where L ≤ PAIR_MIN_DISTANCE (R_a' + R_b') or 1 + n·p ≤ PAIR_MIN_POLE every output is NaN.
+    P = (s_a(3), s_b(3), R_a', R_b', f₁(3), f₂(3), p(3)).
+    """
+    for e in range(xe.shape[0]):
+        Ra = quat_to_matrix_t(xe[e, 3], xe[e, 4], xe[e, 5], xe[e, 6])
+        Rb = quat_to_matrix_t(xe[e, 10], xe[e, 11], xe[e, 12], xe[e, 13])
+        sa = (P[e, 0], P[e, 1], P[e, 2])
+        sb = (P[e, 3], P[e, 4], P[e, 5])
+        rA, rB = P[e, 6], P[e, 7]
+        f1 = (P[e, 8], P[e, 9], P[e, 10])
+        f2 = (P[e, 11], P[e, 12], P[e, 13])
+        p = (P[e, 14], P[e, 15], P[e, 16])
+        da = mv(Ra, sa)
+        db = mv(Rb, sb)
+        d = (xe[e, 7] + db[0] - xe[e, 0] - da[0], xe[e, 8] + db[1] - xe[e, 1] - da[1],
+             xe[e, 9] + db[2] - xe[e, 2] - da[2])
+        L = math.sqrt(dot3(d, d))
+        if not L > PAIR_MIN_DISTANCE * (rA + rB):
+            _pair_undefined(gN, W, zeta, H, e, jac)
+            continue
+        n = (d[0] / L, d[1] / L, d[2] / L)
+        if not 1.0 + dot3(n, p) > PAIR_MIN_POLE:
+            _pair_undefined(gN, W, zeta, H, e, jac)
+            continue
+        gN[e, 0] = L - rA - rB
+        t1 = pair_tangent(n, f1, p)
+        t2 = pair_tangent(n, f2, p)
+        aa = (da[0] + rA * n[0], da[1] + rA * n[1], da[2] + rA * n[2])
+        ab = (db[0] - rB * n[0], db[1] - rB * n[1], db[2] - rB * n[2])
+        wa = mv(Ra, (ve[e, 3], ve[e, 4], ve[e, 5]))
+        wb = mv(Rb, (ve[e, 9], ve[e, 10], ve[e, 11]))
+        va = cross3(wa, aa)
+        vb = cross3(wb, ab)
+        V = (ve[e, 6] - ve[e, 0] + vb[0] - va[0], ve[e, 7] - ve[e, 1] + vb[1] - va[1],
+             ve[e, 8] - ve[e, 2] + vb[2] - va[2])
+        ca = cross3(wa, da)
+        cb = cross3(wb, db)
+        dd = (ve[e, 6] - ve[e, 0] + cb[0] - ca[0], ve[e, 7] - ve[e, 1] + cb[1] - ca[1],
+              ve[e, 8] - ve[e, 2] + cb[2] - ca[2])
+        nd = dot3(n, dd)
+        ndot = ((dd[0] - nd * n[0]) / L, (dd[1] - nd * n[1]) / L, (dd[2] - nd * n[2]) / L)
+        qa = cross3(wa, (ca[0] + rA * ndot[0], ca[1] + rA * ndot[1], ca[2] + rA * ndot[2]))
+        qb = cross3(wb, (cb[0] - rB * ndot[0], cb[1] - rB * ndot[1], cb[2] - rB * ndot[2]))
+        Vq = (qb[0] - qa[0], qb[1] - qa[1], qb[2] - qa[2])
+        _pair_row(W, zeta, e, 0, n, ndot, aa, ab, Ra, Rb, V, Vq)
+        _pair_row(W, zeta, e, 1, t1, pair_tangent_d(n, f1, p, ndot), aa, ab, Ra, Rb, V, Vq)
+        _pair_row(W, zeta, e, 2, t2, pair_tangent_d(n, f2, p, ndot), aa, ab, Ra, Rb, V, Vq)
+        if jac:
+            _pair_hessian(H, e, (le[e, 0], le[e, 1], le[e, 2]), (n, t1, t2, aa, ab, sa, sb, f1, f2, p),
+                          (Ra, Rb, L, rA, rB))
+
+
+def pair_tangents(n, f1, f2, p):
+    """Numpy twin of :func:`pair_tangent` for a batch: t₁, t₂ (nel, 3) of unit normals n (nel, 3)."""
+    s = n + p
+    c1 = 1.0 / (1.0 + np.einsum("ej,ej->e", n, p))
+    t1 = f1 - (np.einsum("ej,ej->e", n, f1) * c1)[:, None] * s
+    t2 = f2 - (np.einsum("ej,ej->e", n, f2) * c1)[:, None] * s
+    return t1, t2
+
+
+def _spatial_body(owner, lookup, ref, role):
+    """A spatial body (the mechanism's ground: its fixed spatial twin) for ``role``; ModelError naming owner."""
+    from .bodies import Ground
+    from .spatial_bodies import SpatialGround, spatial_ground
+
+    if isinstance(ref, SpatialGround):
+        return ref
+    b = lookup(ref, role)
+    if isinstance(b, Ground):
+        return spatial_ground(b)
+    if getattr(b, "node", None) is None or not getattr(b.node, "rotation_blocks", ()):
+        raise ModelError(f"{owner}: {role} = '{getattr(b, 'name', b)}' is a planar body; the pair needs spatial "
+                         "bodies (use DiscOnDisc in the plane)")
+    return b
+
+
+class SpatialSpherePair(ContactElement):
+    """Two spheres on two spatial bodies, outside each other, with isotropic Coulomb friction.
+
+    Centres c_a = r_a + R_a s_a, c_b = r_b + R_b s_b, d = c_b − c_a; gap g_N = |d| − R_a' − R_b'
+    (R_a', R_b' the radii), normal n = d/|d| from a to b (the force λ_N n acts on b, −λ_N n on a);
+    the gap, W_N and W_F of Glocker (Set-Valued Force Laws, Springer 2001, Ch. 7–8; the spatial
+    form of Pfeiffer & Glocker 1996, Ch. 4). Friction acts on the slip
+    γ_F,k = t_k·(velocity of b's surface point c_b − R_b' n − velocity of a's point c_a + R_a' n).
+
+    The tangents turn with n: t_k = f_k − (n·f_k)/(1 + n·p)(n + p), the images of two fixed
+    directions f₁, f₂ under the smallest rotation taking p to n, where p is the normal in the initial
+    configuration and (f₁, f₂, p) are right-handed (:func:`tangents`); so (t₁, t₂, n) is right-handed
+    and smooth in q everywhere except at n = −p, where no tangent basis is defined (a pair whose line
+    of centres turns by 180° from its initial direction stops the run with a ContactError; the kernel
+    writes NaN there, never a wrong number). Either body may be the mechanism's ground (``"ground"``:
+    a sphere fixed in space).
+
+    Parameters
+    ----------
+    name : str
+    a, b : spatial body, name, or ``"ground"``
+    radius_a, radius_b : float ≥ 0, radius_a + radius_b > 0
+    point_a, point_b : (3,) or name
+        Sphere centres in body axes.
+    e_N, mu, e_F : see :class:`ContactElement`.
+    """
+
+    spatial = True
+    n_friction = 2
+    kernels = {"contact": sphere_pair_contact}
+
+    def __init__(self, name, a, b, radius_a, radius_b, point_a=(0.0, 0.0, 0.0), point_b=(0.0, 0.0, 0.0),
+                 e_N=0.0, mu=0.0, e_F=0.0):
+        super().__init__(name, e_N, mu, e_F)
+        owner = f"SpatialSpherePair '{name}'"
+        self.a, self.b = a, b
+        self.Ra = _scalar(owner, "radius_a", radius_a, 0.0)
+        self.Rb = _scalar(owner, "radius_b", radius_b, 0.0)
+        if not self.Ra + self.Rb > 0.0:
+            raise ModelError(f"{owner}: radius_a + radius_b must be positive (two points never touch), "
+                             f"got {self.Ra:g} and {self.Rb:g}")
+        for what, pt in (("point_a", point_a), ("point_b", point_b)):
+            if not isinstance(pt, str):
+                _vector(owner, what, pt, 3)
+        self._pa, self._pb = point_a, point_b
+
+    def resolve(self, lookup):
+        owner = f"SpatialSpherePair '{self.name}'"
+        self.a = _spatial_body(owner, lookup, self.a, "a")
+        self.b = _spatial_body(owner, lookup, self.b, "b")
+        if self.a is self.b:
+            raise ModelError(f"{owner}: bodies a and b are the same ('{self.a.name}')")
+        pts = []
+        for what, body, spec in (("point_a", self.a, self._pa), ("point_b", self.b, self._pb)):
+            try:
+                pts.append(np.asarray(body.local(spec, what), dtype=float))
+            except ModelError as err:
+                raise ModelError(f"{owner}: {what}: {err}") from None
+        self.sa, self.sb = pts
+
+    def validate(self):
+        owner = f"SpatialSpherePair '{self.name}'"
+        d = self.b.global_point(self.sb) - self.a.global_point(self.sa)
+        L = float(np.linalg.norm(d))
+        if not L > PAIR_MIN_DISTANCE * (self.Ra + self.Rb):
+            raise ModelError(f"{owner}: the sphere centres (point_a on '{self.a.name}', point_b on "
+                             f"'{self.b.name}') coincide initially: no normal direction")
+        self.p = d / L
+        self.f1, self.f2 = tangents(self.p)
+
+    def nodes(self):
+        return [self.a.node, self.b.node]
+
+    @classmethod
+    def pack(cls, elements):
+        P = np.array([[*e.sa, *e.sb, e.Ra, e.Rb, *e.f1, *e.f2, *e.p] for e in elements], dtype=float)
+        return {"P": np.ascontiguousarray(P.reshape(-1, 17))}
+
+    @classmethod
+    def contact_frames(cls, P, qe):
+        """Contact point c = c_a + R_a' n (a's surface point towards b), n, (t₁, t₂), g_N."""
+        ca, _ = _spatial_points(qe, P[:, 0:3])
+        cb, _ = _spatial_points(qe, P[:, 3:6], col=7)
+        d = cb - ca
+        L = np.linalg.norm(d, axis=1)
+        n = d / np.where(L > 0.0, L, 1.0)[:, None]
+        t1, t2 = pair_tangents(n, P[:, 8:11], P[:, 11:14], P[:, 14:17])
+        return ca + P[:, 6:7] * n, n, np.stack((t1, t2), axis=1), L - P[:, 6] - P[:, 7]
+
+    @classmethod
+    def geometry_problems(cls, P, qe):
+        """Pairs whose geometry is undefined or close to it at one state (docs/contact.md §2)."""
+        ca, _ = _spatial_points(qe, P[:, 0:3])
+        cb, _ = _spatial_points(qe, P[:, 3:6], col=7)
+        d = cb - ca
+        L = np.linalg.norm(d, axis=1)
+        out = []
+        for e in range(len(L)):
+            R = P[e, 6] + P[e, 7]
+            if not L[e] > 1e-3 * R:
+                out.append((e, f"the sphere centres are {L[e]:.3g} m apart (radii sum {R:.4g} m): "
+                               "the normal is not defined where they coincide"))
+            elif not 1.0 + d[e] @ P[e, 14:17] / L[e] > 1e-3:
+                out.append((e, f"the normal n = {np.round(d[e] / L[e], 6).tolist()} has turned to (nearly) the "
+                               f"opposite of its initial direction {np.round(P[e, 14:17], 6).tolist()}, where the "
+                               "pair's tangent basis is singular"))
+        return out

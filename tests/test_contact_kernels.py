@@ -5,7 +5,8 @@ import pytest
 import femb
 from femb.contact import check_contact_kernels
 from femb.elements import RigidBody, SpatialRigidBody
-from femb.elements.contact import (DiscOnDisc, PinInHole, SphereOnPlane, SpatialSphereOnPlane, block_corners)
+from femb.elements.contact import (DiscOnDisc, PinInHole, SphereOnPlane, SpatialSphereOnPlane, SpatialSpherePair,
+                                   block_corners)
 from femb.errors import ModelError
 
 
@@ -27,6 +28,11 @@ def _spatial():
     m.add(SpatialRigidBody("a", 1.0, (0.1, 0.2, 0.3), position=(0.1, 0.3, 0.5), rotation=p / np.linalg.norm(p)))
     m.add(SpatialSphereOnPlane("s", "a", radius=0.1, point=(0.05, -0.02, 0.03), plane_point=(0.1, -0.3, 0.0),
                                normal=(0.2, 0.3, 1.0), mu=0.2))
+    p = np.array((0.2, -0.5, 0.7, 0.3))
+    m.add(SpatialRigidBody("b", 2.0, (0.2, 0.1, 0.3), position=(0.3, 0.45, 0.4), rotation=p / np.linalg.norm(p)))
+    m.add(SpatialSpherePair("ss", "a", "b", 0.1, 0.15, point_a=(0.05, -0.02, 0.03), point_b=(-0.03, 0.04, 0.01),
+                            mu=0.2))
+    m.add(SpatialSpherePair("gs", "ground", "b", 0.2, 0.1, point_a=(0.4, 0.1, 0.1), point_b=(0.02, 0.0, -0.01)))
     return m.compile()
 
 

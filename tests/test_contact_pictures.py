@@ -16,7 +16,7 @@ import femb
 from femb.contact import assemble, simulate
 from femb.elements import (PenaltySphereOnPlane, RigidBody, SpatialPenaltySphereOnBodyPlane,
                            SpatialPenaltySpherePair, SpatialPenaltySphereOnPlane, SpatialRigidBody)
-from femb.elements.contact import DiscOnDisc, PinInHole, SphereOnPlane, SpatialSphereOnPlane
+from femb.elements.contact import DiscOnDisc, PinInHole, SphereOnPlane, SpatialSphereOnPlane, SpatialSpherePair
 from femb.io.frames import model_blocks
 from femb.system import kernels as K
 
@@ -70,18 +70,30 @@ def _nonsmooth(kind):
         else:
             m.add(PinInHole("c", "a", "b", 0.05, 0.045, point_a=(0.002, 0.001), point_b=(-0.001, 0.002), mu=0.3))
         return m, False, 2
+    if kind == "spatial_sphere_pair":
+        m.add(SpatialRigidBody("a", 1.0, (0.004, 0.005, 0.006), position=(0.0, 0.0, 0.0), rotation=_quat(1)))
+        m.add(SpatialRigidBody("b", 2.0, (0.006, 0.005, 0.004), position=(0.15, 0.1, -0.05), rotation=_quat(0)))
+        m.add(SpatialSpherePair("c", "a", "b", 0.1, 0.08, point_a=(0.01, -0.02, 0.005), point_b=(0.0, 0.01, -0.01),
+                                mu=0.3))
+        return m, True, 2
     m.add(SpatialRigidBody("b", 1.0, (0.004, 0.005, 0.006), position=(0.1, 0.2, 0.05), rotation=_quat(0)))
     m.add(SpatialSphereOnPlane("c", "b", 0.08, point=(0.01, 0.02, -0.015), plane_point=(0.0, 0.0, -0.01),
                                normal=(0.1, -0.2, 1.0), mu=0.3))
     return m, True, 1
 
 
-@pytest.mark.parametrize("kind", ["sphere_plane", "disc_disc", "pin_hole", "spatial_sphere_plane"])
+@pytest.mark.parametrize("kind", ["sphere_plane", "disc_disc", "pin_hole", "spatial_sphere_plane",
+                                  "spatial_sphere_pair"])
 def test_nonsmooth_contact_block_does_the_work_of_the_contact_force(kind):
     mech, spatial, nb = _nonsmooth(kind)
     model = mech.compile()
     st = model.initial_state()
-    if nb == 2:         # close the pair (g_N = 0): the contact points of a and b coincide, as in a closed contact
+    if nb == 2 and spatial:     # close the pair: move b along n by −g_N
+        ev = assemble.evaluate(model, st.t, st.q, st.qd)
+        n = _block(model, st).point_data["contact_normal"][0]
+        st.q[7:10] -= ev["gN"][0] * n
+        assert abs(assemble.evaluate(model, st.t, st.q, st.qd)["gN"][0]) < 1e-15
+    elif nb == 2:       # close the pair (g_N = 0): the contact points of a and b coincide, as in a closed contact
         ev = assemble.evaluate(model, st.t, st.q, st.qd)
         e = st.q[3:5] - st.q[0:2]
         sN = 1.0 if kind == "disc_disc" else -1.0

@@ -440,7 +440,7 @@ def planar_contact():
 
 def spatial_contact():
     import femb
-    from femb.elements.contact import SpatialSphereOnPlane
+    from femb.elements.contact import SpatialSphereOnPlane, SpatialSpherePair
     from femb.elements.spatial_bodies import SpatialRigidBody
     from femb.elements.spatial_forces import SpatialGravity
 
@@ -448,6 +448,10 @@ def spatial_contact():
     mech.add(SpatialRigidBody("ball", 1.0, (0.004, 0.004, 0.004), position=(0.0, 0.0, 0.4), velocity=(0.5, 0.2, 0.0),
                               omega=(0.0, 20.0, 0.0), shape={"type": "sphere", "radius": 0.1}),
              SpatialSphereOnPlane("floor", "ball", radius=0.1, e_N=0.5, mu=0.3),
+             SpatialRigidBody("ball2", 1.0, (0.004, 0.004, 0.004), position=(-0.43, 0.02, 0.5),
+                              shape={"type": "sphere", "radius": 0.1}),         # falls on a sphere fixed in space
+             SpatialSpherePair("on_sphere", "ground", "ball2", 0.15, 0.1, point_a=(-0.45, 0.0, 0.15), e_N=0.3, mu=0.3),
+             SpatialSphereOnPlane("floor2", "ball2", radius=0.1, e_N=0.5, mu=0.3),
              SpatialGravity((0.0, 0.0, -9.81)))
     return mech
 
@@ -605,10 +609,13 @@ ENTRIES = [
           ":func:`femb.contact.simulate` (nonsmooth generalized-α): a ball bouncing on the floor, a puck "
           "falling on it (disc on disc) and a bar hanging from a ground pin through a hole with "
           "clearance (pin in hole).", t_end=0.4, h=2e-3, run="contact"),
-    Entry("spatial_contact", "Contact in space: sphere on plane",
-          ("femb.elements.contact.SpatialSphereOnPlane",), spatial_contact,
+    Entry("spatial_contact", "Contact in space: sphere on plane, sphere on sphere",
+          ("femb.elements.contact.SpatialSphereOnPlane", "femb.elements.contact.SpatialSpherePair"), spatial_contact,
           "A spinning ball thrown onto the floor: impacts with restitution, sliding and rolling with "
-          "Coulomb friction, integrated by :func:`femb.contact.simulate`.", t_end=0.5, h=2e-3, run="contact"),
+          "Coulomb friction; a second ball dropped off-centre on a sphere fixed in space (a sphere pair "
+          "with the ground) bounces on it, rolls and starts to slide off it. Integrated by "
+          ":func:`femb.contact.simulate`.",
+          t_end=0.5, h=2e-3, run="contact"),
     Entry("planar_penalty_contact", "Penalty (compliant) contact in the plane",
           ("femb.elements.penalty_contact.PenaltySphereOnPlane",), planar_penalty_contact,
           "A spinning disc dropped on a compliant floor: Hertz stiffness with Hunt–Crossley damping and "

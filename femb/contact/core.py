@@ -238,7 +238,20 @@ def residual(x, o, mq, mv, kin, law, lay, par, sets, out):
         e = abs(S[a] * R[a])
         if not e <= err:            # NaN propagates
             err = e
+    if _undefined_gap(mv):          # no solution here, even where that contact is open
+        err = np.nan
     return err
+
+
+@kernel(allocates=True)
+def _undefined_gap(mv):
+    """Whether a gap g_N (``mv[4]``) is not a number: a contact kernel could not define its geometry at
+    this iterate (e.g. a sphere pair whose centres coincide, femb.elements.contact.SpatialSpherePair)."""
+    gN = mv[4]
+    for i in range(gN.size):
+        if not np.isfinite(gN[i]):
+            return True
+    return False
 
 
 @kernel(allocates=True)
@@ -554,7 +567,7 @@ def newton_loop(x, mdl, st, law, lay, par, work):
         _evaluate(x, o, mdl, t1, kout, dq)
         err = residual(x, o, mq, mv, kin, law, lay, rp, sets, out)
         if fixed:
-            err = _fixed_rows(x, o, zf, out)
+            err = _fixed_rows(x, o, zf, out, mv)
         if not np.isfinite(err):
             return 1, it, err
         if err <= tol:
@@ -562,7 +575,7 @@ def newton_loop(x, mdl, st, law, lay, par, work):
                 rp[5] = 0.0
                 err = residual(x, o, mq, mv, kin, law, lay, rp, sets, out)
                 if fixed:
-                    err = _fixed_rows(x, o, zf, out)
+                    err = _fixed_rows(x, o, zf, out, mv)
             return (0 if err <= tol else 1), it, err
         if it == freeze_after:
             rp[5] = 1.0
@@ -581,13 +594,14 @@ def newton_loop(x, mdl, st, law, lay, par, work):
     rp[5] = 0.0
     err = residual(x, o, mq, mv, kin, law, lay, rp, sets, out)
     if fixed:
-        err = _fixed_rows(x, o, zf, out)
+        err = _fixed_rows(x, o, zf, out, mv)
     return (0 if err <= tol else 1), max_iter, err
 
 
 @kernel(allocates=True)
-def _fixed_rows(x, o, zf, out):
-    """The contact rows z − z_fixed = 0 of the fixed point's inner problem (eq. (145)); the new error."""
+def _fixed_rows(x, o, zf, out, mv):
+    """The contact rows z − z_fixed = 0 of the fixed point's inner problem (eq. (145)); the new error
+    (NaN where a gap is not defined, as in :func:`residual`)."""
     R, S = out[0], out[1]
     for a in range(zf.size):
         R[o[6] + a] = x[o[6] + a] - zf[a]
@@ -596,6 +610,8 @@ def _fixed_rows(x, o, zf, out):
         e = abs(S[a] * R[a])
         if not e <= err:
             err = e
+    if _undefined_gap(mv):
+        err = np.nan
     return err
 
 

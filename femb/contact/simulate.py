@@ -133,7 +133,19 @@ def solver_options(model, solver):
     return tol, counts[0], counts[1], bool(o["locate_impacts"])
 
 
-def diagnose(model, lay, s, gap_tol, vel_tol):
+def geometry_problems(model, q):
+    """Contacts whose geometry is undefined or nearly so at q (their types' ``geometry_problems``):
+    a list of (element name, why)."""
+    qx = model.ext(np.asarray(q, dtype=float))
+    out = []
+    for g in model.contact_groups:
+        probe = getattr(g.cls, "geometry_problems", None)
+        if probe is not None:
+            out += [(g.elements[e].name, why) for e, why in probe(g.P, qx[g.xdofs])]
+    return out
+
+
+def diagnose(model, lay, s, gap_tol, vel_tol, h=None):
     """Why a step has no consistent contact force: (contact name, reason) or (None, reason).
 
     For every closed, slipping contact i with μ_i > 0 it forms the normal acceleration's
@@ -142,6 +154,9 @@ def diagnose(model, lay, s, gap_tol, vel_tol):
     acceleration b_i. a_i ≤ 0 is Painlevé's paradox (Painlevé 1895; Génot & Brogliato,
     Eur. J. Mech. A 18 (1999) 653–677): no non-negative λ_N gives g̈_N = b_i + a_i λ_N ≥ 0 with
     complementarity when b_i < 0 (inconsistency), two solutions when b_i > 0 (indeterminacy).
+    Without such a contact, the contacts whose geometry is undefined or nearly so at s or, given the
+    step size ``h``, at s moved by h s.u (:func:`geometry_problems`: e.g. a sphere pair whose centres
+    (nearly) coincide).
     """
     t, q, u = s.t, s.q, s.u
     ev = assemble.evaluate(model, t, q, u)
@@ -166,6 +181,12 @@ def diagnose(model, lay, s, gap_tol, vel_tol):
                                   f"{lay.mu[i]:g}, and its normal acceleration falls as its normal force grows "
                                   f"(W_N G (W_N − μ ŝ W_F)ᵀ = {a:.4g} ≤ 0; free normal acceleration {b:.4g}): "
                                   f"Painlevé's paradox, {kind} for Coulomb friction")
+    bad = geometry_problems(model, q)
+    if not bad and h is not None:
+        bad = geometry_problems(model, model.compose(q, h * np.asarray(u, dtype=float)))
+    if bad:
+        name, why = bad[0]
+        return name, f"contact '{name}' at t = {t:.6g} s: {why}"
     return None, "no consistent contact forces found (no slipping contact shows Painlevé's paradox)"
 
 
@@ -271,7 +292,7 @@ def simulate(model, t_end, h, *, rho_inf=0.8, t0=0.0, rtol=None, atol=None, h_ma
             s, x, ev, sets, work = _step(stepper, s, h, n, rec, vel_tol, locate_impacts)
         except StepFailure as err:
             res = rec.result(h, rho_inf, tol, init_time, time.perf_counter() - t_loop, "failed", str(err))
-            name, why = diagnose(model, lay, s, 1e-9 * L, vel_tol)
+            name, why = diagnose(model, lay, s, 1e-9 * L, vel_tol, h)
             raise ContactError(f"contact step {n} from t = {s.t:.6g} s to t = {s.t + h:.6g} s failed: {why} "
                                f"({err})", contact=name, t=s.t + h, step=n, result=res) from None
         rec.store(s, x, ev, _states(ev, sets, lay, vel_tol), stepper, work)
@@ -283,6 +304,11 @@ def _start(model, lay, stepper, t0, vel_tol):
     L = model.length_scale
     st = consistent_initial_state(model, t0=t0, contacts=True)
     ev0 = assemble.evaluate(model, t0, st.q, st.qd)
+    undefined = np.nonzero(~np.isfinite(ev0["gN"]))[0]
+    if undefined.size:
+        i = undefined[0]
+        why = dict(geometry_problems(model, st.q)).get(lay.names[i], "its gap is not defined there")
+        raise ModelError(f"contact '{lay.names[i]}' at t0 = {t0:g}: {why}")
     bad = np.nonzero(ev0["gN"] < -1e-10 * L)[0]
     if bad.size:
         i = bad[0]

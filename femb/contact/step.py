@@ -649,6 +649,8 @@ class NonsmoothStep:
         for it in range(1, (max_iter or self.max_iter) + 1):
             R, J, ev, sets = self.system(s, x, fixed_z, frozen)
             err = float(np.max(np.abs(self.scale(sets) * R))) if R.size else 0.0
+            if not np.all(np.isfinite(ev["gN"])):     # a gap its kernel could not define (as core.residual)
+                err = np.nan
             if not np.isfinite(err):
                 return x, ev, sets, it, False, err
             if err <= self.tol:
