@@ -136,7 +136,7 @@ def _compile_announced(disp, sig, stages=None):
         if is_cached(disp, sig):                    # compiled by another process while this one waited
             return disp.compile(sig)
         print(f"femb: compiling the contact step ({disp.__name__}) for these element types, once; "
-              "about two minutes on 2 cores", file=sys.stderr, flush=True)
+              "about 80 s on 2 cores", file=sys.stderr, flush=True)
         t0 = time.perf_counter()
         if stages is not None:
             from femb.engine.parallel import compile_in_workers
