@@ -92,3 +92,21 @@ def test_bench_contact_prints_the_validation(capsys):
     out = capsys.readouterr().out
     assert "mu = 1.667, gap = 0: ContactError" in out and "Painlevé" in out
     assert "mu = 0.3, gap = 0: ran to t = 0.5 s" in out
+
+
+def test_cache_build_compiles_the_contact_loop_that_every_contact_scene_runs_on(capsys):
+    """``femb cache build`` ends with the contact time loop (one step of the bouncing ball); the loop
+    has one signature, which scenes of other element types (spatial sphere, tippe top) use too."""
+    from femb.base.jit import jit_disabled
+    from femb.console.cli_cache import _build_contact_loop
+    from femb.contact import loop
+    if jit_disabled():
+        pytest.skip("compiled code only")
+    _build_contact_loop()
+    assert capsys.readouterr().err.startswith("femb cache build: the contact time loop ")
+    sigs = set(loop.run_steps.overloads)
+    assert len(sigs) == 1
+    for name in ("contact_sphere3d", "contact_tippetop"):
+        mod = __import__(f"femb.benchmarks.scenes.contact.{name}", fromlist=["build"])
+        femb.contact.simulate(mod.build().compile(), 4e-3, 2e-3)
+        assert set(loop.run_steps.overloads) == sigs, name

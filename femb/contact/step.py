@@ -126,8 +126,9 @@ def _entry_point(disp, args, stages=None):
 
 def _compile_announced(disp, sig, stages=None):
     """``disp.compile(sig)``, said on stderr with the time it took when it is not in the cache (the contact
-    step and its time loop compile once per installation and set of element types: about two minutes of
-    CPU on a small machine), under a lock so that processes that need it at once compile it once. With
+    step and its time loop compile once per installation: their argument types do not depend on the
+    element types, whose kernels they call through their addresses; about two minutes of CPU on a small
+    machine), under a lock so that processes that need it at once compile it once. With
     ``stages``, ``disp`` and its stages are first compiled at once in worker processes into the cache
     (:func:`femb.engine.parallel.compile_in_workers`), and loaded from there."""
     if is_cached(disp, sig):
@@ -135,7 +136,7 @@ def _compile_announced(disp, sig, stages=None):
     with compile_lock(f"contact.{disp.__name__}"):
         if is_cached(disp, sig):                    # compiled by another process while this one waited
             return disp.compile(sig)
-        print(f"femb: compiling the contact step ({disp.__name__}) for these element types, once; "
+        print(f"femb: compiling the contact step ({disp.__name__}), once per installation; "
               "about 80 s on 2 cores", file=sys.stderr, flush=True)
         t0 = time.perf_counter()
         if stages is not None:
