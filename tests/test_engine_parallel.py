@@ -134,3 +134,27 @@ def test_an_engine_built_by_workers_runs_the_same_trajectory(tmp_path):
                        timeout=300)
     assert p.returncode == 0 and "compiling the engine" not in p.stderr, p.stderr[-2000:]
     np.testing.assert_array_equal(np.load(out), ref)
+
+
+def test_a_worker_that_does_not_finish_is_stopped(monkeypatch, capsys):
+    from numba import types as T
+    from femb.engine import parallel
+    monkeypatch.setenv("FEMB_BUILD_WORKERS", "2")
+    monkeypatch.setattr("femb.base.jit.cache_writable", lambda: True)
+    monkeypatch.setattr(parallel, "WORKER_TIMEOUT", 2.0)
+    # workers that never end: their file of argument types is a named pipe that nobody writes
+    real = parallel.tempfile.mkstemp
+
+    def pipe_file(*a, **k):
+        fd, path = real(*a, **k)
+        os.close(fd)
+        os.unlink(path)
+        os.mkfifo(path)
+        return os.open(path, os.O_RDWR), path
+
+    monkeypatch.setattr(parallel.tempfile, "mkstemp", pipe_file)
+    monkeypatch.setattr(parallel.pickle, "dump", lambda obj, fh: None)
+    ran = parallel.compile_in_workers({_Missing("a"): (T.float64,), _Missing("b"): (T.float64,)})
+    assert ran == 2
+    err = capsys.readouterr().err
+    assert err.count("femb: an engine build worker failed") == 2 and "no result after 2 s, stopped" in err, err

@@ -23,6 +23,11 @@ import pickle
 import subprocess
 import sys
 import tempfile
+import time
+
+#: seconds after which the workers that have not finished are stopped (their units are then
+#: compiled by the calling process)
+WORKER_TIMEOUT = 1800.0
 
 #: CPU seconds that each unit took to compile on its own (2-core test machine, numba 0.68; measured
 #: 2026-11-28: the engine's units each in a process of its own, the contact loop's stages as
@@ -113,9 +118,16 @@ def compile_in_workers(units, verbose=True):
     env = dict(os.environ, PYTHONPATH=os.pathsep.join([root] + [p for p in (os.environ.get("PYTHONPATH"),) if p]))
     procs = [subprocess.Popen(cmd + share, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, env=env)
              for share in shares]
+    deadline = time.monotonic() + WORKER_TIMEOUT
     try:
         for p in procs:
-            err = p.communicate()[1].decode(errors="replace").strip()
+            try:
+                err = p.communicate(timeout=max(1.0, deadline - time.monotonic()))[1]
+                err = err.decode(errors="replace").strip()
+            except subprocess.TimeoutExpired:
+                p.kill()
+                err = p.communicate()[1].decode(errors="replace").strip() + \
+                    f"\nno result after {WORKER_TIMEOUT:.0f} s, stopped"
             if p.returncode != 0 and verbose:
                 last = err.splitlines()[-1] if err else ""
                 print(f"femb: an engine build worker failed (exit {p.returncode}: {last}); "
