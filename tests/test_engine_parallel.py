@@ -158,3 +158,18 @@ def test_a_worker_that_does_not_finish_is_stopped(monkeypatch, capsys):
     assert ran == 2
     err = capsys.readouterr().err
     assert err.count("femb: an engine build worker failed") == 2 and "no result after 2 s, stopped" in err, err
+
+
+def test_no_room_for_the_workers_file_compiles_here(monkeypatch, capsys):
+    from numba import types as T
+    from femb.engine import parallel
+    monkeypatch.setenv("FEMB_BUILD_WORKERS", "2")
+    monkeypatch.setattr("femb.base.jit.cache_writable", lambda: True)
+
+    def full(*a, **k):
+        raise OSError(28, "No space left on device")
+
+    monkeypatch.setattr(parallel.tempfile, "mkstemp", full)
+    assert parallel.compile_in_workers({_Missing("a"): (T.float64,), _Missing("b"): (T.float64,)}) == 0
+    assert "femb: no build workers ([Errno 28] No space left on device); this process compiles everything" \
+        in capsys.readouterr().err

@@ -1,4 +1,5 @@
-"""Stage: build, in parallel: the engine's stages compiled at once in worker processes.
+"""Stage: build, in parallel: the engine's stages (and the contact loop's) compiled at once in
+worker processes.
 
 A caller of a stage called by symbol (:mod:`femb.engine.link`) needs only the stage's types to
 compile, not its code: so each of the engine's compiled units (the entry points and the stages
@@ -8,6 +9,7 @@ cache yet between worker processes (longest first onto the least loaded worker, 
 each took to compile, :data:`COST`); each worker compiles its share into the cache and exits; the
 calling process then loads the engine from the cache as any later run does. With two cores the
 engine's compile takes about half the wall time of one process (docs/engine.md, "Compile time").
+The contact time loop (:mod:`femb.contact.loop`, ``stage_signatures``) is compiled the same way.
 
 The workers never run the code they compile (their stages' symbols are bound to ``abort``,
 :func:`femb.engine.link.defer_stages`); only a process that loads it from the cache runs it, after
@@ -106,18 +108,30 @@ def compile_in_workers(units, verbose=True):
     if n < 2 or len(todo) < 2 or not cache_writable():
         return 0
     shares = split(todo, n)
-    # the argument types, for the workers (numba types pickle, as numba's cache index stores them)
-    fd, path = tempfile.mkstemp(prefix="femb-build-", suffix=".pkl")
-    with os.fdopen(fd, "wb") as fh:
-        pickle.dump({unit_name(d): tuple(sg) for d, sg in units.items()}, fh)
-    cmd = [sys.executable, "-c", "import sys; from femb.engine.parallel import worker_main; "
-                                 "sys.exit(worker_main(sys.argv[1:]))", path]
-    # the workers import this process's femb (a checkout on sys.path may shadow an installed one)
     import femb
+    # the workers import this process's femb (a checkout on sys.path may shadow an installed one)
     root = os.path.dirname(os.path.dirname(os.path.abspath(femb.__file__)))
     env = dict(os.environ, PYTHONPATH=os.pathsep.join([root] + [p for p in (os.environ.get("PYTHONPATH"),) if p]))
-    procs = [subprocess.Popen(cmd + share, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, env=env)
-             for share in shares]
+    procs, path = [], None
+    try:
+        # the argument types, for the workers (numba types pickle, as numba's cache index stores them)
+        fd, path = tempfile.mkstemp(prefix="femb-build-", suffix=".pkl")
+        with os.fdopen(fd, "wb") as fh:
+            pickle.dump({unit_name(d): tuple(sg) for d, sg in units.items()}, fh)
+        cmd = [sys.executable, "-c", "import sys; from femb.engine.parallel import worker_main; "
+                                     "sys.exit(worker_main(sys.argv[1:]))", path]
+        for share in shares:
+            procs.append(subprocess.Popen(cmd + share, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, env=env))
+    except OSError as err:                      # a full disk, no processes left: compile here
+        for p in procs:
+            p.kill()
+            p.wait()
+        if path is not None and os.path.exists(path):
+            os.unlink(path)
+        if verbose:
+            print(f"femb: no build workers ({err}); this process compiles everything", file=sys.stderr,
+                  flush=True)
+        return 0
     deadline = time.monotonic() + WORKER_TIMEOUT
     try:
         for p in procs:
