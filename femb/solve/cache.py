@@ -46,6 +46,48 @@ def builtin_element_types():
     return [seen[k] for k in sorted(seen)]
 
 
+def _kernels_to_build():
+    """(element type, role, kernel) of every built-in kernel, in a fixed order."""
+    return [(cls, role, fn) for cls in builtin_element_types()
+            for role, fn in cls.kernels.items() if role in BUILT_ROLES]
+
+
+def _start_kernel_helpers():
+    """Helper processes that compile shares of :func:`_kernels_to_build` into the cache at once with
+    this process (``python -m femb.solve.cache --share k n``: every n-th kernel from the k-th), as
+    many as the engine's build workers (:func:`femb.engine.parallel.workers_wanted`) less this one;
+    none without a writable cache."""
+    import os
+    import subprocess
+    import sys
+
+    import femb
+    from femb.base.jit import cache_writable, jit_disabled
+    from femb.engine.parallel import workers_wanted
+    n = workers_wanted()
+    if n < 2 or jit_disabled() or not cache_writable():
+        return []
+    root = os.path.dirname(os.path.dirname(os.path.abspath(femb.__file__)))
+    env = dict(os.environ, FEMB_BACKGROUND_BUILD="0",
+               PYTHONPATH=os.pathsep.join([root] + [p for p in (os.environ.get("PYTHONPATH"),) if p]))
+    procs = []
+    for k in range(1, n):
+        try:
+            procs.append(subprocess.Popen([sys.executable, "-m", "femb.solve.cache", "--share", str(k), str(n)],
+                                          stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
+                                          stdin=subprocess.DEVNULL, env=env))
+        except OSError:                          # no processes left: this one compiles the rest
+            break
+    return procs
+
+
+def _compile_share(k, n):
+    """Compile every n-th built-in kernel from the k-th (a helper of :func:`build`)."""
+    from femb.system import kernels
+    for cls, role, fn in _kernels_to_build()[k::n]:
+        kernels.compiled_kernel(cls.__name__, role, fn)
+
+
 def build(progress=True, stream=None):
     """Compile the engine and the kernels of every built-in element type (or load them).
 
@@ -65,11 +107,21 @@ def build(progress=True, stream=None):
     t0 = time.perf_counter()
     ensure_engine(verbose=progress)
     t1 = time.perf_counter()
-    todo = [(cls, role, fn) for cls in builtin_element_types()
-            for role, fn in cls.kernels.items() if role in BUILT_ROLES]
+    todo = _kernels_to_build()
+    helpers = _start_kernel_helpers()
+    share = todo[::len(helpers) + 1]
     n = 0
     pb = bar(len(todo), desc="femb cache build: kernels", enabled=progress)
-    for cls, role, fn in todo:
+    for cls, role, fn in share:                 # this process's share, then the helpers' from the cache
+        kernels.compiled_kernel(cls.__name__, role, fn)
+        n += 1
+        pb.update(1)
+    for p in helpers:
+        err = p.communicate()[1].decode(errors="replace").strip()
+        if p.returncode != 0 and progress:
+            print(f"femb cache build: a helper process failed (exit {p.returncode}: "
+                  f"{err.splitlines()[-1] if err else ''}); this process compiles what it left", file=out, flush=True)
+    for cls, role, fn in (t for i, t in enumerate(todo) if i % (len(helpers) + 1)):
         kernels.compiled_kernel(cls.__name__, role, fn)
         n += 1
         pb.update(1)
@@ -168,9 +220,13 @@ def clear():
     return size
 
 
-if __name__ == "__main__":       # the background build (start_background_build)
+if __name__ == "__main__":       # the background build (start_background_build), or a helper of build
     import os
     import sys
+    if "--share" in sys.argv:
+        i = sys.argv.index("--share")
+        _compile_share(int(sys.argv[i + 1]), int(sys.argv[i + 2]))
+        sys.exit(0)
     if "--background" in sys.argv:
         try:
             os.nice(10)
