@@ -59,8 +59,9 @@ def test_split_puts_the_longest_first_onto_the_least_loaded_worker():
     assert sorted(sum(shares, [])) == sorted(names)
     assert split(names[:1], 4) == [["m:run"]]
     # the contact loop's Newton iteration and its evaluation share their code: one worker
+    from femb.contact.loop import BUILD_COST, BUILD_TOGETHER
     contact = [f"c:{n}" for n in ("_evaluate_at", "_impact_time", "_solve", "newton_loop", "store")]
-    a, b = split(contact, 2)
+    a, b = split(contact, 2, BUILD_COST, BUILD_TOGETHER)
     assert a[:2] == ["c:newton_loop", "c:_evaluate_at"] and "c:_impact_time" in b
 
 

@@ -134,7 +134,7 @@ def _entry(dm, args):
     DenseModel: forming the types of its batch records anew costs milliseconds a run)."""
     fn = getattr(dm, "_loop_entry", None)
     if fn is None:
-        fn = dm._loop_entry = _entry_point(loop.run_steps, args, loop.stage_signatures)
+        fn = dm._loop_entry = _entry_point(loop.run_steps, args, loop.build_plan)
     return fn
 
 

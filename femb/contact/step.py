@@ -111,20 +111,21 @@ def _dense_model(model):
     return per_thread[key]
 
 
-def _entry_point(disp, args, stages=None):
+def _entry_point(disp, args, plan=None):
     """The compiled function of ``disp`` for the types of ``args``, callable without the dispatcher's type
     resolution (which hashes the nested tuple types anew at every call: milliseconds here); kept per
-    process and argument structure. ``disp`` itself under NUMBA_DISABLE_JIT. ``stages(sig)``, if given,
-    names the stages that ``disp`` calls by symbol with their argument types (compiled in parallel)."""
+    process and argument structure. ``disp`` itself under NUMBA_DISABLE_JIT. ``plan(sig)``, if given,
+    gives the units to compile in parallel, their costs and the groups kept together
+    (:func:`femb.contact.loop.build_plan`)."""
     if jit_disabled():
         return disp
     key = (disp.__name__, _fingerprint(args))
     if key not in _ENTRIES:
-        _ENTRIES[key] = _compile_announced(disp, tuple(numba.typeof(a) for a in args), stages)
+        _ENTRIES[key] = _compile_announced(disp, tuple(numba.typeof(a) for a in args), plan)
     return _ENTRIES[key]
 
 
-def _compile_announced(disp, sig, stages=None):
+def _compile_announced(disp, sig, plan=None):
     """``disp.compile(sig)``, said on stderr with the time it took when it is not in the cache (the contact
     step and its time loop compile once per installation: their argument types do not depend on the
     element types, whose kernels they call through their addresses; about two minutes of CPU on a small
@@ -139,9 +140,10 @@ def _compile_announced(disp, sig, stages=None):
         print(f"femb: compiling the contact step ({disp.__name__}), once per installation; "
               "about 80 s on 2 cores", file=sys.stderr, flush=True)
         t0 = time.perf_counter()
-        if stages is not None:
+        if plan is not None:
             from femb.engine.parallel import compile_in_workers
-            compile_in_workers({disp: sig, **stages(sig)})
+            units, cost, together = plan(sig)
+            compile_in_workers(units, cost=cost, together=together)
         fn = disp.compile(sig)
         kept = "cached for later runs" if cache_writable() else "in memory for this run only"
         print(f"femb: contact step compiled in {time.perf_counter() - t0:.1f} s, {kept}", file=sys.stderr,

@@ -31,30 +31,19 @@ import time
 #: compiled by the calling process)
 WORKER_TIMEOUT = 1800.0
 
-#: CPU seconds that each unit took to compile on its own (2-core test machine, numba 0.68; measured
-#: 2026-11-28: the engine's units each in a process of its own, the contact loop's stages as
-#: numba's compile events counted them in one process): only their ratios matter, for the split
+#: CPU seconds that each of the engine's units took to compile on its own, each in a process of its
+#: own (2-core test machine, numba 0.68; measured 2026-11-28): only their ratios matter, for the
+#: split (other callers pass their own: femb.contact.loop.BUILD_COST)
 COST = {"run": 9.8, "newton_step": 10.3, "evaluate": 8.3, "kernel_blocks": 2.0, "rates": 1.7,
         "dense_lu": 1.5, "kkt_solve": 1.5, "kkt_estimate": 1.3, "band_lu": 1.2, "resynchronise": 1.2,
         "refine_accelerations": 1.1, "jacobian_times": 1.0, "copy_B": 0.8, "dense_solve": 0.7,
         "band_solve": 0.6, "project_normal_velocity": 0.6, "velocity_residual": 0.4,
         "eval_time_functions": 0.4, "constraint_B": 0.4, "ggl_matrix": 0.4, "lie_reset": 0.2,
-        "dense_lu_solve": 0.2,
-        # the contact loop (femb/contact/loop.py, core.py), each in a worker with the units listed
-        # before it in its share (CPU seconds; the ball's loop, 2026-11-28)
-        "newton_loop": 45.6, "_evaluate_at": 34.4, "_impact_time": 29.5, "_solve": 12.3,
-        "_prox_update": 8.9, "run_steps": 8.2, "_one_step": 8.2, "store": 6.1, "_fixed_point": 4.7,
-        "_task": 2.4, "_free_flight": 2.4}
-
-#: units that share most of their code (small functions compiled into each, not called by symbol):
-#: put in the same worker, which compiles that code once (the contact loop's Newton iteration and
-#: its evaluation at a point share the kinematics, the batches' evaluation and the residual: 35 s
-#: of CPU compiled twice when apart)
-TOGETHER = (("newton_loop", "_evaluate_at"),)
+        "dense_lu_solve": 0.2}
 
 
-def _cost(name):
-    return COST.get(name.rsplit(":", 1)[-1].rsplit(".", 1)[-1], 1.0)
+def _short(name):
+    return name.rsplit(":", 1)[-1].rsplit(".", 1)[-1]
 
 
 def unit_name(disp):
@@ -78,12 +67,18 @@ def workers_wanted():
     return min(n, 4)
 
 
-def split(names, n):
-    """``n`` lists of unit names, longest first onto the least loaded list (by :data:`COST`; an
-    unknown unit counts 1 s); the units of a group of :data:`TOGETHER` go to one list."""
-    short = {u: u.rsplit(":", 1)[-1].rsplit(".", 1)[-1] for u in names}
+def split(names, n, cost=None, together=()):
+    """``n`` lists of unit names, longest first onto the least loaded list (by ``cost``, the
+    function name's CPU seconds, default :data:`COST`; an unknown unit counts 1 s); the units of a
+    group of ``together`` (tuples of function names that share most of their code) go to one list."""
+    cost = COST if cost is None else cost
+    short = {u: _short(u) for u in names}
+
+    def _cost(u):
+        return cost.get(short[u], 1.0)
+
     items, grouped = [], set()
-    for group in TOGETHER:
+    for group in together:
         members = [u for u in names if short[u] in group]
         if members:
             items.append(sorted(members, key=lambda u: group.index(short[u])))
@@ -98,16 +93,17 @@ def split(names, n):
     return [s for s in shares if s]
 
 
-def compile_in_workers(units, verbose=True):
+def compile_in_workers(units, verbose=True, cost=None, together=()):
     """Compile the units of ``units`` (``{dispatcher: argument types}``) that are not cached yet in
-    worker processes, into the disk cache. Returns the number of workers that ran (0: nothing was
-    done in parallel; the caller compiles everything itself)."""
+    worker processes, into the disk cache, split by :func:`split` (``cost``, ``together``). Returns
+    the number of workers that ran (0: nothing was done in parallel; the caller compiles everything
+    itself)."""
     from femb.base.jit import cache_writable, is_cached
     n = workers_wanted()
     todo = [unit_name(d) for d, sg in units.items() if not is_cached(d, sg)]
     if n < 2 or len(todo) < 2 or not cache_writable():
         return 0
-    shares = split(todo, n)
+    shares = split(todo, n, cost, together)
     import femb
     # the workers import this process's femb (a checkout on sys.path may shadow an installed one)
     root = os.path.dirname(os.path.dirname(os.path.abspath(femb.__file__)))

@@ -56,7 +56,8 @@ def _start_kernel_helpers():
     """Helper processes that compile shares of :func:`_kernels_to_build` into the cache at once with
     this process (``python -m femb.solve.cache --share k n``: every n-th kernel from the k-th), as
     many as the engine's build workers (:func:`femb.engine.parallel.workers_wanted`) less this one;
-    none without a writable cache."""
+    none without a writable cache. Returns (the processes, n): this process's share is every n-th
+    kernel from the first."""
     import os
     import subprocess
     import sys
@@ -66,7 +67,7 @@ def _start_kernel_helpers():
     from femb.engine.parallel import workers_wanted
     n = workers_wanted()
     if n < 2 or jit_disabled() or not cache_writable():
-        return []
+        return [], 1
     root = os.path.dirname(os.path.dirname(os.path.abspath(femb.__file__)))
     env = dict(os.environ, FEMB_BACKGROUND_BUILD="0",
                PYTHONPATH=os.pathsep.join([root] + [p for p in (os.environ.get("PYTHONPATH"),) if p]))
@@ -78,7 +79,7 @@ def _start_kernel_helpers():
                                           stdin=subprocess.DEVNULL, env=env))
         except OSError:                          # no processes left: this one compiles the rest
             break
-    return procs
+    return procs, n
 
 
 def _compile_share(k, n):
@@ -108,8 +109,8 @@ def build(progress=True, stream=None):
     ensure_engine(verbose=progress)
     t1 = time.perf_counter()
     todo = _kernels_to_build()
-    helpers = _start_kernel_helpers()
-    share = todo[::len(helpers) + 1]
+    helpers, stride = _start_kernel_helpers()
+    share = todo[::stride]                      # helper k of them compiles todo[k::stride]
     n = 0
     pb = bar(len(todo), desc="femb cache build: kernels", enabled=progress)
     for cls, role, fn in share:                 # this process's share, then the helpers' from the cache
@@ -121,7 +122,7 @@ def build(progress=True, stream=None):
         if p.returncode != 0 and progress:
             print(f"femb cache build: a helper process failed (exit {p.returncode}: "
                   f"{err.splitlines()[-1] if err else ''}); this process compiles what it left", file=out, flush=True)
-    for cls, role, fn in (t for i, t in enumerate(todo) if i % (len(helpers) + 1)):
+    for cls, role, fn in (t for i, t in enumerate(todo) if i % stride):
         kernels.compiled_kernel(cls.__name__, role, fn)
         n += 1
         pb.update(1)
