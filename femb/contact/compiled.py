@@ -148,11 +148,12 @@ def _python_step(stepper, P, F, n, arr, ctx, loop_args):
     s1, x, ev, sets, work = sim._step(stepper, s, h, n, tmp, vel_tol, locate)
     arr.add_iterations(tmp.iterations, tmp.methods)
     arr.add_events(tmp.events, list(stepper.lay.names), n)
-    arr.wsum += work
+    arr.wsum += work[:2]
     _put_state(P, F, s1, stepper)
     row = P[0]
     row[F[_F("PN")]:F[_F("PN") + 1]] = ev["PN"]
     row[F[_F("PF")]:F[_F("PF") + 1]] = ev["PF"]
+    row[F[_F("sum_PN")]:] = work[2:]              # the step's sums: P_N, Λ_N, P_F, Λ_F (simulate._sums)
     row[F[_F("sets")]:F[_F("sets") + 1]] = np.concatenate([np.asarray(a, dtype=float) for a in sets])
     loop.store(P, n, ctx, arr.pack())
 

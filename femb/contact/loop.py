@@ -49,9 +49,9 @@ from femb.contact.result import OPEN, SLIP, STICK
 
 #: the fields of a state row, in order (their offsets are ``F[i]:F[i + 1]``)
 FIELDS = ("t", "q", "u", "ud", "abar", "lam_N", "lam_F", "lbar_N", "lbar_F", "gNd", "gFd", "x", "gN", "gNdd",
-          "rN", "rF", "PN", "PF", "sets", "work", "its")
+          "rN", "rF", "PN", "PF", "sets", "work", "its", "sum_PN", "sum_LN", "sum_PF", "sum_LF")
 (_T, _Q, _U, _UD, _AB, _LN, _LF, _LBN, _LBF, _GND, _GFD, _X, _GN, _GNDD, _RN, _RF, _PN, _PF, _SETS, _WORK,
- _ITS) = range(21)
+ _ITS, _SPN, _SLN, _SPF, _SLF) = range(25)
 #: splits in progress at most (simulate._step splits up to depth 40)
 _MAX_SPLITS = 48
 #: (sub)steps done; no solution found (the Python loop takes the step); arrays full
@@ -59,9 +59,9 @@ DONE, PYTHON, FULL = 0, 1, 2
 
 
 def offsets(nqx, n, nc_x, k, l):
-    """The offsets F (22,) of the fields of a state row for nqx configuration entries, n velocities,
+    """The offsets F (26,) of the fields of a state row for nqx configuration entries, n velocities,
     nc_x unknowns x, k normal and l tangent rows."""
-    sizes = (1, nqx, n, n, n, k, l, k, l, k, l, nc_x, k, k, k, l, k, l, 5 * k, 2, 2)
+    sizes = (1, nqx, n, n, n, k, l, k, l, k, l, nc_x, k, k, k, l, k, l, 5 * k, 2, 2, k, k, l, l)
     return np.concatenate(([0], np.cumsum(sizes))).astype(np.int64)
 
 
@@ -420,6 +420,12 @@ def _accept(P, ri, n, ctx, rec):
         ev_u[e, 0, :] = _field(s, F, _U)
         ev_u[e, 1, :] = _field(r, F, _U)
         cnt[0] += 1
+    x = _field(r, F, _X)
+    for i, a, j in ((_SPN, _PN, -1), (_SLN, -1, 7), (_SPF, _PF, -1), (_SLF, -1, 9)):
+        dst, prev = _field(r, F, i), _field(s, F, i)     # the step's sums of the (sub)steps' impulses
+        add = _field(r, F, a) if a >= 0 else x[o[j]:o[j + 1]]
+        for p in range(dst.size):
+            dst[p] = prev[p] + add[p]
     P[0, :] = P[ri]
     return True
 
@@ -517,12 +523,12 @@ def store(P, n, ctx, rec):
     gN[n] = _field(s, F, _GN)
     gNd[n] = _field(s, F, _GND)
     lN[n] = x[o[8]:o[9]]
-    LN[n] = x[o[7]:o[8]]
-    PN[n] = _field(s, F, _PN)
+    LN[n] = _field(s, F, _SLN)           # the impulses summed over the step's substeps
+    PN[n] = _field(s, F, _SPN)
     gF[n] = _field(s, F, _GFD)
     lF[n] = x[o[10]:o[11]]
-    LF[n] = x[o[9]:o[10]]
-    PF[n] = _field(s, F, _PF)
+    LF[n] = _field(s, F, _SLF)
+    PF[n] = _field(s, F, _SPF)
     work[n] = rec[5]
     k = gN.shape[1]
     fptr, fidx = lay[1], lay[2]
@@ -546,6 +552,7 @@ def run_steps(P, h, n0, n1, ctx, rec):
     for n in range(n0, n1 + 1):
         c0, c1, c2, c3, w0, w1 = cnt[0], cnt[1], cnt[2], cnt[3], wsum[0], wsum[1]
         save = P[0].copy()
+        P[0, ctx[0][_SPN]:] = 0.0                   # the step's sums of its substeps' impulses (the last fields)
         status = call(_one_step, P, h, n, ctx, rec, fr)
         if status != DONE:
             cnt[0], cnt[1], cnt[2], cnt[3], wsum[0], wsum[1] = c0, c1, c2, c3, w0, w1

@@ -17,15 +17,15 @@ NORMAL_OUTPUTS = {
     "gN": ("gN", "m", "gap g_N"),
     "gN_d": ("gN_d", "m/s", "normal relative velocity ġ_N"),
     "lam_N": ("lambda_N", "N", "normal contact force λ_N"),
-    "Lam_N": ("Lambda_N", "N·s", "normal percussion Λ_N (impulsive part)"),
-    "P_N": ("P_N", "N·s", "normal impulse of the step P_N = Λ_N + h-weighted λ_N"),
+    "Lam_N": ("Lambda_N", "N·s", "normal percussion Λ_N (impulsive part), summed over the step's substeps"),
+    "P_N": ("P_N", "N·s", "normal impulse of the step P_N = Λ_N + h-weighted λ_N, summed over its substeps"),
     "state": ("state", "1", "0 open, 1 stick, 2 slip"),
 }
 FRICTION_OUTPUTS = {
     "gam_F": ("gamma_F", "m/s", "slip velocity γ_F along the tangent"),
     "lam_F": ("lambda_F", "N", "friction force λ_F"),
-    "Lam_F": ("Lambda_F", "N·s", "friction percussion Λ_F"),
-    "P_F": ("P_F", "N·s", "friction impulse of the step P_F"),
+    "Lam_F": ("Lambda_F", "N·s", "friction percussion Λ_F, summed over the step's substeps"),
+    "P_F": ("P_F", "N·s", "friction impulse of the step P_F, summed over its substeps"),
 }
 
 

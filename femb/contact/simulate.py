@@ -270,7 +270,7 @@ def simulate(model, t_end, h, *, rho_inf=0.8, t0=0.0, rtol=None, atol=None, h_ma
     t_init = time.perf_counter()
     s, x0, ev0 = _start(model, lay, stepper, t0, vel_tol)
     rec = _Recorder(model, lay)
-    rec.store(s, x0, ev0, np.zeros(lay.nN, dtype=np.int8), stepper, (0.0, 0.0))
+    rec.store(s, x0, ev0, np.zeros(lay.nN, dtype=np.int8), stepper, _sums(stepper, x0, ev0, 0.0, 0.0))
     init_time = time.perf_counter() - t_init
     if compiled is None or compiled:
         from femb.contact import compiled as fast
@@ -408,14 +408,13 @@ def _split_at_impact(stepper, s, h, impact, n, rec, vel_tol, locate, depth):
             x1, ev1, sets1, info1, h1 = free
             s1, _, _, _, w1 = _accept(stepper, s, x1, ev1, sets1, info1, n, rec, vel_tol)
             s2, x2, ev2, sets2, w2 = _step(stepper, s1, h - h1, n, rec, vel_tol, locate, depth + 1)
-            return s2, x2, ev2, sets2, (w1[0] + w2[0], w1[1] + w2[1])
-    work = [0.0, 0.0]
+            return s2, x2, ev2, sets2, w1 + w2
+    work = 0.0
     first = min(tau + d, 0.5 * h)
     for hk in (first, h - first):                       # the impact is imminent: take it in ≤ 3d
         s, x, ev, sets, w = _step(stepper, s, hk, n, rec, vel_tol, locate, depth + 1)
-        work[0] += w[0]
-        work[1] += w[1]
-    return s, x, ev, sets, tuple(work)
+        work = work + w
+    return s, x, ev, sets, work
 
 
 def _free_flight(stepper, s, tau, gap_tol, tries=8):
@@ -435,10 +434,17 @@ def _accept(stepper, s, x, ev, sets, info, n, rec, vel_tol):
     rec.iterations.append(info["iterations"])
     rec.methods.append(info["method"])
     um = 0.5 * (s.u + ev["u"])
-    work = (float(um @ (ev["WN"].T @ ev["PN"])), float(um @ (ev["WF"].T @ ev["PF"])))
+    work = _sums(stepper, x, ev, float(um @ (ev["WN"].T @ ev["PN"])), float(um @ (ev["WF"].T @ ev["PF"])))
     new = _advance(stepper, s, x, ev)
     rec.impacts(n, s, new, ev, sets, stepper.split(x), vel_tol)
     return new, x, ev, sets, work
+
+
+def _sums(stepper, x, ev, work_N, work_F):
+    """What a (sub)step adds to its step's sums: (work_N, work_F, P_N, Λ_N, P_F, Λ_F) in one array
+    (the substeps of a split step add theirs, :func:`_split_at_impact`; :meth:`_Recorder.store`)."""
+    parts = stepper.split(x)
+    return np.concatenate(([work_N, work_F], ev["PN"], parts[7], ev["PF"], parts[9]))
 
 
 def _advance(stepper, s, x, ev):
@@ -461,17 +467,21 @@ class _Recorder:
         self._wN = self._wF = 0.0
 
     def store(self, s, x, ev, state, stepper, work):
+        """Store the step that ended at s: its last (sub)step's solution x, ev; ``work`` the step's sums
+        of :func:`_sums` (the impulses P_N, Λ_N, P_F, Λ_F of all its substeps, the contact work)."""
         parts = stepper.split(x)
         self._wN += work[0]
         self._wF += work[1]
+        kN, kF = self.lay.nN, self.lay.nF
+        PN, LN, PF, LF = np.split(np.asarray(work[2:]), np.cumsum((kN, kN, kF)))
         self.t.append(s.t)
         self.q.append(s.q.copy())
         self.u.append(s.u.copy())
         self.ud.append(s.ud.copy())
         self.lam.append(np.array(parts[5], dtype=float))
-        for key, val in (("gN", ev["gN"]), ("gN_d", ev["WN"] @ s.u), ("lam_N", parts[8]), ("Lam_N", parts[7]),
-                         ("P_N", ev["PN"]), ("state", state), ("gam_F", ev["WF"] @ s.u), ("lam_F", parts[10]),
-                         ("Lam_F", parts[9]), ("P_F", ev["PF"]), ("work_N", self._wN), ("work_F", self._wF)):
+        for key, val in (("gN", ev["gN"]), ("gN_d", ev["WN"] @ s.u), ("lam_N", parts[8]), ("Lam_N", LN),
+                         ("P_N", PN), ("state", state), ("gam_F", ev["WF"] @ s.u), ("lam_F", parts[10]),
+                         ("Lam_F", LF), ("P_F", PF), ("work_N", self._wN), ("work_F", self._wF)):
             self.c[key].append(np.array(val, copy=True))
 
     def impacts(self, n, s, new, ev, sets, parts, vel_tol):

@@ -361,7 +361,7 @@ class NonsmoothStep:
             err = self._dense_residual(s, x, ev, frozen)
             if not np.isfinite(err):
                 return (x, *self._dense_result(ev), it, False, err)
-            if err <= self.tol:
+            if err <= (self.tol if it > 1 else core.GUESS_TOL * self.tol):
                 if frozen is not None:       # converged with the sets held: a solution if they are its own
                     err = self._dense_residual(s, x, ev, None)
                 return (x, *self._dense_result(ev), it, err <= self.tol, err)
@@ -656,7 +656,7 @@ class NonsmoothStep:
                 err = np.nan
             if not np.isfinite(err):
                 return x, ev, sets, it, False, err
-            if err <= self.tol:
+            if err <= (self.tol if it > 1 else core.GUESS_TOL * self.tol):   # core.GUESS_TOL: the start guess
                 if frozen is None:
                     return x, ev, sets, it, True, err
                 # converged with the index sets held: a solution if they are its own index sets
