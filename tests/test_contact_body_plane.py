@@ -445,3 +445,187 @@ def test_impact_on_a_free_plate(kind, e_N):
     if e_N == 1.0:                                           # elastic and frictionless: energy kept at every step
         assert np.abs(E - E[0]).max() <= scale * ref["Lam"]
     assert res.contact["gN"].min() >= -1e-10 * R_B
+
+
+# --------------------------------------------------------------- 4. Coulomb friction on a moving plate
+MU_S, G_S, M_BLK, M_PLT, V_P0, W_BLK, H_BLK, H_S, T_S = 0.3, 9.81, 1.0, 2.0, 1.0, 0.2, 0.1, 1e-3, 0.4
+T_STICK = V_P0 / (MU_S * G_S * (1.0 + M_BLK / M_PLT))
+V_COMMON = M_PLT * V_P0 / (M_BLK + M_PLT)
+
+
+def _sliding(kind):
+    """A block (m = 1, 0.2 × 0.1 m, at rest) set on a plate (M = 2) that slides at 1 m/s on a frictionless
+    support (a slider / prismatic joint to the ground along x); its two (four) bottom corners are contacts on
+    the plate's plane with μ = 0.3."""
+    m = femb.Mechanism(f"sliding_{kind}")
+    w, hb = 0.5 * W_BLK, 0.5 * H_BLK
+    if kind == "planar":
+        m.add(RigidBody("plate", M_PLT, 0.1, position=(0.0, 0.0), velocity=(V_P0, 0.0)))
+        m.add(Slider("support", "ground", "plate", axis=(1.0, 0.0), at=(0.0, 0.0)))
+        m.add(RigidBody("block", M_BLK, M_BLK * (W_BLK ** 2 + H_BLK ** 2) / 12.0, position=(0.0, hb)))
+        m.add(Gravity((0.0, -G_S)))
+        for k, x in enumerate((-w, w)):
+            m.add(SphereOnBodyPlane(f"c{k}", "block", "plate", 0.0, point=(x, -hb), mu=MU_S))
+        return m
+    from femb.elements import PrismaticJoint
+    m.add(SpatialRigidBody("plate", M_PLT, (0.1, 0.1, 0.2), position=(0.0, 0.0, 0.0), velocity=(V_P0, 0.0, 0.0)))
+    m.add(PrismaticJoint("support", "ground", "plate", at=(0.0, 0.0, 0.0), axis=(1.0, 0.0, 0.0)))
+    jb = M_BLK * (W_BLK ** 2 + H_BLK ** 2) / 12.0
+    m.add(SpatialRigidBody("block", M_BLK, (jb, jb, M_BLK * W_BLK ** 2 / 6.0), position=(0.0, 0.0, hb)))
+    m.add(SpatialGravity((0.0, 0.0, -G_S)))
+    for k, (x, y) in enumerate(((-w, -w), (w, -w), (w, w), (-w, w))):
+        m.add(SpatialSphereOnBodyPlane(f"c{k}", "block", "plate", 0.0, point=(x, y, -hb), mu=MU_S))
+    return m
+
+
+def sliding_figures(kind, compiled=None):
+    """The block's and the plate's velocities and positions along x against Coulomb's closed form."""
+    model = _sliding(kind).compile()
+    res = simulate(model, T_S, H_S, compiled=compiled)
+    xb, vb = res.series("block.x")[0], res.series("block.x_d")[0]
+    xp, vp = res.series("plate.x")[0], res.series("plate.x_d")[0]
+    t = res.t
+    a_b, a_p = MU_S * G_S, -MU_S * G_S * M_BLK / M_PLT
+    slide = t <= T_STICK - H_S
+    stick = t >= T_STICK + H_S
+    out = dict(res=res, t=t, slide=slide, stick=stick, length_scale=model.length_scale,
+               vb_slide=np.abs(vb[slide] - a_b * t[slide]).max(),
+               vp_slide=np.abs(vp[slide] - V_P0 - a_p * t[slide]).max(),
+               xb_slide=np.abs(xb[slide] - 0.5 * a_b * t[slide] ** 2).max(),
+               xp_slide=np.abs(xp[slide] - V_P0 * t[slide] - 0.5 * a_p * t[slide] ** 2).max(),
+               v_stick=max(np.abs(vb[stick] - V_COMMON).max(), np.abs(vp[stick] - V_COMMON).max()),
+               # relative displacement while sliding: ∫ Δv dt = ½ V_P0 T_STICK
+               dx_stick=np.abs(xp[stick] - xb[stick] - 0.5 * V_P0 * T_STICK).max(),
+               momentum=np.abs(M_BLK * vb + M_PLT * vp - M_PLT * V_P0).max())
+    return out
+
+
+@pytest.mark.parametrize("kind", ["planar", "spatial"])
+def test_block_on_a_moving_plate_slides_then_sticks(kind):
+    """Coulomb friction on a body-fixed plane that moves. While the block slips, the friction force μ m g drives
+    it forward and the plate back (the support has no friction along x): a_b = μ g, a_p = −μ g m/M, so the
+    relative velocity falls from V_P0 at μ g (1 + m/M) and vanishes at t* = V_P0/(μ g (1 + m/M)) = 0.2265 s;
+    from then on both move at V_c = M V_P0/(m + M) (momentum; no force is needed to keep them together), and
+    the block has slid ½ V_P0 t* along the plate. Sliding phase to 1e-12 (constant forces: the scheme is exact);
+    after t* the velocities to the Newton tolerance tol/h (measured 2.9e-11 m/s); the slid distance to
+    μ g (1 + m/M) h², the error of the step in which the slip stops (slip–stick transitions are not located,
+    docs/contact.md §8); momentum along x to 1e-12."""
+    f = sliding_figures(kind)
+    res = f["res"]
+    assert res.status == "success" and f["slide"].sum() > 200 and f["stick"].sum() > 150
+    for key in ("vb_slide", "vp_slide", "xb_slide", "xp_slide", "momentum"):
+        assert f[key] < 1e-12, (key, f[key])
+    assert f["v_stick"] <= 1e-12 * f["length_scale"] / H_S        # the stick law ξ_F = 0 to the Newton tolerance
+    assert f["dx_stick"] <= MU_S * G_S * (1.0 + M_BLK / M_PLT) * H_S ** 2
+    names = ("c0", "c1") if kind == "planar" else ("c0", "c1", "c2", "c3")
+    for c in names:
+        st = np.asarray(res.contact_state(c))
+        assert set(st[1:][f["slide"][1:]]) == {"slip"} and set(st[f["stick"]]) == {"stick"}
+    # the friction forces on the block while it slides: μ times the normal forces, forward (+x)
+    lam_N = sum(res.series(f"{c}.lambda_N")[0] for c in names)
+    s = f["slide"] & (f["t"] > 0.0)
+    np.testing.assert_allclose(lam_N[s], M_BLK * G_S, rtol=1e-12)
+    if kind == "planar":            # t = (n_y, −n_x) = +x
+        fx = sum(res.series(f"{c}.lambda_F")[0] for c in names)
+    else:                           # t₁, t₂ of tangents(e_z), fixed in the plate (not turning here)
+        from femb.elements.contact import tangents
+        t1, t2 = tangents(np.array((0.0, 0.0, 1.0)))
+        fx = sum(t1[0] * res.series(f"{c}.lambda_F1")[0] + t2[0] * res.series(f"{c}.lambda_F2")[0] for c in names)
+    np.testing.assert_allclose(fx[s], MU_S * M_BLK * G_S, rtol=1e-12)
+    assert res.contact["gN"].min() >= -1e-10 * H_BLK
+
+
+# --------------------------------------------------------------- 5. bad inputs
+def _mech(kind):
+    m = femb.Mechanism("bad")
+    if kind == "planar":
+        m.add(RigidBody("plate", 1.0, 0.1, position=(0.0, 0.0)))
+        m.add(RigidBody("ball", 1.0, 0.1, position=(0.0, 0.5), points={"tip": (0.0, -0.1)}))
+        m.add(SpringDamper("spring", "plate", "ball", 10.0, 0.0))
+    else:
+        m.add(SpatialRigidBody("plate", 1.0, (0.1, 0.1, 0.1), position=(0.0, 0.0, 0.0)))
+        m.add(SpatialRigidBody("ball", 1.0, (0.1, 0.1, 0.1), position=(0.0, 0.0, 0.5), points={"tip": (0.0, 0.0, -0.1)}))
+    return m
+
+
+PLANAR_BAD = [(dict(normal=(0.0, 0.0)), "normal"), (dict(radius=-0.1), "radius"), (dict(radius=float("nan")), "radius"),
+              (dict(e_N=1.5), "e_N"), (dict(mu=-0.2), "mu"), (dict(e_F=2.0), "e_F"), (dict(point=(0.0, 1.0, 2.0)), "point"),
+              (dict(plane_point=(1.0,)), "plane_point"), (dict(point="nope"), "point"),
+              (dict(plane_point="nope"), "plane_point"), (dict(normal=(0.0, 1.0, 0.0)), "normal")]
+SPATIAL_BAD = [(dict(normal=(0.0, 0.0, 0.0)), "normal"), (dict(radius=-0.1), "radius"), (dict(e_N=-0.5), "e_N"),
+               (dict(mu=float("inf")), "mu"), (dict(point=(0.0, 1.0)), "point"), (dict(plane_point="nope"), "plane_point"),
+               (dict(tangent=(0.0, 0.0, 2.0)), "tangent"), (dict(tangent=(1.0, 0.0)), "tangent")]
+
+
+@pytest.mark.parametrize("kind, kw, what", [("planar",) + c for c in PLANAR_BAD] + [("spatial",) + c for c in SPATIAL_BAD])
+def test_bad_parameters_are_model_errors(kind, kw, what):
+    cls = SphereOnBodyPlane if kind == "planar" else SpatialSphereOnBodyPlane
+    with pytest.raises(ModelError, match=f"{cls.__name__} 'cX'.*{what}"):
+        m = _mech(kind)
+        m.add(cls("cX", "ball", "plate", **dict(dict(radius=0.1), **kw)))
+        m.compile()
+
+
+@pytest.mark.parametrize("body, plane_body, what", [
+    ("ball", "ball", "body and plane_body are the same"),
+    ("ball", "nobody", "plane_body refers to 'nobody'"),
+    ("nobody", "plate", "body refers to 'nobody'"),
+    ("ball", "spring", "plane_body must be a body"),        # an element that is not a body (no node)
+])
+def test_bad_bodies_are_model_errors(body, plane_body, what):
+    m = _mech("planar")
+    m.add(SphereOnBodyPlane("cX", body, plane_body, 0.1))
+    with pytest.raises(ModelError, match=f"SphereOnBodyPlane 'cX'.*{what}"):
+        m.compile()
+
+
+def test_planar_and_spatial_bodies_are_not_mixed():
+    """The planar element on a spatial body, the spatial one on a planar body: ModelErrors naming the element,
+    the role and the type to use."""
+    m = _mech("spatial")
+    m.add(SphereOnBodyPlane("cX", "ball", "plate", 0.1))
+    with pytest.raises(ModelError, match="SphereOnBodyPlane 'cX'.*'ball' is a spatial body"):
+        m.compile()
+    m = _mech("planar")
+    m.add(SpatialSphereOnBodyPlane("cX", "ball", "plate", 0.1))
+    with pytest.raises(ModelError, match="SpatialSphereOnBodyPlane 'cX'.*body = 'ball' is a planar body.*SphereOnBodyPlane"):
+        m.compile()
+    m = _mech("spatial")
+    m.add(SpatialSphereOnBodyPlane("cX", "plate", "plate", 0.1))
+    with pytest.raises(ModelError, match="SpatialSphereOnBodyPlane 'cX'.*same"):
+        m.compile()
+
+
+# --------------------------------------------------------------- 6. both loops
+def _same_run(a, b):
+    """Every stored output and every event of the two runs equal to 1e-12 (relative to the largest value, at
+    least 1), as tests/test_contact_loop.py compares them."""
+    def close(x, y, what):
+        x, y = np.atleast_1d(np.asarray(x, dtype=float)), np.atleast_1d(np.asarray(y, dtype=float))
+        assert x.shape == y.shape, what
+        scale = max(1.0, float(np.max(np.abs(x), initial=0.0)))
+        assert float(np.max(np.abs(x - y), initial=0.0)) <= 1e-12 * scale, what
+    for key in ("t", "q", "qd", "qdd", "lam"):
+        close(getattr(a, key), getattr(b, key), key)
+    for key, v in a.contact.items():
+        close(v, b.contact[key], key)
+    assert len(a.events) == len(b.events)
+    for e, f in zip(a.events, b.events):
+        assert e["contact"] == f["contact"] and e["step"] == f["step"]
+        for key in ("t", "v_before", "v_after", "Lambda_N", "P_N", "u_before", "u_after"):
+            close(e[key], f[key], f"event {key}")
+    np.testing.assert_array_equal(a.newton_iterations, b.newton_iterations)
+    assert a.stats == b.stats
+
+
+@pytest.mark.parametrize("kind", ["planar", "spatial"])
+def test_compiled_and_python_loops_agree(kind):
+    """The impact on a free plate (e_N = 0: impact, then a closed contact) and the block on the moving plate
+    through the compiled loop and the Python loop."""
+    _, a, _ = impact_run(kind, 0.0, compiled=True)
+    _, b, _ = impact_run(kind, 0.0, compiled=False)
+    _same_run(a, b)
+    model = _sliding(kind).compile()
+    a = simulate(model, 0.3, 2e-3, compiled=True)
+    b = simulate(model, 0.3, 2e-3, compiled=False)
+    _same_run(a, b)
