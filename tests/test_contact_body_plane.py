@@ -629,3 +629,33 @@ def test_compiled_and_python_loops_agree(kind):
     a = simulate(model, 0.3, 2e-3, compiled=True)
     b = simulate(model, 0.3, 2e-3, compiled=False)
     _same_run(a, b)
+
+
+# --------------------------------------------------------------- 7. in VTK and pictures
+@pytest.mark.parametrize("kind", ["planar", "spatial"])
+def test_contact_block_does_the_work_of_the_contact_force(kind):
+    """The output block (femb.io.frames): the force F written at the contact point c, applied there to the ball
+    and −F to the plate, equals the generalized contact force W_Nᵀλ_N + W_Fᵀλ_F component by component; its
+    normal part is λ_N; the gap is the kernel's (as tests/test_contact_pictures.py for the other types)."""
+    from femb.io.frames import model_blocks
+    model = BUILD[kind](OFFSETS[kind]["penetrated"])
+    st = model.initial_state()
+    rng = np.random.default_rng(3)
+    lam_N, lam_F = rng.uniform(0.5, 2.0, model.n_contacts), rng.uniform(-1.0, 1.0, model.n_friction)
+    ev = assemble.evaluate(model, st.t, st.q, st.qd, dense=True)
+    gen = ev["WN"].T @ lam_N + ev["WF"].T @ lam_F
+    blocks = model_blocks(model, st.t, st.q, st.qd, np.zeros(model.nc), contact=(np.ones(1), lam_N, lam_F))
+    blk = next(b for b in blocks if "contact_force" in b.point_data)
+    c, F, n = blk.points[0], blk.point_data["contact_force"][0], blk.point_data["contact_normal"][0]
+    want = np.zeros(model.nq)
+    for body, sign in (("ball", 1.0), ("plate", -1.0)):
+        i, j = model.node_index[body], model.node_vindex[body]
+        if kind == "planar":
+            r = np.array((st.q[i[0]], st.q[i[1]], 0.0))
+            want[j] = sign * np.array((F[0], F[1], np.cross(c - r, F)[2]))
+        else:
+            r, R = st.q[i[:3]], quat_to_matrix(st.q[i[3:7]])
+            want[j] = sign * np.concatenate((F, R.T @ np.cross(c - r, F)))
+    np.testing.assert_allclose(want, gen, rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose(F @ n, lam_N[0], rtol=1e-12)
+    np.testing.assert_allclose(blk.point_data["gap"], ev["gN"], rtol=0, atol=1e-15)
