@@ -491,6 +491,171 @@ class PinInHole(_DiscPair):
 
 
 # ---------------------------------------------------------------------------
+# planar: a disc of one body on a line fixed to another body
+# ---------------------------------------------------------------------------
+@kernel
+def _planar_row(W, e, k, w, aa, ab):
+    """Row k for the unit direction w: W = (−w, −aa × w, w, ab × w) (x × w = x_x w_y − x_y w_x), the
+    velocity along w of b's material point at arm ab relative to a's at arm aa."""
+    W[e, k, 0] = -w[0]
+    W[e, k, 1] = -w[1]
+    W[e, k, 2] = -(aa[0] * w[1] - aa[1] * w[0])
+    W[e, k, 3] = w[0]
+    W[e, k, 4] = w[1]
+    W[e, k, 5] = ab[0] * w[1] - ab[1] * w[0]
+
+
+@kernel
+def _planar_body_plane_hessian(H, e, F, lN, R, aa, ab, db):
+    """H = ∂(Wᵀλ)/∂x of :func:`sphere_body_plane_contact`: Wᵀλ = (−F, −aa × F, F, ab × F) with
+    F = λ_N n + λ_F t = R(θ_a)F̄ (∂F/∂θ_a = JF), ∂aa/∂(r_a, θ_a, r_b, θ_b) = (−I, −R Jn, I, J d_b),
+    ∂ab/∂θ_a = −R Jn, ∂ab/∂θ_b = J d_b; with (Jx) × y = −x·y and x × Jy = x·y."""
+    aF = aa[0] * F[0] + aa[1] * F[1]
+    bF = ab[0] * F[0] + ab[1] * F[1]
+    dF = db[0] * F[0] + db[1] * F[1]
+    H[e, 0, 2] = F[1]
+    H[e, 1, 2] = -F[0]
+    H[e, 3, 2] = -F[1]
+    H[e, 4, 2] = F[0]
+    H[e, 2, 0] = F[1]
+    H[e, 2, 1] = -F[0]
+    H[e, 2, 3] = -F[1]
+    H[e, 2, 4] = F[0]
+    H[e, 2, 2] = -(R * lN + aF)
+    H[e, 2, 5] = dF
+    H[e, 5, 2] = R * lN + bF
+    H[e, 5, 5] = -dF
+
+
+@kernel
+def sphere_body_plane_contact(P, t, tf, xe, ve, le, jac, gN, W, zeta, H):
+    """Disc (radius R, centre s on body b) on the line through p̄ with unit normal n̄ fixed to body a.
+
+    Nodes (a, b) = (plane body, disc body). n = R(θ_a)n̄, t = (n_y, −n_x), plane point
+    P = r_a + R(θ_a)p̄, centre C = r_b + d_b, d_b = R(θ_b)s; g = n·(C − P) − R. Contact point
+    c = C − R n, arms aa = c − r_a, ab = c − r_b = d_b − R n. Rows w ∈ (n, t): W = (−w, −aa × w,
+    w, ab × w), w·V with V = ṙ_b − ṙ_a + ω_b J ab − ω_a J aa the velocity of b's material point
+    at c relative to a's (J the turn by +90°); W_N = ∂g/∂q (the ω_a terms of ṅ = ω_a Jn and
+    Ṗ combine into −ω_a n·J aa). ζ = ω_a (Jw)·V + w·V̇ with ẇ = ω_a Jw and
+    V̇ = (ω_a ω_b − ω_b²) d_b + R ω_a(ω_b − ω_a) n − ω_a J(ṙ_b − ṙ_a);
+    H by :func:`_planar_body_plane_hessian`. P = (p̄(2), n̄(2), s(2), R).
+    """
+    for e in range(xe.shape[0]):
+        ca, sa = math.cos(xe[e, 2]), math.sin(xe[e, 2])
+        cb, sb = math.cos(xe[e, 5]), math.sin(xe[e, 5])
+        n = (ca * P[e, 2] - sa * P[e, 3], sa * P[e, 2] + ca * P[e, 3])
+        tt = (n[1], -n[0])
+        px, py = ca * P[e, 0] - sa * P[e, 1], sa * P[e, 0] + ca * P[e, 1]
+        db = (cb * P[e, 4] - sb * P[e, 5], sb * P[e, 4] + cb * P[e, 5])
+        R = P[e, 6]
+        cax, cay = xe[e, 3] + db[0] - xe[e, 0], xe[e, 4] + db[1] - xe[e, 1]      # C − r_a
+        gN[e, 0] = n[0] * (cax - px) + n[1] * (cay - py) - R
+        aa = (cax - R * n[0], cay - R * n[1])
+        ab = (db[0] - R * n[0], db[1] - R * n[1])
+        wa, wb = ve[e, 2], ve[e, 5]
+        rdx, rdy = ve[e, 3] - ve[e, 0], ve[e, 4] - ve[e, 1]
+        Vx = rdx - wb * ab[1] + wa * aa[1]
+        Vy = rdy + wb * ab[0] - wa * aa[0]
+        c1, c2 = wa * wb - wb * wb, R * wa * (wb - wa)
+        Vdx = c1 * db[0] + c2 * n[0] + wa * rdy
+        Vdy = c1 * db[1] + c2 * n[1] - wa * rdx
+        _planar_row(W, e, 0, n, aa, ab)
+        _planar_row(W, e, 1, tt, aa, ab)
+        zeta[e, 0] = wa * (-n[1] * Vx + n[0] * Vy) + n[0] * Vdx + n[1] * Vdy
+        zeta[e, 1] = wa * (-tt[1] * Vx + tt[0] * Vy) + tt[0] * Vdx + tt[1] * Vdy
+        if jac:
+            lN, lF = le[e, 0], le[e, 1]
+            F = (lN * n[0] + lF * tt[0], lN * n[1] + lF * tt[1])
+            _planar_body_plane_hessian(H, e, F, lN, R, aa, ab, db)
+
+
+class SphereOnBodyPlane(ContactElement):
+    """A point or disc of a planar body on a line fixed to another planar body, with Coulomb friction.
+
+    The line passes through p̄ with unit normal n̄, both in ``plane_body``'s frame: in space
+    P = r_a + R(θ_a)p̄, n = R(θ_a)n̄ (a = plane_body). The disc's centre is C = r_b + R(θ_b)s
+    (b = body); g_N = n·(C − P) − R, tangent t = (n_y, −n_x) (turns with a). The normal force λ_N n
+    and the friction force λ_F t act on ``body`` at the contact point c = C − R n, their opposites on
+    ``plane_body`` at the same point; γ_F = t·(velocity of b's material point at c − velocity of a's
+    material point at c). With a's node fixed (``plane_body="ground"``, as the pair types allow) it is
+    :class:`SphereOnPlane`. The line is unbounded: keep the disc over the part of a you mean.
+
+    Parameters
+    ----------
+    name : str
+    body : body or name
+        The planar body that carries the disc (radius 0: a corner point).
+    plane_body : body or name
+        The planar body that carries the line (or ``"ground"``); not ``body``.
+    radius : float ≥ 0
+    point : (2,) or name
+        Disc centre in ``body``'s frame.
+    plane_point : (2,) or name
+        A point of the line in ``plane_body``'s frame.
+    normal : (2,)
+        The line's normal in ``plane_body``'s frame (to the free side; normalised).
+    e_N, mu, e_F : see :class:`ContactElement`.
+
+    Notes
+    -----
+    Nodes (plane_body, body): the sphere's body is the second body b of a pair (docs/contact.md §2).
+    Kernel :func:`sphere_body_plane_contact`; ``P = (p̄, n̄, s, R)``.
+    """
+
+    n_friction = 1
+    kernels = {"contact": sphere_body_plane_contact}
+
+    def __init__(self, name, body, plane_body, radius=0.0, point=(0.0, 0.0), plane_point=(0.0, 0.0),
+                 normal=(0.0, 1.0), e_N=0.0, mu=0.0, e_F=0.0):
+        super().__init__(name, e_N, mu, e_F)
+        owner = f"SphereOnBodyPlane '{name}'"
+        self.body, self.plane_body = body, plane_body
+        self.radius = _scalar(owner, "radius", radius, 0.0)
+        self.nbar = _unit(owner, "normal", normal, 2)
+        for what, pt in (("point", point), ("plane_point", plane_point)):
+            if not isinstance(pt, str):
+                _vector(owner, what, pt, 2)
+        self._point, self._plane_point = point, plane_point
+
+    def resolve(self, lookup):
+        owner = f"SphereOnBodyPlane '{self.name}'"
+        self.body = _body(owner, lookup, self.body, "body")
+        self.plane_body = _body(owner, lookup, self.plane_body, "plane_body")
+        if self.body is self.plane_body:
+            raise ModelError(f"{owner}: body and plane_body are the same ('{self.body.name}')")
+        self.s = _local(owner, self.body, self._point, "point")
+        self.pbar = _local(owner, self.plane_body, self._plane_point, "plane_point")
+
+    def nodes(self):
+        return [self.plane_body.node, self.body.node]
+
+    @classmethod
+    def pack(cls, elements):
+        P = np.array([[*e.pbar, *e.nbar, *e.s, e.radius] for e in elements], dtype=float)
+        return {"P": np.ascontiguousarray(P.reshape(-1, 7))}
+
+    @classmethod
+    def contact_frames(cls, P, qe):
+        """Contact point c = C − R n (the disc's point nearest the line), n, t, g_N."""
+        Pl = _planar_points(qe, P[:, 0:2])
+        ang = qe[:, 2]
+        n = _planar3(np.column_stack((np.cos(ang) * P[:, 2] - np.sin(ang) * P[:, 3],
+                                      np.sin(ang) * P[:, 2] + np.cos(ang) * P[:, 3])))
+        C = _planar_points(qe, P[:, 4:6], col=3)
+        gN = np.einsum("ej,ej->e", n, C - Pl) - P[:, 6]
+        T = np.column_stack((n[:, 1], -n[:, 0], np.zeros(len(gN))))[:, None, :]
+        return C - P[:, 6:7] * n, n, T, gN
+
+
+def _local(owner, body, spec, what):
+    """Body-frame coordinates of a point name or vector of ``body``; ModelError naming ``owner``."""
+    try:
+        return np.asarray(body.local(spec, what), dtype=float)
+    except ModelError as err:
+        raise ModelError(f"{owner}: {what}: {err}") from None
+
+
+# ---------------------------------------------------------------------------
 # spatial: a point or sphere of a spatial body on a plane fixed in space
 # ---------------------------------------------------------------------------
 @kernel
@@ -814,8 +979,9 @@ def pair_tangents(n, f1, f2, p):
     return t1, t2
 
 
-def _spatial_body(owner, lookup, ref, role):
-    """A spatial body (the mechanism's ground: its fixed spatial twin) for ``role``; ModelError naming owner."""
+def _spatial_body(owner, lookup, ref, role, planar="DiscOnDisc"):
+    """A spatial body (the mechanism's ground: its fixed spatial twin) for ``role``; ModelError naming owner
+    (and ``planar``, the type to use in the plane)."""
     from .bodies import Ground
     from .spatial_bodies import SpatialGround, spatial_ground
 
@@ -826,7 +992,7 @@ def _spatial_body(owner, lookup, ref, role):
         return spatial_ground(b)
     if getattr(b, "node", None) is None or not getattr(b.node, "rotation_blocks", ()):
         raise ModelError(f"{owner}: {role} = '{getattr(b, 'name', b)}' is a planar body; the pair needs spatial "
-                         "bodies (use DiscOnDisc in the plane)")
+                         f"bodies (use {planar} in the plane)")
     return b
 
 
@@ -937,3 +1103,184 @@ class SpatialSpherePair(ContactElement):
                                f"opposite of its initial direction {np.round(P[e, 14:17], 6).tolist()}, where the "
                                "pair's tangent basis is singular"))
         return out
+
+
+# ---------------------------------------------------------------------------
+# spatial: a sphere of one spatial body on a plane fixed to another
+# ---------------------------------------------------------------------------
+@kernel
+def _body_plane_hessian(H, e, geo, rot):
+    """H = ∂(Wᵀλ)/∂x of :func:`spatial_sphere_body_plane_contact`, column by column along the 12 tangent
+    directions (δr_a, δθ_a, δr_b, δθ_b).
+
+    Wᵀλ = (−F, −R_aᵀ(aa × F), F, R_bᵀ(ab × F)), F = λ_N n + λ₁t₁ + λ₂t₂ = R_a F̄. Along δx:
+    δF = (R_a δθ_a) × F, δn = (R_a δθ_a) × n, δd_b = (R_b δθ_b) × d_b (d_b = R_b s),
+    δab = δd_b − R_s δn, δaa = δr_b − δr_a + δab, δ(Rᵀy) = (Rᵀy) × δθ + Rᵀδy (R ← R exp(δθ~)).
+    ``geo`` = (n, F, aa, ab, d_b), ``rot`` = (R_a, R_b, R_s).
+    """
+    n, F, aa, ab, db = geo
+    Ra, Rb, rs = rot
+    ya = mtv(Ra, cross3(aa, F))
+    yb = mtv(Rb, cross3(ab, F))
+    z3 = (0.0, 0.0, 0.0)
+    for j in range(12):
+        blk, i = j // 3, j % 3
+        u = (1.0 if i == 0 else 0.0, 1.0 if i == 1 else 0.0, 1.0 if i == 2 else 0.0)
+        tha, thb, dF, dab, dr = z3, z3, z3, z3, z3
+        if blk == 0:
+            dr = (-u[0], -u[1], -u[2])
+        elif blk == 1:
+            tha = u
+            ga = mv(Ra, u)
+            dF = cross3(ga, F)
+            dn = cross3(ga, n)
+            dab = (-rs * dn[0], -rs * dn[1], -rs * dn[2])
+        elif blk == 2:
+            dr = u
+        else:
+            thb = u
+            dab = cross3(mv(Rb, u), db)
+        daa = (dr[0] + dab[0], dr[1] + dab[1], dr[2] + dab[2])
+        ca = cross3(ya, tha)
+        cb = cross3(yb, thb)
+        ea = mtv(Ra, cross3(daa, F))
+        fa = mtv(Ra, cross3(aa, dF))
+        eb = mtv(Rb, cross3(dab, F))
+        fb = mtv(Rb, cross3(ab, dF))
+        for r in range(3):
+            H[e, r, j] = -dF[r]
+            H[e, 3 + r, j] = -(ca[r] + ea[r] + fa[r])
+            H[e, 6 + r, j] = dF[r]
+            H[e, 9 + r, j] = cb[r] + eb[r] + fb[r]
+
+
+@kernel
+def spatial_sphere_body_plane_contact(P, t, tf, xe, ve, le, jac, gN, W, zeta, H):
+    """Sphere (radius R_s, centre s on body b) on the plane through p̄ with unit normal n̄ fixed to body a.
+
+    Nodes (a, b) = (plane body, sphere body). n = R_a n̄, t_k = R_a t̄_k (body-fixed tangents, defined
+    everywhere), plane point P = r_a + R_a p̄, centre C = r_b + d_b, d_b = R_b s; g = n·(C − P) − R_s.
+    Contact point c = C − R_s n, arms aa = c − r_a, ab = c − r_b = d_b − R_s n. Rows w ∈ (n, t₁, t₂) by
+    :func:`_pair_row`: W = (−w, −R_aᵀ(aa × w), w, R_bᵀ(ab × w)), w·V with
+    V = ṙ_b − ṙ_a + ω_b × ab − ω_a × aa (ω = RΩ) the velocity of b's material point at c relative to
+    a's; W_N = ∂g/∂q (the ω_a terms of ṅ = ω_a × n and Ṗ combine into −ω_a·(aa × n)). ζ = ẇ·V + w·V̇
+    with ẇ = ω_a × w, V̇ = ω_b × ȧb − ω_a × ȧa, ȧb = ω_b × d_b − R_s ω_a × n, ȧa = ṙ_b − ṙ_a + ȧb (ω is
+    constant along x ∘ exp(εv)); H by :func:`_body_plane_hessian`.
+    P = (p̄(3), n̄(3), t̄₁(3), t̄₂(3), s(3), R_s).
+    """
+    for e in range(xe.shape[0]):
+        Ra = quat_to_matrix_t(xe[e, 3], xe[e, 4], xe[e, 5], xe[e, 6])
+        Rb = quat_to_matrix_t(xe[e, 10], xe[e, 11], xe[e, 12], xe[e, 13])
+        pw = mv(Ra, (P[e, 0], P[e, 1], P[e, 2]))
+        n = mv(Ra, (P[e, 3], P[e, 4], P[e, 5]))
+        t1 = mv(Ra, (P[e, 6], P[e, 7], P[e, 8]))
+        t2 = mv(Ra, (P[e, 9], P[e, 10], P[e, 11]))
+        db = mv(Rb, (P[e, 12], P[e, 13], P[e, 14]))
+        rs = P[e, 15]
+        ca = (xe[e, 7] + db[0] - xe[e, 0], xe[e, 8] + db[1] - xe[e, 1], xe[e, 9] + db[2] - xe[e, 2])   # C − r_a
+        gN[e, 0] = n[0] * (ca[0] - pw[0]) + n[1] * (ca[1] - pw[1]) + n[2] * (ca[2] - pw[2]) - rs
+        aa = (ca[0] - rs * n[0], ca[1] - rs * n[1], ca[2] - rs * n[2])
+        ab = (db[0] - rs * n[0], db[1] - rs * n[1], db[2] - rs * n[2])
+        wa = mv(Ra, (ve[e, 3], ve[e, 4], ve[e, 5]))
+        wb = mv(Rb, (ve[e, 9], ve[e, 10], ve[e, 11]))
+        rd = (ve[e, 6] - ve[e, 0], ve[e, 7] - ve[e, 1], ve[e, 8] - ve[e, 2])
+        va = cross3(wa, aa)
+        vb = cross3(wb, ab)
+        V = (rd[0] + vb[0] - va[0], rd[1] + vb[1] - va[1], rd[2] + vb[2] - va[2])
+        ndot = cross3(wa, n)
+        wd = cross3(wb, db)
+        abd = (wd[0] - rs * ndot[0], wd[1] - rs * ndot[1], wd[2] - rs * ndot[2])
+        qa = cross3(wa, (rd[0] + abd[0], rd[1] + abd[1], rd[2] + abd[2]))
+        qb = cross3(wb, abd)
+        Vq = (qb[0] - qa[0], qb[1] - qa[1], qb[2] - qa[2])
+        _pair_row(W, zeta, e, 0, n, ndot, aa, ab, Ra, Rb, V, Vq)
+        _pair_row(W, zeta, e, 1, t1, cross3(wa, t1), aa, ab, Ra, Rb, V, Vq)
+        _pair_row(W, zeta, e, 2, t2, cross3(wa, t2), aa, ab, Ra, Rb, V, Vq)
+        if jac:
+            lN, l1, l2 = le[e, 0], le[e, 1], le[e, 2]
+            F = (lN * n[0] + l1 * t1[0] + l2 * t2[0], lN * n[1] + l1 * t1[1] + l2 * t2[1],
+                 lN * n[2] + l1 * t1[2] + l2 * t2[2])
+            _body_plane_hessian(H, e, (n, F, aa, ab, db), (Ra, Rb, rs))
+
+
+class SpatialSphereOnBodyPlane(ContactElement):
+    """A point or sphere of a spatial body on a plane fixed to another spatial body, with isotropic Coulomb
+    friction.
+
+    The plane passes through p̄ with unit normal n̄, both in ``plane_body``'s axes: in space
+    P = r_a + R_a p̄, n = R_a n̄ (a = plane_body). The sphere's centre is C = r_b + R_b s (b = body);
+    g_N = n·(C − P) − R_s. The tangents t_k = R_a t̄_k are fixed in a (t̄₁ = ``tangent`` projected on the
+    plane, or chosen from n̄ by :func:`tangents`; t̄₂ = n̄ × t̄₁, so (t₁, t₂, n) is right-handed): defined
+    at every state. The normal force λ_N n and the friction forces λ_k t_k act on ``body`` at the contact
+    point c = C − R_s n, their opposites on ``plane_body`` at the same point (its moment about a's node
+    is (c − r_a) × F); γ_F,k = t_k·(velocity of b's material point at c − velocity of a's material point
+    at c). With ``plane_body="ground"`` (its fixed twin, as :class:`SpatialSpherePair` allows) it is
+    :class:`SpatialSphereOnPlane`. The plane is unbounded: keep the sphere over the part of a you mean.
+    The geometry of :class:`~femb.elements.penalty_contact.SpatialPenaltySphereOnBodyPlane`.
+
+    Parameters
+    ----------
+    name : str
+    body : spatial body or name
+        The body that carries the sphere.
+    plane_body : spatial body or name
+        The body that carries the plane (or ``"ground"``); not ``body``.
+    radius : float ≥ 0
+    point : (3,) or name
+        Sphere centre in ``body``'s axes.
+    plane_point : (3,) or name
+        A point of the plane in ``plane_body``'s axes.
+    normal : (3,)
+        The plane's normal in ``plane_body``'s axes (to the free side; normalised).
+    tangent : (3,), optional
+        t̄₁ in ``plane_body``'s axes (its part orthogonal to n̄).
+    e_N, mu, e_F : see :class:`ContactElement`.
+
+    Notes
+    -----
+    Nodes (plane_body, body): the sphere's body is the second body b of a pair (docs/contact.md §2).
+    Kernel :func:`spatial_sphere_body_plane_contact`; ``P = (p̄, n̄, t̄₁, t̄₂, s, R_s)``.
+    """
+
+    spatial = True
+    n_friction = 2
+    kernels = {"contact": spatial_sphere_body_plane_contact}
+
+    def __init__(self, name, body, plane_body, radius=0.0, point=(0.0, 0.0, 0.0), plane_point=(0.0, 0.0, 0.0),
+                 normal=(0.0, 0.0, 1.0), tangent=None, e_N=0.0, mu=0.0, e_F=0.0):
+        super().__init__(name, e_N, mu, e_F)
+        owner = f"SpatialSphereOnBodyPlane '{name}'"
+        self.body, self.plane_body = body, plane_body
+        self.radius = _scalar(owner, "radius", radius, 0.0)
+        self.nbar = _unit(owner, "normal", normal, 3)
+        self.t1bar, self.t2bar = plane_tangents(owner, self.nbar, tangent)
+        for what, pt in (("point", point), ("plane_point", plane_point)):
+            if not isinstance(pt, str):
+                _vector(owner, what, pt, 3)
+        self._point, self._plane_point = point, plane_point
+
+    def resolve(self, lookup):
+        owner = f"SpatialSphereOnBodyPlane '{self.name}'"
+        self.body = _spatial_body(owner, lookup, self.body, "body", "SphereOnBodyPlane")
+        self.plane_body = _spatial_body(owner, lookup, self.plane_body, "plane_body", "SphereOnBodyPlane")
+        if self.body is self.plane_body:
+            raise ModelError(f"{owner}: body and plane_body are the same ('{self.body.name}')")
+        self.s = _local(owner, self.body, self._point, "point")
+        self.pbar = _local(owner, self.plane_body, self._plane_point, "plane_point")
+
+    def nodes(self):
+        return [self.plane_body.node, self.body.node]
+
+    @classmethod
+    def pack(cls, elements):
+        P = np.array([[*e.pbar, *e.nbar, *e.t1bar, *e.t2bar, *e.s, e.radius] for e in elements], dtype=float)
+        return {"P": np.ascontiguousarray(P.reshape(-1, 16))}
+
+    @classmethod
+    def contact_frames(cls, P, qe):
+        """Contact point c = C − R_s n (the sphere's point nearest the plane), n = R_a n̄, (t₁, t₂), g_N."""
+        Pl, Ra = _spatial_points(qe, P[:, 0:3])
+        n, t1, t2 = (np.einsum("eij,ej->ei", Ra, P[:, k:k + 3]) for k in (3, 6, 9))
+        C, _ = _spatial_points(qe, P[:, 12:15], col=7)
+        gN = np.einsum("ej,ej->e", n, C - Pl) - P[:, 15]
+        return C - P[:, 15:16] * n, n, np.stack((t1, t2), axis=1), gN

@@ -456,6 +456,41 @@ def spatial_contact():
     return mech
 
 
+def body_plane_contact():
+    import femb
+    from femb.elements import Gravity, Hinge, RigidBody
+    from femb.elements.contact import SphereOnBodyPlane
+
+    mech = femb.Mechanism("seesaw")
+    mech.add(RigidBody("board", 2.0, 0.1, (0.0, 0.2), -0.15, shape={"type": "box", "size": (0.8, 0.04)}),
+             Hinge("pivot", "ground", "board", at=(0.0, 0.2)),
+             RigidBody("ball", 0.5, 0.002, (0.3, 0.6), shape={"type": "disc", "radius": 0.1}),
+             # the board's top face (y = 0.02 in its frame) moves and turns with it
+             SphereOnBodyPlane("on_board", "ball", "board", radius=0.1, plane_point=(0.0, 0.02), e_N=0.3, mu=0.4),
+             Gravity((0.0, -9.81)))
+    return mech
+
+
+def spatial_body_plane_contact():
+    import femb
+    from femb.elements.contact import SpatialSphereOnBodyPlane
+    from femb.elements.spatial_bodies import SpatialRigidBody
+    from femb.elements.spatial_forces import SpatialGravity
+    from femb.elements.spatial_joints import RevoluteJoint
+
+    mech = femb.Mechanism("tilting_table")
+    mech.add(SpatialRigidBody("table", 4.0, (0.05, 0.2, 0.25), position=(0.0, 0.0, 0.2),
+                              rotation=(0.9950042, 0.0998334, 0.0, 0.0), shape={"type": "box", "size": (0.8, 0.5, 0.04)}),
+             RevoluteJoint("axle", "ground", "table", at=(0.0, 0.0, 0.2), axis=(0.0, 1.0, 0.0)),
+             SpatialRigidBody("ball", 0.5, (0.002, 0.002, 0.002), position=(0.25, 0.1, 0.6), omega=(0.0, 0.0, 15.0),
+                              shape={"type": "sphere", "radius": 0.1}),
+             # the table's top face (z = 0.02 in its axes) moves and turns with it
+             SpatialSphereOnBodyPlane("on_table", "ball", "table", radius=0.1, plane_point=(0.0, 0.0, 0.02), e_N=0.3,
+                                      mu=0.4),
+             SpatialGravity((0.0, 0.0, -9.81)))
+    return mech
+
+
 def penalty_contact():
     import femb
     from femb.elements import (FixedJoint, SpatialGravity, SpatialPenaltySphereOnBodyPlane, SpatialPenaltySpherePair,
@@ -616,6 +651,16 @@ ENTRIES = [
           "with the ground) bounces on it, rolls and starts to slide off it. Integrated by "
           ":func:`femb.contact.simulate`.",
           t_end=0.5, h=2e-3, run="contact"),
+    Entry("body_plane_contact", "Contact on a body's plane in the plane: a ball on a seesaw",
+          ("femb.elements.contact.SphereOnBodyPlane",), body_plane_contact,
+          "A ball dropped on a board that turns on a pivot: the contact line is fixed to the board and moves "
+          "and turns with it; the impact and the friction act on the ball and, opposite, on the board at the "
+          "contact point. Integrated by :func:`femb.contact.simulate`.", t_end=0.4, h=2e-3, run="contact"),
+    Entry("spatial_body_plane_contact", "Contact on a body's plane in space: a ball on a tilting table",
+          ("femb.elements.contact.SpatialSphereOnBodyPlane",), spatial_body_plane_contact,
+          "A spinning ball dropped on a table that tilts about an axle: the contact plane and its friction "
+          "directions are fixed to the table. Integrated by :func:`femb.contact.simulate`.",
+          t_end=0.4, h=2e-3, run="contact"),
     Entry("planar_penalty_contact", "Penalty (compliant) contact in the plane",
           ("femb.elements.penalty_contact.PenaltySphereOnPlane",), planar_penalty_contact,
           "A spinning disc dropped on a compliant floor: Hertz stiffness with Hunt–Crossley damping and "
