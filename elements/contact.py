@@ -975,8 +975,9 @@ def _pin_geometry(xe, P, e):
 
 @kernel
 def _pin_normal_d(n, ax, d, z, dd, de, L, regular, dnf):
-    """δn of the pin–bushing normal for δd, δe: (δd⊥ − (n·δd⊥)n)/L with δd⊥ = δd − (δe·d + e·δd) e − z δe
-    (regular), else ``dnf`` (the variation of the bushing-fixed R_b f); returns (δn, δz)."""
+    """δn of the pin–bushing normal for δd, δe: (δd⊥ − (n·δd⊥)n)/L with
+    δd⊥ = δd − (δe·d + e·δd) e − z δe (regular), else ``dnf`` (the variation of the bushing-fixed R_b f);
+    returns (δn, δz)."""
     dz = dot3(de, d) + dot3(ax, dd)
     if not regular:
         return dnf, dz
@@ -1146,15 +1147,16 @@ class SpatialPinInBushing(ContactElement):
     The normal force λ_N n acts on the bushing (b) and −λ_N n on the pin (a), which it pushes back
     towards the axis: as on every pair, n is the direction in which λ_N pushes body b
     (:meth:`ContactElement.contact_frames`; :class:`PinInHole` is the planar case, with its pin on b). The
-    tangents follow the bodies, t₁ = e (axial) and t₂ = e × n (circumferential), defined wherever n is,
-    with (t₁, t₂, n) right-handed; the slip γ_F,k = t_k·(V_b − V_a) is the velocity of the hole's surface
-    point c_b + (e·d) e + R_h n (a material point of b) relative to the pin's surface point
-    r_a + R_a s + R_p n (of a), and the friction force λ_F,k t_k acts on b, −λ_F,k t_k on a. In a plane
-    normal to the axis (e = +z) γ_F,2 is :class:`PinInHole`'s slip, t·ė − R_p ω_pin + R_h ω_hole.
-    The gap and rows are Glocker's (Set-Valued Force Laws, Springer 2001, Ch. 7–8; Pfeiffer & Glocker,
-    Multibody Dynamics with Unilateral Contacts, Wiley 1996, Ch. 4) for the clearance joint of Flores,
-    Ambrósio, Claro & Lankarani (Kinematics and Dynamics of Multibody Systems with Imperfect Joints,
-    Springer 2008, Ch. 4 and 6), which models the same joint as two such radial gaps.
+    tangents follow the bodies, t₁ = e (axial) and t₂ = e × n (circumferential), defined wherever n is
+    (t₁ × t₂ = −n: (t₁, t₂, −n) is right-handed, −n the direction that pushes the pin); the slip
+    γ_F,k = t_k·(V_b − V_a) is the velocity of the hole's surface point c_b + (e·d) e + R_h n (a material
+    point of b) relative to the pin's surface point r_a + R_a s + R_p n (of a), and the friction force
+    λ_F,k t_k acts on b, −λ_F,k t_k on a. In a plane normal to the axis (e = +z) γ_F,2 is
+    :class:`PinInHole`'s slip, t·ė − R_p ω_pin + R_h ω_hole. The gap and rows are Glocker's (Set-Valued
+    Force Laws, Springer 2001, Ch. 7–8; Pfeiffer & Glocker, Multibody Dynamics with Unilateral Contacts,
+    Wiley 1996, Ch. 4) for the revolute clearance joint (Flores, Ambrósio, Claro & Lankarani, Kinematics
+    and Dynamics of Multibody Systems with Imperfect Joints, Springer 2008, Ch. 4, planar; the spatial
+    joint: the same authors, Proc. IMechE Part K 220 (2006) 257–271).
 
     Assumptions (the model, not the exact contact of two cylinders):
 
@@ -1224,11 +1226,13 @@ class SpatialPinInBushing(ContactElement):
         self.b = _pin_spatial_body(owner, lookup, self.b, "bushing")
         if self.a is self.b:
             raise ModelError(f"{owner}: the pin and the bushing are the same body ('{self.a.name}')")
-        try:
-            self.s0 = np.asarray(self.a.local(self._pin_point, "pin_point"), dtype=float)
-            self.c0 = np.asarray(self.b.local(self._centre, "centre"), dtype=float)
-        except ModelError as err:
-            raise ModelError(f"{owner}: {err}") from None
+        pts = []
+        for what, body, spec in (("pin_point", self.a, self._pin_point), ("centre", self.b, self._centre)):
+            try:
+                pts.append(np.asarray(body.local(spec, what), dtype=float))
+            except ModelError as err:
+                raise ModelError(f"{owner}: {what}: {err}") from None
+        self.s0, self.c0 = pts
         eb = _pin_body_axis(owner, self.b, self._axis, "axis")
         self.eb = eb / np.linalg.norm(eb)
 
