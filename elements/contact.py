@@ -1284,3 +1284,376 @@ class SpatialSphereOnBodyPlane(ContactElement):
         C, _ = _spatial_points(qe, P[:, 12:15], col=7)
         gN = np.einsum("ej,ej->e", n, C - Pl) - P[:, 15]
         return C - P[:, 15:16] * n, n, np.stack((t1, t2), axis=1), gN
+
+
+# ---------------------------------------------------------------------------
+# spatial: pin in a bushing (a revolute joint with clearance in space)
+# ---------------------------------------------------------------------------
+from ._spatial import add3, scale3, sub3  # noqa: E402  (this section's own imports: kept apart for merges)
+
+#: below this offset of the pin point from the bushing axis, |d⊥| ≤ PIN_MIN_OFFSET (R_h − R_p), the normal
+#: d⊥/|d⊥| is not defined: the gap is exact (the whole clearance, the contact is open) and the rows use the
+#: direction f fixed in the bushing instead (SpatialPinInBushing, docstring)
+PIN_MIN_OFFSET = 1e-9
+
+
+@kernel
+def _pin_geometry(xe, P, e):
+    """(R_a, R_b, R_a s, R_b c, e, d, z, L, n, regular) of element e of a pin–bushing batch: d the pin point
+    relative to the axis point, z = e·d, L = |d − z e|, n = (d − z e)/L where L > PIN_MIN_OFFSET (R_h − R_p),
+    else R_b f (``regular`` False)."""
+    Ra = quat_to_matrix_t(xe[e, 3], xe[e, 4], xe[e, 5], xe[e, 6])
+    Rb = quat_to_matrix_t(xe[e, 10], xe[e, 11], xe[e, 12], xe[e, 13])
+    da = mv(Ra, (P[e, 0], P[e, 1], P[e, 2]))
+    db = mv(Rb, (P[e, 3], P[e, 4], P[e, 5]))
+    ax = mv(Rb, (P[e, 6], P[e, 7], P[e, 8]))
+    d = (xe[e, 0] + da[0] - xe[e, 7] - db[0], xe[e, 1] + da[1] - xe[e, 8] - db[1],
+         xe[e, 2] + da[2] - xe[e, 9] - db[2])
+    z = dot3(ax, d)
+    dp = (d[0] - z * ax[0], d[1] - z * ax[1], d[2] - z * ax[2])
+    L = math.sqrt(dot3(dp, dp))
+    regular = L > PIN_MIN_OFFSET * (P[e, 12] - P[e, 13])
+    if regular:
+        n = (dp[0] / L, dp[1] / L, dp[2] / L)
+    else:
+        n = mv(Rb, (P[e, 9], P[e, 10], P[e, 11]))
+    return Ra, Rb, da, db, ax, d, z, L, n, regular
+
+
+@kernel
+def _pin_normal_d(n, ax, d, z, dd, de, L, regular, dnf):
+    """δn of the pin–bushing normal for δd, δe: (δd⊥ − (n·δd⊥)n)/L with
+    δd⊥ = δd − (δe·d + e·δd) e − z δe (regular), else ``dnf`` (the variation of the bushing-fixed R_b f);
+    returns (δn, δz)."""
+    dz = dot3(de, d) + dot3(ax, dd)
+    if not regular:
+        return dnf, dz
+    dp = (dd[0] - dz * ax[0] - z * de[0], dd[1] - dz * ax[1] - z * de[1], dd[2] - dz * ax[2] - z * de[2])
+    nd = dot3(n, dp)
+    return ((dp[0] - nd * n[0]) / L, (dp[1] - nd * n[1]) / L, (dp[2] - nd * n[2]) / L), dz
+
+
+@kernel
+def _pin_hessian(H, e, lam, geo, rot):
+    """H = ∂(Wᵀλ)/∂x of one pin–bushing contact, column by column along (δr_a, δθ_a, δr_b, δθ_b).
+
+    Wᵀλ = (−F, −R_aᵀ(aa × F), F, R_bᵀ(ab × F)) with F = λ_N n + λ₁ e + λ₂ e × n. Along δx:
+    δd = δr_a + R_a(δθ_a × s) − δr_b − R_b(δθ_b × c), δe = R_b(δθ_b × e_b), δz = δe·d + e·δd, δn by
+    :func:`_pin_normal_d`, δF = λ_N δn + λ₁ δe + λ₂ (δe × n + e × δn), δaa = R_a(δθ_a × s) + R_p δn,
+    δab = R_b(δθ_b × c) + δz e + z δe + R_h δn, δ(Rᵀy) = (Rᵀy) × δθ + Rᵀδy.
+    ``geo`` = (n, e, e × n, aa, ab, d, z, s, c, e_b, f), ``rot`` = (R_a, R_b, L, R_h, R_p, regular).
+    """
+    n, ax, t2, aa, ab, d, z, s, c, eb, f = geo
+    Ra, Rb, L, rH, rP, regular = rot
+    lN, l1, l2 = lam
+    F = (lN * n[0] + l1 * ax[0] + l2 * t2[0], lN * n[1] + l1 * ax[1] + l2 * t2[1],
+         lN * n[2] + l1 * ax[2] + l2 * t2[2])
+    ya = mtv(Ra, cross3(aa, F))
+    yb = mtv(Rb, cross3(ab, F))
+    z3 = (0.0, 0.0, 0.0)
+    for j in range(12):
+        blk, i = j // 3, j % 3
+        u = (1.0 if i == 0 else 0.0, 1.0 if i == 1 else 0.0, 1.0 if i == 2 else 0.0)
+        tha, thb, dra, drb = z3, z3, z3, z3
+        if blk == 0:
+            dra = u
+        elif blk == 1:
+            tha = u
+        elif blk == 2:
+            drb = u
+        else:
+            thb = u
+        dda = mv(Ra, cross3(tha, s))
+        ddb = mv(Rb, cross3(thb, c))
+        de = mv(Rb, cross3(thb, eb))
+        dd = sub3(add3(dra, dda), add3(drb, ddb))
+        dn, dz = _pin_normal_d(n, ax, d, z, dd, de, L, regular, mv(Rb, cross3(thb, f)))
+        dt2 = add3(cross3(de, n), cross3(ax, dn))
+        dF = (lN * dn[0] + l1 * de[0] + l2 * dt2[0], lN * dn[1] + l1 * de[1] + l2 * dt2[1],
+              lN * dn[2] + l1 * de[2] + l2 * dt2[2])
+        daa = add3(dda, scale3(rP, dn))
+        dab = (ddb[0] + dz * ax[0] + z * de[0] + rH * dn[0], ddb[1] + dz * ax[1] + z * de[1] + rH * dn[1],
+               ddb[2] + dz * ax[2] + z * de[2] + rH * dn[2])
+        ca = cross3(ya, tha)
+        cb = cross3(yb, thb)
+        ea = mtv(Ra, add3(cross3(daa, F), cross3(aa, dF)))
+        eb_ = mtv(Rb, add3(cross3(dab, F), cross3(ab, dF)))
+        for r in range(3):
+            H[e, r, j] = -dF[r]
+            H[e, 3 + r, j] = -(ca[r] + ea[r])
+            H[e, 6 + r, j] = dF[r]
+            H[e, 9 + r, j] = cb[r] + eb_[r]
+
+
+@kernel
+def pin_bushing_contact(P, t, tf, xe, ve, le, jac, gN, W, zeta, H):
+    """Pin point s on body a (the pin, radius R_p) in the cylindrical hole of body b (the bushing, radius R_h,
+    axis through c along the unit e_b, both in b's axes).
+
+    d = r_a + R_a s − r_b − R_b c, e = R_b e_b, z = e·d, d⊥ = d − z e, L = |d⊥|, n = d⊥/L (from the axis to
+    the pin point; λ_N n acts on the bushing, −λ_N n on the pin); g = (R_h − R_p) − L. Tangents t₁ = e
+    (axial), t₂ = e × n (circumferential). Arms from the nodes to the contact points: aa = R_a s + R_p n
+    (the pin's surface point towards the wall), ab = R_b c + z e + R_h n (the hole's surface point there).
+    Rows w ∈ (n, t₁, t₂): W = (−w, −R_aᵀ(aa × w), w, R_bᵀ(ab × w)), the velocity
+    V = ṙ_b + ω_b × ab − ṙ_a − ω_a × aa of the bushing's point relative to the pin's along w (ω = RΩ);
+    W_N v = −n·ḋ + z n·ė = ġ_N. ζ = ẇ·V + w·(ω_b × ȧb − ω_a × ȧa) (ω is constant along x ∘ exp(εv)),
+    ȧa = ω_a × R_a s + R_p ṅ, ȧb = ω_b × R_b c + ż e + z ė + R_h ṅ, ė = ω_b × e, ż = ė·d + e·ḋ,
+    ṅ = (ḋ⊥ − (n·ḋ⊥)n)/L with ḋ⊥ = ḋ − ż e − z ė, ṫ₂ = ė × n + e × ṅ; H by :func:`_pin_hessian`.
+    Where L ≤ PIN_MIN_OFFSET (R_h − R_p) (the pin point on the axis, no normal) g is still exact (the whole
+    clearance: open) and the rows are those of the bushing-fixed direction n = R_b f (ṅ = ω_b × n).
+    P = (s(3), c(3), e_b(3), f(3), R_h, R_p, e_pin(3)); e_pin (the pin's axis in a's axes) is for output.
+    """
+    for e in range(xe.shape[0]):
+        Ra, Rb, da, db, ax, d, z, L, n, regular = _pin_geometry(xe, P, e)
+        rH, rP = P[e, 12], P[e, 13]
+        gN[e, 0] = rH - rP - L
+        t2 = cross3(ax, n)
+        aa = add3(da, scale3(rP, n))
+        ab = (db[0] + z * ax[0] + rH * n[0], db[1] + z * ax[1] + rH * n[1], db[2] + z * ax[2] + rH * n[2])
+        wa = mv(Ra, (ve[e, 3], ve[e, 4], ve[e, 5]))
+        wb = mv(Rb, (ve[e, 9], ve[e, 10], ve[e, 11]))
+        ra = (ve[e, 0], ve[e, 1], ve[e, 2])
+        rb = (ve[e, 6], ve[e, 7], ve[e, 8])
+        V = sub3(add3(rb, cross3(wb, ab)), add3(ra, cross3(wa, aa)))
+        ca = cross3(wa, da)
+        cb = cross3(wb, db)
+        dd = sub3(add3(ra, ca), add3(rb, cb))
+        edot = cross3(wb, ax)
+        ndot, zd = _pin_normal_d(n, ax, d, z, dd, edot, L, regular, cross3(wb, n))
+        aad = add3(ca, scale3(rP, ndot))
+        abd = (cb[0] + zd * ax[0] + z * edot[0] + rH * ndot[0], cb[1] + zd * ax[1] + z * edot[1] + rH * ndot[1],
+               cb[2] + zd * ax[2] + z * edot[2] + rH * ndot[2])
+        Vq = sub3(cross3(wb, abd), cross3(wa, aad))
+        _pair_row(W, zeta, e, 0, n, ndot, aa, ab, Ra, Rb, V, Vq)
+        _pair_row(W, zeta, e, 1, ax, edot, aa, ab, Ra, Rb, V, Vq)
+        _pair_row(W, zeta, e, 2, t2, add3(cross3(edot, n), cross3(ax, ndot)), aa, ab, Ra, Rb, V, Vq)
+        if jac:
+            geo = (n, ax, t2, aa, ab, d, z, (P[e, 0], P[e, 1], P[e, 2]), (P[e, 3], P[e, 4], P[e, 5]),
+                   (P[e, 6], P[e, 7], P[e, 8]), (P[e, 9], P[e, 10], P[e, 11]))
+            _pin_hessian(H, e, (le[e, 0], le[e, 1], le[e, 2]), geo, (Ra, Rb, L, rH, rP, regular))
+
+
+def _pin_frames(P, qe):
+    """Numpy twin of :func:`_pin_geometry` for a batch: dict of the axis e, the normal n (R_b f where the pin
+    point is on the axis), L = |d⊥|, z, the axis point x = r_b + R_b c, the pin's axis R_a e_pin and g_N."""
+    p, Ra = _spatial_points(qe, P[:, 0:3])
+    x, Rb = _spatial_points(qe, P[:, 3:6], col=7)
+    ax = np.einsum("eij,ej->ei", Rb, P[:, 6:9])
+    d = p - x
+    z = np.einsum("ej,ej->e", ax, d)
+    dp = d - z[:, None] * ax
+    L = np.linalg.norm(dp, axis=1)
+    regular = L > PIN_MIN_OFFSET * (P[:, 12] - P[:, 13])
+    n = np.where(regular[:, None], dp / np.where(regular, L, 1.0)[:, None], np.einsum("eij,ej->ei", Rb, P[:, 9:12]))
+    return {"e": ax, "n": n, "L": L, "z": z, "x": x, "pin_axis": np.einsum("eij,ej->ei", Ra, P[:, 14:17]),
+            "gN": P[:, 12] - P[:, 13] - L}
+
+
+def _pin_spatial_body(owner, lookup, ref, role):
+    """A spatial body (the mechanism's ground: its fixed spatial twin) for ``role``; ModelError naming owner."""
+    from .bodies import Ground
+    from .spatial_bodies import SpatialGround, spatial_ground
+
+    if isinstance(ref, SpatialGround):
+        return ref
+    b = lookup(ref, role)
+    if isinstance(b, Ground):
+        return spatial_ground(b)
+    if getattr(b, "node", None) is None or not getattr(b.node, "rotation_blocks", ()):
+        raise ModelError(f"{owner}: {role} = '{getattr(b, 'name', b)}' is a planar body; the pin and the bushing "
+                         "must be spatial bodies (use PinInHole in the plane)")
+    return b
+
+
+def _pin_axis_spec(owner, what, spec):
+    """An axis given as a name (checked at resolve) or a non-zero 3-vector (normalised here)."""
+    return spec if isinstance(spec, str) else _unit(owner, what, spec, 3)
+
+
+def _pin_body_axis(owner, body, spec, what):
+    if not isinstance(spec, str):
+        return np.asarray(spec, dtype=float)
+    try:
+        return np.asarray(body.axes[spec], dtype=float)
+    except (KeyError, AttributeError):
+        raise ModelError(f"{owner}: {what}: body '{body.name}' has no axis named '{spec}' "
+                         f"(known: {sorted(getattr(body, 'axes', {})) or 'none'})") from None
+
+
+class SpatialPinInBushing(ContactElement):
+    """A point of a pin's axis in the cylindrical hole of a bushing: one contact of a revolute joint with
+    clearance in space (use :func:`pin_bushing` for the joint: two of them, at the bushing's ends).
+
+    Geometry. Body b (the bushing) has a cylindrical hole of radius R_h whose axis passes through c along
+    the unit vector e_b (both in b's axes); body a (the pin, or shaft) is a cylinder of radius R_p < R_h,
+    and s (in a's axes) is a point of its axis. With c_b = r_b + R_b c, e = R_b e_b and
+    d = (r_a + R_a s) − c_b, the radial offset of the pin point from the hole's axis is d⊥ = d − (e·d) e and
+
+        g_N = (R_h − R_p) − |d⊥|,   n = d⊥/|d⊥|  (from the hole's axis towards the pin point).
+
+    The normal force λ_N n acts on the bushing (b) and −λ_N n on the pin (a), which it pushes back
+    towards the axis: as on every pair, n is the direction in which λ_N pushes body b
+    (:meth:`ContactElement.contact_frames`; :class:`PinInHole` is the planar case, with its pin on b). The
+    tangents follow the bodies, t₁ = e (axial) and t₂ = e × n (circumferential), defined wherever n is
+    (t₁ × t₂ = −n: (t₁, t₂, −n) is right-handed, −n the direction that pushes the pin); the slip
+    γ_F,k = t_k·(V_b − V_a) is the velocity of the hole's surface point c_b + (e·d) e + R_h n (a material
+    point of b) relative to the pin's surface point r_a + R_a s + R_p n (of a), and the friction force
+    λ_F,k t_k acts on b, −λ_F,k t_k on a. In a plane normal to the axis (e = +z) γ_F,2 is
+    :class:`PinInHole`'s slip, t·ė − R_p ω_pin + R_h ω_hole. The gap and rows are Glocker's (Set-Valued
+    Force Laws, Springer 2001, Ch. 7–8; Pfeiffer & Glocker, Multibody Dynamics with Unilateral Contacts,
+    Wiley 1996, Ch. 4) for the revolute clearance joint (Flores, Ambrósio, Claro & Lankarani, Kinematics
+    and Dynamics of Multibody Systems with Imperfect Joints, Springer 2008, Ch. 4, planar; the spatial
+    joint: the same authors, Proc. IMechE Part K 220 (2006) 257–271).
+
+    Assumptions (the model, not the exact contact of two cylinders):
+
+    * the hole is an infinite cylinder and the contact is checked at the pin point s, fixed in the pin:
+      a pin that slides along the axis by Δ carries its check point with it (the bushing's end is not
+      tracked), so with a tilt β its gap is that of a station Δ away from the bushing's end, off by about
+      Δ tan β;
+    * a pin tilted by β against the hole's axis meets the hole along an ellipse (semi-axes R_p and
+      R_p/cos β in the plane normal to e), not a circle: the gap is too large by R_p (1/cos β − 1)
+      ≈ R_p β²/2. It matters when that nears the clearance, β ≈ √(2 (R_h − R_p)/R_p); inside a bushing of
+      length ℓ the tilt is at most about 2 (R_h − R_p)/ℓ, where the error is 2 R_p (R_h − R_p)²/ℓ² (a
+      fraction 2 R_p (R_h − R_p)/ℓ² of the clearance). :meth:`geometry_problems` reports a tilt whose
+      error exceeds a tenth of the clearance.
+
+    Where the pin point is on the hole's axis (|d⊥| ≤ PIN_MIN_OFFSET (R_h − R_p)) the normal is not
+    defined. The gap is then exact, the whole clearance R_h − R_p (open), and the rows use the direction
+    n = R_b f fixed in the bushing (f ⊥ e_b, :func:`tangents`): a supergradient of the gap there (g_N ≤
+    (R_h − R_p) − n·d⊥), never NaN, so a concentric start is allowed; :meth:`geometry_problems` names it.
+
+    Parameters
+    ----------
+    name : str
+    pin : spatial body, name, or ``"ground"``
+        Body a, the pin (a fixed axle: ``"ground"``).
+    bushing : spatial body, name, or ``"ground"``
+        Body b, with the hole (a bushing fixed in space: ``"ground"``).
+    hole_radius, pin_radius : float, hole_radius > pin_radius ≥ 0
+    centre : (3,) or name
+        A point of the hole's axis c, in the bushing's axes.
+    axis : (3,) or name
+        The hole's axis e_b in the bushing's axes (normalised; a name: one of the bushing's named axes).
+    pin_point : (3,) or name
+        The point s of the pin's axis where the gap is checked, in the pin's axes.
+    offset : float
+        Moves c along e_b and s along the pin's axis by this (m): the contact's station along the joint
+        (:func:`pin_bushing` uses ±length/2).
+    pin_axis : (3,), optional
+        The pin's axis in its own axes (for ``offset`` and the tilt report); default: the hole's axis in
+        the initial configuration, R_a0ᵀ R_b0 e_b.
+    e_N, mu, e_F : see :class:`ContactElement`.
+    """
+
+    spatial = True
+    n_friction = 2
+    kernels = {"contact": pin_bushing_contact}
+
+    def __init__(self, name, pin, bushing, hole_radius, pin_radius, centre=(0.0, 0.0, 0.0), axis=(0.0, 0.0, 1.0),
+                 pin_point=(0.0, 0.0, 0.0), offset=0.0, pin_axis=None, e_N=0.0, mu=0.0, e_F=0.0):
+        super().__init__(name, e_N, mu, e_F)
+        owner = f"SpatialPinInBushing '{name}'"
+        self.a, self.b = pin, bushing
+        self.Rh = _scalar(owner, "hole_radius", hole_radius, 0.0)
+        self.Rp = _scalar(owner, "pin_radius", pin_radius, 0.0)
+        if not self.Rh > self.Rp:
+            raise ModelError(f"{owner}: hole_radius ({self.Rh:g}) must exceed pin_radius ({self.Rp:g})")
+        for what, pt in (("centre", centre), ("pin_point", pin_point)):
+            if not isinstance(pt, str):
+                _vector(owner, what, pt, 3)
+        self._centre, self._pin_point = centre, pin_point
+        self._axis = _pin_axis_spec(owner, "axis", axis)
+        self._pin_axis = None if pin_axis is None else _unit(owner, "pin_axis", pin_axis, 3)
+        self.offset = _scalar(owner, "offset", offset)
+
+    def resolve(self, lookup):
+        owner = f"SpatialPinInBushing '{self.name}'"
+        self.a = _pin_spatial_body(owner, lookup, self.a, "pin")
+        self.b = _pin_spatial_body(owner, lookup, self.b, "bushing")
+        if self.a is self.b:
+            raise ModelError(f"{owner}: the pin and the bushing are the same body ('{self.a.name}')")
+        pts = []
+        for what, body, spec in (("pin_point", self.a, self._pin_point), ("centre", self.b, self._centre)):
+            try:
+                pts.append(np.asarray(body.local(spec, what), dtype=float))
+            except ModelError as err:
+                raise ModelError(f"{owner}: {what}: {err}") from None
+        self.s0, self.c0 = pts
+        eb = _pin_body_axis(owner, self.b, self._axis, "axis")
+        self.eb = eb / np.linalg.norm(eb)
+
+    def validate(self):
+        Ra0, Rb0 = self.a.node.rotation0, self.b.node.rotation0
+        self.e_pin = Ra0.T @ (Rb0 @ self.eb) if self._pin_axis is None else self._pin_axis
+        self.c = self.c0 + self.offset * self.eb
+        self.s = self.s0 + self.offset * self.e_pin
+        self.f = tangents(self.eb)[0]
+
+    def nodes(self):
+        return [self.a.node, self.b.node]
+
+    @classmethod
+    def pack(cls, elements):
+        P = np.array([[*e.s, *e.c, *e.eb, *e.f, e.Rh, e.Rp, *e.e_pin] for e in elements], dtype=float)
+        return {"P": np.ascontiguousarray(P.reshape(-1, 17))}
+
+    @classmethod
+    def contact_frames(cls, P, qe):
+        """Contact point: the hole's surface point c_b + (e·d) e + R_h n at the pin point's station; n (the
+        direction λ_N pushes the bushing), (t₁, t₂) = (e, e × n), g_N."""
+        f = _pin_frames(P, qe)
+        n, ax = f["n"], f["e"]
+        c = f["x"] + f["z"][:, None] * ax + P[:, 12:13] * n
+        return c, n, np.stack((ax, np.cross(ax, n)), axis=1), f["gN"]
+
+    @classmethod
+    def geometry_problems(cls, P, qe):
+        """Contacts whose pin point is (nearly) on the hole's axis (no normal; open), or whose pin is tilted
+        so far that the pin-point model's gap error R_p (1/cos β − 1) exceeds a tenth of the clearance."""
+        f = _pin_frames(P, qe)
+        clear = P[:, 12] - P[:, 13]
+        out = []
+        for e in range(len(clear)):
+            cosb = abs(float(f["e"][e] @ f["pin_axis"][e]))
+            if not f["L"][e] > 1e-6 * clear[e]:
+                out.append((e, f"the pin point is {f['L'][e]:.3g} m from the bushing's axis (clearance "
+                               f"{clear[e]:.4g} m): the normal is not defined there (the contact is open; "
+                               "its rows use a direction fixed in the bushing)"))
+            elif P[e, 13] * (1.0 / max(cosb, 1e-300) - 1.0) > 0.1 * clear[e]:
+                out.append((e, f"the pin is tilted by {math.degrees(math.acos(min(cosb, 1.0))):.3g}° against "
+                               f"the bushing's axis: the pin-point model's gap error R_p (1/cos β − 1) "
+                               f"exceeds a tenth of the clearance {clear[e]:.4g} m"))
+        return out
+
+
+def pin_bushing(name, pin_body, bushing_body, hole_radius, pin_radius, length, centre=(0.0, 0.0, 0.0),
+                axis=(0.0, 0.0, 1.0), pin_point=(0.0, 0.0, 0.0), pin_axis=None, e_N=0.0, mu=0.0, e_F=0.0):
+    """A revolute joint with clearance in space: two :class:`SpatialPinInBushing` at the bushing's ends.
+
+    Parameters
+    ----------
+    name : str
+    pin_body, bushing_body : spatial body, name, or ``"ground"``
+    hole_radius, pin_radius : float, hole_radius > pin_radius ≥ 0
+    length : float > 0
+        The bushing's length ℓ: the contacts sit at ±ℓ/2 along the axis from ``centre`` (on the bushing)
+        and from ``pin_point`` (on the pin).
+    centre, axis : (3,) or name
+        The bushing's middle and its axis, in the bushing's axes.
+    pin_point : (3,) or name
+        The pin's point that sits at ``centre`` when the joint is centred, in the pin's axes.
+    pin_axis, e_N, mu, e_F : see :class:`SpatialPinInBushing`.
+
+    Returns
+    -------
+    list of SpatialPinInBushing
+        ``<name>.end0`` at −ℓ/2 and ``<name>.end1`` at +ℓ/2.
+    """
+    owner = f"pin_bushing '{name}'"
+    ell = _scalar(owner, "length", length, 0.0)
+    if not ell > 0.0:
+        raise ModelError(f"{owner}: length must be positive, got {length!r}")
+    return [SpatialPinInBushing(f"{name}.end{k}", pin_body, bushing_body, hole_radius, pin_radius, centre, axis,
+                                pin_point, offset=o, pin_axis=pin_axis, e_N=e_N, mu=mu, e_F=e_F)
+            for k, o in enumerate((-0.5 * ell, 0.5 * ell))]

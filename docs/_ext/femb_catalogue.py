@@ -491,6 +491,22 @@ def spatial_body_plane_contact():
     return mech
 
 
+def spatial_pin_bushing():
+    import femb
+    from femb.elements.contact import pin_bushing
+    from femb.elements.spatial_bodies import SpatialRigidBody
+    from femb.elements.spatial_forces import SpatialGravity
+
+    mech = femb.Mechanism("shaft_in_bushing")
+    mech.add(SpatialRigidBody("shaft", 1.0, (2e-4, 3e-3, 3e-3), position=(0.0, 0.0, 0.0), velocity=(0.2, 0.05, 0.0),
+                              omega=(15.0, 0.0, 0.5),
+                              shape={"type": "cylinder", "radius": 0.02, "length": 0.3, "axis": (1.0, 0.0, 0.0)}),
+             SpatialGravity((0.0, 0.0, -9.81)))
+    # a bushing fixed in space along x, 0.2 m long, 2 mm of radial clearance: its two end contacts
+    mech.add(*pin_bushing("bearing", "shaft", "ground", 0.022, 0.02, 0.2, axis=(1.0, 0.0, 0.0), e_N=0.3, mu=0.2))
+    return mech
+
+
 def penalty_contact():
     import femb
     from femb.elements import (FixedJoint, SpatialGravity, SpatialPenaltySphereOnBodyPlane, SpatialPenaltySpherePair,
@@ -661,6 +677,12 @@ ENTRIES = [
           "A spinning ball dropped on a table that tilts about an axle: the contact plane and its friction "
           "directions are fixed to the table. Integrated by :func:`femb.contact.simulate`.",
           t_end=0.4, h=2e-3, run="contact"),
+    Entry("spatial_pin_bushing", "Spatial pin in a bushing (revolute joint with clearance)",
+          ("femb.elements.contact.SpatialPinInBushing",), spatial_pin_bushing,
+          "A spinning shaft in a bushing fixed in space, with radial clearance: ``pin_bushing`` puts one "
+          "contact at each end of the bushing; the shaft drops onto the hole's wall, bounces and slides "
+          "along and around it with Coulomb friction. Integrated by :func:`femb.contact.simulate`.",
+          t_end=0.3, h=1e-3, run="contact"),
     Entry("planar_penalty_contact", "Penalty (compliant) contact in the plane",
           ("femb.elements.penalty_contact.PenaltySphereOnPlane",), planar_penalty_contact,
           "A spinning disc dropped on a compliant floor: Hertz stiffness with Hunt–Crossley damping and "
