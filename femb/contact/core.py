@@ -407,6 +407,74 @@ def jacobian(x, o, mq, kin, law, lay, par, sets, der, J):
 
 
 @kernel(allocates=True)
+def minimum_norm_step(J, R, x, dx, w):
+    """The Newton increment dx for a rank-deficient J (NonsmoothStep.newton_increment): the least-squares
+    solution of J dx = −R with the singular values below 1e-11 of the largest dropped (the minimum-norm
+    increment), and then, where ``w`` (nx,) is given (non-empty), the new iterate y = x + dx moved within
+    J's null space to the point of least Σ w_a y_a² (y − N c with (NᵀWN) c = NᵀW y, N the null basis).
+
+    The null space holds the unknowns that the laws leave undetermined (two sticking contacts on one body,
+    of which only the sum of the friction forces is fixed; redundant constraints' multipliers). The
+    minimum-norm increment alone keeps whatever split the iterate held, and a split locked in that way
+    (opposite axial friction at the two ends of a shaft in a bushing) made a later step that starts to slip
+    unsolvable. With the weights of :func:`null_weights` (1 / (μ_i times contact i's normal force or
+    impulse) on its friction unknowns) the undetermined friction forces are shared in proportion to their
+    cones, so that the contacts of one body reach their cones together (docs/contact.md §1.1, item 3).
+    """
+    U, s, Vt = np.linalg.svd(J)
+    n = s.size
+    cut = 1e-11 * s[0] if n > 0 else 0.0
+    dx[:] = 0.0
+    nul = 0
+    for k in range(n):
+        if s[k] > cut:
+            c = 0.0
+            for a in range(R.size):
+                c -= U[a, k] * R[a]
+            c /= s[k]
+            for b in range(dx.size):
+                dx[b] += c * Vt[k, b]
+        else:
+            nul += 1
+    if w.size == 0 or nul == 0:
+        return
+    N = np.empty((dx.size, nul))
+    j = 0
+    for k in range(n):
+        if not s[k] > cut:
+            N[:, j] = Vt[k]
+            j += 1
+    WN = N * w.reshape(-1, 1)
+    c = np.linalg.solve(N.T @ WN, WN.T @ (x + dx))
+    dx -= N @ c
+
+
+@kernel(allocates=True)
+def null_weights(x, o, PN, law, lay, w):
+    """The weights of :func:`minimum_norm_step`: 1 on every unknown but the friction ones; on contact i's
+    friction percussions Λ_F and forces λ_F, 1 / (μ_i P_N,i) and 1 / (μ_i λ_N,i) (the cone's size at the
+    iterate; at least 1e-9 of the largest, so that an unloaded contact takes almost none). Returns w."""
+    w[:] = 1.0
+    mu, fptr, fidx = law[2], lay[1], lay[2]
+    k = o[8] - o[7]
+    sP = 0.0
+    sl = 0.0
+    for i in range(k):
+        sP = max(sP, mu[i] * abs(PN[i]))
+        sl = max(sl, mu[i] * abs(x[o[8] + i]))
+    for i in range(k):
+        cP = max(mu[i] * PN[i], 1e-9 * sP)
+        cl = max(mu[i] * x[o[8] + i], 1e-9 * sl)
+        for p in range(fptr[i], fptr[i + 1]):
+            j = fidx[p]
+            if cP > 0.0:
+                w[o[9] + j] = 1.0 / cP
+            if cl > 0.0:
+                w[o[10] + j] = 1.0 / cl
+    return w
+
+
+@kernel(allocates=True)
 def increment(J, R, dx):
     """Solve J dx = −R on J equilibrated by rows and columns (LU, partial pivoting).
 
@@ -594,7 +662,7 @@ def newton_loop(x, mdl, st, law, lay, par, work):
         if not np.all(np.isfinite(J)):
             return 1, it, err
         if increment(J, R, dx) != 0:
-            dx[:] = np.linalg.lstsq(J, -R, rcond=1e-11)[0]
+            minimum_norm_step(J, R, x, dx, null_weights(x, o, kout[5], law, lay, np.empty(x.size)))
         x += dx
     kinematics(x, o, st, kp, cmp, kout)
     _evaluate(x, o, mdl, t1, kout, dq)

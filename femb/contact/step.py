@@ -311,7 +311,9 @@ class NonsmoothStep:
         return ev, sets
 
     def _dense_increment(self, x):
-        """The Newton increment at the iterate of the last :meth:`_dense_residual` (None: no factorization)."""
+        """The Newton increment at the iterate of the last :meth:`_dense_residual` (None: no factorization);
+        for a rank-deficient J :func:`femb.contact.core.minimum_norm_step` with the weights of
+        :func:`femb.contact.core.null_weights`, as the compiled iteration."""
         J, R = self._J, self._out[0]
         core.jacobian(x, self._o, self._mq, self._kin, self._law, self._lay, self._par, self._sets, self._out[2:], J)
         if not np.all(np.isfinite(J)):
@@ -319,7 +321,10 @@ class NonsmoothStep:
         if self.nx <= DENSE_COMPILED_LU:
             if core.increment(J, R, self._dx) == 0:
                 return self._dx.copy()
-            return np.linalg.lstsq(J, -R, rcond=1e-11)[0]
+            xc = np.ascontiguousarray(x, dtype=float)
+            w = core.null_weights(xc, self._o, self._kout[5], self._law, self._lay, np.empty(xc.size))
+            core.minimum_norm_step(J, R, xc, self._dx, w)
+            return self._dx.copy()
         return self.newton_increment(J, R)
 
     def _dense_evaluate(self, s, x):
@@ -676,8 +681,9 @@ class NonsmoothStep:
     def newton_increment(self, J, R):
         """Solve J dx = −R; with a rank-deficient J (forces that the contact laws leave undetermined,
         e.g. the friction forces of two sticking corners of one block, of which only the sum is
-        unique) the minimum-norm least-squares increment (SVD), which keeps the undetermined parts
-        where they are. None if J cannot be factored at all.
+        unique) the minimum-norm increment (SVD; LSQR on the sparse path), which keeps the undetermined
+        parts where they are (the dense path's :meth:`_dense_increment` shares them out by
+        :func:`femb.contact.core.minimum_norm_step`). None if J cannot be factored at all.
 
         The rank test is made on J equilibrated by rows and columns (each divided by its largest
         entry): a stiff beam's K_t beside small rotational masses and the constraint rows spreads
