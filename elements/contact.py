@@ -851,6 +851,28 @@ def _pair_undefined(gN, W, zeta, H, e, jac):
 
 
 @kernel
+def two_body_h_column(H, e, j, base, d):
+    """Column j of H = ∂(Wᵀλ)/∂x for a contact between spatial bodies a and b, whose generalized force
+    is Wᵀλ = (−F, −R_aᵀ(aa × F), F, R_bᵀ(ab × F)) in (r_a, Ω_a, r_b, Ω_b) (F the contact force on b at its
+    arms aa, ab from the nodes). ``base`` = (R_a, R_b, F, aa, ab, R_aᵀ(aa × F), R_bᵀ(ab × F)) at the
+    state; ``d`` = (δθ_a, δθ_b, δF, δaa, δab) along the column's direction. With δ(Rᵀy) = (Rᵀy) × δθ + Rᵀδy:
+    H[:, j] = (−δF, −((R_aᵀ(aa × F)) × δθ_a + R_aᵀ(δaa × F + aa × δF)), δF, (…)_b)."""
+    Ra, Rb, F, aa, ab, ya, yb = base
+    tha, thb, dF, daa, dab = d
+    ca = cross3(ya, tha)
+    cb = cross3(yb, thb)
+    ea = mtv(Ra, cross3(daa, F))
+    fa = mtv(Ra, cross3(aa, dF))
+    eb = mtv(Rb, cross3(dab, F))
+    fb = mtv(Rb, cross3(ab, dF))
+    for r in range(3):
+        H[e, r, j] = -dF[r]
+        H[e, 3 + r, j] = -(ca[r] + ea[r] + fa[r])
+        H[e, 6 + r, j] = dF[r]
+        H[e, 9 + r, j] = cb[r] + eb[r] + fb[r]
+
+
+@kernel
 def _pair_hessian(H, e, lam, geo, rot):
     """H = ∂(Wᵀλ)/∂x of one pair, column by column along the 12 tangent directions (δr_a, δθ_a, δr_b,
     δθ_b).
@@ -894,17 +916,7 @@ def _pair_hessian(H, e, lam, geo, rot):
         rb = mv(Rb, cross3(thb, sb))
         daa = (ra[0] + rA * dn[0], ra[1] + rA * dn[1], ra[2] + rA * dn[2])
         dab = (rb[0] - rB * dn[0], rb[1] - rB * dn[1], rb[2] - rB * dn[2])
-        ca = cross3(ya, tha)
-        cb = cross3(yb, thb)
-        ea = mtv(Ra, cross3(daa, F))
-        fa = mtv(Ra, cross3(aa, dF))
-        eb = mtv(Rb, cross3(dab, F))
-        fb = mtv(Rb, cross3(ab, dF))
-        for r in range(3):
-            H[e, r, j] = -dF[r]
-            H[e, 3 + r, j] = -(ca[r] + ea[r] + fa[r])
-            H[e, 6 + r, j] = dF[r]
-            H[e, 9 + r, j] = cb[r] + eb[r] + fb[r]
+        two_body_h_column(H, e, j, (Ra, Rb, F, aa, ab, ya, yb), (tha, thb, dF, daa, dab))
 
 
 @kernel
@@ -1141,17 +1153,7 @@ def _body_plane_hessian(H, e, geo, rot):
             thb = u
             dab = cross3(mv(Rb, u), db)
         daa = (dr[0] + dab[0], dr[1] + dab[1], dr[2] + dab[2])
-        ca = cross3(ya, tha)
-        cb = cross3(yb, thb)
-        ea = mtv(Ra, cross3(daa, F))
-        fa = mtv(Ra, cross3(aa, dF))
-        eb = mtv(Rb, cross3(dab, F))
-        fb = mtv(Rb, cross3(ab, dF))
-        for r in range(3):
-            H[e, r, j] = -dF[r]
-            H[e, 3 + r, j] = -(ca[r] + ea[r] + fa[r])
-            H[e, 6 + r, j] = dF[r]
-            H[e, 9 + r, j] = cb[r] + eb[r] + fb[r]
+        two_body_h_column(H, e, j, (Ra, Rb, F, aa, ab, ya, yb), (tha, thb, dF, daa, dab))
 
 
 @kernel
@@ -1374,15 +1376,7 @@ def _pin_hessian(H, e, lam, geo, rot):
         daa = add3(dda, scale3(rP, dn))
         dab = (ddb[0] + dz * ax[0] + z * de[0] + rH * dn[0], ddb[1] + dz * ax[1] + z * de[1] + rH * dn[1],
                ddb[2] + dz * ax[2] + z * de[2] + rH * dn[2])
-        ca = cross3(ya, tha)
-        cb = cross3(yb, thb)
-        ea = mtv(Ra, add3(cross3(daa, F), cross3(aa, dF)))
-        eb_ = mtv(Rb, add3(cross3(dab, F), cross3(ab, dF)))
-        for r in range(3):
-            H[e, r, j] = -dF[r]
-            H[e, 3 + r, j] = -(ca[r] + ea[r])
-            H[e, 6 + r, j] = dF[r]
-            H[e, 9 + r, j] = cb[r] + eb_[r]
+        two_body_h_column(H, e, j, (Ra, Rb, F, aa, ab, ya, yb), (tha, thb, dF, daa, dab))
 
 
 @kernel
