@@ -285,8 +285,8 @@ def _prox_disc_into(v, radius, out, idx):
 @kernel(allocates=True)
 def _store_solution(s, r, F, work, t1, it):
     """Row r from the converged iterate in the work arrays (NonsmoothStep._dense_result, _advance) and the
-    contact work ½(u_n + u_{n+1})·(W_NᵀP_N, W_FᵀP_F) of the (sub)step (simulate._accept)."""
-    o, kout, out, mq, mv, sets = work[0], work[2], work[3], work[5], work[6], work[9]
+    contact work ½(ġ_N,n + ġ_N,n+1)·P_N, ½(γ_F,n + γ_F,n+1)·P_F of the (sub)step (simulate._accept)."""
+    o, kout, out, mv, sets = work[0], work[2], work[3], work[6], work[9]
     x = _field(r, F, _X)
     r[F[_T]] = t1
     for i, a in ((_Q, 0), (_U, 1), (_AB, 2), (_LBN, 3), (_LBF, 4), (_PN, 5), (_PF, 7)):
@@ -302,12 +302,10 @@ def _store_solution(s, r, F, work, t1, it):
     for j in range(5):
         for i in range(k):
             r[F[_SETS] + j * k + i] = sets[j, i]
-    u0, u1 = _field(s, F, _U), kout[1]
-    for j, (W, p) in enumerate(((mq[4], kout[5]), (mq[5], kout[7]))):
-        w = 0.0                                    # ½(u_n + u_{n+1})·Wᵀp
-        for i in range(W.shape[0]):
-            for a in range(W.shape[1]):
-                w += 0.5 * (u0[a] + u1[a]) * W[i, a] * p[i]
+    for j, (v0, v1, p) in enumerate(((_field(s, F, _GND), out[2], kout[5]), (_field(s, F, _GFD), out[5], kout[7]))):
+        w = 0.0                                    # ½(v_n + v_{n+1})·p, v = ġ_N or γ_F with W at each end
+        for i in range(p.size):
+            w += 0.5 * (v0[i] + v1[i]) * p[i]
         r[F[_WORK] + j] = w
     r[F[_ITS]] = it
 

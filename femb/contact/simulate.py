@@ -433,8 +433,9 @@ def _accept(stepper, s, x, ev, sets, info, n, rec, vel_tol):
     """Book an accepted (sub)step: iterations, contact work, impacts; the new state."""
     rec.iterations.append(info["iterations"])
     rec.methods.append(info["method"])
-    um = 0.5 * (s.u + ev["u"])
-    work = _sums(stepper, x, ev, float(um @ (ev["WN"].T @ ev["PN"])), float(um @ (ev["WF"].T @ ev["PF"])))
+    # the contact work: the impulses times the mean of the contact velocities at the (sub)step's two ends,
+    # each with its own W (½(u_n + u_{n+1})·W_{n+1}ᵀP, used before, is first order where W turns)
+    work = _sums(stepper, x, ev, float(0.5 * (s.gNd + ev["gNd"]) @ ev["PN"]), float(0.5 * (s.gFd + ev["gF"]) @ ev["PF"]))
     new = _advance(stepper, s, x, ev)
     rec.impacts(n, s, new, ev, sets, stepper.split(x), vel_tol)
     return new, x, ev, sets, work
