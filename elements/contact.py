@@ -228,6 +228,21 @@ def _body(owner, lookup, ref, role):
     return b
 
 
+def _points(owner, n, **points):
+    """Check the points given as vectors (n,); names of a body's points are resolved later (``_local``)."""
+    for what, pt in points.items():
+        if not isinstance(pt, str):
+            _vector(owner, what, pt, n)
+
+
+def _two_bodies(owner, refs, roles, find):
+    """The two bodies of a pair contact by ``find(ref, role)``; ModelError naming ``owner`` if they are one."""
+    a, b = find(refs[0], roles[0]), find(refs[1], roles[1])
+    if a is b:
+        raise ModelError(f"{owner}: {roles[0]} and {roles[1]} are the same body ('{a.name}')")
+    return a, b
+
+
 # ---------------------------------------------------------------------------
 # planar: a point or disc of a body on a plane fixed in space
 # ---------------------------------------------------------------------------
@@ -403,12 +418,9 @@ class _DiscPair(ContactElement):
 
     def resolve(self, lookup):
         owner = f"{type(self).__name__} '{self.name}'"
-        self.a = _body(owner, lookup, self.a, "a")
-        self.b = _body(owner, lookup, self.b, "b")
-        if self.a is self.b:
-            raise ModelError(f"{owner}: bodies a and b are the same ('{self.a.name}')")
-        self.sa = np.asarray(self.a.local(self._pa, "point_a"), dtype=float)
-        self.sb = np.asarray(self.b.local(self._pb, "point_b"), dtype=float)
+        self.a, self.b = _two_bodies(owner, (self.a, self.b), ("a", "b"), lambda r, w: _body(owner, lookup, r, w))
+        self.sa = _local(owner, self.a, self._pa, "point_a")
+        self.sb = _local(owner, self.b, self._pb, "point_b")
 
     def nodes(self):
         return [self.a.node, self.b.node]
@@ -612,17 +624,13 @@ class SphereOnBodyPlane(ContactElement):
         self.body, self.plane_body = body, plane_body
         self.radius = _scalar(owner, "radius", radius, 0.0)
         self.nbar = _unit(owner, "normal", normal, 2)
-        for what, pt in (("point", point), ("plane_point", plane_point)):
-            if not isinstance(pt, str):
-                _vector(owner, what, pt, 2)
+        _points(owner, 2, point=point, plane_point=plane_point)
         self._point, self._plane_point = point, plane_point
 
     def resolve(self, lookup):
         owner = f"SphereOnBodyPlane '{self.name}'"
-        self.body = _body(owner, lookup, self.body, "body")
-        self.plane_body = _body(owner, lookup, self.plane_body, "plane_body")
-        if self.body is self.plane_body:
-            raise ModelError(f"{owner}: body and plane_body are the same ('{self.body.name}')")
+        self.body, self.plane_body = _two_bodies(owner, (self.body, self.plane_body), ("body", "plane_body"),
+                                                 lambda r, w: _body(owner, lookup, r, w))
         self.s = _local(owner, self.body, self._point, "point")
         self.pbar = _local(owner, self.plane_body, self._plane_point, "plane_point")
 
@@ -1049,24 +1057,15 @@ class SpatialSpherePair(ContactElement):
         if not self.Ra + self.Rb > 0.0:
             raise ModelError(f"{owner}: radius_a + radius_b must be positive (two points never touch), "
                              f"got {self.Ra:g} and {self.Rb:g}")
-        for what, pt in (("point_a", point_a), ("point_b", point_b)):
-            if not isinstance(pt, str):
-                _vector(owner, what, pt, 3)
+        _points(owner, 3, point_a=point_a, point_b=point_b)
         self._pa, self._pb = point_a, point_b
 
     def resolve(self, lookup):
         owner = f"SpatialSpherePair '{self.name}'"
-        self.a = _spatial_body(owner, lookup, self.a, "a")
-        self.b = _spatial_body(owner, lookup, self.b, "b")
-        if self.a is self.b:
-            raise ModelError(f"{owner}: bodies a and b are the same ('{self.a.name}')")
-        pts = []
-        for what, body, spec in (("point_a", self.a, self._pa), ("point_b", self.b, self._pb)):
-            try:
-                pts.append(np.asarray(body.local(spec, what), dtype=float))
-            except ModelError as err:
-                raise ModelError(f"{owner}: {what}: {err}") from None
-        self.sa, self.sb = pts
+        self.a, self.b = _two_bodies(owner, (self.a, self.b), ("a", "b"),
+                                     lambda r, w: _spatial_body(owner, lookup, r, w))
+        self.sa = _local(owner, self.a, self._pa, "point_a")
+        self.sb = _local(owner, self.b, self._pb, "point_b")
 
     def validate(self):
         owner = f"SpatialSpherePair '{self.name}'"
@@ -1256,17 +1255,13 @@ class SpatialSphereOnBodyPlane(ContactElement):
         self.radius = _scalar(owner, "radius", radius, 0.0)
         self.nbar = _unit(owner, "normal", normal, 3)
         self.t1bar, self.t2bar = plane_tangents(owner, self.nbar, tangent)
-        for what, pt in (("point", point), ("plane_point", plane_point)):
-            if not isinstance(pt, str):
-                _vector(owner, what, pt, 3)
+        _points(owner, 3, point=point, plane_point=plane_point)
         self._point, self._plane_point = point, plane_point
 
     def resolve(self, lookup):
         owner = f"SpatialSphereOnBodyPlane '{self.name}'"
-        self.body = _spatial_body(owner, lookup, self.body, "body", "SphereOnBodyPlane")
-        self.plane_body = _spatial_body(owner, lookup, self.plane_body, "plane_body", "SphereOnBodyPlane")
-        if self.body is self.plane_body:
-            raise ModelError(f"{owner}: body and plane_body are the same ('{self.body.name}')")
+        self.body, self.plane_body = _two_bodies(owner, (self.body, self.plane_body), ("body", "plane_body"),
+                                                 lambda r, w: _spatial_body(owner, lookup, r, w, "SphereOnBodyPlane"))
         self.s = _local(owner, self.body, self._point, "point")
         self.pbar = _local(owner, self.plane_body, self._plane_point, "plane_point")
 
@@ -1553,9 +1548,7 @@ class SpatialPinInBushing(ContactElement):
         self.Rp = _scalar(owner, "pin_radius", pin_radius, 0.0)
         if not self.Rh > self.Rp:
             raise ModelError(f"{owner}: hole_radius ({self.Rh:g}) must exceed pin_radius ({self.Rp:g})")
-        for what, pt in (("centre", centre), ("pin_point", pin_point)):
-            if not isinstance(pt, str):
-                _vector(owner, what, pt, 3)
+        _points(owner, 3, centre=centre, pin_point=pin_point)
         self._centre, self._pin_point = centre, pin_point
         self._axis = _pin_axis_spec(owner, "axis", axis)
         self._pin_axis = None if pin_axis is None else _unit(owner, "pin_axis", pin_axis, 3)
@@ -1563,17 +1556,10 @@ class SpatialPinInBushing(ContactElement):
 
     def resolve(self, lookup):
         owner = f"SpatialPinInBushing '{self.name}'"
-        self.a = _pin_spatial_body(owner, lookup, self.a, "pin")
-        self.b = _pin_spatial_body(owner, lookup, self.b, "bushing")
-        if self.a is self.b:
-            raise ModelError(f"{owner}: the pin and the bushing are the same body ('{self.a.name}')")
-        pts = []
-        for what, body, spec in (("pin_point", self.a, self._pin_point), ("centre", self.b, self._centre)):
-            try:
-                pts.append(np.asarray(body.local(spec, what), dtype=float))
-            except ModelError as err:
-                raise ModelError(f"{owner}: {what}: {err}") from None
-        self.s0, self.c0 = pts
+        self.a, self.b = _two_bodies(owner, (self.a, self.b), ("pin", "bushing"),
+                                     lambda r, w: _pin_spatial_body(owner, lookup, r, w))
+        self.s0 = _local(owner, self.a, self._pin_point, "pin_point")
+        self.c0 = _local(owner, self.b, self._centre, "centre")
         eb = _pin_body_axis(owner, self.b, self._axis, "axis")
         self.eb = eb / np.linalg.norm(eb)
 
