@@ -26,7 +26,8 @@ Packs (tuples) keep the argument lists short:
 * ``P`` (3, L): rows of states; row 0 the current state, 1 a step's solution, 2 a free flight's.
   A row holds, at the offsets ``F`` (index constants ``_T`` … ``_ITS`` below): t, q, u, u̇, ā, λ_N,
   λ_F, λ̄_N, λ̄_F, ġ_N, γ_F, x (eq. (126)), g_N, g̈_N, r_N, r_F (prox parameters at q), P_N, P_F, the
-  index sets A–E, the (sub)step's contact work (normal, friction) and Newton iterations;
+  index sets A–E, the (sub)step's contact work (normal, friction) and Newton iterations, and the sums
+  of P_N, Λ_N, P_F, Λ_F over the substeps of the step in progress (what :func:`store` stores);
 * ``ctx`` = (F, mdl, lay, fixed_law, work, cst, M⁻¹, scratch): what
   :meth:`NonsmoothStep._dense_setup` built, and ``cst`` = (tol, m_ref, α_m, α_f, β, γ, max_iter,
   freeze_after, h_fixed, vel_tol, gap_tol, locate, max_fixed_point, slip law on P, h_acc);
