@@ -17,17 +17,30 @@ REF = np.load(Path(__file__).parent / "data" / "engine_split_reference.npz")
 RTOL = 1e-10
 
 
-def close(a, ref):
+#: Andrews with the default Newton test: its steps take one or two iterations, and the iteration is
+#: accepted where its corrections stop contracting at round-off (NT_ROUNDOFF), so another CPU or BLAS
+#: (an AVX-512 Xeon) moves some of those decisions by one iteration: the positions stay within RTOL
+#: (1.2e-11 measured), the index-3 multipliers, which the iteration resolves to about 1e-8 of their
+#: size at h = 3e-5 (measured on one machine: the residual test instead of the correction test moves
+#: them by 1.3e-8, the other CPU by 2.5e-8), within LAM_RTOL, and no step's count by more than one
+#: (totals 1360 and 1358 on the two machines).
+LAM_RTOL = 1e-6
+
+
+def close(a, ref, rtol=RTOL):
     scale = max(float(np.abs(ref).max()), 1e-300)
-    assert float(np.abs(np.asarray(a) - ref).max()) <= RTOL * scale
+    assert float(np.abs(np.asarray(a) - ref).max()) <= rtol * scale
 
 
 def test_andrews_1000_steps_and_newton_counts():
     m = andrews.build().compile()
     r = femb.simulate(m, 1000 * 3e-5, 3e-5)
     close(r.q[::100], REF["andrews_q"])
-    close(r.lam[-1], REF["andrews_lam"])
-    np.testing.assert_array_equal(r.newton_iterations, REF["andrews_it"])
+    close(r.lam[-1], REF["andrews_lam"], LAM_RTOL)
+    its, ref_its = r.newton_iterations, REF["andrews_it"]
+    assert its.shape == ref_its.shape
+    assert np.abs(its - ref_its).max() <= 1
+    assert abs(int(its.sum()) - int(ref_its.sum())) <= 0.01 * ref_its.sum()
     r = femb.simulate(m, 1000 * 3e-5, 3e-5, newton_test="residual", start="seed", check_every=0)
     close(r.q[-1], REF["andrews_seed_q"])
     np.testing.assert_array_equal(r.newton_iterations, REF["andrews_seed_it"])
