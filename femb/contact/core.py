@@ -38,6 +38,8 @@ from femb.contact.batches import evaluate_batches
 #: opened (within tol of its row) step after step: a constant spurious force of order tol m/h²
 #: (docs/contact.md §1.1, item 7; measured there).
 GUESS_TOL = 1e-6
+#: the shortest damped Newton step (a fraction of the full one; :func:`damp_step`)
+MIN_DAMPING = 1.0 / 64.0
 
 
 @kernel(allocates=True)
@@ -637,6 +639,10 @@ def newton_loop(x, mdl, st, law, lay, par, work):
     max_iter, freeze_after = int(par[11]), int(par[12])
     kin = (kout[1], kout[5], kout[6], kout[7], sd[0], sd[1])
     R = out[0]
+    x_prev = x.copy()                   # the last full Newton iterate, its error and index sets
+    sets_prev = sets.copy()
+    err_prev = np.inf
+    theta = 1.0
     for it in range(1, max_iter + 1):
         kinematics(x, o, st, kp, cmp, kout)
         _evaluate(x, o, mdl, t1, kout, dq)
@@ -652,7 +658,16 @@ def newton_loop(x, mdl, st, law, lay, par, work):
                 if fixed:
                     err = _fixed_rows(x, o, zf, out, mv)
             return (0 if err <= tol else 1), it, err
-        if it == freeze_after:
+        if damp_step(err, err_prev, sets, sets_prev, theta, _worst_row(out[0], out[1]) >= o[9]):
+            theta *= 0.5                # the same branch and no decrease: half the step (docs/contact.md §1.1, item 8)
+            for a in range(x.size):
+                x[a] = x_prev[a] + theta * dx[a]
+            continue
+        x_prev[:] = x
+        sets_prev[:] = sets
+        err_prev = err
+        theta = 1.0
+        if it >= freeze_after:
             rp[5] = 1.0
         jacobian(x, o, mq, kin, law, lay, rp, sets, out[2:], J)
         if fixed:
@@ -671,6 +686,40 @@ def newton_loop(x, mdl, st, law, lay, par, work):
     if fixed:
         err = _fixed_rows(x, o, zf, out, mv)
     return (0 if err <= tol else 1), max_iter, err
+
+
+@kernel
+def damp_step(err, err_prev, sets, sets_prev, theta, friction_worst):
+    """Whether a Newton step is to be halved: it stayed on the branch it was computed on (the same
+    index sets), did not decrease the error, whose largest row is a friction row (``friction_worst``),
+    and it is still longer than ``MIN_DAMPING`` (then taken as it is).
+
+    On one branch R is smooth except where a slip direction v = γ/‖γ‖ turns at γ → 0, and the Newton
+    step dx of R + J dx = 0 decreases every component of R for a short enough step:
+    R(x + θ dx) = (1 − θ) R(x) + O(θ²). A contact ending its slip within the step (its solution a
+    slip speed of 1e-5 m/s) otherwise jumps across γ = 0 at every iterate, its friction row the
+    largest (docs/contact.md §1.1, item 8). Steps whose error grows in the other rows are taken as
+    they are: a flexible beam's early iterates do so on their way to quadratic convergence, and halving
+    them tripled the iterations of its steps.
+    """
+    if not friction_worst or not err >= err_prev or theta <= MIN_DAMPING:
+        return False
+    for i in range(sets.shape[0]):
+        for j in range(sets.shape[1]):
+            if sets[i, j] != sets_prev[i, j]:
+                return False
+    return True
+
+
+@kernel
+def _worst_row(R, S):
+    """The row of the largest |S R| (the weighted error)."""
+    k, e = 0, -1.0
+    for a in range(R.size):
+        v = abs(S[a] * R[a])
+        if v > e:
+            k, e = a, v
+    return k
 
 
 @kernel(allocates=True)

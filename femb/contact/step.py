@@ -44,6 +44,7 @@ import numpy as np
 import scipy.linalg as sla
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
+from scipy.sparse import csgraph
 
 from femb.base.jit import cache_writable, compile_lock, is_cached, jit_disabled
 from femb.contact import assemble, core
@@ -51,6 +52,47 @@ from femb.contact.dense import DenseModel
 from femb.contact.prox import direction, prox_disc, prox_nonnegative
 from femb.system import assembly, kernels
 
+
+
+def diag_W_Minv_Wt(W, lu, comp):
+    """diag(W M⁻¹ Wᵀ) of a sparse W at a cost linear in the model's size.
+
+    M⁻¹ couples no two connected components of the graph of M, so rows of W whose components are
+    disjoint share one right-hand side: w_iᵀ M⁻¹ Σ_j w_j = w_iᵀ M⁻¹ w_i when no other row of the sum
+    touches a component of w_i. The rows are coloured greedily (a row takes the first colour that none
+    of its components has used yet) and M is solved once per colour: as many solves as the most
+    contact rows on one component (three for a sphere on a plane), not one per row.
+
+    Parameters
+    ----------
+    W : scipy.sparse matrix, shape (k, n)
+    lu : scipy.sparse.linalg.SuperLU
+        Factors of M (n, n).
+    comp : ndarray of int, shape (n,)
+        The component of each velocity in the graph of M.
+
+    Returns
+    -------
+    ndarray, shape (k,)
+    """
+    W = sp.csr_matrix(W)
+    k = W.shape[0]
+    rows = np.repeat(np.arange(k), np.diff(W.indptr))
+    cn = comp[W.indices]
+    next_free = np.zeros(int(comp.max()) + 1, dtype=np.int64)
+    colour = np.zeros(k, dtype=np.int64)
+    for i in range(k):
+        cs = cn[W.indptr[i]:W.indptr[i + 1]]
+        if cs.size:
+            c = int(next_free[cs].max())
+            colour[i] = c
+            next_free[cs] = c + 1
+    ncol = int(colour.max()) + 1 if k else 0
+    B = sp.csr_matrix((np.ones(k), (colour, np.arange(k))), shape=(ncol, k)) @ W
+    Z = lu.solve(np.ascontiguousarray(B.toarray().T))
+    if Z.ndim == 1:
+        Z = Z[:, None]
+    return np.bincount(rows, W.data * Z[W.indices, colour[rows]], minlength=k)
 
 @dataclass
 class StepState:
@@ -238,6 +280,8 @@ class NonsmoothStep:
         self.m_ref = float(np.mean(diagM[w == 1.0])) if np.any(w == 1.0) else float(np.mean(diagM))
         self._r_cache = None
         self._r_memo = []
+        self._M_lu = None          # the sparse path's factors of a constant M
+        self._mass_comp = None     # the mass matrix's connected components (the sparse path's prox parameters)
         if self.dense:
             self._dense_setup()
 
@@ -411,23 +455,37 @@ class NonsmoothStep:
         if c is not None and c[0] is q and c[1] == t:
             WN, WF = c[2], c[3]
         else:
-            ev = assemble.evaluate(self.model, t, q, np.zeros(self.model.nq), dense=True)
+            ev = assemble.evaluate(self.model, t, q, np.zeros(self.model.nq), dense=self.dense)
             WN, WF = ev["WN"], ev["WF"]
         if self.dense and self.Minv is not None:
             rN, rF = np.zeros(self.lay.nN), np.zeros(self.lay.nF)
             core.prox_parameters(_owned(WN), _owned(WF), self.Minv, rN, rF)
             self._r_memo = [(q, t, rN, rF)] + self._r_memo[:1]
             return rN, rF
-        Wd = np.vstack((WN, WF))
-        if Wd.shape[0] == 0:
+        if WN.shape[0] + WF.shape[0] == 0:
             return np.zeros(0), np.zeros(0)
-        if self.Minv is not None:
-            G = np.einsum("ij,ji->i", Wd, self.Minv @ Wd.T)
-        else:
-            M = self.M if self.M is not None else assembly.mass_matrix(self.model, q).tocsc()
+        if self.dense:
+            Wd = np.vstack((WN, WF))
+            M = assembly.mass_matrix(self.model, q).tocsc()
             G = np.einsum("ij,ji->i", Wd, spla.splu(M).solve(np.ascontiguousarray(Wd.T)))
+        else:
+            if self.M is None:
+                lu = spla.splu(assembly.mass_matrix(self.model, q).tocsc())
+            else:
+                if self._M_lu is None:
+                    self._M_lu = spla.splu(self.M)
+                lu = self._M_lu
+            G = diag_W_Minv_Wt(sp.vstack((WN, WF)).tocsr(), lu, self._mass_components(q))
         r = 1.0 / np.maximum(G, 1e-300)
         return r[:self.lay.nN], r[self.lay.nN:]
+
+    def _mass_components(self, q):
+        """The connected component of each velocity in the graph of the mass matrix (its sparsity is
+        the model's, computed once)."""
+        if self._mass_comp is None:
+            M = self.M if self.M is not None else assembly.mass_matrix(self.model, q)
+            self._mass_comp = csgraph.connected_components(sp.csr_matrix(M), directed=False)[1]
+        return self._mass_comp
 
     # ------------------------------------------------------------------ residual and Jacobian
     def evaluate(self, s, x):
@@ -654,6 +712,7 @@ class NonsmoothStep:
         x = x0.copy()
         err = np.inf
         frozen = None
+        x_prev, sets_prev, err_prev, theta, dx = x, None, np.inf, 1.0, None
         for it in range(1, (max_iter or self.max_iter) + 1):
             R, J, ev, sets = self.system(s, x, fixed_z, frozen)
             err = float(np.max(np.abs(self.scale(sets) * R))) if R.size else 0.0
@@ -668,7 +727,14 @@ class NonsmoothStep:
                 R2, _, ev2, sets2 = self.system(s, x, fixed_z)
                 err2 = float(np.max(np.abs(self.scale(sets2) * R2))) if R2.size else 0.0
                 return x, ev2, sets2, it, err2 <= self.tol, err2
-            if it == self.freeze_after:     # the index sets keep switching: hold them (Newton on one branch)
+            worst = int(np.argmax(np.abs(self.scale(sets) * R))) if R.size else 0
+            if sets_prev is not None and core.damp_step(err, err_prev, np.array(sets, dtype=np.int8), sets_prev,
+                                                        theta, worst >= self.offsets[9]):
+                theta *= 0.5                  # the same branch and no decrease: half the step (core.damp_step)
+                x = x_prev + theta * dx
+                continue
+            x_prev, sets_prev, err_prev, theta = x, np.array(sets, dtype=np.int8), err, 1.0
+            if it >= self.freeze_after and frozen is None:   # the index sets keep switching: hold them
                 frozen = sets
             dx = self.newton_increment(J, R)
             if dx is None:

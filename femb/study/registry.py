@@ -121,6 +121,7 @@ CONTACT_SCENES = {
     "contact_tippetop": "femb.benchmarks.scenes.contact.contact_tippetop",
     "contact_beam_stop": "femb.benchmarks.scenes.contact.contact_beam_stop",
     "contact_woodpecker": "femb.benchmarks.scenes.contact.contact_woodpecker",
+    "contact_spheres": "femb.benchmarks.scenes.contact.contact_spheres",
 }
 
 #: Run settings used for a scene file without DEFAULTS (only ρ∞; t_end and h must be given).
