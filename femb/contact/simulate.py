@@ -366,20 +366,36 @@ def _free_gNdd(model, s):
     return ev["WN"] @ ud + ev["zN"]
 
 
-def _step(stepper, s, h, n, rec, vel_tol, locate, depth=0):
+#: a step without a solution is halved at most this deep (:func:`_step`)
+MAX_HALVINGS = 6
+
+
+def _step(stepper, s, h, n, rec, vel_tol, locate, depth=0, halve=True):
     """Advance s by h: one nonsmooth step, or substeps around the impact of an open contact.
 
     An open contact that closes in the step is located from its gap, velocity and free
     acceleration (:func:`_impact_time`): the step goes in free flight to 1e-3 d before the
     impact, d = 1e-4 h (shortened until the contact is still open at its end), takes the impact in a substep
     that ends d after it (so Newton's law sees the velocity at the impact and the bodies leave at
-    once), and the rest of the step (docs/contact.md §1.1, item 2). Returns (state, x, ev, sets, (work_N,
-    work_F)) at s.t + h; impacts go to ``rec.events``.
+    once), and the rest of the step (docs/contact.md §1.1, item 2). With ``halve``, a step without a
+    solution is taken as two halves (at most ``MAX_HALVINGS`` deep; docs/contact.md §1.1, item 9); the
+    substeps of an impact split are not halved (a failing one abandons the split, which takes its
+    unsplit step, as the compiled loop does). Returns (state, x, ev,
+    sets, work) at s.t + h (work: the contact work, normal and friction, and the step's sums of P_N, Λ_N,
+    P_F, Λ_F); impacts go to ``rec.events``.
     """
     stepper.set_h(h)
-    x, ev, sets, info = stepper.solve(s)
     gap_tol = 1e-9 * stepper.model.length_scale
     d = 1e-4 * stepper.h_fixed
+    try:
+        x, ev, sets, info = stepper.solve(s)
+    except StepFailure:
+        if not halve or depth >= MAX_HALVINGS or h <= 6 * d:
+            raise
+        s1, _, _, _, w1 = _step(stepper, s, 0.5 * h, n, rec, vel_tol, locate, depth + 1)
+        out = _step(stepper, s1, h - 0.5 * h, n, rec, vel_tol, locate, depth + 1)
+        stepper.set_h(h)
+        return out[:4] + (w1 + out[4],)
     tau = _impact_time(stepper, s, ev, sets, h, gap_tol, vel_tol) if locate and depth < 40 and h > 3 * d else None
     if tau is None:
         return _accept(stepper, s, x, ev, sets, info, n, rec, vel_tol)
@@ -407,12 +423,12 @@ def _split_at_impact(stepper, s, h, impact, n, rec, vel_tol, locate, depth):
         if free is not None:                            # free flight, then the impact from closer by
             x1, ev1, sets1, info1, h1 = free
             s1, _, _, _, w1 = _accept(stepper, s, x1, ev1, sets1, info1, n, rec, vel_tol)
-            s2, x2, ev2, sets2, w2 = _step(stepper, s1, h - h1, n, rec, vel_tol, locate, depth + 1)
+            s2, x2, ev2, sets2, w2 = _step(stepper, s1, h - h1, n, rec, vel_tol, locate, depth + 1, False)
             return s2, x2, ev2, sets2, w1 + w2
     work = 0.0
     first = min(tau + d, 0.5 * h)
     for hk in (first, h - first):                       # the impact is imminent: take it in ≤ 3d
-        s, x, ev, sets, w = _step(stepper, s, hk, n, rec, vel_tol, locate, depth + 1)
+        s, x, ev, sets, w = _step(stepper, s, hk, n, rec, vel_tol, locate, depth + 1, False)
         work = work + w
     return s, x, ev, sets, work
 
