@@ -389,12 +389,18 @@ def _step(stepper, s, h, n, rec, vel_tol, locate, depth=0, halve=True):
     d = 1e-4 * stepper.h_fixed
     try:
         x, ev, sets, info = stepper.solve(s)
-    except StepFailure:
+    except StepFailure as failure:
         if not halve or depth >= MAX_HALVINGS or h <= 6 * d:
             raise
-        s1, _, _, _, w1 = _step(stepper, s, 0.5 * h, n, rec, vel_tol, locate, depth + 1)
-        out = _step(stepper, s1, h - 0.5 * h, n, rec, vel_tol, locate, depth + 1)
-        stepper.set_h(h)
+        mark = (len(rec.events), len(rec.iterations), len(rec.methods))
+        try:
+            s1, _, _, _, w1 = _step(stepper, s, 0.5 * h, n, rec, vel_tol, locate, depth + 1)
+            out = _step(stepper, s1, h - 0.5 * h, n, rec, vel_tol, locate, depth + 1)
+        except StepFailure:             # the halves have none either: the whole step's failure, nothing booked
+            del rec.events[mark[0]:], rec.iterations[mark[1]:], rec.methods[mark[2]:]
+            raise failure from None
+        finally:
+            stepper.set_h(h)
         return out[:4] + (w1 + out[4],)
     tau = _impact_time(stepper, s, ev, sets, h, gap_tol, vel_tol) if locate and depth < 40 and h > 3 * d else None
     if tau is None:
