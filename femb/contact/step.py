@@ -94,6 +94,46 @@ def diag_W_Minv_Wt(W, lu, comp):
         Z = Z[:, None]
     return np.bincount(rows, W.data * Z[W.indices, colour[rows]], minlength=k)
 
+
+
+class _BlockPattern:
+    """The structure, built once, of a sparse matrix with one block per contact i in the rows of its
+    friction directions ``idx``: idx × idx (``square``; ∂R/∂γ blocks, nF × nF) or idx × column i
+    (∂R/∂λ_N, nF × nN). :meth:`zeros` gives a matrix to fill with the keys :meth:`NonsmoothStep.
+    friction_rows` uses on dense arrays (``B[np.ix_(idx, idx)] = block``, ``B[idx, i] = column``)."""
+
+    def __init__(self, friction, shape, square):
+        self.shape = shape
+        self.start = np.full(shape[0], -1, dtype=np.int64)
+        rows, cols, off = [np.zeros(0, dtype=np.int64)], [np.zeros(0, dtype=np.int64)], 0
+        for i, idx in enumerate(friction):
+            if idx.size:
+                self.start[idx[0]] = off
+                rows.append(np.repeat(idx, idx.size) if square else np.asarray(idx, dtype=np.int64))
+                cols.append(np.tile(idx, idx.size) if square else np.full(idx.size, i, dtype=np.int64))
+                off += rows[-1].size
+        self.rows, self.cols = np.concatenate(rows), np.concatenate(cols)
+
+    def zeros(self):
+        return _Blocks(self, np.zeros(self.rows.size))
+
+
+class _Blocks:
+    """A matrix of a :class:`_BlockPattern` (its values ``data``); ``B[key] = values`` writes the block of
+    the contact whose first friction row the key names."""
+
+    def __init__(self, pattern, data):
+        self.pattern, self.data = pattern, data
+
+    def __setitem__(self, key, values):
+        off = self.pattern.start[int(np.ravel(key[0])[0])]
+        v = np.ravel(values)
+        self.data[off:off + v.size] = v
+
+    def tocsr(self):
+        p = self.pattern
+        return sp.csr_matrix((self.data, (p.rows, p.cols)), shape=p.shape)
+
 @dataclass
 class StepState:
     """What a step needs from the previous one (all arrays owned)."""
@@ -282,6 +322,7 @@ class NonsmoothStep:
         self._r_memo = []
         self._M_lu = None          # the sparse path's factors of a constant M
         self._mass_comp = None     # the mass matrix's connected components (the sparse path's prox parameters)
+        self._patterns = None      # the sparse path's friction derivative blocks (_BlockPattern)
         if self.dense:
             self._dense_setup()
 
@@ -559,10 +600,17 @@ class NonsmoothStep:
         LN, lN, LF, lF = self.split(x)[7:11]
         PN, PF, xiF, gF, gFdd = ev["PN"], ev["PF"], ev["xiF"], ev["gF"], ev["gFdd"]
         R9, R10 = PF.copy(), lF.copy()
-        Dxi, Dgd, Dg = np.zeros((nF, nF)), np.zeros((nF, nF)), np.zeros((nF, nF))
+        if self.dense:
+            Dxi, Dgd, Dg = np.zeros((nF, nF)), np.zeros((nF, nF)), np.zeros((nF, nF))
+            Dpn, Dln = np.zeros((nF, nN)), np.zeros((nF, nN))
+        else:                      # the sparse path: the blocks into a structure built once
+            if self._patterns is None:
+                self._patterns = (_BlockPattern(self.lay.friction, (nF, nF), True),
+                                  _BlockPattern(self.lay.friction, (nF, nN), False))
+            Dxi, Dgd, Dg = (self._patterns[0].zeros() for _ in range(3))
+            Dpn, Dln = self._patterns[1].zeros(), self._patterns[1].zeros()
         Dpf, Dlf = np.ones(nF), np.ones(nF)
         Dsm = np.ones(nF)          # 1 where the row acts on P (with the smooth share), 0 on Λ alone
-        Dpn, Dln = np.zeros((nF, nN)), np.zeros((nF, nN))
         for i, idx in enumerate(self.lay.friction):
             if not idx.size or not A[i]:
                 continue                                   # (138c), (142d): P_F = 0, λ_F = 0
@@ -663,7 +711,7 @@ class NonsmoothStep:
             mk = np.asarray
         else:
             dg = sp.diags
-            mk = sp.csr_matrix
+            mk = _Blocks.tocsr
         Af, Bf, Cf = A.astype(float), B_.astype(float), C.astype(float)
         Dxi, Dgd, Dg, Dpn, Dln = (mk(Fd[k]) for k in ("Dxi", "Dgd", "Dg", "Dpn", "Dln"))
         J = [[None] * 11 for _ in range(11)]
