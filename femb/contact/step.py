@@ -96,6 +96,13 @@ def diag_W_Minv_Wt(W, lu, comp):
 
 
 
+
+def _diag(v):
+    """The diagonal matrix of v (csr), without scipy.sparse.diags' DIA format."""
+    v = np.asarray(v, dtype=float)
+    k = np.arange(v.size + 1)
+    return sp.csr_matrix((v, k[:-1], k), shape=(v.size, v.size))
+
 class _BlockPattern:
     """The structure, built once, of a sparse matrix with one block per contact i in the rows of its
     friction directions ``idx``: idx × idx (``square``; ∂R/∂γ blocks, nF × nF) or idx × column i
@@ -682,11 +689,20 @@ class NonsmoothStep:
 
     def _matrix(self, J):
         """The block matrix J (11 × 11 blocks, None for zero): a dense array for small systems, else csc."""
-        if not self.dense:
-            for i in range(11):                          # empty blocks keep their shapes
-                if J[i][i] is None:
-                    J[i][i] = sp.csr_matrix((self.sizes[i], self.sizes[i]))
-            return sp.bmat(J, format="csc", dtype=float)
+        if not self.dense:                               # the blocks' entries gathered at their offsets
+            o = self.offsets
+            rows, cols, vals = [np.zeros(0, dtype=np.int64)], [np.zeros(0, dtype=np.int64)], [np.zeros(0)]
+            for i in range(11):
+                for j in range(11):
+                    b = J[i][j]
+                    if b is None:
+                        continue
+                    b = sp.csr_matrix(b) if not sp.isspmatrix_csr(b) else b
+                    rows.append(o[i] + np.repeat(np.arange(b.shape[0]), np.diff(b.indptr)))
+                    cols.append(o[j] + b.indices)
+                    vals.append(b.data)
+            return sp.csc_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
+                                 shape=(self.nx, self.nx))
         o = self.offsets
         out = np.zeros((self.nx, self.nx))
         for i in range(11):
@@ -710,7 +726,7 @@ class NonsmoothStep:
             dg = np.diag
             mk = np.asarray
         else:
-            dg = sp.diags
+            dg = _diag
             mk = _Blocks.tocsr
         Af, Bf, Cf = A.astype(float), B_.astype(float), C.astype(float)
         Dxi, Dgd, Dg, Dpn, Dln = (mk(Fd[k]) for k in ("Dxi", "Dgd", "Dg", "Dpn", "Dln"))
