@@ -20,11 +20,9 @@ Run ``python -m femb.benchmarks.cost.contact_spheres [--sizes 25,50,...] [--repe
 """
 from __future__ import annotations
 
-import argparse
-
 import numpy as np
 
-from femb.benchmarks.cost.penalty_spheres import slope
+from femb.benchmarks.cost import penalty_spheres
 
 
 def _models(n):
@@ -33,7 +31,7 @@ def _models(n):
     return {"contact": contact_spheres.build(n=n).compile(), "open": contact_spheres.build(n=n, lift=1.0).compile()}
 
 
-def _time(model, steps, h):
+def _run(model, steps, h):
     from femb.contact import simulate
 
     res = simulate(model, steps * h, h, rho_inf=0.8)
@@ -42,44 +40,11 @@ def _time(model, steps, h):
 
 def measure(sizes=(25, 50, 100, 200, 400), repeats=3, steps=20, h=1e-3):
     """{n: {"contact": ms/step, "open": ms/step, "iter_contact", "iter_open"}} (medians)."""
-    out = {}
-    for n in sizes:
-        models = _models(n)
-        for m in models.values():                  # warm up (compile, caches)
-            _time(m, 2, h)
-        ms = {k: [] for k in models}
-        it = {}
-        for _ in range(repeats):
-            for k, m in models.items():
-                t, i = _time(m, steps, h)
-                ms[k].append(t)
-                it[k] = i
-        out[n] = {"contact": float(np.median(ms["contact"])), "open": float(np.median(ms["open"])),
-                  "iter_contact": it["contact"], "iter_open": it["open"]}
-    return out
+    return penalty_spheres.measure(sizes, repeats, steps, h, models=_models, run=_run)
 
 
 def main(argv=None):
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--sizes", default="25,50,100,200,400")
-    ap.add_argument("--repeats", type=int, default=3)
-    ap.add_argument("--steps", type=int, default=20)
-    a = ap.parse_args(argv)
-    sizes = [int(s) for s in a.sizes.split(",")]
-    res = measure(sizes, a.repeats, a.steps)
-    print("| spheres (contacts) | ms/step, contact | ms/step, open | contact/open | Newton it./step contact, open "
-          "| µs per contact and step |")
-    print("|---|---|---|---|---|---|")
-    for n in sizes:
-        r = res[n]
-        print(f"| {n} | {r['contact']:.2f} | {r['open']:.2f} | {r['contact'] / r['open']:.2f} | "
-              f"{r['iter_contact']:.2f}, {r['iter_open']:.2f} | {r['contact'] / n * 1e3:.0f} |")
-    if len(sizes) > 1:
-        for k in ("contact", "open"):
-            b, a0 = np.polyfit(sizes, [res[n][k] for n in sizes], 1)
-            print(f"linear fit, {k}: ms/step = {a0:.2f} + {b * 1e3:.0f} µs × n")
-        print(f"fitted slope of log(ms/step) against log(n): contact {slope(sizes, [res[n]['contact'] for n in sizes]):.3f}, "
-              f"open {slope(sizes, [res[n]['open'] for n in sizes]):.3f} (1: linear)")
+    penalty_spheres.main(argv, __doc__, steps=20, models=_models, run=_run, digits=2)
 
 
 if __name__ == "__main__":
