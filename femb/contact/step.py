@@ -53,7 +53,6 @@ from femb.contact.prox import direction, prox_disc, prox_nonnegative
 from femb.system import assembly, kernels
 
 
-
 def diag_W_Minv_Wt(W, lu, comp):
     """diag(W M⁻¹ Wᵀ) of a sparse W at a cost linear in the model's size.
 
@@ -95,13 +94,12 @@ def diag_W_Minv_Wt(W, lu, comp):
     return np.bincount(rows, W.data * Z[W.indices, colour[rows]], minlength=k)
 
 
-
-
 def _diag(v):
     """The diagonal matrix of v (csr), without scipy.sparse.diags' DIA format."""
     v = np.asarray(v, dtype=float)
     k = np.arange(v.size + 1)
     return sp.csr_matrix((v, k[:-1], k), shape=(v.size, v.size))
+
 
 class _BlockPattern:
     """The structure, built once, of a sparse matrix with one block per contact i in the rows of its
@@ -140,6 +138,7 @@ class _Blocks:
     def tocsr(self):
         p = self.pattern
         return sp.csr_matrix((self.data, (p.rows, p.cols)), shape=p.shape)
+
 
 @dataclass
 class StepState:
@@ -525,7 +524,9 @@ class NonsmoothStep:
                 lu = self._M_lu
             G = diag_W_Minv_Wt(sp.vstack((WN, WF)).tocsr(), lu, self._mass_components(q))
         r = 1.0 / np.maximum(G, 1e-300)
-        return r[:self.lay.nN], r[self.lay.nN:]
+        rN, rF = r[:self.lay.nN], r[self.lay.nN:]
+        self._r_memo = [(q, t, rN, rF)] + self._r_memo[:1]
+        return rN, rF
 
     def _mass_components(self, q):
         """The connected component of each velocity in the graph of the mass matrix (its sparsity is
@@ -779,7 +780,8 @@ class NonsmoothStep:
         x_prev, sets_prev, err_prev, theta, dx = x, None, np.inf, 1.0, None
         for it in range(1, (max_iter or self.max_iter) + 1):
             R, J, ev, sets = self.system(s, x, fixed_z, frozen)
-            err = float(np.max(np.abs(self.scale(sets) * R))) if R.size else 0.0
+            werr = np.abs(self.scale(sets) * R)
+            err = float(np.max(werr)) if R.size else 0.0
             if not np.all(np.isfinite(ev["gN"])):     # a gap its kernel could not define (as core.residual)
                 err = np.nan
             if not np.isfinite(err):
@@ -791,7 +793,7 @@ class NonsmoothStep:
                 R2, _, ev2, sets2 = self.system(s, x, fixed_z)
                 err2 = float(np.max(np.abs(self.scale(sets2) * R2))) if R2.size else 0.0
                 return x, ev2, sets2, it, err2 <= self.tol, err2
-            worst = int(np.argmax(np.abs(self.scale(sets) * R))) if R.size else 0
+            worst = int(np.argmax(werr)) if R.size else 0
             if sets_prev is not None and core.damp_step(err, err_prev, np.array(sets, dtype=np.int8), sets_prev,
                                                         theta, worst >= self.offsets[9]):
                 theta *= 0.5                  # the same branch and no decrease: half the step (core.damp_step)
@@ -903,8 +905,7 @@ class NonsmoothStep:
 
     def _remember(self, s, ev):
         """Keep W of a step's solution for the prox parameters of the step that starts there."""
-        if self.dense:
-            self._r_cache = (ev["q"], s.t + self.h, ev["WN"], ev["WF"])
+        self._r_cache = (ev["q"], s.t + self.h, ev["WN"], ev["WF"])
 
     def solve(self, s):
         """One step from s: semismooth Newton, the fixed point if Newton fails, Newton again from where
