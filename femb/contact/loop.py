@@ -313,8 +313,9 @@ def _store_solution(s, r, F, work, t1, it):
 
 @kernel(allocates=True)
 def _free_gNdd(s, ctx, gdd):
-    """g̈_N at the state row s without contact forces, bilateral constraints kept (simulate._free_gNdd):
-    M u̇ + Φ_qᵀλ = f, Φ_q u̇ = −γ, then g̈_N = W_N u̇ + ζ_N."""
+    """g̈_N at the state row s without the forces of the contacts open or moving there (g_N > gap_tol or
+    abs(ġ_N) > vel_tol), the others' λ_N, λ_F at t_n kept, bilateral constraints kept (simulate._free_gNdd):
+    M u̇ + Φ_qᵀλ = f + W_Nᵀλ_N + W_Fᵀλ_F, Φ_q u̇ = −γ, then g̈_N = W_N u̇ + ζ_N."""
     F, mdl, lay, fixed_law, work, cst, Minv, scr = ctx
     recs, qx, ux, f0, removed = mdl
     o, mq, mv, dq = work[0], work[5], work[6], work[4]
@@ -323,44 +324,70 @@ def _free_gNdd(s, ctx, gdd):
     ux[:u.size] = u
     mult = (x[o[5]:o[6]], x[o[8]:o[9]], x[o[10]:o[11]])
     evaluate_batches(recs, s[F[_T]], qx, ux, mult, False, dq, f0, removed)
-    M, B = mq[0], mq[3]
+    M, B, WN, WF = mq[0], mq[3], mq[4], mq[5]
     n, m = M.shape[0], B.shape[0]
+    lN, lF = _field(s, F, _LN).copy(), _field(s, F, _LF).copy()
+    gap_tol, vel_tol = cst[10], cst[9]
+    fptr, fidx = lay[1], lay[2]
+    for i in range(lN.size):
+        if s[F[_GN] + i] > gap_tol or abs(s[F[_GND] + i]) > vel_tol:
+            lN[i] = 0.0
+            for a in range(fptr[i], fptr[i + 1]):
+                lF[fidx[a]] = 0.0
     K = np.zeros((n + m, n + m))
     K[:n, :n] = M
     K[n:, :n] = B
     K[:n, n:] = B.T
-    rhs = np.concatenate((mv[0], -mv[3]))
+    rhs = np.concatenate((mv[0] + WN.T @ lN + WF.T @ lF, -mv[3]))
     ud = np.linalg.solve(K, rhs)[:n]
-    gdd[:] = mq[4] @ ud + mv[5]
+    gdd[:] = WN @ ud + mv[5]
 
 
 @kernel(allocates=True)
 def _impact_time(P, si, ri, H, ctx):
-    """Earliest τ ∈ (0, H) at which an open contact closes in the (sub)step from row si solved into row ri
+    """Earliest τ ∈ [0, H) at which an open contact closes in the (sub)step from row si solved into row ri
     (simulate._impact_time); NaN if none."""
     F, cst = ctx[0], ctx[5]
     gap_tol, vel_tol = cst[10], cst[9]
     s, r = P[si], P[ri]
     k = F[_GN + 1] - F[_GN]
-    gdd_free = ctx[7][1]
-    have_free = False
+    gdd = _field(s, F, _GNDD)
+    loaded, cand = False, False
+    for i in range(k):
+        if s[F[_GN] + i] > gap_tol or abs(s[F[_GND] + i]) > vel_tol:
+            cand = cand or r[F[_SETS] + i] != 0.0
+            loaded = loaded or s[F[_LN] + i] != 0.0
+    if cand and loaded:     # an open or moving contact carries a force at t_n: g̈ without those forces
+        gdd = ctx[7][1]
+        _free_gNdd(s, ctx, gdd)
     best = np.nan
+    d = 1e-4 * cst[8]
     for i in range(k):
         g, gd = s[F[_GN] + i], s[F[_GND] + i]
         if not (r[F[_SETS] + i] != 0.0 and (g > gap_tol or abs(gd) > vel_tol)):
             continue
-        gdd = s[F[_GNDD] + i]
-        if g <= gap_tol and gd > 0.0:
-            if not have_free:
-                _free_gNdd(s, ctx, gdd_free)
-                have_free = True
-            gdd = gdd_free[i]
-        tau = first_root(0.5 * gdd, gd, g, 0.0, H, False)
+        tau = first_root(0.5 * gdd[i], gd, g, 0.0, H, False)
+        v = gd + gdd[i] * tau                      # ġ_N at the impact
+        if np.isnan(tau) and g <= gap_tol and gd < -vel_tol:     # touching and approaching, g ≤ 0: now
+            tau, v = 0.0, gd
         if np.isnan(tau) and g - r[F[_GN] + i] > 0.0:
             tau = H * g / (g - r[F[_GN] + i])
+            v = (r[F[_GN] + i] - g) / H
+        if not np.isnan(tau):
+            tau = max(tau - margin(v, d, cst[0]) + 1e-3 * d, 0.0)
         if not np.isnan(tau) and not tau >= best:
             best = tau
     return best
+
+
+@kernel
+def margin(v, d, tol):
+    """How long before an impact at the speed v the free flight ends (simulate._impact_time): 1e-3 d, or
+    the time in which the gap closes by 2 tol where that is longer (a slow approach: a free flight that
+    ends with its gap within the Newton tolerance closes the contact, eq. (130)), at most d/2."""
+    if v == 0.0:
+        return 0.5 * d
+    return min(max(1e-3 * d, 2.0 * tol / abs(v)), 0.5 * d)
 
 
 @kernel(allocates=True)
@@ -368,7 +395,7 @@ def _free_flight(P, tau, ctx):
     """A step of size ≤ tau from row 0 into row 2 after which the contacts open at row 0 are still open,
     halved up to 8 times (simulate._free_flight). Returns (converged, its size or NaN)."""
     F, cst = ctx[0], ctx[5]
-    gap_tol = cst[10]
+    gap_tol, vel_tol = cst[10], cst[9]
     s, r = P[0], P[2]
     k = F[_GN + 1] - F[_GN]
     for _ in range(8):
@@ -376,7 +403,7 @@ def _free_flight(P, tau, ctx):
             return False, np.nan
         closes = False
         for i in range(k):
-            was_open = s[F[_GN] + i] > gap_tol or s[F[_GND] + i] > 0.0
+            was_open = s[F[_GN] + i] > gap_tol or s[F[_GND] + i] > vel_tol
             closes = closes or (was_open and r[F[_SETS] + i] != 0.0)
         if not closes:
             return True, tau
@@ -405,7 +432,8 @@ def _accept(P, ri, n, ctx, rec):
     for i in range(k):
         A, B, C = r[F[_SETS] + i], r[F[_SETS] + k + i], r[F[_SETS] + 2 * k + i]
         closed = A != 0.0 and (B != 0.0 or C != 0.0)
-        if not (s[F[_GND] + i] < -vel_tol and closed and r[F[_PN] + i] > 0.0):
+        if not (s[F[_GND] + i] < -vel_tol and r[F[_GND] + i] - s[F[_GND] + i] > vel_tol and closed
+                and r[F[_PN] + i] > 0.0):
             continue
         if cnt[0] >= ev_f.shape[0]:
             return False

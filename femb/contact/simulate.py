@@ -15,7 +15,7 @@ import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
 from femb.contact import assemble
-from femb.contact.loop import first_root
+from femb.contact.loop import first_root, margin
 from femb.contact.prox import prox_disc
 from femb.contact.result import OPEN, SLIP, STICK, ContactResult
 from femb.contact.step import NonsmoothStep, StepFailure, StepState
@@ -334,35 +334,57 @@ def _start(model, lay, stepper, t0, vel_tol):
 
 
 def _impact_time(stepper, s, ev, sets, H, gap_tol, vel_tol):
-    """Earliest time τ ∈ (0, H) at which an open contact closes in a step of size H, or None.
+    """Earliest time τ ∈ [0, H) at which an open contact closes in a step of size H, or None.
 
     From the contact's gap at the step's start, g + ġτ + ½g̈τ² = 0 (exact for a body in free
     flight under constant forces); the secant of g over the step when that has no root in (0, H).
+    A contact touching and approaching (ġ < −vel_tol) without a root, its g ≤ 0, closes at τ = 0.
+    The time returned is τ − ε + 1e-3 d with ε = :func:`femb.contact.loop.margin` (τ itself where
+    ε = 1e-3 d, a fast impact): the free flight ends 1e-3 d before it, ε before the impact, its gap open.
+    The contacts that are open or moving at t_n (g > gap_tol or abs(ġ) > vel_tol) carry no force in
+    a free flight: when one of them carries one at t_n (a contact that leaves, or one that rests a
+    round-off above gap_tol), g̈ is taken without their forces (:func:`_free_gNdd`); the contacts at
+    rest keep theirs.
     """
-    A = sets[0]
-    cand = np.nonzero(A & ((s.gN > gap_tol) | (np.abs(s.gNd) > vel_tol)))[0]    # open, or touching and moving
+    moving = (s.gN > gap_tol) | (np.abs(s.gNd) > vel_tol)       # open, or touching and moving
+    cand = np.nonzero(sets[0] & moving)[0]
+    gdd = s.gNdd
+    if cand.size and np.any(s.lam_N[moving] != 0.0):
+        gdd = _free_gNdd(stepper.model, stepper.lay, s, moving)
     best = None
-    free = None
+    d = 1e-4 * stepper.h_fixed
     for i in cand:
-        gdd = s.gNdd[i]
-        if s.gN[i] <= gap_tol and s.gNd[i] > 0.0:   # leaving: its g̈_N(t_n) holds its contact force; the free one
-            free = _free_gNdd(stepper.model, s) if free is None else free
-            gdd = free[i]
         c = s.gN[i]
-        tau = first_root(0.5 * gdd, s.gNd[i], c, 0.0, H, False)
+        tau = first_root(0.5 * gdd[i], s.gNd[i], c, 0.0, H, False)
+        v = s.gNd[i] + gdd[i] * tau                     # ġ_N at the impact
+        if np.isnan(tau) and c <= gap_tol and s.gNd[i] < -vel_tol:
+            tau, v = 0.0, s.gNd[i]      # touching and approaching with g_N ≤ 0 (round-off either side of 0): now
         if np.isnan(tau):
             tau = H * c / (c - ev["gN"][i]) if c - ev["gN"][i] > 0.0 else None
+            v = (ev["gN"][i] - c) / H
+        if tau is not None:
+            tau = max(tau - margin(v, d, stepper.tol) + 1e-3 * d, 0.0)
         if tau is not None and (best is None or tau < best):
             best = tau
     return best
 
 
-def _free_gNdd(model, s):
-    """g̈_N at s without contact forces (bilateral constraints kept)."""
+def _free_gNdd(model, lay, s, free):
+    """g̈_N at s without the forces of the contacts ``free`` (bool, per contact), bilateral constraints kept.
+
+    The other contacts keep their forces λ_N, λ_F at t_n (a contact resting on a guide keeps
+    carrying the body that leaves the other guide): M u̇ + Φ_qᵀλ = f + W_Nᵀλ_N + W_Fᵀλ_F,
+    Φ_q u̇ = −γ, with λ_N,i = 0 and λ_F,i = 0 for the contacts i in ``free``; then g̈_N = W_N u̇ + ζ_N.
+    """
+    lN = np.where(free, 0.0, s.lam_N)
+    lF = s.lam_F.copy()
+    for i in np.nonzero(free)[0]:
+        lF[lay.friction[i]] = 0.0
     lu = _kkt(model, s.t, s.q)
     _, gam = assembly.constraint_rates(model, s.t, s.q, s.u)
-    ud, _ = _solve_kkt(lu, model, assembly.force_vector(model, s.t, s.q, s.u), -gam)
     ev = assemble.evaluate(model, s.t, s.q, s.u)
+    ud, _ = _solve_kkt(lu, model, assembly.force_vector(model, s.t, s.q, s.u) + ev["WN"].T @ lN + ev["WF"].T @ lF,
+                       -gam)
     return ev["WN"] @ ud + ev["zN"]
 
 
@@ -425,7 +447,7 @@ def _split_at_impact(stepper, s, h, impact, n, rec, vel_tol, locate, depth):
     the gap tolerance (see :func:`_step`)."""
     tau, d, gap_tol = impact
     if tau > 2 * d:
-        free = _free_flight(stepper, s, tau - 1e-3 * d, gap_tol)
+        free = _free_flight(stepper, s, tau - 1e-3 * d, gap_tol, vel_tol)
         if free is not None:                            # free flight, then the impact from closer by
             x1, ev1, sets1, info1, h1 = free
             s1, _, _, _, w1 = _accept(stepper, s, x1, ev1, sets1, info1, n, rec, vel_tol)
@@ -439,9 +461,12 @@ def _split_at_impact(stepper, s, h, impact, n, rec, vel_tol, locate, depth):
     return s, x, ev, sets, work
 
 
-def _free_flight(stepper, s, tau, gap_tol, tries=8):
-    """A step of size ≤ tau after which the contacts open at s are still open (halved until so), or None."""
-    was_open = (s.gN > gap_tol) | (s.gNd > 0.0)     # open, or touching and leaving
+def _free_flight(stepper, s, tau, gap_tol, vel_tol, tries=8):
+    """A step of size ≤ tau after which the contacts open at s are still open (halved until so), or None.
+
+    Open: a gap above ``gap_tol``, or touching and leaving faster than ``vel_tol`` (a contact at rest
+    carries a ġ_N of round-off of either sign: it stays closed)."""
+    was_open = (s.gN > gap_tol) | (s.gNd > vel_tol)
     for _ in range(tries):
         stepper.set_h(tau)
         x, ev, sets, info = stepper.solve(s)
@@ -508,9 +533,11 @@ class _Recorder:
             self.c[key].append(np.array(val, copy=True))
 
     def impacts(self, n, s, new, ev, sets, parts, vel_tol):
-        """Impacts of a (sub)step: a contact closed at its end that began approaching (ġ_N < 0), P_N > 0."""
+        """Impacts of a (sub)step: a contact closed at its end that began approaching (ġ_N < −vel_tol), whose
+        ġ_N rose by more than vel_tol, with P_N > 0 (a closed step in which the approach did not slow
+        carries a P_N of round-off, of either sign: not an impact)."""
         closed = sets[0] & (sets[1] | sets[2])
-        for i in np.nonzero((s.gNd < -vel_tol) & closed & (ev["PN"] > 0.0))[0]:
+        for i in np.nonzero((s.gNd < -vel_tol) & (new.gNd - s.gNd > vel_tol) & closed & (ev["PN"] > 0.0))[0]:
             tau = first_root(0.5 * s.gNdd[i], s.gNd[i], max(s.gN[i], 0.0), 0.0, new.t - s.t, True)   # impact time
             self.events.append(dict(t=new.t if np.isnan(tau) else s.t + tau, step=n, contact=self.lay.names[i],
                                     v_before=float(s.gNd[i]), v_after=float(new.gNd[i]), Lambda_N=float(parts[7][i]),
