@@ -132,6 +132,20 @@ async def _changed(b, expr, before, timeout=30.0):
     return before
 
 
+async def _settled(b, expr, quiet=1.0, timeout=30.0):
+    """The value of ``expr`` once it has not changed for ``quiet`` seconds (None if it never settles)."""
+    deadline = time.monotonic() + timeout
+    last, since = await b.evaluate(expr), time.monotonic()
+    while time.monotonic() < deadline:
+        await asyncio.sleep(0.2)
+        now = await b.evaluate(expr)
+        if now != last:
+            last, since = now, time.monotonic()
+        elif time.monotonic() - since >= quiet:
+            return now
+    return None
+
+
 async def _check_player(url, n_frames, legend, png_out=None):
     async with Browser() as b:
         await b.goto(url)
@@ -164,8 +178,10 @@ async def _check_player(url, n_frames, legend, png_out=None):
         t2 = await _changed(b, _TIME, t1)
         assert t2 != t1, "play did not move the time on"
         await b.evaluate("document.querySelector('.femb-play').click()")
-        await asyncio.sleep(1.0)
-        t3 = await b.evaluate(_TIME)
+        # the pause reaches the server and back within a second on a quiet machine, later on a
+        # loaded one: wait until the time stands still for a second, then check that it stays
+        t3 = await _settled(b, _TIME)
+        assert t3 is not None, "pause did not stop the player (the time still moves after 30 s)"
         await asyncio.sleep(1.5)
         assert await b.evaluate(_TIME) == t3, "pause did not stop the player"
 
