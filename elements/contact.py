@@ -809,6 +809,11 @@ class SpatialSphereOnPlane(ContactElement):
 #: 1 + n·p ≤ PAIR_MIN_POLE (the normal turned to the opposite of its initial direction p: no tangents)
 PAIR_MIN_DISTANCE = 1e-12
 PAIR_MIN_POLE = 1e-6
+#: an open pair whose gap exceeds PAIR_CHART_GAP (R_a + R_b) and whose normal has turned by more than 120°
+#: from its initial direction p (n·p < −1/2) takes its tangents from the opposite chart, (f₁, −f₂, −p): the
+#: smallest rotation from −p to n. An open pair carries no friction force, so which chart it uses changes
+#: no force; a pair that closes is back within PAIR_CHART_GAP first, where it uses (f₁, f₂, p)
+PAIR_CHART_GAP = 1e-2
 
 
 @kernel
@@ -938,7 +943,9 @@ def sphere_pair_contact(P, t, tf, xe, ve, le, jac, gN, W, zeta, H):
     the velocity V = ṙ_b − ṙ_a + ω_b × ab − ω_a × aa of b's surface point relative to a's along w
     (ω = RΩ); ζ = ẇ·V + w·(ω_b × (ω_b × R_b s_b − R_b' ṅ) − ω_a × (ω_a × R_a s_a + R_a' ṅ)) with
     ṅ = (ḋ − (n·ḋ)n)/L (ω is constant along x ∘ exp(εv)); H by :func:`_pair_hessian`.
-    Where L ≤ PAIR_MIN_DISTANCE (R_a' + R_b') or 1 + n·p ≤ PAIR_MIN_POLE every output is NaN.
+    An open pair with g > PAIR_CHART_GAP (R_a' + R_b') and n·p < −1/2 uses (f₁, −f₂, −p) instead
+    (:func:`pair_charts`). Where L ≤ PAIR_MIN_DISTANCE (R_a' + R_b') or 1 + n·p ≤ PAIR_MIN_POLE (p of
+    the chart in use) every output is NaN.
     P = (s_a(3), s_b(3), R_a', R_b', f₁(3), f₂(3), p(3)).
     """
     for e in range(xe.shape[0]):
@@ -959,6 +966,9 @@ def sphere_pair_contact(P, t, tf, xe, ve, le, jac, gN, W, zeta, H):
             _pair_undefined(gN, W, zeta, H, e, jac)
             continue
         n = (d[0] / L, d[1] / L, d[2] / L)
+        if L - rA - rB > PAIR_CHART_GAP * (rA + rB) and dot3(n, p) < -0.5:   # open and far round: the other chart
+            f2 = (-f2[0], -f2[1], -f2[2])
+            p = (-p[0], -p[1], -p[2])
         if not 1.0 + dot3(n, p) > PAIR_MIN_POLE:
             _pair_undefined(gN, W, zeta, H, e, jac)
             continue
@@ -988,6 +998,15 @@ def sphere_pair_contact(P, t, tf, xe, ve, le, jac, gN, W, zeta, H):
         if jac:
             _pair_hessian(H, e, (le[e, 0], le[e, 1], le[e, 2]), (n, t1, t2, aa, ab, sa, sb, f1, f2, p),
                           (Ra, Rb, L, rA, rB))
+
+
+def pair_charts(n, gN, radii, f1, f2, p):
+    """The chart (f₁, f₂, p) each pair of a batch takes its tangents from (as :func:`sphere_pair_contact`):
+    (f₁, −f₂, −p) where the pair is open by more than PAIR_CHART_GAP (R_a + R_b) and n·p < −1/2, else
+    (f₁, f₂, p). ``n`` (nel, 3) unit normals, ``gN`` (nel,) gaps, ``radii`` (nel,) R_a + R_b."""
+    other = (gN > PAIR_CHART_GAP * radii) & (np.einsum("ej,ej->e", n, p) < -0.5)
+    sign = np.where(other, -1.0, 1.0)[:, None]
+    return f1, sign * f2, sign * p
 
 
 def pair_tangents(n, f1, f2, p):
@@ -1093,8 +1112,9 @@ class SpatialSpherePair(ContactElement):
         d = cb - ca
         L = np.linalg.norm(d, axis=1)
         n = d / np.where(L > 0.0, L, 1.0)[:, None]
-        t1, t2 = pair_tangents(n, P[:, 8:11], P[:, 11:14], P[:, 14:17])
-        return ca + P[:, 6:7] * n, n, np.stack((t1, t2), axis=1), L - P[:, 6] - P[:, 7]
+        gN = L - P[:, 6] - P[:, 7]
+        t1, t2 = pair_tangents(n, *pair_charts(n, gN, P[:, 6] + P[:, 7], P[:, 8:11], P[:, 11:14], P[:, 14:17]))
+        return ca + P[:, 6:7] * n, n, np.stack((t1, t2), axis=1), gN
 
     @classmethod
     def geometry_problems(cls, P, qe):
@@ -1103,16 +1123,19 @@ class SpatialSpherePair(ContactElement):
         cb, _ = _spatial_points(qe, P[:, 3:6], col=7)
         d = cb - ca
         L = np.linalg.norm(d, axis=1)
+        n = d / np.where(L > 0.0, L, 1.0)[:, None]
+        _, _, p = pair_charts(n, L - P[:, 6] - P[:, 7], P[:, 6] + P[:, 7], P[:, 8:11], P[:, 11:14], P[:, 14:17])
         out = []
         for e in range(len(L)):
             R = P[e, 6] + P[e, 7]
             if not L[e] > 1e-3 * R:
                 out.append((e, f"the sphere centres are {L[e]:.3g} m apart (radii sum {R:.4g} m): "
                                "the normal is not defined where they coincide"))
-            elif not 1.0 + d[e] @ P[e, 14:17] / L[e] > 1e-3:
-                out.append((e, f"the normal n = {np.round(d[e] / L[e], 6).tolist()} has turned to (nearly) the "
-                               f"opposite of its initial direction {np.round(P[e, 14:17], 6).tolist()}, where the "
-                               "pair's tangent basis is singular"))
+            elif not 1.0 + n[e] @ p[e] > 1e-3:
+                out.append((e, f"the normal n = {np.round(n[e], 6).tolist()} has turned to (nearly) the "
+                               f"opposite of its initial direction {np.round(P[e, 14:17], 6).tolist()} with the "
+                               f"spheres {L[e] - R:.3g} m apart (within {PAIR_CHART_GAP:g} (R_a + R_b) of "
+                               "touching), where the pair's tangent basis is singular"))
         return out
 
 

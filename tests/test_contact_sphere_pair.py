@@ -24,7 +24,7 @@ from femb.base.rotations import quat_to_matrix
 from femb.contact import assemble, check_contact_kernels, simulate
 from femb.elements import RigidBody, SpatialGravity, SpatialRigidBody
 from femb.elements.contact import SpatialSpherePair
-from femb.errors import ContactError, ModelError
+from femb.errors import ContactError, ModelError, ParameterError
 
 ROT = [np.array((0.9, 0.3, -0.4, 0.1)), np.array((0.2, -0.5, 0.7, 0.3))]
 
@@ -352,16 +352,66 @@ def test_coincident_centres_are_refused_and_never_a_silent_nan():
     assert name == "pair" and "coincide" in why
 
 
-def test_normal_opposite_its_initial_direction_stops_the_run_with_a_contact_error():
-    """The tangent basis is singular where n = −p (p the initial normal): a sphere carried round a
-    fixed one at 1 m on a spinning body, far from touching it, reaches the opposite side at t = 1 s;
-    the run stops there with a ContactError naming the pair and why, not with NaN in the result."""
+def _carried_round(gap, omega=np.pi):
+    """A sphere (R 0.05) on an arm spinning about z at ``omega`` carried round a sphere fixed in space
+    (R 0.1) at a constant ``gap``: open all the way; its normal reaches the opposite of its initial
+    direction at t = π/ω."""
     mech = femb.Mechanism("round")
-    mech.add(SpatialRigidBody("arm", 1.0, (0.1, 0.1, 0.1), omega=(0.0, 0.0, np.pi)))   # half a turn per second
+    mech.add(SpatialRigidBody("arm", 1.0, (0.1, 0.1, 0.1), omega=(0.0, 0.0, omega)))
     mech.add(SpatialGravity((0.0, 0.0, 0.0)))
-    mech.add(SpatialSpherePair("pairX", "ground", "arm", 0.1, 0.05, point_b=(1.0, 0.0, 0.0)))
+    mech.add(SpatialSpherePair("pairX", "ground", "arm", 0.1, 0.05, point_b=(0.15 + gap, 0.0, 0.0), mu=0.3))
+    return mech
+
+
+def test_open_pair_carried_round_through_the_opposite_direction_runs_on():
+    """A sphere carried round a fixed one at 0.85 m, far from touching, through the opposite of its
+    initial normal (t = 1 s) and once more round (t = 3 s): the pair takes its tangents from the other
+    chart there (PAIR_CHART_GAP), so both loops run to the end; no force acts (the arm spins on at π
+    rad/s, its coordinates the free rotation's), and every contact output is finite."""
     for compiled in (None, False):
-        with pytest.raises(ContactError, match="pairX.*opposite of its initial direction") as err:
+        res = simulate(_carried_round(0.85).compile(), 3.5, 1e-2, compiled=compiled)
+        assert res.t[-1] == pytest.approx(3.5) and not res.events
+        for k in (100, 250, 350):                      # half, one and a quarter, one and three quarter turns
+            ang = np.pi * res.t[k]
+            want = np.array([[np.cos(ang), -np.sin(ang), 0.0], [np.sin(ang), np.cos(ang), 0.0], [0.0, 0.0, 1.0]])
+            np.testing.assert_allclose(quat_to_matrix(res.q[k, 3:7]), want, rtol=0, atol=1e-12)
+        np.testing.assert_allclose(res.qd[:, 5], np.pi, rtol=0, atol=1e-12)
+        for key in ("gN", "lam_N", "lam_F", "gam_F", "P_N", "P_F"):
+            assert np.all(np.isfinite(res.contact[key])), key
+        np.testing.assert_allclose(res.contact["gN"][:, 0], 0.85, rtol=0, atol=1e-12)
+        assert np.abs(res.contact["lam_F"]).max() == 0.0 and np.abs(res.contact["P_N"]).max() == 0.0
+
+
+def test_other_chart_kernel_matches_finite_differences_and_is_right_handed():
+    """At states where an open pair uses the other chart (f₁, −f₂, −p) (n·p < −1/2, gap above
+    PAIR_CHART_GAP (R_a + R_b)): W_N, ζ, H against central differences, and (t₁, t₂, n) of the output
+    frames right-handed and equal to W_F's direction rows."""
+    from femb.elements.contact import PAIR_CHART_GAP
+    model = _carried_round(0.85).compile()
+    q = model.q0.copy()
+    q[3:7] = (np.cos(0.45 * np.pi), 0.0, 0.0, np.sin(0.45 * np.pi))   # turned by 0.9 π about z
+    g = next(iter(model.contact_groups))
+    p = g.elements[0].p
+    for seed in range(3):
+        report = check_contact_kernels(model, seed=seed, move=0.05, q=q)
+        assert report.ok, str(report)
+    ev = assemble.evaluate(model, 0.0, q, np.zeros(model.nq), jac=True)
+    c, n, T, gN = type(g.elements[0]).contact_frames(g.P, model.ext(q)[g.xdofs])
+    assert n[0] @ p < -0.5 and gN[0] > PAIR_CHART_GAP * 0.15
+    np.testing.assert_allclose(np.cross(T[0, 0], T[0, 1]), n[0], rtol=0, atol=1e-14)
+    np.testing.assert_allclose(ev["WF"].toarray()[:, 0:3], T[0], rtol=0, atol=1e-14)   # a is the ground
+    with pytest.raises(ParameterError, match="q must be"):
+        check_contact_kernels(model, q=q[:3])
+
+
+def test_near_pair_opposite_its_initial_direction_stops_the_run_with_a_contact_error():
+    """Within PAIR_CHART_GAP (R_a + R_b) of touching the pair keeps its first chart, whose tangent basis is
+    singular where n = −p: a sphere carried round a fixed one at a gap of 1e-4 m reaches the opposite
+    side at t = 1 s; the run stops there with a ContactError naming the pair and why, not with NaN in
+    the result."""
+    mech = _carried_round(1e-4)
+    for compiled in (None, False):
+        with pytest.raises(ContactError, match="pairX.*opposite of its initial direction.*of touching") as err:
             simulate(mech.compile(), 1.5, 1e-2, compiled=compiled)
         assert err.value.contact == "pairX" and err.value.t == pytest.approx(1.0)
         assert np.all(np.isfinite(err.value.result.q)) and err.value.result.t[-1] == pytest.approx(0.99)

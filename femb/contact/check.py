@@ -16,6 +16,7 @@ import numpy as np
 
 from femb.analysis.checks import JacobianCheck, JacobianReport
 from femb.contact import assemble
+from femb.errors import ParameterError
 
 
 def _rel(A, B):
@@ -24,7 +25,7 @@ def _rel(A, B):
     return float(np.max(np.abs(A - B))) / scale if A.size else 0.0, scale
 
 
-def check_contact_kernels(model, seed=0, eps=1e-6, rtol=1e-6, move=0.3):
+def check_contact_kernels(model, seed=0, eps=1e-6, rtol=1e-6, move=0.3, q=None):
     """Compare the contact kernels' derivatives with central differences.
 
     Parameters
@@ -38,6 +39,8 @@ def check_contact_kernels(model, seed=0, eps=1e-6, rtol=1e-6, move=0.3):
         Relative error counted as agreement.
     move : float
         Size of the random move of the state away from the initial one.
+    q : ndarray, shape like ``model.q0``, optional
+        The state to move from (default: the model's initial coordinates ``model.q0``).
 
     Returns
     -------
@@ -45,7 +48,11 @@ def check_contact_kernels(model, seed=0, eps=1e-6, rtol=1e-6, move=0.3):
     """
     rng = np.random.default_rng(seed)
     nq = model.nq
-    q = model.compose(model.q0, move * rng.standard_normal(nq))
+    q0 = model.q0 if q is None else np.asarray(q, dtype=float)
+    if q0.shape != model.q0.shape or not np.all(np.isfinite(q0)):
+        raise ParameterError(f"check_contact_kernels: q must be {model.q0.size} finite coordinates of model "
+                             f"'{model.name}', got shape {q0.shape}")
+    q = model.compose(q0, move * rng.standard_normal(nq))
     u = rng.standard_normal(nq)
     lN = rng.standard_normal(model.n_contacts)
     lF = rng.standard_normal(model.n_friction)
