@@ -391,6 +391,70 @@ def _friction_jacobian(x, o, mq, kin, law, lay, par, der, sets, J):
 
 
 @kernel(allocates=True)
+def friction_blocks(z, ev, mu, lay, sets, on_P, out):
+    """The friction rows (138), (142) and the values of their derivative blocks, contact by contact, for
+    the Python step (:meth:`femb.contact.step.NonsmoothStep.friction_rows`, which assembles them into its
+    sparse or dense Jacobian; the compiled iteration writes the same rows by :func:`_contact_rows` and
+    :func:`_friction_jacobian`).
+
+    ``z`` = (Λ_N, λ_N, Λ_F, λ_F); ``ev`` = (P_N, P_F, ξ_F, γ_F, γ̇_F); ``mu`` (nN,); ``lay`` = (fptr, fidx,
+    sq, col): the tangent rows of contact i are fidx[fptr[i]:fptr[i + 1]] (p of them), its p × p blocks
+    start at sq[i] of the square blocks' values (row by row) and its p × 1 columns at col[i];
+    ``sets`` (5, nN) int8 (A, B, C, D, E); ``on_P`` the slip law on P_F, P_N (1) or on Λ_F, Λ_N (0).
+    ``out`` = (R9, R10, Dxi, Dgd, Dg, Dpn, Dln, Dpf, Dlf, Dsm), all written: R9 = P_F, R10 = λ_F, the
+    blocks 0, Dpf = Dlf = Dsm = 1 where a contact is open or frictionless.
+    """
+    LN, lN, LF, lF = z
+    PN, PF, xiF, gF, gFdd = ev
+    fptr, fidx, sq, col = lay
+    R9, R10, Dxi, Dgd, Dg, Dpn, Dln, Dpf, Dlf, Dsm = out
+    R9[:] = PF
+    R10[:] = lF
+    for D in (Dxi, Dgd, Dg, Dpn, Dln):
+        D[:] = 0.0
+    Dpf[:] = 1.0
+    Dlf[:] = 1.0
+    Dsm[:] = 1.0
+    for i in range(fptr.size - 1):
+        if fptr[i + 1] == fptr[i] or not sets[0, i]:
+            continue                                   # (138c), (142d): P_F = 0, λ_F = 0
+        idx = fidx[fptr[i]:fptr[i + 1]]
+        p, s0, c0 = idx.size, sq[i], col[i]
+        if sets[3, i]:
+            for a in range(p):                         # (138a): stick at percussion level
+                R9[idx[a]] = xiF[idx[a]]
+                Dxi[s0 + a * p + a] = 1.0
+                Dpf[idx[a]] = 0.0
+            if sets[4, i]:                             # (142a): stick at acceleration level
+                for a in range(p):
+                    R10[idx[a]] = gFdd[idx[a]]
+                    Dgd[s0 + a * p + a] = 1.0
+                    Dlf[idx[a]] = 0.0
+            else:                                      # (142b): slip at acceleration level
+                v, dv = _direction(gFdd[idx])
+                for a in range(p):
+                    R10[idx[a]] = lF[idx[a]] + mu[i] * lN[i] * v[a]
+                    Dln[c0 + a] = mu[i] * v[a]
+                    for b in range(p):
+                        Dgd[s0 + a * p + b] = mu[i] * lN[i] * dv[a, b]
+        else:                                          # (138b), (142c): slip
+            v, dv = _direction(xiF[idx])
+            Ns = PN[i] if on_P != 0.0 else LN[i]
+            w, dw = _direction(gF[idx])
+            for a in range(p):
+                j = idx[a]
+                R9[j] = (PF[j] if on_P != 0.0 else LF[j]) + mu[i] * Ns * v[a]
+                if on_P == 0.0:
+                    Dsm[j] = 0.0
+                Dpn[c0 + a] = mu[i] * v[a]
+                R10[j] = lF[j] + mu[i] * lN[i] * w[a]
+                Dln[c0 + a] = mu[i] * w[a]
+                for b in range(p):
+                    Dxi[s0 + a * p + b] = mu[i] * Ns * dv[a, b]
+                    Dg[s0 + a * p + b] = mu[i] * lN[i] * dw[a, b]
+
+
+@kernel(allocates=True)
 def _slip_block(J, rows, c0, D, W, fac):
     """J[rows, c0:c0 + n] += fac D W."""
     DW = D @ W

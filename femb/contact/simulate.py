@@ -38,6 +38,20 @@ def _solve_kkt(lu, model, rhs_q, rhs_c):
     return x[:model.nq], x[model.nq:]
 
 
+def _diag_W_K_Wt(lu, model, W, batch=256):
+    """The diagonal of W M⁻¹ Wᵀ with the bilateral constraints held (the KKT matrix's ``lu``), (k,): the rows
+    of W solved ``batch`` at a time."""
+    Wt = W.T.tocsc()
+    k = W.shape[0]
+    G = np.empty(k)
+    for a in range(0, k, batch):
+        b = min(k, a + batch)
+        R = Wt[:, a:b].toarray()
+        X = lu.solve(np.vstack((R, np.zeros((model.nc, b - a)))))[:model.nq]
+        G[a:b] = np.einsum("ij,ij->j", R, X)
+    return G
+
+
 def initial_contact_forces(model, lay, st, gap_tol, vel_tol, max_iter=5000, ev=None):
     """Accelerations and contact forces at t₀ for the contacts that are closed (g_N ≤ gap_tol and
     abs(ġ_N) ≤ vel_tol): the acceleration-level contact problem (Signorini on g̈_N, Coulomb on γ̇_F
@@ -61,10 +75,7 @@ def initial_contact_forces(model, lay, st, gap_tol, vel_tol, max_iter=5000, ev=N
     ud, lg = _solve_kkt(lu, model, f, -gam)
     if not closed.any():
         return ud, lg, lN, lF
-    W = sp.vstack((WN, WF)).tocsc()
-    G = np.array([(W[k] @ _solve_kkt(lu, model, W[k].toarray().ravel(), np.zeros(model.nc))[0])[0]
-                  for k in range(W.shape[0])])
-    r = 1.0 / np.maximum(G, 1e-300)
+    r = 1.0 / np.maximum(_diag_W_K_Wt(lu, model, sp.vstack((WN, WF)).tocsc()), 1e-300)
     gF = WF @ u
     for _ in range(max_iter):
         ud, lg = _solve_kkt(lu, model, f + WN.T @ lN + WF.T @ lF, -gam)

@@ -103,41 +103,32 @@ def _diag(v):
 
 class _BlockPattern:
     """The structure, built once, of a sparse matrix with one block per contact i in the rows of its
-    friction directions ``idx``: idx × idx (``square``; ∂R/∂γ blocks, nF × nF) or idx × column i
-    (∂R/∂λ_N, nF × nN). :meth:`zeros` gives a matrix to fill with the keys :meth:`NonsmoothStep.
-    friction_rows` uses on dense arrays (``B[np.ix_(idx, idx)] = block``, ``B[idx, i] = column``)."""
+    friction directions ``idx``: idx × idx (``square``; ∂R/∂γ blocks, nF × nF, row by row) or idx ×
+    column i (∂R/∂λ_N, nF × nN). ``start[i]``: where contact i's values begin in the values' array
+    (what :func:`femb.contact.core.friction_blocks` writes); ``rows``, ``cols``: every value's place."""
 
     def __init__(self, friction, shape, square):
         self.shape = shape
-        self.start = np.full(shape[0], -1, dtype=np.int64)
+        self.start = np.zeros(len(friction), dtype=np.int64)
         rows, cols, off = [np.zeros(0, dtype=np.int64)], [np.zeros(0, dtype=np.int64)], 0
         for i, idx in enumerate(friction):
+            self.start[i] = off
             if idx.size:
-                self.start[idx[0]] = off
-                rows.append(np.repeat(idx, idx.size) if square else np.asarray(idx, dtype=np.int64))
+                idx = np.asarray(idx, dtype=np.int64)
+                rows.append(np.repeat(idx, idx.size) if square else idx)
                 cols.append(np.tile(idx, idx.size) if square else np.full(idx.size, i, dtype=np.int64))
                 off += rows[-1].size
         self.rows, self.cols = np.concatenate(rows), np.concatenate(cols)
 
-    def zeros(self):
-        return _Blocks(self, np.zeros(self.rows.size))
+    def tocsr(self, data):
+        """The sparse matrix of the values ``data``."""
+        return sp.csr_matrix((data, (self.rows, self.cols)), shape=self.shape)
 
-
-class _Blocks:
-    """A matrix of a :class:`_BlockPattern` (its values ``data``); ``B[key] = values`` writes the block of
-    the contact whose first friction row the key names."""
-
-    def __init__(self, pattern, data):
-        self.pattern, self.data = pattern, data
-
-    def __setitem__(self, key, values):
-        off = self.pattern.start[int(np.ravel(key[0])[0])]
-        v = np.ravel(values)
-        self.data[off:off + v.size] = v
-
-    def tocsr(self):
-        p = self.pattern
-        return sp.csr_matrix((self.data, (p.rows, p.cols)), shape=p.shape)
+    def toarray(self, data):
+        """The dense matrix of the values ``data``."""
+        out = np.zeros(self.shape)
+        out[self.rows, self.cols] = data
+        return out
 
 
 @dataclass
@@ -199,17 +190,19 @@ def _dense_model(model):
     return per_thread[key]
 
 
-def _entry_point(disp, args, plan=None):
+def _entry_point(disp, args, plan=None, announce=True):
     """The compiled function of ``disp`` for the types of ``args``, callable without the dispatcher's type
     resolution (which hashes the nested tuple types anew at every call: milliseconds here); kept per
     process and argument structure. ``disp`` itself under NUMBA_DISABLE_JIT. ``plan(sig)``, if given,
     gives the units to compile in parallel, their costs and the groups kept together
-    (:func:`femb.contact.loop.build_plan`)."""
+    (:func:`femb.contact.loop.build_plan`). ``announce=False``: a small function, compiled in seconds without
+    a word on stderr (the sparse path's helpers)."""
     if jit_disabled():
         return disp
     key = (disp.__name__, _fingerprint(args))
     if key not in _ENTRIES:
-        _ENTRIES[key] = _compile_announced(disp, tuple(numba.typeof(a) for a in args), plan)
+        sig = tuple(numba.typeof(a) for a in args)
+        _ENTRIES[key] = _compile_announced(disp, sig, plan) if announce else disp.compile(sig)
     return _ENTRIES[key]
 
 
@@ -267,13 +260,20 @@ def _equilibrate(J, dense):
         c = np.max(np.abs(Jr), axis=0)
         c = np.where(c > 0.0, 1.0 / np.where(c > 0.0, c, 1.0), 1.0)
         return Jr * c[None, :], r, c
-    A = abs(J).tocsr()
-    r = np.asarray(A.max(axis=1).todense()).ravel()
+    J = J.tocsc()                      # on its arrays: rows J.indices, columns by J.indptr
+    J.sum_duplicates()
+    r = np.zeros(J.shape[0])
+    np.maximum.at(r, J.indices, np.abs(J.data))
     r = np.where(r > 0.0, 1.0 / np.where(r > 0.0, r, 1.0), 1.0)
-    Jr = sp.diags(r) @ J
-    c = np.asarray(abs(Jr).max(axis=0).todense()).ravel()
+    data = J.data * r[J.indices]
+    counts = np.diff(J.indptr)
+    c = np.zeros(J.shape[1])
+    full = counts > 0
+    if data.size:
+        c[full] = np.maximum.reduceat(np.abs(data), J.indptr[:-1][full])
     c = np.where(c > 0.0, 1.0 / np.where(c > 0.0, c, 1.0), 1.0)
-    return (Jr @ sp.diags(c)).tocsc(), r, c
+    data = data * np.repeat(c, counts)
+    return sp.csc_matrix((data, J.indices.copy(), J.indptr.copy()), shape=J.shape), r, c
 
 
 class NonsmoothStep:
@@ -329,6 +329,7 @@ class NonsmoothStep:
         self._M_lu = None          # the sparse path's factors of a constant M
         self._mass_comp = None     # the mass matrix's connected components (the sparse path's prox parameters)
         self._patterns = None      # the sparse path's friction derivative blocks (_BlockPattern)
+        self._cmp_sparse = None    # the sparse path's (xmap, rotation blocks) for _compose
         if self.dense:
             self._dense_setup()
 
@@ -482,13 +483,27 @@ class NonsmoothStep:
         ud, U, Q, _, _, _, kN, LN, lN, LF, lF = self.split(x)
         abar = (af * s.ud + (1 - af) * ud - am * s.abar) / (1 - am)
         u = s.u + h * ((1 - g) * s.abar + g * abar) + U
-        q = self.model.compose(s.q, h * s.u + h * h * ((0.5 - b) * s.abar + b * abar) + Q)
+        q = self._compose(s.q, h * s.u + h * h * ((0.5 - b) * s.abar + b * abar) + Q)
         lbN = (af * s.lam_N + (1 - af) * lN - am * s.lbar_N) / (1 - am)
         lbF = (af * s.lam_F + (1 - af) * lF - am * s.lbar_F) / (1 - am)
         PN = LN + h * ((1 - g) * s.lbar_N + g * lbN)
         kN_hat = kN + h * h * ((0.5 - b) * s.lbar_N + b * lbN)
         PF = LF + h * ((1 - g) * s.lbar_F + g * lbF)
         return dict(q=q, u=u, abar=abar, lbar_N=lbN, lbar_F=lbF, PN=PN, kN_hat=kN_hat, PF=PF)
+
+    def _compose(self, q, d):
+        """q ∘ exp(d) (:meth:`femb.system.model.Model.compose`), on Lie-group models by the compiled iteration's
+        :func:`femb.contact.core._compose` (one loop over the rotations instead of one Python call each)."""
+        model = self.model
+        if not model.lie:
+            return model.compose(q, d)
+        if self._cmp_sparse is None:
+            self._cmp_sparse = (np.ascontiguousarray(model.xmap, dtype=np.int64),
+                                np.ascontiguousarray(np.asarray(model.rot_blocks, dtype=np.int64).ravel()))
+        out = np.empty(np.asarray(q).size)
+        args = (np.ascontiguousarray(q, dtype=float), np.ascontiguousarray(d, dtype=float), *self._cmp_sparse, out)
+        _entry_point(core._compose, args, announce=False)(*args)
+        return out
 
     def prox_r(self, q, t):
         """Prox parameters r_i = 1/(W M⁻¹ Wᵀ)_ii per normal and tangent row (Studer 2009).
@@ -566,25 +581,41 @@ class NonsmoothStep:
         return ev
 
     def index_sets(self, ev, x):
-        """A, B, C (normal) and D, E (friction, per contact) of eqs. (130), (133), (136), (139), (141).
+        """A, B, C (normal) and D, E (friction, per contact) of eqs. (130), (133), (136), (139), (141), by
+        :func:`femb.contact.core._index_sets` (the compiled iteration's).
 
-        r > 0, so r g − κ̂ ≤ 0 ⇔ g − κ̂/r ≤ 0; femb compares with the Newton tolerance instead of 0.
+        r > 0, so r g − κ̂ ≤ 0 ⇔ g − κ̂/r ≤ 0; femb compares with the Newton tolerance instead of 0: where
+        both sides of a complementarity vanish the set must not flip on round-off (in length units:
+        g ≤ tol, h ξ ≤ tol, h² g̈ ≤ tol).
         """
-        rN, rF, mu = self.rN, self.rF, self.lay.mu
-        lN, lF = self.split(x)[8], self.split(x)[10]
-        # the inequalities with the Newton tolerance as slack (in length units: g ≤ tol, h ξ ≤ tol,
-        # h² g̈ ≤ tol): where both sides of a complementarity vanish the set must not flip on round-off
-        h, tol = self.h, self.tol
-        A = ev["gN"] - ev["kN_hat"] / rN <= tol
-        B = A & (h * (ev["xiN"] - ev["PN"] / rN) <= tol)
-        C = B & (h * h * (ev["gNdd"] - lN / rN) <= tol)
-        D = np.zeros_like(A)
-        E = np.zeros_like(A)
-        for i, idx in enumerate(self.lay.friction):
-            if idx.size and A[i]:
-                D[i] = np.linalg.norm(rF[idx] * ev["xiF"][idx] - ev["PF"][idx]) <= mu[i] * ev["PN"][i]
-                E[i] = D[i] and np.linalg.norm(rF[idx] * ev["gFdd"][idx] - lF[idx]) <= mu[i] * lN[i]
-        return A, B, C, D, E
+        f = np.ascontiguousarray
+        lay = self._friction_layout()
+        k = self.lay.nN
+        z = np.zeros(0)
+        mv = (z, z, z, z, f(ev["gN"], dtype=float), z, z)
+        kin = (z, f(ev["PN"]), f(ev["kN_hat"]), f(ev["PF"]), z, z)
+        law = (f(self.rN, dtype=float), f(self.rF, dtype=float), f(self.lay.mu, dtype=float), z, z, z)
+        der = (z, f(ev["xiN"]), f(ev["gNdd"]), z, f(ev["xiF"]), f(ev["gFdd"]))
+        sets = np.zeros((5, k), dtype=np.int8)
+        args = (f(x, dtype=float), self._o_sparse, mv, kin, law, lay[:3], np.array([self.h, self.tol]), der, sets)
+        _entry_point(core._index_sets, args, announce=False)(*args)
+        return tuple(sets[i].astype(bool) for i in range(5))
+
+    def _friction_layout(self):
+        """(owner, fptr, fidx, sq, col) of the friction rows (built once): the tangent rows of contact i are
+        fidx[fptr[i]:fptr[i + 1]]; sq and col where its blocks begin in the values of
+        :meth:`friction_rows`' patterns."""
+        if self._patterns is None:
+            fr = self.lay.friction
+            self._patterns = (_BlockPattern(fr, (self.lay.nF, self.lay.nF), True),
+                              _BlockPattern(fr, (self.lay.nF, self.lay.nN), False))
+            sizes = [np.asarray(i).size for i in fr]
+            fptr = np.concatenate(([0], np.cumsum(sizes))).astype(np.int64)
+            fidx = np.concatenate([np.asarray(i, dtype=np.int64) for i in fr] + [np.zeros(0, np.int64)])
+            self._flay = (np.ascontiguousarray(self.owner, dtype=np.int64), fptr, np.ascontiguousarray(fidx),
+                          self._patterns[0].start, self._patterns[1].start)
+            self._o_sparse = np.ascontiguousarray(self.offsets, dtype=np.int64)
+        return self._flay
 
     def smooth_rows(self, ev, x):
         """R_s of eq. (127): three dynamic rows and the bilateral constraints at three levels."""
@@ -604,55 +635,23 @@ class NonsmoothStep:
         ``slip_on_P`` (a step without a solution on that law, :meth:`solve`) it acts on P_F, P_N, as
         in the paper.
         """
-        mu, nF, nN = self.lay.mu, self.lay.nF, self.lay.nN
-        LN, lN, LF, lF = self.split(x)[7:11]
-        PN, PF, xiF, gF, gFdd = ev["PN"], ev["PF"], ev["xiF"], ev["gF"], ev["gFdd"]
-        R9, R10 = PF.copy(), lF.copy()
-        if self.dense:
-            Dxi, Dgd, Dg = np.zeros((nF, nF)), np.zeros((nF, nF)), np.zeros((nF, nF))
-            Dpn, Dln = np.zeros((nF, nN)), np.zeros((nF, nN))
-        else:                      # the sparse path: the blocks into a structure built once
-            if self._patterns is None:
-                self._patterns = (_BlockPattern(self.lay.friction, (nF, nF), True),
-                                  _BlockPattern(self.lay.friction, (nF, nN), False))
-            Dxi, Dgd, Dg = (self._patterns[0].zeros() for _ in range(3))
-            Dpn, Dln = self._patterns[1].zeros(), self._patterns[1].zeros()
-        Dpf, Dlf = np.ones(nF), np.ones(nF)
-        Dsm = np.ones(nF)          # 1 where the row acts on P (with the smooth share), 0 on Λ alone
-        for i, idx in enumerate(self.lay.friction):
-            if not idx.size or not A[i]:
-                continue                                   # (138c), (142d): P_F = 0, λ_F = 0
-            blk = np.ix_(idx, idx)
-            if D[i]:
-                R9[idx] = xiF[idx]                         # (138a): stick at percussion level
-                Dxi[blk] = np.eye(idx.size)
-                Dpf[idx] = 0.0
-                if E[i]:
-                    R10[idx] = gFdd[idx]                   # (142a): stick at acceleration level
-                    Dgd[blk] = np.eye(idx.size)
-                    Dlf[idx] = 0.0
-                else:                                      # (142b): slip at acceleration level
-                    v, dv = direction(gFdd[idx])
-                    R10[idx] = lF[idx] + mu[i] * lN[i] * v
-                    Dgd[blk] = mu[i] * lN[i] * dv
-                    Dln[idx, i] = mu[i] * v
-            else:                                          # (138b), (142c): slip
-                # the slip law on the impulsive parts Λ_F, Λ_N of the percussions (P_F − Λ_F is the
-                # smooth force's share, fixed by (142c) at its own stages): a persistent slip keeps
-                # Λ_F with Λ_N (docs/contact.md, departures)
-                v, dv = direction(xiF[idx])
-                if self.slip_on_P:
-                    R9[idx] = PF[idx] + mu[i] * PN[i] * v
-                    Dxi[blk] = mu[i] * PN[i] * dv
-                else:
-                    R9[idx] = LF[idx] + mu[i] * LN[i] * v
-                    Dxi[blk] = mu[i] * LN[i] * dv
-                    Dsm[idx] = 0.0
-                Dpn[idx, i] = mu[i] * v
-                w, dw = direction(gF[idx])
-                R10[idx] = lF[idx] + mu[i] * lN[i] * w
-                Dg[blk] = mu[i] * lN[i] * dw
-                Dln[idx, i] = mu[i] * w
+        f = np.ascontiguousarray
+        nF = self.lay.nF
+        lay = self._friction_layout()
+        sq, col = self._patterns
+        LN, lN, LF, lF = (f(a, dtype=float) for a in self.split(x)[7:11])
+        sets = np.array((A, A, A, D, E), dtype=np.int8)
+        R9, R10 = np.zeros(nF), np.zeros(nF)
+        Dxi, Dgd, Dg = (np.zeros(sq.rows.size) for _ in range(3))
+        Dpn, Dln = np.zeros(col.rows.size), np.zeros(col.rows.size)
+        Dpf, Dlf, Dsm = np.ones(nF), np.ones(nF), np.ones(nF)
+        args = ((LN, lN, LF, lF), tuple(f(ev[k], dtype=float) for k in ("PN", "PF", "xiF", "gF", "gFdd")),
+                f(self.lay.mu, dtype=float), lay[1:], sets, float(self.slip_on_P),
+                (R9, R10, Dxi, Dgd, Dg, Dpn, Dln, Dpf, Dlf, Dsm))
+        _entry_point(core.friction_blocks, args, announce=False)(*args)
+        mk = (lambda pat, d: pat.toarray(d)) if self.dense else (lambda pat, d: pat.tocsr(d))
+        Dxi, Dgd, Dg = (mk(sq, d) for d in (Dxi, Dgd, Dg))
+        Dpn, Dln = mk(col, Dpn), mk(col, Dln)
         return R9, R10, dict(Dxi=Dxi, Dgd=Dgd, Dg=Dg, Dpf=Dpf, Dlf=Dlf, Dpn=Dpn, Dln=Dln, Dsm=Dsm)
 
     def system(self, s, x, fixed_z=None, frozen=None):
@@ -674,16 +673,96 @@ class NonsmoothStep:
         rows.append(np.where(C, ev["gNdd"], lN))
         R9, R10, Fd = self.friction_rows(ev, x, A, D, E)
         rows += [R9, R10]
+        if fixed_z is not None:
+            rows[6:] = np.split(x[self.offsets[6]:] - fixed_z, np.cumsum(self.sizes[6:-1]))
+        R = np.concatenate(rows)
+        if not self.dense:
+            return R, self._sparse_jacobian(s, ev, x, (A, B_, C), Fd, fixed_z is not None), ev, (A, B_, C, D, E)
         J = self.jacobian(s, ev, x, (A, B_, C), Fd)
         if fixed_z is not None:
-            o = self.offsets[6]
             for i in range(6, 11):
                 J[i] = [None] * 11
                 J[i][i] = self._eye(self.sizes[i])
-            rows[6:] = np.split(x[o:] - fixed_z, np.cumsum(self.sizes[6:-1]))
-        R = np.concatenate(rows)
-        Jm = self._matrix(J)
-        return R, Jm, ev, (A, B_, C, D, E)
+        return R, self._matrix(J), ev, (A, B_, C, D, E)
+
+    def _sparse_jacobian(self, s, ev, x, normal_sets, Fd, fixed):
+        """The Jacobian of :meth:`jacobian` on the sparse path (csc), its entries gathered block by block
+        (row, column and value arrays of each term at its block's offsets) and summed once; with
+        ``fixed`` the contact rows are those of z − z_fixed (identity)."""
+        model, h, cu, cq, o = self.model, self.h, self.c_u, self.c_q, self.offsets
+        A, B_, C = normal_sets
+        lg = self.split(x)[5]
+        fq, fu = assembly.force_jacobians(model, s.t + h, ev["q"], ev["u"])
+        coo = {key: sp.coo_matrix(a) for key, a in (("M", ev["M"]), ("fq", fq), ("fu", fu), ("B", ev["B"]),
+                                                   ("WN", ev["WN"]), ("WF", ev["WF"]), ("H", ev["H"]),
+                                                   ("Hg", _bilateral_H(model, s.t + h, ev["q"], lg)))}
+        R, Cc, V = [], [], []
+
+        def put(i, j, key, fac=1.0, T=False, rowscale=None):
+            m = coo[key]
+            r, c = (m.col, m.row) if T else (m.row, m.col)
+            v = fac * m.data if rowscale is None else fac * rowscale[r] * m.data
+            R.append(o[i] + r)
+            Cc.append(o[j] + c)
+            V.append(v)
+
+        def diag(i, j, v):
+            k = np.arange(v.size)
+            R.append(o[i] + k)
+            Cc.append(o[j] + k)
+            V.append(np.asarray(v, dtype=float))
+
+        # dynamics (0–2): M u̇ − f + Φ_qᵀλ − W_Nᵀλ_N − W_Fᵀλ_F and its impulse and position rows; K1 = −f_q +
+        # ∂(Φ_qᵀλ)/∂q − H, C1 = −f_u
+        put(0, 0, "M")
+        for key, fac in (("fq", -1.0), ("Hg", 1.0), ("H", -1.0)):
+            put(0, 0, key, cq * fac)
+            put(0, 2, key, fac)
+        put(0, 0, "fu", -cu)
+        put(0, 1, "fu", -1.0)
+        for i, (jb, jn, jf, ff) in enumerate(((5, 8, 10, 1.0), (4, 7, 9, 1.0), (3, 6, 9, 0.5 * h))):
+            if i:
+                put(i, i, "M")
+            put(i, jb, "B", T=True)
+            put(i, jn, "WN", -1.0, T=True)
+            put(i, jf, "WF", -ff, T=True)
+        # bilateral constraints at three levels (3–5)
+        put(3, 0, "B", cq)
+        put(3, 2, "B")
+        put(4, 0, "B", cu)
+        put(4, 1, "B")
+        put(5, 0, "B")
+        if fixed:
+            for i in range(6, 11):
+                diag(i, i, np.ones(self.sizes[i]))
+        else:
+            Af, Bf, Cf = A.astype(float), B_.astype(float), C.astype(float)
+            put(6, 0, "WN", cq, rowscale=Af)
+            put(6, 2, "WN", rowscale=Af)
+            diag(6, 6, 1.0 - Af)
+            diag(6, 8, cq * (1.0 - Af))
+            put(7, 0, "WN", cu, rowscale=Bf)
+            put(7, 1, "WN", rowscale=Bf)
+            diag(7, 7, 1.0 - Bf)
+            diag(7, 8, cu * (1.0 - Bf))
+            put(8, 0, "WN", rowscale=Cf)
+            diag(8, 8, 1.0 - Cf)
+            WF = ev["WF"]
+            for key in ("Dxi", "Dgd", "Dg"):
+                coo[key + "W"] = sp.coo_matrix(Fd[key] @ WF)
+            coo["Dpn"], coo["Dln"] = sp.coo_matrix(Fd["Dpn"]), sp.coo_matrix(Fd["Dln"])
+            put(9, 0, "DxiW", cu)
+            put(9, 1, "DxiW")
+            put(9, 7, "Dpn")
+            put(9, 8, "Dpn", cu, rowscale=Fd["Dsm"])
+            diag(9, 9, Fd["Dpf"])
+            diag(9, 10, cu * Fd["Dsm"] * Fd["Dpf"])
+            put(10, 0, "DgdW")
+            put(10, 0, "DgW", cu)
+            put(10, 1, "DgW")
+            put(10, 8, "Dln")
+            diag(10, 10, Fd["Dlf"])
+        return sp.csc_matrix((np.concatenate(V), (np.concatenate(R), np.concatenate(Cc))), shape=(self.nx, self.nx))
 
     def _eye(self, k):
         return np.eye(k) if self.dense else sp.identity(k, format="csr")
@@ -725,12 +804,10 @@ class NonsmoothStep:
         if self.dense:
             M, Bc, WN, WF, K1, C1 = (a.toarray() if sp.issparse(a) else a for a in (M, Bc, WN, WF, K1, C1))
             dg = np.diag
-            mk = np.asarray
         else:
             dg = _diag
-            mk = _Blocks.tocsr
         Af, Bf, Cf = A.astype(float), B_.astype(float), C.astype(float)
-        Dxi, Dgd, Dg, Dpn, Dln = (mk(Fd[k]) for k in ("Dxi", "Dgd", "Dg", "Dpn", "Dln"))
+        Dxi, Dgd, Dg, Dpn, Dln = (Fd[k] for k in ("Dxi", "Dgd", "Dg", "Dpn", "Dln"))
         J = [[None] * 11 for _ in range(11)]
         J[0][0], J[0][1], J[0][2] = M + cq * K1 + cu * C1, C1, K1
         J[0][5], J[0][8], J[0][10] = Bc.T, -WN.T, -WF.T
