@@ -160,7 +160,7 @@ def run(steps, model, span, ctl, alpha, diagnose, vel_tol):
     def stop(why, hk):
         res = _result(steps, h0, time.perf_counter() - t_loop, why, counts, ctl)
         s = steps.state()
-        name, reason = (diagnose(model, steps.stepper.lay, s, 1e-9 * model.length_scale, vel_tol, hk)
+        name, reason = (diagnose(model, steps.stepper.lay, s, 1e-9 * model.length_scale, vel_tol, hk, res)
                         if why != "h_min" else (None, "the error estimate"))
         raise ContactError(f"contact step {n + 1} from t = {s.t:.6g} s: no step down to h = {hk:.3g} s "
                            f"(h_min {h_min:.3g} s): {reason} ({why})", contact=name, t=s.t, step=n + 1,

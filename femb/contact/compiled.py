@@ -189,7 +189,7 @@ def run(stepper, s, rec, nsteps, h, info):
                                          (h, rho_inf, stepper.tol, init_time, time.perf_counter() - t_loop, "failed",
                                           str(err)))
                 s = _get_state(P, F)
-                name, why = sim.diagnose(model, lay, s, 1e-9 * model.length_scale, vel_tol, h)
+                name, why = sim.diagnose(model, lay, s, 1e-9 * model.length_scale, vel_tol, h, res)
                 raise ContactError(f"contact step {n} from t = {s.t:.6g} s to t = {s.t + h:.6g} s failed: {why} "
                                    f"({err})", contact=name, t=s.t + h, step=n, result=res) from None
             n += 1

@@ -156,7 +156,35 @@ def geometry_problems(model, q):
     return out
 
 
-def diagnose(model, lay, s, gap_tol, vel_tol, h=None):
+#: the failure's diagnosis reports an instability when the largest velocity grew by more than this factor
+#: over the last UNSTABLE_WINDOW stored steps (:func:`velocity_growth`)
+UNSTABLE_GROWTH = 1e3
+UNSTABLE_WINDOW = 10
+
+
+def velocity_growth(res):
+    """A sentence when the largest velocity component of the partial result ``res`` grew by more than
+    UNSTABLE_GROWTH over its last UNSTABLE_WINDOW steps (the steps before a failure were numerically
+    unstable), else None."""
+    qd = getattr(res, "qd", None)
+    if qd is None or len(qd) < 3:
+        return None
+    v = np.max(np.abs(np.asarray(qd, dtype=float)), axis=1)
+    last = v[-1]
+    before = float(np.max(v[max(0, len(v) - 1 - UNSTABLE_WINDOW):-1]))
+    if not np.isfinite(last):
+        return "the velocities are not finite at the last stored step: the steps before the failure were unstable"
+    if last > UNSTABLE_GROWTH * max(before, 1e-300):
+        k = min(UNSTABLE_WINDOW, len(v) - 1)
+        t = np.asarray(res.t, dtype=float)
+        return (f"the largest velocity grew from {v[-1 - k]:.3g} at t = {t[-1 - k]:.6g} s to {last:.3g} at "
+                f"t = {t[-1]:.6g} s (m/s or rad/s): the steps before the failure were numerically unstable (for "
+                "example too little numerical damping of high frequencies the step does not resolve: try a smaller "
+                "rho_inf or a shorter step)")
+    return None
+
+
+def diagnose(model, lay, s, gap_tol, vel_tol, h=None, res=None):
     """Why a step has no consistent contact force: (contact name, reason) or (None, reason).
 
     For every closed, slipping contact i with μ_i > 0 it forms the normal acceleration's
@@ -167,7 +195,8 @@ def diagnose(model, lay, s, gap_tol, vel_tol, h=None):
     complementarity when b_i < 0 (inconsistency), two solutions when b_i > 0 (indeterminacy).
     Without such a contact, the contacts whose geometry is undefined or nearly so at s or, given the
     step size ``h``, at s moved by h s.u (:func:`geometry_problems`: e.g. a sphere pair whose centres
-    (nearly) coincide).
+    (nearly) coincide). Without either, and given the partial result ``res``, a velocity that grew by orders
+    of magnitude just before (:func:`velocity_growth`).
     """
     t, q, u = s.t, s.q, s.u
     ev = assemble.evaluate(model, t, q, u)
@@ -198,6 +227,9 @@ def diagnose(model, lay, s, gap_tol, vel_tol, h=None):
     if bad:
         name, why = bad[0]
         return name, f"contact '{name}' at t = {t:.6g} s: {why}"
+    grew = velocity_growth(res) if res is not None else None
+    if grew:
+        return None, f"no solution found; {grew}"
     return None, "no consistent contact forces found (no slipping contact shows Painlevé's paradox)"
 
 
@@ -303,7 +335,7 @@ def simulate(model, t_end, h, *, rho_inf=0.8, t0=0.0, rtol=None, atol=None, h_ma
             s, x, ev, sets, work = _step(stepper, s, h, n, rec, vel_tol, locate_impacts)
         except StepFailure as err:
             res = rec.result(h, rho_inf, tol, init_time, time.perf_counter() - t_loop, "failed", str(err))
-            name, why = diagnose(model, lay, s, 1e-9 * L, vel_tol, h)
+            name, why = diagnose(model, lay, s, 1e-9 * L, vel_tol, h, res)
             raise ContactError(f"contact step {n} from t = {s.t:.6g} s to t = {s.t + h:.6g} s failed: {why} "
                                f"({err})", contact=name, t=s.t + h, step=n, result=res) from None
         rec.store(s, x, ev, _states(ev, sets, lay, vel_tol), stepper, work)
