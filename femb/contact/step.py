@@ -908,7 +908,9 @@ class NonsmoothStep:
                 if d.min() > 1e-11 * d.max():
                     return c * sla.lu_solve((lu, piv), -r * R, check_finite=False)
                 return np.linalg.lstsq(J, -R, rcond=1e-11)[0]
-            lu = spla.splu(Js)
+            # minimum degree on Jᵀ + J: as fast as COLAMD on beams and on spheres against the floor, ten times
+            # faster where sphere pairs couple every body (docs/contact.md §7)
+            lu = spla.splu(Js, permc_spec="MMD_AT_PLUS_A")
             d = np.abs(lu.U.diagonal())
             if d.min() > 1e-11 * d.max():
                 return c * lu.solve(-r * R)
