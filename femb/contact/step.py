@@ -94,13 +94,6 @@ def diag_W_Minv_Wt(W, lu, comp):
     return np.bincount(rows, W.data * Z[W.indices, colour[rows]], minlength=k)
 
 
-def _diag(v):
-    """The diagonal matrix of v (csr), without scipy.sparse.diags' DIA format."""
-    v = np.asarray(v, dtype=float)
-    k = np.arange(v.size + 1)
-    return sp.csr_matrix((v, k[:-1], k), shape=(v.size, v.size))
-
-
 class _BlockPattern:
     """The structure, built once, of a sparse matrix with one block per contact i in the rows of its
     friction directions ``idx``: idx × idx (``square``; ∂R/∂γ blocks, nF × nF, row by row) or idx ×
@@ -329,7 +322,8 @@ class NonsmoothStep:
         self._M_lu = None          # the sparse path's factors of a constant M
         self._mass_comp = None     # the mass matrix's connected components (the sparse path's prox parameters)
         self._patterns = None      # the sparse path's friction derivative blocks (_BlockPattern)
-        self._cmp_sparse = None    # the sparse path's (xmap, rotation blocks) for _compose
+        self._maps = None          # (xmap, rotation blocks) of a Lie-group model (_rotation_maps)
+        self._M_coo = None         # the sparse path's constant mass matrix as COO (_sparse_jacobian)
         if self.dense:
             self._dense_setup()
 
@@ -366,8 +360,7 @@ class NonsmoothStep:
         self._mv = (dm.f, dm.Phi, dm.Phi_t, dm.gam, dm.gN, dm.zN, dm.zF)
         model, n = self.model, self.model.nq
         xmap = np.asarray(model.xmap, dtype=np.int64) if model.lie else np.arange(n, dtype=np.int64)
-        rot = np.asarray(model.rot_blocks, dtype=np.int64).ravel() if model.lie else np.zeros(0, np.int64)
-        self._cmp = (np.ascontiguousarray(xmap), np.ascontiguousarray(rot))
+        self._cmp = (np.ascontiguousarray(xmap), self._rotation_maps()[1])
         self._kout = (np.zeros(model.nx),) + tuple(np.zeros(n) for _ in range(2)) + \
             tuple(np.zeros(a) for a in (k, l, k, k, l)) + (np.zeros(n),)
         self._work = (self._o, self._cmp, self._kout, self._out, dm.dq, self._mq, self._mv, self._J, self._dx,
@@ -497,13 +490,20 @@ class NonsmoothStep:
         model = self.model
         if not model.lie:
             return model.compose(q, d)
-        if self._cmp_sparse is None:
-            self._cmp_sparse = (np.ascontiguousarray(model.xmap, dtype=np.int64),
-                                np.ascontiguousarray(np.asarray(model.rot_blocks, dtype=np.int64).ravel()))
         out = np.empty(np.asarray(q).size)
-        args = (np.ascontiguousarray(q, dtype=float), np.ascontiguousarray(d, dtype=float), *self._cmp_sparse, out)
+        args = (np.ascontiguousarray(q, dtype=float), np.ascontiguousarray(d, dtype=float), *self._rotation_maps(), out)
         _entry_point(core._compose, args, announce=False)(*args)
         return out
+
+    def _rotation_maps(self):
+        """(xmap, rotation blocks (xs, vs) flattened) of a Lie-group model for :func:`femb.contact.core._compose`,
+        formed once."""
+        if self._maps is None:
+            model = self.model
+            rot = np.asarray(model.rot_blocks, dtype=np.int64).ravel() if model.lie else np.zeros(0, np.int64)
+            xmap = model.xmap if model.lie else np.arange(model.nq)
+            self._maps = (np.ascontiguousarray(xmap, dtype=np.int64), np.ascontiguousarray(rot))
+        return self._maps
 
     def prox_r(self, q, t):
         """Prox parameters r_i = 1/(W M⁻¹ Wᵀ)_ii per normal and tangent row (Studer 2009).
@@ -682,7 +682,7 @@ class NonsmoothStep:
         if fixed_z is not None:
             for i in range(6, 11):
                 J[i] = [None] * 11
-                J[i][i] = self._eye(self.sizes[i])
+                J[i][i] = np.eye(self.sizes[i])
         return R, self._matrix(J), ev, (A, B_, C, D, E)
 
     def _sparse_jacobian(self, s, ev, x, normal_sets, Fd, fixed):
@@ -693,9 +693,15 @@ class NonsmoothStep:
         A, B_, C = normal_sets
         lg = self.split(x)[5]
         fq, fu = assembly.force_jacobians(model, s.t + h, ev["q"], ev["u"])
-        coo = {key: sp.coo_matrix(a) for key, a in (("M", ev["M"]), ("fq", fq), ("fu", fu), ("B", ev["B"]),
-                                                   ("WN", ev["WN"]), ("WF", ev["WF"]), ("H", ev["H"]),
+        coo = {key: sp.coo_matrix(a) for key, a in (("fq", fq), ("fu", fu), ("B", ev["B"]), ("WN", ev["WN"]),
+                                                   ("WF", ev["WF"]), ("H", ev["H"]),
                                                    ("Hg", _bilateral_H(model, s.t + h, ev["q"], lg)))}
+        if self.M is None:
+            coo["M"] = sp.coo_matrix(ev["M"])
+        else:                                        # a constant mass matrix: converted once
+            if self._M_coo is None:
+                self._M_coo = sp.coo_matrix(self.M)
+            coo["M"] = self._M_coo
         R, Cc, V = [], [], []
 
         def put(i, j, key, fac=1.0, T=False, rowscale=None):
@@ -764,25 +770,9 @@ class NonsmoothStep:
             diag(10, 10, Fd["Dlf"])
         return sp.csc_matrix((np.concatenate(V), (np.concatenate(R), np.concatenate(Cc))), shape=(self.nx, self.nx))
 
-    def _eye(self, k):
-        return np.eye(k) if self.dense else sp.identity(k, format="csr")
 
     def _matrix(self, J):
-        """The block matrix J (11 × 11 blocks, None for zero): a dense array for small systems, else csc."""
-        if not self.dense:                               # the blocks' entries gathered at their offsets
-            o = self.offsets
-            rows, cols, vals = [np.zeros(0, dtype=np.int64)], [np.zeros(0, dtype=np.int64)], [np.zeros(0)]
-            for i in range(11):
-                for j in range(11):
-                    b = J[i][j]
-                    if b is None:
-                        continue
-                    b = sp.csr_matrix(b) if not sp.isspmatrix_csr(b) else b
-                    rows.append(o[i] + np.repeat(np.arange(b.shape[0]), np.diff(b.indptr)))
-                    cols.append(o[j] + b.indices)
-                    vals.append(b.data)
-            return sp.csc_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
-                                 shape=(self.nx, self.nx))
+        """The block matrix J (11 × 11 blocks, None for zero) as a dense array (the dense path)."""
         o = self.offsets
         out = np.zeros((self.nx, self.nx))
         for i in range(11):
@@ -793,7 +783,8 @@ class NonsmoothStep:
         return out
 
     def jacobian(self, s, ev, x, normal_sets, Fd):
-        """The 11 × 11 blocks of ∂R/∂x (see :meth:`system`)."""
+        """The 11 × 11 blocks of ∂R/∂x (see :meth:`system`), dense (the Python dense path; the sparse path
+        gathers the same terms in :meth:`_sparse_jacobian`)."""
         model, h, cu, cq = self.model, self.h, self.c_u, self.c_q
         A, B_, C = normal_sets
         lg = self.split(x)[5]
@@ -801,11 +792,8 @@ class NonsmoothStep:
         fq, fu = assembly.force_jacobians(model, s.t + h, ev["q"], ev["u"])
         K1 = -fq + _bilateral_H(model, s.t + h, ev["q"], lg) - ev["H"]
         C1 = -fu
-        if self.dense:
-            M, Bc, WN, WF, K1, C1 = (a.toarray() if sp.issparse(a) else a for a in (M, Bc, WN, WF, K1, C1))
-            dg = np.diag
-        else:
-            dg = _diag
+        M, Bc, WN, WF, K1, C1 = (a.toarray() if sp.issparse(a) else a for a in (M, Bc, WN, WF, K1, C1))
+        dg = np.diag
         Af, Bf, Cf = A.astype(float), B_.astype(float), C.astype(float)
         Dxi, Dgd, Dg, Dpn, Dln = (Fd[k] for k in ("Dxi", "Dgd", "Dg", "Dpn", "Dln"))
         J = [[None] * 11 for _ in range(11)]
