@@ -319,6 +319,7 @@ class NonsmoothStep:
         self.m_ref = float(np.mean(diagM[w == 1.0])) if np.any(w == 1.0) else float(np.mean(diagM))
         self._r_cache = None
         self._r_memo = []
+        self._regular = False      # the last Newton increment came from a regular J (newton_increment)
         self._M_lu = None          # the sparse path's factors of a constant M
         self._mass_comp = None     # the mass matrix's connected components (the sparse path's prox parameters)
         self._patterns = None      # the sparse path's friction derivative blocks (_BlockPattern)
@@ -404,7 +405,8 @@ class NonsmoothStep:
         if not np.all(np.isfinite(J)):
             return None
         if self.nx <= DENSE_COMPILED_LU:
-            if core.increment(J, R, self._dx) == 0:
+            self._regular = core.increment(J, R, self._dx) == 0
+            if self._regular:
                 return self._dx.copy()
             xc = np.ascontiguousarray(x, dtype=float)
             w = core.null_weights(xc, self._o, self._kout[5], self._law, self._lay, np.empty(xc.size))
@@ -460,6 +462,8 @@ class NonsmoothStep:
             dx = self._dense_increment(x)
             if dx is None:
                 return (x, *self._dense_result(ev), it, False, err)
+            if self._converged_by_increment(dx, it, frozen):
+                return (x, *self._dense_result(ev), it, True, err)
             x = x + dx
         ev = self._dense_kinematics(s, x)
         err = self._dense_residual(s, x, ev, None)
@@ -870,10 +874,24 @@ class NonsmoothStep:
             dx = self.newton_increment(J, R)
             if dx is None:
                 return x, ev, sets, it, False, err
+            if self._converged_by_increment(dx, it, frozen):
+                return x, ev, sets, it, True, err
             x = x + dx
         R, J, ev, sets = self.system(s, x, fixed_z)
         err = float(np.max(np.abs(self.scale(sets) * R))) if R.size else 0.0
         return x, ev, sets, self.max_iter, err <= self.tol, err
+
+    def _converged_by_increment(self, dx, it, frozen):
+        """Whether the iterate whose Newton increment is ``dx`` is converged although its residual is above
+        the tolerance: a regular J's increment, as a length (:func:`femb.contact.core.increment_size`), within
+        the tolerance, after the first iteration and with the index sets not held (as the compiled
+        iteration, :func:`femb.contact.core.newton_loop`)."""
+        if it <= 1 or frozen is not None or not self._regular:
+            return False
+        par = np.zeros(16)
+        par[0], par[4], par[15] = self.h, self.m_ref, self.h_acc
+        return core.increment_size(np.ascontiguousarray(dx, dtype=float), np.asarray(self.offsets, dtype=np.int64),
+                                   np.ascontiguousarray(self.model.force_weight, dtype=float), par) <= self.tol
 
     def newton_increment(self, J, R):
         """Solve J dx = −R; with a rank-deficient J (forces that the contact laws leave undetermined,
@@ -893,14 +911,16 @@ class NonsmoothStep:
                     warnings.simplefilter("ignore", sla.LinAlgWarning)
                     lu, piv = sla.lu_factor(Js, check_finite=False)
                 d = np.abs(np.diag(lu))
-                if d.min() > 1e-11 * d.max():
+                self._regular = d.min() > 1e-11 * d.max()
+                if self._regular:
                     return c * sla.lu_solve((lu, piv), -r * R, check_finite=False)
                 return np.linalg.lstsq(J, -R, rcond=1e-11)[0]
             # minimum degree on Jᵀ + J: as fast as COLAMD on beams and on spheres against the floor, ten times
             # faster where sphere pairs couple every body (docs/contact.md §7)
             lu = spla.splu(Js, permc_spec="MMD_AT_PLUS_A")
             d = np.abs(lu.U.diagonal())
-            if d.min() > 1e-11 * d.max():
+            self._regular = d.min() > 1e-11 * d.max()
+            if self._regular:
                 return c * lu.solve(-r * R)
             return spla.lsqr(J, -R, atol=1e-14, btol=1e-14)[0]
         except (RuntimeError, ValueError, np.linalg.LinAlgError):
