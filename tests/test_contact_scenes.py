@@ -71,6 +71,9 @@ def test_velocity_growth_names_a_blow_up_only():
     assert "grew from 1 at t = 0.019 s to 5e+06 at t = 0.029 s" in why   # ten steps back: before the impact
     wild[-1, 1] = 5001.0                                     # just above 100 × the median, 50
     assert velocity_growth(SimpleNamespace(t=t, qd=wild)) is not None
+    jump = calm.copy()                                       # a jump ×1000 five steps back, then steady growth
+    jump[-5:] = 5e4 * np.arange(1, 6)[:, None]
+    assert "to 5e+04 at t = 0.025 s, and 2.5e+05 at t = 0.029 s" in velocity_growth(SimpleNamespace(t=t, qd=jump))
     wild[-1, 0] = np.nan
     assert "not finite" in velocity_growth(SimpleNamespace(t=t, qd=wild))
     assert velocity_growth(SimpleNamespace(t=t[:2], qd=calm[:2])) is None
