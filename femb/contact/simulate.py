@@ -19,7 +19,7 @@ from femb.contact.loop import first_root, margin
 from femb.contact.prox import prox_disc
 from femb.contact.result import OPEN, SLIP, STICK, ContactResult
 from femb.contact.step import NonsmoothStep, StepFailure, StepState
-from femb.errors import ContactError, ModelError, ParameterError
+from femb.errors import SINGULAR_HINT, ContactError, InitializationError, ModelError, ParameterError
 from femb.solve.alpha import GeneralizedAlpha
 from femb.solve.options import check_positive
 from femb.system import assembly
@@ -71,7 +71,15 @@ def initial_contact_forces(model, lay, st, gap_tol, vel_tol, max_iter=5000, ev=N
     lN, lF = np.zeros(lay.nN), np.zeros(lay.nF)
     f = assembly.force_vector(model, t, q, u)
     _, gam = assembly.constraint_rates(model, t, q, u)
-    lu = _kkt(model, t, q)
+    try:
+        lu = _kkt(model, t, q)
+        d = np.abs(lu.U.diagonal())
+        singular = not np.all(np.isfinite(d)) or d.min() <= 1e-13 * d.max()
+    except RuntimeError:
+        singular = True
+    if singular:                    # the test of femb.system.initial.start_accelerations, which the start skips
+        raise InitializationError(f"initial accelerations: the matrix [[M, Φ_qᵀ], [Φ_q, 0]] is singular at "
+                                  f"t = {t:.6g} s; {SINGULAR_HINT}")
     ud, lg = _solve_kkt(lu, model, f, -gam)
     if not closed.any():
         return ud, lg, lN, lF
@@ -348,7 +356,7 @@ def simulate(model, t_end, h, *, rho_inf=0.8, t0=0.0, rtol=None, atol=None, h_ma
 def _start(model, lay, stepper, t0, vel_tol):
     """The consistent starting state (bilateral projection, contact forces of the closed contacts)."""
     L = model.length_scale
-    st = consistent_initial_state(model, t0=t0, contacts=True)
+    st = consistent_initial_state(model, t0=t0, contacts=True, accelerations=False)   # u̇ from the contact problem
     ev0 = assemble.evaluate(model, t0, st.q, st.qd)
     undefined = np.nonzero(~np.isfinite(ev0["gN"]))[0]
     if undefined.size:

@@ -368,7 +368,7 @@ def body_moves(model, q_from, q_to):
 def consistent_initial_state(model: Model, state: State | None = None, *, t0: float = 0.0, phi_tol: float = 1e-12,
                              max_iter: int = 50, max_initial_move: float | None = None,
                              report_move: float = REPORT_MOVE, weights: "StartWeights | None" = None,
-                             contacts: bool = False) -> State:
+                             contacts: bool = False, accelerations: bool = True) -> State:
     """Project an initial state onto the constraints at all levels, and say so.
 
     1. positions: least change q = argmin ‖q − q_0‖ subject to Φ(q, t_0) = 0
@@ -412,6 +412,10 @@ def consistent_initial_state(model: Model, state: State | None = None, *, t0: fl
         Accept a model with contact elements (only :func:`femb.contact.simulate` does: it
         treats the contacts itself); otherwise such a model is a ModelError, so that
         ``femb.simulate`` never integrates it silently without its contacts.
+    accelerations : bool
+        Step 3 (default True). False: positions and velocities only, ``qdd`` and ``lam`` zero
+        (for a model without velocity constraints or start weights): the contact integrator
+        solves the accelerations with the contact forces itself.
     report_move : float
         Bodies moved by more than ``report_move`` × length scale (or turned by
         more than ``report_move`` rad) are listed in an
@@ -538,6 +542,8 @@ def consistent_initial_state(model: Model, state: State | None = None, *, t0: fl
         st.qdd, st.lam = _velocity_constraint_accelerations(model, t, st.q, st.qd, rows)
     elif weights is not None:
         st.q, st.qdd, st.lam = settle(model, weights, t, st.q, st.qd)
+    elif not accelerations:
+        st.qdd, st.lam = np.zeros(model.nq), np.zeros(model.nc)
     else:
         st.qdd, st.lam = start_accelerations(model, None, t, st.q, st.qd)
     if not (np.all(np.isfinite(st.qdd)) and np.all(np.isfinite(st.lam))):
