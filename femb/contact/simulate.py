@@ -26,16 +26,32 @@ from femb.system import assembly
 from femb.system.initial import consistent_initial_state
 
 
+def _active_rows(model):
+    """The constraint equations kept (``Mechanism.compile(redundant="eliminate")`` removes dependent ones),
+    or None when all are."""
+    act = getattr(model, "active_constraints", None)
+    return None if act is None or np.all(act) else np.nonzero(np.asarray(act, bool))[0]
+
+
 def _kkt(model, t, q):
-    """LU of [[M, Φ_qᵀ], [Φ_q, 0]] at (t, q)."""
+    """LU of [[M, Φ_qᵀ], [Φ_q, 0]] at (t, q), on the equations kept (:func:`_active_rows`)."""
     M = model.M_const if model.constant_mass else assembly.mass_matrix(model, q)
     B = assembly.constraint_jacobian(model, t, q)
-    return spla.splu(sp.bmat([[M, B.T], [B, None]], format="csc") if model.nc else sp.csc_matrix(M))
+    rows = _active_rows(model)
+    if rows is not None:
+        B = B[rows]
+    return spla.splu(sp.bmat([[M, B.T], [B, None]], format="csc") if B.shape[0] else sp.csc_matrix(M))
 
 
 def _solve_kkt(lu, model, rhs_q, rhs_c):
-    x = lu.solve(np.concatenate((rhs_q, rhs_c)))
-    return x[:model.nq], x[model.nq:]
+    """(u̇, λ) from the KKT factors of :func:`_kkt`; λ_i = 0 on the equations removed as redundant."""
+    rows = _active_rows(model)
+    x = lu.solve(np.concatenate((rhs_q, rhs_c if rows is None else rhs_c[rows])))
+    if rows is None:
+        return x[:model.nq], x[model.nq:]
+    lam = np.zeros(model.nc)
+    lam[rows] = x[model.nq:]
+    return x[:model.nq], lam
 
 
 def _diag_W_K_Wt(lu, model, W, batch=256):
@@ -47,7 +63,7 @@ def _diag_W_K_Wt(lu, model, W, batch=256):
     for a in range(0, k, batch):
         b = min(k, a + batch)
         R = Wt[:, a:b].toarray()
-        X = lu.solve(np.vstack((R, np.zeros((model.nc, b - a)))))[:model.nq]
+        X = lu.solve(np.vstack((R, np.zeros((lu.shape[0] - model.nq, b - a)))))[:model.nq]
         G[a:b] = np.einsum("ij,ij->j", R, X)
     return G
 
