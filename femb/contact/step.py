@@ -320,6 +320,9 @@ class NonsmoothStep:
         self._r_cache = None
         self._r_memo = []
         self._regular = False      # the last Newton increment came from a regular J (newton_increment)
+        #: offsets and force weights as core.increment_size takes them (_converged_by_increment)
+        self._inc_arrays = (np.asarray(self.offsets, dtype=np.int64),
+                            np.ascontiguousarray(model.force_weight, dtype=float))
         self._M_lu = None          # the sparse path's factors of a constant M
         self._mass_comp = None     # the mass matrix's connected components (the sparse path's prox parameters)
         self._patterns = None      # the sparse path's friction derivative blocks (_BlockPattern)
@@ -890,8 +893,7 @@ class NonsmoothStep:
             return False
         par = np.zeros(16)
         par[0], par[4], par[15] = self.h, self.m_ref, self.h_acc
-        return core.increment_size(np.ascontiguousarray(dx, dtype=float), np.asarray(self.offsets, dtype=np.int64),
-                                   np.ascontiguousarray(self.model.force_weight, dtype=float), par) <= self.tol
+        return core.increment_size(np.ascontiguousarray(dx, dtype=float), *self._inc_arrays, par) <= self.tol
 
     def newton_increment(self, J, R):
         """Solve J dx = −R; with a rank-deficient J (forces that the contact laws leave undetermined,

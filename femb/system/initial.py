@@ -365,6 +365,38 @@ def body_moves(model, q_from, q_to):
     return out
 
 
+def _project_positions(model, t, q0, rows, labels, tol, max_iter):
+    """Step 1 of :func:`consistent_initial_state`: q = argmin ‖q − q0‖ subject to Φ(q, t) = 0 on the equations
+    ``rows`` (Gauss–Newton, ‖Φ‖∞ ≤ tol), or an InitializationError naming the largest residual's joint."""
+    I = sp.identity(model.nq, format="csr")
+    q = q0.copy()
+    for k in range(max_iter + 1):
+        Phi = assembly.constraint_vector(model, t, q)
+        err = np.abs(Phi).max()
+        if not np.isfinite(err):
+            raise InitializationError("initial positions give non-finite constraint values")
+        if err <= tol:
+            return q
+        if k == max_iter:
+            i = int(np.argmax(np.abs(Phi)))
+            raise InitializationError(
+                f"cannot project the initial configuration onto the constraints: ‖Φ‖ = {err:.3e} "
+                f"after {max_iter} Gauss–Newton iterations; largest residual in {_describe(model, [labels[i]])} "
+                f"({Phi[i]:.3e}). The joints cannot all be closed from these positions: "
+                "check the bodies' positions and the joints' points")
+        Bk = assembly.constraint_jacobian(model, t, q).tocsr()[rows]
+        sol = _solve_augmented(I, Bk, model.difference(q0, q), -Phi[rows], "position projection")
+        if sol is None:
+            i = int(np.argmax(np.abs(Phi)))
+            why = (f"cannot project the initial configuration onto the constraints: ‖Φ‖ = {err:.3e} "
+                   f"(largest residual in {_describe(model, [labels[i]])}, {Phi[i]:.3e}) and the constraint "
+                   f"Jacobian is rank-deficient at Gauss–Newton iteration {k}")
+            e = _redundancy_error(model, q, t, why)
+            raise e or InitializationError(f"{why}; {SINGULAR_HINT}")
+        q = model.compose(q, sol[0])
+    return q
+
+
 def consistent_initial_state(model: Model, state: State | None = None, *, t0: float = 0.0, phi_tol: float = 1e-12,
                              max_iter: int = 50, max_initial_move: float | None = None,
                              report_move: float = REPORT_MOVE, weights: "StartWeights | None" = None,
@@ -483,34 +515,9 @@ def consistent_initial_state(model: Model, state: State | None = None, *, t0: fl
         raise ModelError(f"max_initial_move must be a positive length (m), got {max_initial_move!r}")
     if nc:
         q0 = st.q.copy()
-        q = st.q.copy()
-        B0 = assembly.constraint_jacobian(model, t, q).tocsr()[rows]
-        _zero_rows(B0, [labels[i] for i in rows])
-        Phi0 = assembly.constraint_vector(model, t, q)
-        for k in range(max_iter + 1):
-            Phi = assembly.constraint_vector(model, t, q)
-            err = np.abs(Phi).max()
-            if not np.isfinite(err):
-                raise InitializationError("initial positions give non-finite constraint values")
-            if err <= tol:
-                break
-            if k == max_iter:
-                i = int(np.argmax(np.abs(Phi)))
-                raise InitializationError(
-                    f"cannot project the initial configuration onto the constraints: ‖Φ‖ = {err:.3e} "
-                    f"after {max_iter} Gauss–Newton iterations; largest residual in {_describe(model, [labels[i]])} "
-                    f"({Phi[i]:.3e}). The joints cannot all be closed from these positions: "
-                    "check the bodies' positions and the joints' points")
-            Bk = assembly.constraint_jacobian(model, t, q).tocsr()[rows]
-            sol = _solve_augmented(I, Bk, model.difference(q0, q), -Phi[rows], "position projection")
-            if sol is None:
-                i = int(np.argmax(np.abs(Phi)))
-                why = (f"cannot project the initial configuration onto the constraints: ‖Φ‖ = {err:.3e} "
-                       f"(largest residual in {_describe(model, [labels[i]])}, {Phi[i]:.3e}) and the constraint "
-                       f"Jacobian is rank-deficient at Gauss–Newton iteration {k}")
-                e = _redundancy_error(model, q, t, why)
-                raise e or InitializationError(f"{why}; {SINGULAR_HINT}")
-            q = model.compose(q, sol[0])
+        _zero_rows(assembly.constraint_jacobian(model, t, q0).tocsr()[rows], [labels[i] for i in rows])
+        Phi0 = assembly.constraint_vector(model, t, q0)
+        q = _project_positions(model, t, q0, rows, labels, tol, max_iter)
         _check_moves(model, q0, q, Phi0, labels, act, max_initial_move, report_move)
         st.q = q
         B = assembly.constraint_jacobian(model, t, st.q).tocsr()[rows]
