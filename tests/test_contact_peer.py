@@ -57,4 +57,4 @@ def test_missing_exudyn_is_reported(monkeypatch):
 def test_exudyn_row_tiny():
     (code, h, wall, e_t, e_y), = cp.measure(repeats=1, steps={"Exudyn": (4e-4,)})
     assert code == "Exudyn" and wall > 0
-    assert e_t < 0.05 and e_y < 0.05                       # same ball, same Hertz law and restitution
+    assert e_t < 0.01 and e_y < 0.005   # same ball, same Hertz law and restitution; measured 5.7e-3 s, 2.6e-3 m
