@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import numpy as np
 from numba.core import cgutils, types
+from numba.typed import List
 from numba.extending import intrinsic
 
 from femb.base.jit import (_PY_KERNELS, call_constraint, call_force, call_rates, jit_disabled, kernel,
@@ -54,6 +55,31 @@ def call_contact(typingctx, addr, args):
 if jit_disabled():
     def call_contact(addr, args):    # noqa: F811 (plain Python for NUMBA_DISABLE_JIT=1)
         _PY_KERNELS[addr](*args)
+
+
+@kernel(allocates=True)
+def _records_list(rec):
+    """A typed list holding ``rec``: formed in compiled code kept in the disk cache (``List(recs)`` from
+    Python compiles the list's methods for the records' type anew in every process: 1.5 s)."""
+    out = List()
+    out.append(rec)
+    return out
+
+
+@kernel(allocates=True)
+def _records_append(out, rec):
+    out.append(rec)
+
+
+def records_list(recs):
+    """The batch records ``recs`` (a non-empty Python list of records, all of one type) as a
+    ``numba.typed.List`` (what :func:`evaluate_batches` and the compiled loop take)."""
+    if jit_disabled():
+        return List(recs)
+    out = _records_list(recs[0])
+    for rec in recs[1:]:
+        _records_append(out, rec)
+    return out
 
 
 @kernel(allocates=True)

@@ -173,7 +173,7 @@ def run(stepper, s, rec, nsteps, h, info):
     ctx = _context(stepper, F, vel_tol, locate)
     arr = _Arrays(_rec0(rec), nsteps, lay, model.nq)
     _entry(stepper.dm, (P, float(h), 1, nsteps, ctx, arr.pack()))   # compiled, or loaded from the cache
-    init_time += time.perf_counter() - t_load                         # (1–3 s): the start's time, not the loop's
+    init_time += time.perf_counter() - t_load                         # (about 1 s from the disk cache): the start's time, not the loop's
     t_loop = time.perf_counter()
     n = 1
     while n <= nsteps:

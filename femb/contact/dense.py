@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from femb.contact.batches import evaluate_batches
+from femb.contact.batches import evaluate_batches, records_list
 from femb.system import kernels
 
 
@@ -121,7 +121,6 @@ class DenseModel:
 
     def _records(self):
         """The typed list of batch records (femb/contact/batches.py) and the batches with time functions."""
-        from numba.typed import List
         model, n = self.model, self.n
         recs, self.timed = [], []
         for kind, groups in ((0, model.force_groups), (1, model.constraint_groups),
@@ -131,7 +130,7 @@ class DenseModel:
                 recs.append(rec)
                 if tf is not None:
                     self.timed.append((g, tf))
-        self.recs = List(recs) if recs else None
+        self.recs = records_list(recs) if recs else None
 
     def time_values(self, t):
         """Refresh the time-function values (f, f', f'') of the batches that have them, at t."""

@@ -164,7 +164,7 @@ def _fingerprint(a):
     if isinstance(a, tuple):
         return tuple(_fingerprint(b) for b in a)
     if isinstance(a, numba.typed.List):
-        return ("list", _fingerprint(a[0]) if len(a) else None)
+        return numba.typeof(a)      # the list's type, held by the list (indexing it from Python would compile)
     return type(a).__name__
 
 
