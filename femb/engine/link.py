@@ -56,15 +56,21 @@ _RETURNS = {}
 _WORKER = {"on": False, "placeholder": None}
 
 
+def _py(disp):
+    """The Python function of the stage ``disp`` (``disp`` itself under NUMBA_DISABLE_JIT=1, where
+    numba's decorators return the function)."""
+    return getattr(disp, "py_func", disp)
+
+
 def declare(disp, restype):
     """Declare the numba type that the stage ``disp`` returns (for every argument types)."""
-    f = disp.py_func
+    f = _py(disp)
     _RETURNS[(f.__module__, f.__qualname__)] = restype
 
 
 def declared_return(disp):
     """The declared return type of ``disp``, or None."""
-    f = disp.py_func
+    f = _py(disp)
     return _RETURNS.get((f.__module__, f.__qualname__))
 
 
