@@ -40,6 +40,13 @@ from femb.contact.batches import evaluate_batches
 GUESS_TOL = 1e-6
 #: the shortest damped Newton step (a fraction of the full one; :func:`damp_step`)
 MIN_DAMPING = 1.0 / 64.0
+#: The prox fixed point halves its parameters r (for the rest of the step's fixed point) when its change
+#: has not reached a new least value for FP_STALL iterations, at most FP_HALVINGS times. r = 1/(W M⁻¹ Wᵀ)_ii
+#: (Studer 2009) converges for contacts that do not share a body; several contacts on one body (the four
+#: corners of a box on a plate) couple their rows, the Jacobi-type iteration then needs r below
+#: 2/λ_max(diag(r) W M⁻¹ Wᵀ)·r and oscillates without settling (docs/contact.md §1.1, item 12).
+FP_STALL = 20
+FP_HALVINGS = 4
 
 
 @kernel(allocates=True)
@@ -477,7 +484,10 @@ def minimum_norm_step(J, R, x, dx, w):
     """The Newton increment dx for a rank-deficient J (NonsmoothStep.newton_increment): the least-squares
     solution of J dx = −R with the singular values below 1e-11 of the largest dropped (the minimum-norm
     increment), and then, where ``w`` (nx,) is given (non-empty), the new iterate y = x + dx moved within
-    J's null space to the point of least Σ w_a y_a² (y − N c with (NᵀWN) c = NᵀW y, N the null basis).
+    J's null space to the point of least Σ w_a y_a² (y − N c with (NᵀWN) c = NᵀW y, N the null basis;
+    where these normal equations are singular to machine precision, the weights spread over more than
+    about 1e16 (friction weights of contacts that carry almost nothing: a box landing on an edge), c is
+    the least-squares solution of W^½ N c = W^½ y by SVD instead).
 
     The null space holds the unknowns that the laws leave undetermined (two sticking contacts on one body,
     of which only the sum of the friction forces is fixed; redundant constraints' multipliers). The
@@ -511,7 +521,11 @@ def minimum_norm_step(J, R, x, dx, w):
             N[:, j] = Vt[k]
             j += 1
     WN = N * w.reshape(-1, 1)
-    c = np.linalg.solve(N.T @ WN, WN.T @ (x + dx))
+    try:
+        c = np.linalg.solve(N.T @ WN, WN.T @ (x + dx))
+    except Exception:               # singular to machine precision: weights over ~1e16 apart
+        sw = np.sqrt(w)
+        c = np.linalg.lstsq(N * sw.reshape(-1, 1), sw * (x + dx), 1e-13)[0]
     dx -= N @ c
 
 

@@ -964,11 +964,28 @@ class NonsmoothStep:
         return np.concatenate((kN, LN, lN, LF, lF))
 
     def fixed_point(self, s, x0):
-        """The prox fixed point of eqs. (144)–(146); returns (x, ev, sets, iterations, converged, error)."""
+        """The prox fixed point of eqs. (144)–(146); returns (x, ev, sets, iterations, converged, error).
+
+        When the change has not reached a new least value for ``core.FP_STALL`` iterations, r is halved for
+        the rest of this fixed point (at most ``core.FP_HALVINGS`` times; as the compiled
+        :func:`femb.contact.loop._fixed_point`); the step's r is restored on return."""
+        r0 = (self.rN, self.rF)
+        try:
+            return self._fixed_point(s, x0)
+        finally:
+            self._set_r(*r0)
+
+    def _set_r(self, rN, rF):
+        self.rN, self.rF = rN, rF
+        if self.dense:
+            self._law = (rN, rF) + self._fixed_law
+
+    def _fixed_point(self, s, x0):
         o = self.offsets[6]
         x = x0.copy()
         z = x[o:].copy()
         err = np.inf
+        best, since, halved = np.inf, 0, 0
         for it in range(1, self.max_fp + 1):
             x[o:] = z
             x, ev, sets, _, ok, _ = self.newton(s, x, fixed_z=z)
@@ -988,6 +1005,14 @@ class NonsmoothStep:
                 x[o:] = z
                 R, _, ev, sets = self.system(s, x)
                 return x, ev, sets, it, True, err
+            if err < best:
+                best, since = err, 0
+            else:
+                since += 1
+                if since >= core.FP_STALL and halved < core.FP_HALVINGS:   # smaller r for the rest of the step
+                    self._set_r(0.5 * self.rN, 0.5 * self.rF)
+                    halved += 1
+                    best, since = err, 0
         x[o:] = z
         R, _, ev, sets = self.system(s, x)
         return x, ev, sets, self.max_fp, False, err
