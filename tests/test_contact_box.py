@@ -16,6 +16,7 @@ from femb import Mechanism
 from femb.contact import core, simulate
 from femb.elements import SpatialGravity, SpatialRigidBody
 from femb.elements.contact import SpatialSphereOnPlane
+from femb.elements.spatial_forces import SpatialForce
 
 A = 0.1     # half the box's edge (m)
 
@@ -69,3 +70,41 @@ def test_null_space_shift_with_weights_over_twenty_decades():
     dx0 = np.zeros(6)
     core.minimum_norm_step(J, R, x, dx0, np.zeros(0))
     assert abs((x + dx)[4]) <= abs((x + dx0)[4]) + 1e-12
+
+
+def _pushed_box(F, mu=0.8):
+    """A box resting flat on four corners, pushed along x at the top of its back face (height 2A above
+    the floor): it tips about its front edge when F 2A > m g A, i.e. F > m g / 2, and slides when F > μ m g."""
+    m = 1.0
+    J = m * (2 * A) ** 2 / 6
+    mech = Mechanism("pushed_box")
+    mech.add(SpatialGravity((0.0, 0.0, -9.81)))
+    mech.add(SpatialRigidBody("b", m, (J, J, J), position=(0.0, 0.0, A)))
+    k = 0
+    for x in (-A, A):
+        for y in (-A, A):
+            mech.add(SpatialSphereOnPlane(f"c{k}", "b", point=(x, y, -A), mu=mu))
+            k += 1
+    mech.add(SpatialForce("push", "b", (F, 0.0, 0.0), point=(-A, 0.0, A)))
+    return mech.compile()
+
+
+@pytest.mark.parametrize("F, tips", [(4.5, False), (6.0, True)])
+def test_pushed_box_starts_and_tips_above_half_its_weight(F, tips):
+    """The start's contact problem (four coupled corners, sticking) stalled before: "initial contact forces
+    at t0 = 0 s: no consistent contact forces found" for every push F > 0 (now its r is halved as well)."""
+    model = _pushed_box(F)
+    res = simulate(model, 0.2, 1e-3)
+    assert res.success
+    gaps = np.array([res.series(f"c{k}.gN")[0] for k in range(4)])
+    assert gaps.min() >= -1e-10 * model.length_scale
+    lam0 = np.array([res.series(f"c{k}.lambda_N")[0][0] for k in range(4)])
+    if tips:
+        assert res.q[-1][2] - A > 1e-3                              # the centre rises: tipping about the front edge
+        assert gaps[:2, -1].min() > 1e-3 and np.abs(gaps[2:, -1]).max() < 1e-9   # back corners up, front down
+    else:
+        assert abs(res.q[-1][2] - A) < 1e-12 and np.abs(res.q[-1][:2]).max() < 1e-9   # at rest, sticking
+        assert lam0.sum() == pytest.approx(9.81, rel=1e-9)
+        # the moment of the push loads the front corners: F 2A = (λ_front − λ_back) 2A (sum over each pair)
+        front, back = lam0[2:].sum(), lam0[:2].sum()
+        assert front - back == pytest.approx(2 * F, rel=1e-6)

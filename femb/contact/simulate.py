@@ -14,7 +14,7 @@ import numpy as np
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from femb.contact import assemble
+from femb.contact import assemble, core
 from femb.contact.loop import first_root, margin
 from femb.contact.prox import prox_disc
 from femb.contact.result import OPEN, SLIP, STICK, ContactResult
@@ -72,7 +72,7 @@ def initial_contact_forces(model, lay, st, gap_tol, vel_tol, max_iter=5000, ev=N
     """Accelerations and contact forces at t₀ for the contacts that are closed (g_N ≤ gap_tol and
     abs(ġ_N) ≤ vel_tol): the acceleration-level contact problem (Signorini on g̈_N, Coulomb on γ̇_F
     or the slip law on γ_F), solved by a projected Jacobi fixed point with prox parameters
-    1/(W M⁻¹ Wᵀ)_ii (Studer 2009, §3.4).
+    1/(W M⁻¹ Wᵀ)_ii (Studer 2009, §3.4), halved when it stalls (as the step's, ``core.FP_STALL``).
 
     ``ev``: ``assemble.evaluate(model, st.t, st.q, st.qd)`` if the caller has it.
 
@@ -101,6 +101,7 @@ def initial_contact_forces(model, lay, st, gap_tol, vel_tol, max_iter=5000, ev=N
         return ud, lg, lN, lF
     r = 1.0 / np.maximum(_diag_W_K_Wt(lu, model, sp.vstack((WN, WF)).tocsc()), 1e-300)
     gF = WF @ u
+    best, since, halved = np.inf, 0, 0
     for _ in range(max_iter):
         ud, lg = _solve_kkt(lu, model, f + WN.T @ lN + WF.T @ lF, -gam)
         gNdd = WN @ ud + ev["zN"]
@@ -118,6 +119,14 @@ def initial_contact_forces(model, lay, st, gap_tol, vel_tol, max_iter=5000, ev=N
         lN, lF = lN1, lF1
         if change <= 1e-13 * max(1.0, np.max(np.abs(lN), initial=0.0)):
             break
+        if change < best:
+            best, since = change, 0
+        else:                       # stalled (contacts sharing a body: a box on four corners): smaller r,
+            since += 1              # as the step's fixed point does (core.FP_STALL)
+            if since >= core.FP_STALL and halved < core.FP_HALVINGS:
+                r = 0.5 * r
+                halved += 1
+                best, since = change, 0
         if not np.all(np.isfinite(lN)) or np.max(np.abs(lN), initial=0.0) > 1e12 * _force_scale(model, f):
             break
     if not (np.all(np.isfinite(lN)) and change <= 1e-9 * max(1.0, np.max(np.abs(lN), initial=0.0))):
