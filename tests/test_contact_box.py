@@ -108,3 +108,11 @@ def test_pushed_box_starts_and_tips_above_half_its_weight(F, tips):
         # the moment of the push loads the front corners: F 2A = (λ_front − λ_back) 2A (sum over each pair)
         front, back = lam0[2:].sum(), lam0[:2].sum()
         assert front - back == pytest.approx(2 * F, rel=1e-6)
+
+
+def test_the_stall_rule_halves_after_twenty_iterations_without_progress_at_most_four_times():
+    track = np.array([np.inf, 0.0, 0.0])
+    assert not core.fp_stalled(1.0, track) and not core.fp_stalled(0.5, track)   # progress
+    halvings = [k for k in range(200) if core.fp_stalled(0.7, track)]          # no progress from here on
+    assert halvings == [19, 39, 59, 79]
+    assert track[2] == 4

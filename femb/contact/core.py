@@ -49,6 +49,25 @@ FP_STALL = 20
 FP_HALVINGS = 4
 
 
+@kernel
+def fp_stalled(err, track):
+    """The stall rule of the prox fixed points (the step's in both loops and the start's): ``track`` (3,) =
+    (least change so far, iterations since it, halvings of r so far), updated with this iteration's change
+    ``err``. True when r is to be halved now (FP_STALL iterations without a new least change, at most
+    FP_HALVINGS times); ``2 ** track[2]`` restores r."""
+    if err < track[0]:
+        track[0] = err
+        track[1] = 0.0
+        return False
+    track[1] += 1.0
+    if track[1] >= FP_STALL and track[2] < FP_HALVINGS:
+        track[0] = err
+        track[1] = 0.0
+        track[2] += 1.0
+        return True
+    return False
+
+
 @kernel(allocates=True)
 def _direction(v):
     """(v/|v|, (I − v̂v̂ᵀ)/|v|), and (v, I) for v = 0 (femb.contact.prox.direction)."""

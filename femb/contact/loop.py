@@ -45,8 +45,7 @@ import numpy as np
 from femb.base.jit import kernel
 from femb.engine.link import call
 from femb.contact.batches import evaluate_batches
-from femb.contact.core import (FP_HALVINGS, FP_STALL, _direction, _evaluate, kinematics, newton_loop, prox_parameters,
-                               residual)
+from femb.contact.core import _direction, _evaluate, fp_stalled, kinematics, newton_loop, prox_parameters, residual
 from femb.contact.result import OPEN, SLIP, STICK
 
 #: the fields of a state row, in order (their offsets are ``F[i]:F[i + 1]``)
@@ -171,7 +170,7 @@ def _fixed_point(P, si, x, h, ctx, on_P):
     z = x[o[6]:].copy()
     z1 = np.zeros(z.size)
     rN, rF = _field(s, F, _RN), _field(s, F, _RF)
-    best, since, halved = np.inf, 0, 0
+    track = np.array([np.inf, 0.0, 0.0])          # core.fp_stalled: smaller r for the rest of this step
     ok, its, exhausted = False, int(cst[12]), True
     for it in range(1, int(cst[12]) + 1):
         x[o[6]:] = z
@@ -189,19 +188,13 @@ def _fixed_point(P, si, x, h, ctx, on_P):
             call(_evaluate_at, P, si, x, h, ctx, on_P)
             ok, its, exhausted = True, it, False
             break
-        if err < best:
-            best, since = err, 0
-        else:
-            since += 1
-            if since >= FP_STALL and halved < FP_HALVINGS:     # core.FP_STALL: smaller r for this step
-                rN *= 0.5
-                rF *= 0.5
-                halved += 1
-                best, since = err, 0
+        if fp_stalled(err, track):
+            rN *= 0.5
+            rF *= 0.5
     if exhausted:                                # no convergence in cst[12] iterations
         ok = False
         x[o[6]:] = z
-    scale = 2.0 ** halved                        # r as it was (halving is exact)
+    scale = 2.0 ** track[2]                      # r as it was (halving is exact)
     rN *= scale
     rF *= scale
     return ok, its

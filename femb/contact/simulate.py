@@ -101,7 +101,7 @@ def initial_contact_forces(model, lay, st, gap_tol, vel_tol, max_iter=5000, ev=N
         return ud, lg, lN, lF
     r = 1.0 / np.maximum(_diag_W_K_Wt(lu, model, sp.vstack((WN, WF)).tocsc()), 1e-300)
     gF = WF @ u
-    best, since, halved = np.inf, 0, 0
+    track = np.array([np.inf, 0.0, 0.0])           # core.fp_stalled, as the step's fixed point
     for _ in range(max_iter):
         ud, lg = _solve_kkt(lu, model, f + WN.T @ lN + WF.T @ lF, -gam)
         gNdd = WN @ ud + ev["zN"]
@@ -119,14 +119,8 @@ def initial_contact_forces(model, lay, st, gap_tol, vel_tol, max_iter=5000, ev=N
         lN, lF = lN1, lF1
         if change <= 1e-13 * max(1.0, np.max(np.abs(lN), initial=0.0)):
             break
-        if change < best:
-            best, since = change, 0
-        else:                       # stalled (contacts sharing a body: a box on four corners): smaller r,
-            since += 1              # as the step's fixed point does (core.FP_STALL)
-            if since >= core.FP_STALL and halved < core.FP_HALVINGS:
-                r = 0.5 * r
-                halved += 1
-                best, since = change, 0
+        if core.fp_stalled(change, track):        # stalled (contacts sharing a body: a box on four corners)
+            r = 0.5 * r
         if not np.all(np.isfinite(lN)) or np.max(np.abs(lN), initial=0.0) > 1e12 * _force_scale(model, f):
             break
     if not (np.all(np.isfinite(lN)) and change <= 1e-9 * max(1.0, np.max(np.abs(lN), initial=0.0))):

@@ -985,7 +985,7 @@ class NonsmoothStep:
         x = x0.copy()
         z = x[o:].copy()
         err = np.inf
-        best, since, halved = np.inf, 0, 0
+        track = np.array([np.inf, 0.0, 0.0])         # core.fp_stalled
         for it in range(1, self.max_fp + 1):
             x[o:] = z
             x, ev, sets, _, ok, _ = self.newton(s, x, fixed_z=z)
@@ -1005,14 +1005,8 @@ class NonsmoothStep:
                 x[o:] = z
                 R, _, ev, sets = self.system(s, x)
                 return x, ev, sets, it, True, err
-            if err < best:
-                best, since = err, 0
-            else:
-                since += 1
-                if since >= core.FP_STALL and halved < core.FP_HALVINGS:   # smaller r for the rest of the step
-                    self._set_r(0.5 * self.rN, 0.5 * self.rF)
-                    halved += 1
-                    best, since = err, 0
+            if core.fp_stalled(err, track):               # smaller r for the rest of the step
+                self._set_r(0.5 * self.rN, 0.5 * self.rF)
         x[o:] = z
         R, _, ev, sets = self.system(s, x)
         return x, ev, sets, self.max_fp, False, err
