@@ -62,11 +62,18 @@ def system():
     R0 = [rod_rotation0(k) for k in range(5)]
     c0 = [POINTS[k] + 0.5 * (POINTS[k + 1] - POINTS[k]) for k in range(5)]
 
+    last = [None, None]     # (q, its chain): kin and closure of the same hyper-dual q share one chain
+
+    def chain(q):
+        if last[0] is not q:
+            last[:] = [q, _chain(q)]
+        return last[1]
+
     def kin(q):
-        return [(matmul(E, c0[k]) + t, matmul(E, R0[k])) for k, (E, t) in enumerate(_chain(q))]
+        return [(matmul(E, c0[k]) + t, matmul(E, R0[k])) for k, (E, t) in enumerate(chain(q))]
 
     def closure(q):
-        E, t = _chain(q)[4]
+        E, t = chain(q)[4]
         end = matmul(E, POINTS[5]) + t - POINTS[5]
         ax = matmul(E, AXES[5])
         return np.array([end[0], end[1], end[2], ax[1], ax[2]], dtype=object)
