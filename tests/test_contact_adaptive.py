@@ -127,3 +127,42 @@ def test_bad_options(top, kw, words):
     """Adaptive and solver options: a ParameterError naming the option, before any step."""
     with pytest.raises(ParameterError, match=words):
         simulate(top, 0.01, 1e-3, **kw)
+
+
+@pytest.mark.parametrize("compiled", [True, False])
+def test_a_stick_in_a_long_step_is_taken_again_with_the_first_step(compiled):
+    """A block sliding to a stop on an incline (μ > tan φ: closed form in contact_block.reference): free of
+    error while it slides (constant deceleration), so the steps grow; the step in which it sticks has no
+    impact to locate, and its error is of order h² (u̇ jumps: the estimate cannot see it). Taken as it came
+    (before 2026-11-29) the block stopped 2.0e-2 m off at rtol 1e-4 and 1e-8 alike; it is taken again with
+    the first step's size, so the error is that of fixed steps of that size."""
+    from femb.benchmarks.scenes.contact import contact_block
+    model = contact_block.build(mu=0.5).compile()
+    T, h0 = 1.0, 1e-3
+    ref = contact_block.reference([T], mu=0.5)
+    fixed = simulate(model, T, h0)
+    err_fixed = abs(contact_block.outputs(fixed)["s"][-1] - ref["s"][-1])
+    for rtol in (1e-4, 1e-8):
+        r = simulate(model, T, h0, rtol=rtol, compiled=compiled)
+        out = contact_block.outputs(r)
+        err = abs(out["s"][-1] - ref["s"][-1])
+        assert err <= 2.0 * err_fixed + 1e-12, (rtol, err, err_fixed)
+        assert abs(out["s_d"][-1]) < 1e-12                          # at rest, stuck
+        stop = np.searchsorted(r.t, ref["t_stop"])                  # the step that holds the stop
+        assert r.t[stop] - r.t[stop - 1] <= 1.05 * h0
+        assert r.stats["steps"] < 0.2 * T / h0                      # still far fewer steps than fixed ones
+
+
+def test_sphere_rolls_at_the_closed_form_speed_with_adaptive_steps():
+    """The spatial sphere sliding until it rolls (slip to stick, no impact): the rolling velocity and the
+    step of the transition as with fixed steps of the first step's size, in both loops alike."""
+    from femb.benchmarks.scenes.contact import contact_sphere3d
+    model = contact_sphere3d.build().compile()
+    ref = contact_sphere3d.reference()
+    runs = [simulate(model, 0.4, 1e-3, rtol=1e-6, compiled=c) for c in (True, False)]
+    np.testing.assert_allclose(runs[0].q, runs[1].q, rtol=0, atol=1e-11)
+    out = contact_sphere3d.outputs(runs[0])
+    v = np.array([out["vx"][-1], out["vy"][-1]])
+    assert np.abs(v - ref["v_roll"]).max() < 1e-5
+    k = np.searchsorted(runs[0].t, ref["t_roll"])
+    assert runs[0].t[k] - runs[0].t[k - 1] <= 1.05e-3

@@ -18,8 +18,11 @@ size comes from Gustafsson's PI controller (docs/stepsize.md §4).
 **At impacts and contact changes.** A step in which an impact happens (its split at the impact
 included, docs/contact.md §1.1, item 2), or after which a contact's state (open, stick, slip) differs from the
 step before, has no smooth error to measure: u̇ jumps there, and the scheme is first order by design.
-Such a step is accepted without an error test (counted in ``stats["unchecked_steps"]``); the next step is
-at most the first step's size h (impacts may accumulate, as a bouncing ball's do before it comes to rest,
+Such a step is accepted without an error test (counted in ``stats["unchecked_steps"]``) where it is at most
+the first step's size h; a longer step in which a contact changes state without an impact (it sticks,
+starts to slip, opens, or closes at rest) is taken again with h: that change is not located, and the
+step's error there is of order h², one order lower than a smooth step's, which the estimate cannot see.
+After such a step the next one is at most h (impacts may accumulate, as a bouncing ball's do before it comes to rest,
 and the impact location of §1.1, item 2 resolves a bounded number of them per step), and the controller and the
 jerk start afresh from there. A step whose solve finds no
 solution is taken again with h/4; below h_min the run stops with the time, the step and the solver's
@@ -89,12 +92,24 @@ def next_factor(err, err_prev):
 class Steps:
     """What the controller needs of a time loop: try a step, take it back, keep it, build the result.
 
-    ``try_step(h, n)`` returns (old, new, smooth) with ``old``, ``new`` having ``t``, ``q``, ``u``, ``ud``
-    (the step's start and end) and ``smooth`` whether the step had one (sub)step, no impact and no change of
-    a contact's state since the step before; or a str (the solver's message) when no solution was found
-    (nothing kept). ``undo()`` forgets the step just tried, ``keep(n)`` stores it as step n, ``state()``
+    ``try_step(h, n)`` returns (old, new, kind) with ``old``, ``new`` having ``t``, ``q``, ``u``, ``ud``
+    (the step's start and end) and ``kind`` one of :data:`SMOOTH` (one (sub)step, no impact, no change of
+    a contact's state since the step before), :data:`IMPACT` (an impact, or the step split into substeps)
+    and :data:`SWITCH` (one step without an impact after which a contact's state differs: it closed
+    without an impact, opened, stuck or began to slip; see :func:`step_kind`); or a str (the solver's
+    message) when no solution was found (nothing kept). ``undo()`` forgets the step just tried, ``keep(n)`` stores it as step n, ``state()``
     the current StepState, ``result(h0, status, message, wall)`` the ContactResult of the kept steps.
     """
+
+
+#: the kinds of step ``Steps.try_step`` reports
+SMOOTH, IMPACT, SWITCH = "smooth", "impact", "switch"
+
+
+def step_kind(impact, switch):
+    """:data:`IMPACT` when the step had an impact or substeps, else :data:`SWITCH` when a contact's state
+    differs from the step before, else :data:`SMOOTH`."""
+    return IMPACT if impact else (SWITCH if switch else SMOOTH)
 
 
 class PythonSteps(Steps):
@@ -120,9 +135,9 @@ class PythonSteps(Steps):
             return str(err)
         new, x, ev, sets, work = self.pending
         self.state_now = self.sim._states(ev, sets, self.stepper.lay, self.vel_tol)
-        smooth = (len(rec.events) == self.mark[0] and len(rec.iterations) == self.mark[1] + 1
-                  and (self.state_prev is None or not (self.state_now != self.state_prev).any()))
-        return self.s, new, smooth
+        impact = len(rec.events) != self.mark[0] or len(rec.iterations) != self.mark[1] + 1
+        switch = self.state_prev is not None and bool((self.state_now != self.state_prev).any())
+        return self.s, new, step_kind(impact, switch)
 
     def undo(self):
         del self.rec.events[self.mark[0]:], self.rec.iterations[self.mark[1]:], self.rec.methods[self.mark[2]:]
@@ -155,7 +170,7 @@ def run(steps, model, span, ctl, alpha, diagnose, vel_tol):
     counts = {"rejected_steps": 0, "unchecked_steps": 0, "failed_solves": 0}
     after_reject = False
     n = 0
-    h = min(h0, h_max)
+    h = h_switch = min(h0, h_max)
 
     def stop(why, hk):
         res = _result(steps, h0, time.perf_counter() - t_loop, why, counts, ctl)
@@ -176,8 +191,16 @@ def run(steps, model, span, ctl, alpha, diagnose, vel_tol):
             if h < h_min:
                 stop(out, hk)
             continue
-        old, new, smooth = out
-        if smooth:
+        old, new, kind = out
+        if kind == SWITCH and hk > 1.05 * h_switch:
+            # a contact changed state inside the step, without an impact: that change is not located, and the
+            # step's error is of order h² there (one term lower than a smooth step's), which the estimate cannot
+            # see (u̇ jumps). Taken with the first step's size, as the step after an impact is.
+            steps.undo()
+            counts["rejected_steps"] += 1
+            h, err_prev, after_reject = h_switch, None, True
+            continue
+        if kind == SMOOTH:
             err, j = weighted_error(old, new, hk, h_prev, j_prev)
             if not err <= 1.0:
                 steps.undo()
@@ -190,7 +213,7 @@ def run(steps, model, span, ctl, alpha, diagnose, vel_tol):
             fac = next_factor(err, err_prev)
             h_next = hk * (min(fac, 1.0) if after_reject else fac)
             err_prev, j_prev = max(err, 1e-10), j
-        else:                                   # an impact or a change of contact state: no error test
+        else:                                   # an impact, or a change of contact state in a short step: no error test
             counts["unchecked_steps"] += 1
             h_next = min(hk, h0)                # at most the first step's size: impacts may accumulate
             err_prev, j_prev = None, None

@@ -15,7 +15,7 @@ import numpy as np
 
 from femb.base.jit import jit_disabled
 from femb.contact import loop
-from femb.contact.adaptive import Steps
+from femb.contact.adaptive import Steps, step_kind
 from femb.contact.step import StepFailure, StepState, _entry_point, _owned
 from femb.errors import ContactError
 
@@ -248,9 +248,9 @@ class CompiledSteps(Steps):
                 self.undo()
                 return str(err)
         c0, state = self.save[1], arr.out[10]
-        smooth = (arr.cnt[0] == c0[0] and arr.cnt[1] == c0[1] + 1
-                  and (n == 1 or not (state[n] != state[n - 1]).any()))
-        return self._view(self.save[0]), self._view(self.P[0].copy()), bool(smooth)
+        impact = arr.cnt[0] != c0[0] or arr.cnt[1] != c0[1] + 1
+        switch = n > 1 and bool((state[n] != state[n - 1]).any())
+        return self._view(self.save[0]), self._view(self.P[0].copy()), step_kind(impact, switch)
 
     def undo(self):
         row, cnt, wsum, fp, fP = self.save
