@@ -40,6 +40,7 @@ from pathlib import Path
 from femb.console.cli_common import (
     SCENE_HELP, UsageError, _count, _load_scene, _positive, _rho, parse_sets, parse_value)
 from femb.errors import FembError, ParameterWarning, SolverError
+from femb.solve.options import ATOL_PER_RTOL
 
 PROG = "femb"
 
@@ -719,7 +720,7 @@ def _add_run_parser(sub):
     sp.add_argument("--rtol", type=_positive("rtol"), metavar="R",
                     help="adaptive steps with this relative local error tolerance")
     sp.add_argument("--atol", type=_positive("atol"), metavar="A",
-                    help="absolute local error tolerance of adaptive steps (default 1e-6)")
+                    help=f"absolute local error tolerance of adaptive steps (default: {ATOL_PER_RTOL:g} x rtol)")
     sp.add_argument("--rho-inf", type=_rho, metavar="R",
                     help="spectral radius at infinity in [0, 1] (default: the scene's, usually 0.7)")
     sp.add_argument("--no-scaling", action="store_true",
