@@ -153,6 +153,25 @@ def test_sweep_equals_serial_runs(client):
     assert a["units"]["theta"] == "rad"
 
 
+def test_contact_scene_sweeps_through_the_contact_scheme(client):
+    """A model with contact elements runs in femb.contact.simulate, as `femb run` does (every case failed
+    with the engine's ModelError before 2026-11-29): the rows equal serial runs, fixed and adaptive."""
+    from femb.benchmarks.scenes.contact import contact_block
+    from femb.contact import simulate
+
+    cases = [{"mu": 0.1, "v0": 0.5}, {"mu": 0.5, "v0": 1.0}]
+    for rtol in (None, 1e-6):
+        df = femb.sweep("contact_block", cases=cases, t_end=0.5, h=1e-2, rtol=rtol, outputs=["s", "s_d"],
+                        client=client)
+        assert (df["status"] == "success").all(), list(df["message"])
+        for r, c in zip(df.to_dict("records"), cases):
+            model = contact_block.build(**c).compile()
+            res = simulate(model, 0.5, 1e-2, rtol=rtol)
+            assert r["s"] == contact_block.outputs(res)["s"][-1] and r["steps"] == res.steps
+            ref = contact_block.reference([0.5], **c)["s"][-1]        # μ = 0.5 sticks at 0.56 s: still sliding
+            assert abs(r["s"] - ref) < 1e-6
+
+
 def test_failing_cases_are_rows(client):
     cases = [{"l1": 0.3, "max_iter": 50}, {"l1": 0.7, "max_iter": 50}, {"l1": 0.3, "max_iter": 1}]
     df = femb.sweep("slider_crank", cases=cases, t_end=T_END, outputs=["theta"], client=client)

@@ -14,7 +14,9 @@ row per case.
   a ``seed``), or the product of several of those. A name is either a keyword
   of the scene's ``build()`` or one of the run settings :data:`RUN_KEYS`
   (``t_end``, ``h``, ``rtol``, ``atol``, ``rho_inf``) and solver options
-  :data:`SOLVER_KEYS`, which go to :func:`femb.simulate`.
+  :data:`SOLVER_KEYS`, which go to :func:`femb.simulate` (to :func:`femb.contact.simulate` for a model
+  with contact elements, as ``femb run`` does: there ``h`` is the first step's size with ``rtol``, and
+  the solver options are that function's).
 * **Case ids.** Every case has an id: the first 16 hex digits of the SHA-256
   of the scene's identity, the case's full parameter set, the run settings,
   the requested outputs and ``t_eval``. Rows are keyed by it: a resumed sweep
@@ -572,7 +574,10 @@ def _run_case(scene, ref, case, job, worker):
             model, _ = _model(scene, ref, build)
             t_end = run.pop("t_end")
             kw = {k: v for k, v in run.items() if v is not None}
-            result = simulate(model, t_end, store=need_store, **kw)
+            if getattr(model, "n_contacts", 0):
+                result = _simulate_contact(model, scene, t_end, kw)
+            else:
+                result = simulate(model, t_end, store=need_store, **kw)
             steps = result.steps
             iters = int(result.newton_iterations.sum())
             sim_time = float(result.wall_time)
@@ -610,6 +615,21 @@ def _run_case(scene, ref, case, job, worker):
                sim_time=sim_time, status=status, error=error, message=message, warning=warn,
                worker=worker, trajectory=traj)
     return row
+
+
+def _simulate_contact(model, scene, t_end, kw):
+    """A case of a model with contact elements: :func:`femb.contact.simulate`, as ``femb run`` does (the
+    compiled engine refuses such models). With ``rtol`` its ``h`` is the first step's size: the case's,
+    else the scene's."""
+    from femb.contact import simulate
+
+    kw = dict(kw)
+    h = kw.pop("h", None)
+    h = h if h is not None else scene.defaults.get("h")
+    if h is None:
+        raise ParameterError(f"scene '{scene.name}' has contact elements and no default h: give h (the first "
+                             "step's size with rtol)")
+    return simulate(model, t_end, h, **kw)
 
 
 def _nan_outputs(job):
