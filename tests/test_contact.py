@@ -167,6 +167,21 @@ def test_engine_refuses_contact_models():
         femb.simulate(_ball(0.5), 0.1, 1e-3)
 
 
+@pytest.mark.parametrize("analysis", ["solve_static", "modal_analysis", "buckling_analysis", "linearize",
+                                      "linearize_sparse", "damped_modes"])
+def test_analyses_refuse_contact_models(analysis):
+    """The static, modal and linear analyses do not treat unilateral contacts: they say so, naming the model
+    and themselves (before 2026-11-29 they ignored the contacts: modal_analysis of a block on the floor gave
+    three free rigid-body modes, solve_static a 'free body' singular matrix, linearize 'not an equilibrium')."""
+    from femb.analysis import linearize as lin
+    from femb.analysis import modal, static
+    fn = {"solve_static": static.solve_static, "modal_analysis": modal.modal_analysis,
+          "buckling_analysis": modal.buckling_analysis, "linearize": lin.linearize,
+          "linearize_sparse": lin.linearize_sparse, "damped_modes": lin.damped_modes}[analysis]
+    with pytest.raises(ModelError, match=rf"'ball' has contact elements \(1 contacts\): .*\({analysis}\)"):
+        fn(_ball(0.5))
+
+
 def test_hinges_stay_exact_while_the_slider_bounces():
     """Slider–crank with translational clearance: impacts between the guides, hinges Φ = 0 to round-off."""
     from femb.benchmarks.scenes.contact import contact_slider_crank

@@ -59,6 +59,7 @@ import scipy.sparse.linalg as spla
 
 from femb.errors import ModelError, ParameterError, SingularMatrixError
 from femb.system import assembly
+from femb.system.initial import refuse_contacts
 from femb.system import kernels as _kernels
 from femb.system.model import State
 
@@ -932,6 +933,7 @@ def linearize(model, state=None, *, about="auto", omega=None, symmetries=(), inp
         fits it (an equilibrium, force inputs, no symmetries, named states or reactions), the sparse
         form of :func:`linearize_sparse`.
     """
+    refuse_contacts(model, 'linearization (linearize)')
     t, q, v = _state_of(model, state, t)
     if q.shape != (model.nx,) or v.shape != (model.nq,):
         raise ParameterError(f"linearize: the state does not fit model '{model.name}' (q: {model.nx}, v: {model.nq})")
@@ -1233,6 +1235,7 @@ def linearize_sparse(model, state=None, *, inputs=(), outputs=(), t=None, tol=1e
     LinearModel
         ``sparse`` True.
     """
+    refuse_contacts(model, 'linearization (linearize_sparse)')
     t, q, v = _state_of(model, state, t)
     if q.shape != (model.nx,) or v.shape != (model.nq,):
         raise ParameterError(f"linearize: the state does not fit model '{model.name}' (q: {model.nx}, v: {model.nq})")
@@ -1397,6 +1400,7 @@ def damped_modes(model, state=None, n_modes=20, *, sigma=0.0, t=None, tol=1e-12,
     DampedModes
         ``shapes`` (2 nq, k): (δq, δv) of each mode; ``vectors`` the same.
     """
+    refuse_contacts(model, 'damped modes (damped_modes)')
     t, q, v = _state_of(model, state, t)
     if np.any(v):
         raise ParameterError("damped_modes: the reference must be an equilibrium (v = 0); use linearize(...).eig()")

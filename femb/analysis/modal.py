@@ -35,6 +35,7 @@ import scipy.sparse.linalg as spla
 
 from femb.errors import ModelError, ParameterError, SingularMatrixError
 from femb.system import assembly
+from femb.system.initial import refuse_contacts
 from femb.system.model import Model, State
 
 #: models with at most this many free coordinates use the dense null-space method
@@ -150,6 +151,7 @@ def modal_analysis(model: Model, state: State | None = None, n_modes: int = 6, *
     -------
     ModalResult
     """
+    refuse_contacts(model, 'modal analysis (modal_analysis)')
     st = _reference_state(model, state, t)
     nq, nc = model.nq, model.nc
     k = int(n_modes)
@@ -280,6 +282,7 @@ def buckling_analysis(model: Model, n_modes: int = 4, *, t: float = 0.0, load_ty
     -------
     BucklingResult
     """
+    refuse_contacts(model, 'buckling analysis (buckling_analysis)')
     from femb.analysis.static import solve_static
 
     z = np.zeros(model.nq)

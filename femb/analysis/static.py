@@ -100,6 +100,7 @@ import scipy.sparse.linalg as spla
 from femb.errors import ConvergenceError, ParameterError, PathJumpWarning, SingularMatrixError
 from femb.results.result import Result
 from femb.system import assembly, kernels
+from femb.system.initial import refuse_contacts
 from femb.system.model import Model, State
 
 #: saddle-point systems with at most this many unknowns are solved with dense LU
@@ -1040,6 +1041,7 @@ def solve_static(model: Model, *, state: State | None = None, observer: Callable
     >>> round(float(res.load_factor[-1]), 12), round(float(res.body("p")[-1, 1]), 4), res.strategy
     (1.0, -1.0999, 'arc length')
     """
+    refuse_contacts(model, 'static analysis (solve_static)')
     o = StaticOptions.create(options, **kwargs)
     run = _StaticRun(model, o, state, observer)
     if o.method == "arc_length":

@@ -397,6 +397,18 @@ def _project_positions(model, t, q0, rows, labels, tol, max_iter):
     return q
 
 
+def refuse_contacts(model, who):
+    """A :class:`ModelError` where ``model`` has (nonsmooth) contact elements, which ``who`` (an analysis or
+    the engine, by name) does not treat and would silently ignore. Penalty contact elements are force
+    elements: they pass."""
+    n = int(getattr(model, "n_contacts", 0) or 0)
+    if n:
+        raise ModelError(f"model '{model.name}' has contact elements ({n} contacts): {who} does not treat "
+                         "unilateral contacts and would ignore them; integrate it with femb.contact.simulate "
+                         "(docs/contact.md), or model the contacts as penalty elements "
+                         "(femb.elements.penalty_contact), which it takes")
+
+
 def consistent_initial_state(model: Model, state: State | None = None, *, t0: float = 0.0, phi_tol: float = 1e-12,
                              max_iter: int = 50, max_initial_move: float | None = None,
                              report_move: float = REPORT_MOVE, weights: "StartWeights | None" = None,
@@ -493,10 +505,8 @@ def consistent_initial_state(model: Model, state: State | None = None, *, t0: fl
         raise ModelError(f"model '{model.name}' has {nn} velocity-level (non-holonomic) constraints "
                          f"({', '.join(names)}): the contact integrator (femb.contact.simulate) does not take them; "
                          "femb.simulate does (without contacts)")
-    if getattr(model, "n_contacts", 0) and not contacts:
-        raise ModelError(f"model '{model.name}' has contact elements ({model.n_contacts} contacts): the compiled "
-                         "engine (femb.simulate) does not treat contacts yet and would ignore them; integrate it "
-                         "with femb.contact.simulate (docs/contact.md)")
+    if not contacts:
+        refuse_contacts(model, "the compiled engine (femb.simulate)")
     st = (state or model.initial_state(t0)).copy()
     t = st.t
     nq, nc = model.nq, model.nc
