@@ -54,6 +54,17 @@ def test_result_fixed_and_adaptive(model):
     _check(a, "adaptive, rtol = 1e-05", f"{a.n_rejected} rejected", f"({a.t.size} stored)")
 
 
+def test_contact_result():
+    """femb.contact.simulate's result: Result's summary plus a contacts row (before 2026-11-29 the dataclass's
+    own repr printed every array)."""
+    from femb.benchmarks.scenes.contact import contact_ball
+    from femb.contact import simulate
+    r = simulate(contact_ball.build().compile(), 1.0, 2e-3)
+    _check(r, "Result of 'contact_ball'", "success", "contacts: 1 (floor)", f"{len(r.events)} impacts",
+           "min g_N =")
+    assert len(r.events) == 2                     # at 0.428 and 0.857 s (contact_ball: the next at 1.07 s)
+
+
 def test_static_modal_buckling(model):
     s = solve_static(model)
     _check(s, "StaticResult of 'pendulum'", "direct", "1 … 1 (1 equilibria stored)", "q (1, 3)")

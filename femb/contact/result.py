@@ -29,7 +29,7 @@ FRICTION_OUTPUTS = {
 }
 
 
-@dataclass
+@dataclass(repr=False)          # the summary of Result.__repr__ / _repr_html_, not the dataclass's field dump
 class ContactResult(Result):
     """:class:`femb.results.result.Result` with contact outputs (docs/contact.md §6).
 
@@ -59,6 +59,17 @@ class ContactResult(Result):
     contact_names: list = field(default_factory=list)
     friction_rows: list = field(default_factory=list)
     events: list = field(default_factory=list)
+
+    def _summary(self):
+        """Result's summary with a row for the contacts: how many, impacts, the smallest gap."""
+        from femb.base.summary import short_list
+
+        title, rows = super()._summary()
+        gN = self.contact.get("gN")
+        gap = f", min g_N = {float(np.min(gN)):.3g} m" if gN is not None and gN.size else ""
+        rows.append(("contacts", f"{len(self.contact_names)} ({short_list(self.contact_names, 4)}), "
+                                 f"{len(self.events)} impacts{gap} (events, contact_state(name))"))
+        return title, rows
 
     def _contact_series(self, name):
         for i, cname in enumerate(self.contact_names):
