@@ -167,6 +167,20 @@ def test_engine_refuses_contact_models():
         femb.simulate(_ball(0.5), 0.1, 1e-3)
 
 
+@pytest.mark.parametrize("compiled", [True, False])
+def test_states_at_t0_are_those_of_the_start(compiled):
+    """The first stored row holds the contacts' states at t0 as the start found them (stored open for every
+    contact before 2026-11-29): a block sliding on its two bottom corners slips there, the top corners are
+    open; at rest it sticks; a ball in the air is open."""
+    from femb.benchmarks.scenes.contact import contact_block
+    sliding = simulate(contact_block.build(mu=0.5).compile(), 0.02, 1e-2, compiled=compiled)
+    assert [sliding.contact_state(f"corner.c{k}")[0] for k in range(4)] == ["slip", "slip", "open", "open"]
+    assert np.all(sliding.contact["lam_N"][0, :2] > 0.0)
+    resting = simulate(contact_block.build(mu=0.5, v0=0.0).compile(), 0.02, 1e-2, compiled=compiled)
+    assert [resting.contact_state(f"corner.c{k}")[0] for k in range(4)] == ["stick", "stick", "open", "open"]
+    assert simulate(_ball(0.5), 0.02, 1e-2, compiled=compiled).contact_state("floor")[0] == "open"
+
+
 @pytest.mark.parametrize("analysis", ["solve_static", "modal_analysis", "buckling_analysis", "linearize",
                                       "linearize_sparse", "damped_modes"])
 def test_analyses_refuse_contact_models(analysis):

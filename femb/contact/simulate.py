@@ -274,6 +274,18 @@ def _states(ev, sets, lay, vel_tol):
     return st
 
 
+def _start_states(s, lay, gap_tol, vel_tol):
+    """The contacts' states at t₀ (the first stored row): closed where the start closed them
+    (:func:`initial_contact_forces`: g_N ≤ gap_tol and abs(ġ_N) ≤ vel_tol), then slip or stick by the slip
+    speed as :func:`_states` decides after a step (until 2026-11-29 every contact was stored open there)."""
+    closed = (s.gN <= gap_tol) & (np.abs(s.gNd) <= vel_tol)
+    st = np.full(lay.nN, OPEN, dtype=np.int8)
+    for i, idx in enumerate(lay.friction):
+        if closed[i]:
+            st[i] = SLIP if idx.size and np.linalg.norm(s.gFd[idx]) > vel_tol else STICK
+    return st
+
+
 def simulate(model, t_end, h, *, rho_inf=0.8, t0=0.0, rtol=None, atol=None, h_max=None, compiled=None, **solver):
     """Integrate a model with contacts by the nonsmooth generalized-α method, fixed or adaptive steps.
 
@@ -343,7 +355,7 @@ def simulate(model, t_end, h, *, rho_inf=0.8, t0=0.0, rtol=None, atol=None, h_ma
     t_init = time.perf_counter()
     s, x0, ev0 = _start(model, lay, stepper, t0, vel_tol)
     rec = _Recorder(model, lay)
-    rec.store(s, x0, ev0, np.zeros(lay.nN, dtype=np.int8), stepper, _sums(stepper, x0, ev0, 0.0, 0.0))
+    rec.store(s, x0, ev0, _start_states(s, lay, 1e-9 * L, vel_tol), stepper, _sums(stepper, x0, ev0, 0.0, 0.0))
     init_time = time.perf_counter() - t_init
     if compiled is None or compiled:
         from femb.contact import compiled as fast
