@@ -186,3 +186,39 @@ def test_the_stages_argument_and_return_types_are_those_the_parallel_build_compi
         assert set(disp.overloads) == sigs, name
         for cres in disp.overloads.values():
             assert declared_return(disp) == cres.signature.return_type, name
+
+
+def test_the_compiled_loop_returns_to_python_between_chunks_of_steps(monkeypatch):
+    """femb.contact.simulate runs the steps in several calls of the compiled loop, contiguous and in order,
+    so that Python sees Ctrl-C between them (one call over every step held a KeyboardInterrupt until the
+    end of the run: 30 s for 1e6 steps of the ball, before 2026-11-29); the result is the same bit for bit
+    as in one call."""
+    from femb.contact import compiled
+
+    model = contact_ball.build().compile()
+    calls = []
+    entry = compiled._entry
+
+    def spy(dm, args):
+        fn = entry(dm, args)
+
+        def call(*a):
+            status, n = fn(*a)
+            calls.append((a[2], a[3], n))                   # first step, last step asked, next step
+            return status, n
+        return call
+
+    chunked = simulate(model, 1.5, 2e-3)
+    monkeypatch.setattr(compiled, "_entry", spy)
+    monkeypatch.setattr(compiled, "CALL_SECONDS", 0.0)         # no growth: 16 steps a call
+    small = simulate(model, 1.5, 2e-3)
+    # (a call also returns early when the event arrays are full: they grow and it goes on from there)
+    assert len(calls) >= math.ceil(750 / 16) and calls[0][:2] == (1, 16) and calls[-1][1:] == (750, 751)
+    assert all(b[0] == a[2] and (b[1] - b[0] == 15 or b[1] == 750) for a, b in zip(calls, calls[1:]))
+    calls.clear()
+    monkeypatch.setattr(compiled, "CALL_SECONDS", 1e9)         # grows every call: 16, 32, 64, ...
+    simulate(model, 1.5, 2e-3)
+    assert [b - a + 1 for a, b, _ in calls[:4]] == [16, 32, 64, 128]
+    for name in ("q", "qd", "lam"):
+        np.testing.assert_array_equal(getattr(small, name), getattr(chunked, name))
+    np.testing.assert_array_equal(small.contact["lam_N"], chunked.contact["lam_N"])

@@ -158,6 +158,10 @@ def _python_step(stepper, P, F, n, arr, ctx, loop_args):
     loop.store(P, n, ctx, arr.pack())
 
 
+#: wall time of one call of the compiled loop in :func:`run` (the steps per call grow to it)
+CALL_SECONDS = 0.1
+
+
 def run(stepper, s, rec, nsteps, h, info):
     """Steps 1 … nsteps from the StepState s (stored as step 0 in ``rec``) in the compiled loop.
 
@@ -175,10 +179,15 @@ def run(stepper, s, rec, nsteps, h, info):
     _entry(stepper.dm, (P, float(h), 1, nsteps, ctx, arr.pack()))   # compiled, or loaded from the cache
     init_time += time.perf_counter() - t_load                         # (about 1 s from the disk cache): the start's time, not the loop's
     t_loop = time.perf_counter()
-    n = 1
+    n, chunk = 1, 16
     while n <= nsteps:
-        args = (P, float(h), n, nsteps, ctx, arr.pack())
+        # the steps in calls of about CALL_SECONDS: between them Python sees Ctrl-C (one call over every
+        # step held a KeyboardInterrupt until the run's end, 30 s for 1e6 steps of the ball)
+        args = (P, float(h), n, min(nsteps, n + chunk - 1), ctx, arr.pack())
+        t_call = time.perf_counter()
         status, n = _entry(stepper.dm, args)(*args)
+        if status == loop.DONE and time.perf_counter() - t_call < 0.5 * CALL_SECONDS:
+            chunk *= 2
         if status == loop.FULL:
             arr.grow()
         elif status == loop.PYTHON:
