@@ -61,7 +61,8 @@ def test_contact_result():
     from femb.contact import simulate
     r = simulate(contact_ball.build().compile(), 1.0, 2e-3)
     _check(r, "Result of 'contact_ball'", "success", "contacts: 1 (floor)", f"{len(r.events)} impacts",
-           "min g_N =")
+           "min g_N =", f"steps:    500 (fixed h = 0.002 s; {r.stats['substeps']} substeps)")
+    assert r.stats["substeps"] > 500
     assert len(r.events) == 2                     # at 0.428 and 0.857 s (contact_ball: the next at 1.07 s)
 
 
