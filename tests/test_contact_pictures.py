@@ -189,6 +189,32 @@ def test_bouncing_ball_frames_and_picture_show_the_contact(tmp_path):
     assert "contact" not in {it.kind for it in frame_items(pv, fly, motion)}
 
 
+def test_frames_every_dt_are_the_stored_steps_nearest_each(tmp_path):
+    """Result.write_vtk(dt=...) (femb run --dt on a contact scene): the stored step nearest each multiple of dt,
+    each once, and the last; with adaptive steps longer than dt the frames are the steps there are (before
+    2026-11-29 the command line wrote every k-th stored step, k from the median step: 10 uneven frames of the
+    adaptive ball for dt = 0.05 s)."""
+    import re
+
+    from femb.benchmarks.scenes.contact import contact_ball
+    from femb.errors import ModelError
+
+    def times(pvd):
+        return np.array([float(x) for x in re.findall(r'timestep="([^"]+)"', pvd.read_text())])
+
+    model = contact_ball.build().compile()
+    fixed = simulate(model, 1.5, 2e-3)
+    np.testing.assert_allclose(times(fixed.write_vtk(tmp_path / "f", dt=0.1)), np.linspace(0.0, 1.5, 16), atol=1e-12)
+    ada = simulate(model, 1.5, 2e-3, rtol=1e-5)
+    got = times(ada.write_vtk(tmp_path / "a", dt=0.05))
+    want = sorted({float(ada.t[np.argmin(np.abs(ada.t - m))]) for m in np.arange(31) * 0.05} | {float(ada.t[-1])})
+    np.testing.assert_allclose(got, want, rtol=0, atol=1e-12)            # (the .pvd holds the times to 15 digits)
+    assert 15 < got.size < 31 and np.all(np.diff(got) > 0)
+    for bad in (0.0, -1.0, "x", float("nan")):
+        with pytest.raises(ModelError, match="dt must be a positive number"):
+            fixed.write_vtk(tmp_path / "b", dt=bad)
+
+
 def test_a_contact_type_that_does_not_describe_its_points_is_not_drawn():
     """A user's contact type without ``contact_frames`` writes no contact block (and no error)."""
     class MySphereOnPlane(SphereOnPlane):

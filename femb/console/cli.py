@@ -422,8 +422,6 @@ def _integrate_contact(model, args, t_end, h, rho_inf):
     """``femb run`` of a model with contact elements: :func:`femb.contact.simulate` (fixed steps, or adaptive
     with ``--rtol``),
     then the VTK series of the stored steps (every ``--every``-th, or the step nearest each ``--dt``)."""
-    import numpy as np
-
     import femb.contact
     from femb.errors import OutputError
 
@@ -436,10 +434,8 @@ def _integrate_contact(model, args, t_end, h, rho_inf):
     else:
         result = femb.contact.simulate(model, t_end, h, rho_inf=rho_inf)
     if args.vtk is not None:
-        h_out = result.settings["h"] or float(np.median(result.h_steps))
-        every = args.every or (max(1, int(round(float(args.dt) / h_out))) if args.dt else 1)
         try:
-            result.write_vtk(args.vtk, every=every)
+            result.write_vtk(args.vtk, every=args.every or 1, dt=args.dt)   # --dt: the stored step nearest each
         except (OutputError, OSError) as exc:
             raise _OutputFailure(f"writing output failed: {str(exc).splitlines()[0]}") from exc
     return result, time.perf_counter() - t0
@@ -734,7 +730,8 @@ def _add_run_parser(sub):
     sp.add_argument("--vtk", metavar="DIR", help="stream VTK frames into DIR (ParaView .pvd collection)")
     sp.add_argument("--every", type=_count, metavar="N", help="with --vtk: write every N-th step (default 1)")
     sp.add_argument("--dt", type=_positive("dt"), metavar="DT",
-                    help="with --vtk: write frames every DT seconds, interpolated between steps (adaptive runs)")
+                    help="with --vtk: write frames every DT seconds, interpolated between steps (adaptive runs; "
+                         "contact scenes: the stored step nearest each)")
     sp.add_argument("--progress", choices=("auto", "on", "off"), default="auto",
                     help="progress bar on stderr (auto: for runs of 5000 steps or more, or with --vtk)")
     sp.set_defaults(func=cmd_run)

@@ -391,8 +391,10 @@ class VTKStream:
         return False
 
 
-def write_vtk(result, directory, every=1, basename="frame"):
+def write_vtk(result, directory, every=1, basename="frame", steps=None):
     """Write the stored steps of a :class:`~femb.results.result.Result` as a time series.
+
+    ``every``-th stored step and the last; or, with ``steps`` (indices of stored steps, increasing), those.
 
     Returns
     -------
@@ -409,6 +411,10 @@ def write_vtk(result, directory, every=1, basename="frame"):
                                   contact=None if contact_at is None else contact_at(k))
             w.write(result.t[k], blocks, field_data=scene_field_data(m, blocks))
 
+        if steps is not None:
+            for k in steps:
+                put(int(k))
+            return w.path
         for k in range(0, result.t.size, int(every)):
             put(k)
         if (result.t.size - 1) % int(every):

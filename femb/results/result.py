@@ -418,11 +418,32 @@ class Result:
         cols = [int(np.nonzero(g.dofs[k] == i)[0][0]) for i in vidx]
         return -np.einsum("tkc,tk->tc", B[:, :, cols], le)
 
-    def write_vtk(self, directory: str | os.PathLike, every: int = 1, basename: str = "frame") -> Path:
-        """Write the stored steps as a ParaView time series (``.pvd`` + ``.vtu``); returns the ``.pvd`` path."""
+    def write_vtk(self, directory: str | os.PathLike, every: int = 1, basename: str = "frame",
+                  dt: float | None = None) -> Path:
+        """Write the stored steps as a ParaView time series (``.pvd`` + ``.vtu``); returns the ``.pvd`` path.
+
+        Every ``every``-th stored step and the last; with ``dt``, the stored step nearest each of
+        t₀, t₀ + dt, t₀ + 2 dt, … and the last (for uneven steps: adaptive runs, impacts), each once."""
         from femb.io.frames import write_vtk
 
-        return write_vtk(self, directory, every=every, basename=basename)
+        if dt is None:
+            return write_vtk(self, directory, every=every, basename=basename)
+        try:
+            ok = float(dt) > 0.0 and np.isfinite(float(dt))
+        except (TypeError, ValueError):
+            ok = False
+        if not ok:
+            raise ModelError(f"write_vtk: dt must be a positive number of seconds, got {dt!r}")
+        dt = float(dt)
+        t = np.asarray(self.t, dtype=float)
+        if t.size == 0:
+            raise ModelError("the result has no stored steps")
+        marks = t[0] + dt * np.arange(int(np.floor((t[-1] - t[0]) / dt * (1.0 + 1e-12))) + 1)
+        right = np.clip(np.searchsorted(t, marks), 1, max(t.size - 1, 1))
+        left = right - 1
+        near = np.where(np.abs(t[np.minimum(right, t.size - 1)] - marks) < np.abs(marks - t[left]), right, left)
+        steps = np.unique(np.append(np.minimum(near, t.size - 1), t.size - 1))
+        return write_vtk(self, directory, basename=basename, steps=steps)
 
     def nearest(self, time: float) -> int:
         """Index of the stored step nearest to ``time`` (ties go to the earlier step)."""
