@@ -65,15 +65,18 @@ class ContactResult(Result):
         from femb.base.summary import short_list
 
         title, rows = super()._summary()
-        n, sub = self.stats.get("steps"), self.stats.get("substeps")
-        if n is not None and sub is not None and sub != n:       # Result.steps counts the substeps of impacts
-            rows = [(k, v.replace(f"{self.steps} (", f"{n} (", 1).replace("),", f"; {sub} substeps),", 1)
-                     if k == "steps" else v) for k, v in rows]
         gN = self.contact.get("gN")
         gap = f", min g_N = {float(np.min(gN)):.3g} m" if gN is not None and gN.size else ""
         rows.append(("contacts", f"{len(self.contact_names)} ({short_list(self.contact_names, 4)}), "
                                  f"{len(self.events)} impacts{gap} (events, contact_state(name))"))
         return title, rows
+
+    def _steps_label(self, how):
+        """The steps, and the substeps where impacts split some (:attr:`steps` counts the substeps)."""
+        n, sub = self.stats.get("steps"), self.stats.get("substeps")
+        if n is None or sub is None or sub == n:
+            return super()._steps_label(how)
+        return f"{n} ({how}; {sub} substeps)"
 
     def _contact_series(self, name):
         for i, cname in enumerate(self.contact_names):

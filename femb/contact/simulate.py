@@ -263,27 +263,27 @@ def diagnose(model, lay, s, gap_tol, vel_tol, h=None, res=None):
     return None, "no consistent contact forces found (no slipping contact shows Painlevé's paradox)"
 
 
-def _states(ev, sets, lay, vel_tol):
-    A, B_, C, D, E = sets
-    closed = A & (B_ | C)
+def _classify(closed, gF, lay, vel_tol):
+    """State of each contact (nN,): OPEN, or where ``closed`` SLIP when its slip speed ‖γ_F‖ exceeds vel_tol,
+    else STICK."""
     st = np.full(lay.nN, OPEN, dtype=np.int8)
     for i, idx in enumerate(lay.friction):
         if closed[i]:
-            slip = idx.size and np.linalg.norm(ev["gF"][idx]) > vel_tol
-            st[i] = SLIP if slip else STICK
+            st[i] = SLIP if idx.size and np.linalg.norm(gF[idx]) > vel_tol else STICK
     return st
+
+
+def _states(ev, sets, lay, vel_tol):
+    """The contacts' states after a step: closed = in A and in B or C."""
+    A, B_, C, D, E = sets
+    return _classify(A & (B_ | C), ev["gF"], lay, vel_tol)
 
 
 def _start_states(s, lay, gap_tol, vel_tol):
     """The contacts' states at t₀ (the first stored row): closed where the start closed them
-    (:func:`initial_contact_forces`: g_N ≤ gap_tol and abs(ġ_N) ≤ vel_tol), then slip or stick by the slip
-    speed as :func:`_states` decides after a step (until 2026-11-29 every contact was stored open there)."""
-    closed = (s.gN <= gap_tol) & (np.abs(s.gNd) <= vel_tol)
-    st = np.full(lay.nN, OPEN, dtype=np.int8)
-    for i, idx in enumerate(lay.friction):
-        if closed[i]:
-            st[i] = SLIP if idx.size and np.linalg.norm(s.gFd[idx]) > vel_tol else STICK
-    return st
+    (:func:`initial_contact_forces`: g_N ≤ gap_tol and abs(ġ_N) ≤ vel_tol; until 2026-11-29 every contact was
+    stored open there)."""
+    return _classify((s.gN <= gap_tol) & (np.abs(s.gNd) <= vel_tol), s.gFd, lay, vel_tol)
 
 
 def simulate(model, t_end, h, *, rho_inf=0.8, t0=0.0, rtol=None, atol=None, h_max=None, compiled=None, **solver):

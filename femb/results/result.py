@@ -877,10 +877,14 @@ class Result:
         owners, n_out = list(dict.fromkeys(n.partition(".")[0] for n in outs)), len(outs)
         status = self.status + (f": {self.message}" if self.message and not self.success else "")
         rows = [("status", status), ("time", span(self.t)),
-                ("steps", f"{self.steps} ({how}), {self.wall_time:.3g} s wall"),
+                ("steps", f"{self._steps_label(how)}, {self.wall_time:.3g} s wall"),
                 ("arrays", f"q {tuple(self.q.shape)}, qd {tuple(self.qd.shape)}, lam {tuple(self.lam.shape)}"),
                 ("outputs", f"{n_out} of " + short_list(owners, 6) + " (series(name), to_pandas(), plot())")]
         return f"femb Result of '{self.model.name}'", rows
+
+    def _steps_label(self, how):
+        """The summary's count of steps with how they were taken (``how``)."""
+        return f"{self.steps} ({how})"
 
     def __repr__(self):
         from femb.base.summary import text
