@@ -168,12 +168,13 @@ def run(steps, model, span, ctl, alpha, diagnose, vel_tol):
     t_loop = time.perf_counter()
     j_prev, h_prev, err_prev = None, h0, None
     counts = {"rejected_steps": 0, "unchecked_steps": 0, "failed_solves": 0}
+    h_taken = []                                # every accepted step's size (the steps stored may be fewer)
     after_reject = False
     n = 0
     h = h_switch = min(h0, h_max)
 
     def stop(why, hk):
-        res = _result(steps, h0, time.perf_counter() - t_loop, why, counts, ctl)
+        res = _result(steps, h0, time.perf_counter() - t_loop, why, counts, ctl, h_taken)
         s = steps.state()
         name, reason = (diagnose(model, steps.stepper.lay, s, 1e-9 * model.length_scale, vel_tol, hk, res)
                         if why != "h_min" else (None, "the error estimate"))
@@ -220,16 +221,17 @@ def run(steps, model, span, ctl, alpha, diagnose, vel_tol):
         after_reject = False
         n += 1
         steps.keep(n)
+        h_taken.append(hk)
         h_prev = hk
         h = min(max(h_next, h_min), h_max)
-    return _result(steps, h0, time.perf_counter() - t_loop, "", counts, ctl)
+    return _result(steps, h0, time.perf_counter() - t_loop, "", counts, ctl, h_taken)
 
 
-def _result(steps, h0, wall, message, counts, ctl):
+def _result(steps, h0, wall, message, counts, ctl, h_taken):
     res = steps.result(h0, "failed" if message else "success", message, wall)
     res.stats.update(counts)
     res.settings.update(adaptive=True, h0=h0, rtol=ctl[0], atol=ctl[1], h_max=ctl[2])
     res.settings["h"] = None
-    res.h_steps = np.diff(res.t)
+    res.h_steps = np.array(h_taken, dtype=float)
     res.n_rejected = counts["rejected_steps"]
     return res

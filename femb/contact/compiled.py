@@ -18,6 +18,7 @@ from femb.contact import loop
 from femb.contact.adaptive import Steps, step_kind
 from femb.contact.step import StepFailure, StepState, _entry_point, _owned
 from femb.errors import ContactError
+from femb.results.storage import Column
 
 _F = loop.FIELDS.index
 
@@ -31,15 +32,16 @@ def applies(stepper):
 
 
 class _Arrays:
-    """The preallocated outputs of a run: stored steps, events, iterations, counters."""
+    """The compiled loop's outputs: a window of ``rows`` stored steps after row 0 (each call of the loop
+    writes its steps into rows 1, 2, …; :class:`_Kept` takes the rows to keep), events, iterations, counters."""
 
-    def __init__(self, rec0, nsteps, lay, n):
-        nt = nsteps + 1
+    def __init__(self, rec0, rows, lay, n):
+        nt = rows + 1
         self.out = tuple(np.zeros((nt,) + np.shape(a)[1:], dtype=a.dtype) for a in rec0)
         for a, b in zip(self.out, rec0):
             a[0] = b[0]
         self.ev_f, self.ev_u = np.zeros((16, 7)), np.zeros((16, 2, n))
-        self.its = np.zeros(max(64, 2 * nsteps), dtype=np.int64)
+        self.its = np.zeros(max(64, 2 * rows), dtype=np.int64)
         self.cnt = np.zeros(4, dtype=np.int64)
         self.wsum = np.array(rec0[-1][0], dtype=float)
         self.methods_fp = 0
@@ -48,10 +50,6 @@ class _Arrays:
     def pack(self):
         return self.out, self.ev_f, self.ev_u, self.its, self.cnt, self.wsum
 
-    def grow_steps(self):
-        """Double the stored steps' arrays (adaptive runs: the number of steps is not known ahead)."""
-        self.out = tuple(np.concatenate((a, np.zeros_like(a))) for a in self.out)
-
     def grow(self):
         """Double the arrays that are full (events, substeps)."""
         if self.cnt[0] + 64 >= self.ev_f.shape[0]:
@@ -59,6 +57,10 @@ class _Arrays:
             self.ev_u = np.concatenate((self.ev_u, np.zeros_like(self.ev_u)))
         if self.cnt[1] + 256 >= self.its.size:
             self.its = np.concatenate((self.its, np.zeros_like(self.its)))
+
+    def renumber(self, first, base):
+        """The events from ``first`` on were booked with their step's row in the window: add ``base``."""
+        self.ev_f[first:self.cnt[0], 1] += base
 
     def add_events(self, events, names, n):
         """Events and iterations of a step the Python loop took."""
@@ -78,26 +80,70 @@ class _Arrays:
             self.methods_fp += m == "fixed_point"
             self.methods_P += m == "slip_on_P"
 
-    def steps(self, nt, names):
-        """The dict of :func:`femb.contact.simulate.contact_result` for the first nt stored steps."""
-        t, q, u, ud, lam, gN, gNd, lN, LN, PN, state, gF, lF, LF, PF, work = (a[:nt] for a in self.out)
+    def steps(self, kept, names):
+        """The dict of :func:`femb.contact.simulate.contact_result` of the rows ``kept`` (:class:`_Kept`)."""
+        t, q, u, ud, lam, gN, gNd, lN, LN, PN, state, gF, lF, LF, PF, work = kept.arrays()
         contact = dict(gN=gN, gN_d=gNd, lam_N=lN, Lam_N=LN, P_N=PN, state=state, gam_F=gF, lam_F=lF, Lam_F=LF,
                        P_F=PF, work_N=work[:, 0].copy(), work_F=work[:, 1].copy())
         events = [dict(t=float(f[0]), step=int(f[1]), contact=names[int(f[2])], v_before=float(f[3]),
                        v_after=float(f[4]), Lambda_N=float(f[5]), P_N=float(f[6]), u_before=uu[0].copy(),
                        u_after=uu[1].copy()) for f, uu in zip(self.ev_f[:self.cnt[0]], self.ev_u[:self.cnt[0]])]
         return dict(t=t, q=q, qd=u, qdd=ud, lam=lam, contact=contact, iterations=self.its[:self.cnt[1]].copy(),
-                    fixed_point_steps=self.methods_fp + int(self.cnt[2]), slip_on_P_steps=self.methods_P + int(self.cnt[3]),
-                    events=events)
+                    n_steps=kept.n, fixed_point_steps=self.methods_fp + int(self.cnt[2]),
+                    slip_on_P_steps=self.methods_P + int(self.cnt[3]), events=events)
+
+
+class _Kept:
+    """The stored steps of a compiled run, taken from the window of :class:`_Arrays` after each call of the
+    loop: step 0, every ``every``-th step (none with 0) and the last step taken
+    (:func:`femb.contact.simulate.stored_step`). ``capacity``: the rows known ahead (fixed steps), or None."""
+
+    def __init__(self, out, every, capacity=None):
+        self.every, self.n = every, 0
+        self.cols = [Column(a.shape[1:], a.dtype, capacity) for a in out]
+        for c, a in zip(self.cols, out):
+            c.append(a[:1])
+        self.last = None
+
+    def add(self, out, base, m):
+        """Rows 1 … m of the window ``out`` hold the steps base + 1 … base + m."""
+        if m <= 0:
+            return
+        k = self.every
+        if k == 1:
+            sel = slice(1, m + 1, 1)
+        else:                           # rows j with (base + j) % k == 0, as a slice
+            j0 = k - base % k if k else m + 1
+            sel = slice(j0, m + 1, k or 1)
+        for c, a in zip(self.cols, out):
+            c.append(a[sel])
+        stop = sel.start + ((m - sel.start) // sel.step) * sel.step if sel.start <= m else -1
+        self.last = None if stop == m else tuple(a[m].copy() for a in out)
+        self.n = base + m
+
+    def arrays(self):
+        cols = [c.array() for c in self.cols]
+        if self.last is None:
+            return cols
+        return [np.concatenate((c, r[None])) for c, r in zip(cols, self.last)]
+
+
+#: bytes of the window of stored steps of one call of the compiled loop (its rows: at most WINDOW_ROWS)
+WINDOW_BYTES = 2 ** 24
+WINDOW_ROWS = 4096
+
+
+def window_rows(rec0, nsteps):
+    """Rows of the window for a run of ``nsteps`` steps whose stored step looks like ``rec0``."""
+    row = sum(a.nbytes for a in rec0)
+    return int(max(1, min(nsteps, WINDOW_ROWS, WINDOW_BYTES // max(row, 1))))
 
 
 def _rec0(rec):
     """The stored first step of a :class:`femb.contact.simulate._Recorder` as rows of the output arrays."""
-    c = rec.c
-    rows = (rec.t, rec.q, rec.u, rec.ud, rec.lam, c["gN"], c["gN_d"], c["lam_N"], c["Lam_N"], c["P_N"],
-            c["state"], c["gam_F"], c["lam_F"], c["Lam_F"], c["P_F"])
-    out = tuple(np.array(r, dtype=np.int8 if r is c["state"] else float).reshape(1, -1) for r in rows[1:])
-    return (np.array(rec.t, dtype=float),) + out + (np.array([[c["work_N"][0], c["work_F"][0]]]),)
+    row = rec.rows[0]
+    out = tuple(np.array(r, dtype=np.int8 if k == 10 else float).reshape(1, -1) for k, r in enumerate(row[1:15], 1))
+    return (np.array([row[0]], dtype=float),) + out + (np.array([[row[15], row[16]]]),)
 
 
 def _put_state(P, F, s, stepper):
@@ -138,9 +184,9 @@ def _entry(dm, args):
     return fn
 
 
-def _python_step(stepper, P, F, n, arr, ctx, loop_args):
-    """Step n by the Python loop (its own solve found no solution in the compiled loop): stored, row 0
-    advanced. Raises StepFailure as the Python loop does."""
+def _python_step(stepper, P, F, n, arr, ctx, loop_args, row=1):
+    """Step n by the Python loop (its own solve found no solution in the compiled loop): stored in row
+    ``row`` of the window, row 0 of P advanced. Raises StepFailure as the Python loop does."""
     sim = importlib.import_module("femb.contact.simulate")
     h, vel_tol, locate = loop_args
     s = _get_state(P, F)
@@ -150,12 +196,12 @@ def _python_step(stepper, P, F, n, arr, ctx, loop_args):
     arr.add_events(tmp.events, list(stepper.lay.names), n)
     arr.wsum += work[:2]
     _put_state(P, F, s1, stepper)
-    row = P[0]
-    row[F[_F("PN")]:F[_F("PN") + 1]] = ev["PN"]
-    row[F[_F("PF")]:F[_F("PF") + 1]] = ev["PF"]
-    row[F[_F("sum_PN")]:] = work[2:]              # the step's sums: P_N, Λ_N, P_F, Λ_F (simulate._sums)
-    row[F[_F("sets")]:F[_F("sets") + 1]] = np.concatenate([np.asarray(a, dtype=float) for a in sets])
-    loop.store(P, n, ctx, arr.pack())
+    r = P[0]
+    r[F[_F("PN")]:F[_F("PN") + 1]] = ev["PN"]
+    r[F[_F("PF")]:F[_F("PF") + 1]] = ev["PF"]
+    r[F[_F("sum_PN")]:] = work[2:]              # the step's sums: P_N, Λ_N, P_F, Λ_F (simulate._sums)
+    r[F[_F("sets")]:F[_F("sets") + 1]] = np.concatenate([np.asarray(a, dtype=float) for a in sets])
+    loop.store(P, row, ctx, arr.pack())
 
 
 #: wall time of one call of the compiled loop in :func:`run` (the steps per call grow to it)
@@ -165,8 +211,9 @@ CALL_SECONDS = 0.1
 def run(stepper, s, rec, nsteps, h, info):
     """Steps 1 … nsteps from the StepState s (stored as step 0 in ``rec``) in the compiled loop.
 
-    ``info`` = (vel_tol, locate, rho_inf, init_time). Returns the ContactResult; raises ContactError
-    as :func:`femb.contact.simulate.simulate` does."""
+    ``info`` = (vel_tol, locate, rho_inf, init_time). Returns the ContactResult, with the steps that
+    ``rec.every`` selects (:func:`femb.contact.simulate.stored_step`); raises ContactError as
+    :func:`femb.contact.simulate.simulate` does."""
     sim = importlib.import_module("femb.contact.simulate")
     vel_tol, locate, rho_inf, init_time = info
     model, lay = stepper.model, stepper.lay
@@ -175,17 +222,25 @@ def run(stepper, s, rec, nsteps, h, info):
     P = np.zeros((3, int(F[-1])))
     _put_state(P, F, s, stepper)
     ctx = _context(stepper, F, vel_tol, locate)
-    arr = _Arrays(_rec0(rec), nsteps, lay, model.nq)
-    _entry(stepper.dm, (P, float(h), 1, nsteps, ctx, arr.pack()))   # compiled, or loaded from the cache
-    init_time += time.perf_counter() - t_load                         # (about 1 s from the disk cache): the start's time, not the loop's
+    rec0 = _rec0(rec)
+    W = window_rows(rec0, nsteps)
+    arr = _Arrays(rec0, W, lay, model.nq)
+    kept = _Kept(arr.out, rec.every, 2 + (nsteps // rec.every if rec.every else 0))
+    _entry(stepper.dm, (P, float(h), 1, 1, ctx, arr.pack()))     # compiled, or loaded from the cache
+    init_time += time.perf_counter() - t_load                   # (about 1 s from the disk cache): the start's time, not the loop's
     t_loop = time.perf_counter()
     n, chunk = 1, 16
     while n <= nsteps:
         # the steps in calls of about CALL_SECONDS: between them Python sees Ctrl-C (one call over every
-        # step held a KeyboardInterrupt until the run's end, 30 s for 1e6 steps of the ball)
-        args = (P, float(h), n, min(nsteps, n + chunk - 1), ctx, arr.pack())
+        # step held a KeyboardInterrupt until the run's end, 30 s for 1e6 steps of the ball); each call
+        # writes its steps into rows 1, 2, … of the window, and the rows to keep are taken from there
+        base, first = n - 1, int(arr.cnt[0])
+        args = (P, float(h), 1, min(nsteps - base, chunk, W), ctx, arr.pack())
         t_call = time.perf_counter()
-        status, n = _entry(stepper.dm, args)(*args)
+        status, j = _entry(stepper.dm, args)(*args)
+        arr.renumber(first, base)
+        kept.add(arr.out, base, j - 1)
+        n = base + j
         if status == loop.DONE and time.perf_counter() - t_call < 0.5 * CALL_SECONDS:
             chunk *= 2
         if status == loop.FULL:
@@ -194,24 +249,26 @@ def run(stepper, s, rec, nsteps, h, info):
             try:
                 _python_step(stepper, P, F, n, arr, ctx, (h, vel_tol, locate))
             except StepFailure as err:
-                res = sim.contact_result(model, lay, arr.steps(n, list(lay.names)),
+                res = sim.contact_result(model, lay, arr.steps(kept, list(lay.names)),
                                          (h, rho_inf, stepper.tol, init_time, time.perf_counter() - t_loop, "failed",
                                           str(err)))
                 s = _get_state(P, F)
                 name, why = sim.diagnose(model, lay, s, 1e-9 * model.length_scale, vel_tol, h, res)
                 raise ContactError(f"contact step {n} from t = {s.t:.6g} s to t = {s.t + h:.6g} s failed: {why} "
                                    f"({err})", contact=name, t=s.t + h, step=n, result=res) from None
+            kept.add(arr.out, n - 1, 1)
             n += 1
     wall = time.perf_counter() - t_loop
-    return sim.contact_result(model, lay, arr.steps(nsteps + 1, list(lay.names)),
+    return sim.contact_result(model, lay, arr.steps(kept, list(lay.names)),
                               (h, rho_inf, stepper.tol, init_time, wall, "success", ""))
 
 
 class CompiledSteps(Steps):
     """The compiled loop one step at a time, for the adaptive controller (:mod:`femb.contact.adaptive`):
-    each try is :func:`femb.contact.loop.run_steps` over one step of the size asked, stored as step n of the
-    arrays (a step whose own solve finds no solution goes to the Python loop, as in :func:`run`); a step
-    taken back restores row 0, the counters and the work sum. ``run_info`` = (tol, rho_inf, init_time)."""
+    each try is :func:`femb.contact.loop.run_steps` over one step of the size asked, written into row 1 of a
+    window whose row 0 holds the step kept before (a step whose own solve finds no solution goes to the
+    Python loop, as in :func:`run`); a step taken back restores row 0 of the state, the counters and the
+    work sum. ``run_info`` = (tol, rho_inf, init_time); ``every`` the steps stored (:class:`_Kept`)."""
 
     def __init__(self, stepper, s, rec, vel_tol, locate, run_info):
         self.sim = importlib.import_module("femb.contact.simulate")
@@ -222,11 +279,11 @@ class CompiledSteps(Steps):
         self.P = np.zeros((3, int(self.F[-1])))
         _put_state(self.P, self.F, s, stepper)
         self.ctx = _context(stepper, self.F, vel_tol, locate)
-        self.arr = _Arrays(_rec0(rec), 255, lay, model.nq)
+        self.arr = _Arrays(_rec0(rec), 1, lay, model.nq)
+        self.kept = _Kept(self.arr.out, rec.every)
         self.entry = _entry(stepper.dm, (self.P, 1.0, 1, 1, self.ctx, self.arr.pack()))
         tol, rho_inf, init_time = run_info
         self.run_info = (tol, rho_inf, init_time + time.perf_counter() - t_load)
-        self.n_kept = 0
         F = self.F
         self._it = int(F[_F("t")])
         self._sl = [slice(int(F[_F(k)]), int(F[_F(k) + 1])) for k in ("q", "u", "ud")]
@@ -241,15 +298,14 @@ class CompiledSteps(Steps):
 
     def try_step(self, h, n):
         arr = self.arr
-        if n >= arr.out[0].shape[0]:
-            arr.grow_steps()
         self.save = (self.P[0].copy(), arr.cnt.copy(), arr.wsum.copy(), arr.methods_fp, arr.methods_P)
         while True:
-            args = (self.P, float(h), n, n, self.ctx, arr.pack())
+            args = (self.P, float(h), 1, 1, self.ctx, arr.pack())
             status, _ = self.entry(*args)
             if status != loop.FULL:
                 break
             arr.grow()
+        arr.renumber(int(self.save[1][0]), n - 1)
         if status == loop.PYTHON:
             try:
                 _python_step(self.stepper, self.P, self.F, n, arr, self.ctx, (h, self.vel_tol, self.locate))
@@ -258,7 +314,7 @@ class CompiledSteps(Steps):
                 return str(err)
         c0, state = self.save[1], arr.out[10]
         impact = arr.cnt[0] != c0[0] or arr.cnt[1] != c0[1] + 1
-        switch = n > 1 and bool((state[n] != state[n - 1]).any())
+        switch = n > 1 and bool((state[1] != state[0]).any())
         return self._view(self.save[0]), self._view(self.P[0].copy()), step_kind(impact, switch)
 
     def undo(self):
@@ -269,7 +325,9 @@ class CompiledSteps(Steps):
         self.arr.methods_fp, self.arr.methods_P = fp, fP
 
     def keep(self, n):
-        self.n_kept = n
+        self.kept.add(self.arr.out, n - 1, 1)
+        for a in self.arr.out:          # the step kept is row 0 of the next try's window
+            a[0] = a[1]
 
     def state(self):
         return _get_state(self.P, self.F)
@@ -277,5 +335,5 @@ class CompiledSteps(Steps):
     def result(self, h0, status, message, wall):
         tol, rho_inf, init_time = self.run_info
         lay = self.stepper.lay
-        return self.sim.contact_result(self.stepper.model, lay, self.arr.steps(self.n_kept + 1, list(lay.names)),
+        return self.sim.contact_result(self.stepper.model, lay, self.arr.steps(self.kept, list(lay.names)),
                                        (h0, rho_inf, tol, init_time, wall, status, message))

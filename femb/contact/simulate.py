@@ -21,7 +21,9 @@ from femb.contact.result import OPEN, SLIP, STICK, ContactResult
 from femb.contact.step import NonsmoothStep, StepFailure, StepState
 from femb.errors import SINGULAR_HINT, ContactError, InitializationError, ModelError, ParameterError
 from femb.solve.alpha import GeneralizedAlpha
+from femb.results.storage import check_memory
 from femb.solve.options import check_positive
+from femb.solve.solver import _check_stride
 from femb.system import assembly
 from femb.system.initial import consistent_initial_state
 
@@ -159,7 +161,7 @@ def solver_options(model, solver):
     bad = sorted(set(solver) - set(known))
     if bad:
         raise ParameterError(f"femb.contact.simulate got unknown keyword(s) {', '.join(bad)}; the solver's are "
-                             f"{', '.join(known)}")
+                             f"{', '.join(known)} (and stride, store: what is stored)")
     o = dict(known, **solver)
     tol = 1e-12 * model.length_scale if o["tol"] is None else check_positive("tol", o["tol"])
     counts = []
@@ -286,7 +288,7 @@ def _start_states(s, lay, gap_tol, vel_tol):
     return _classify((s.gN <= gap_tol) & (np.abs(s.gNd) <= vel_tol), s.gFd, lay, vel_tol)
 
 
-def simulate(model, t_end, h, *, rho_inf=0.8, t0=0.0, rtol=None, atol=None, h_max=None, compiled=None, **solver):
+def simulate(model, t_end, h, *, rho_inf=0.8, t0=0.0, rtol=None, atol=None, h_max=None, compiled=None, **options):
     """Integrate a model with contacts by the nonsmooth generalized-α method, fixed or adaptive steps.
 
     Parameters
@@ -295,8 +297,8 @@ def simulate(model, t_end, h, *, rho_inf=0.8, t0=0.0, rtol=None, atol=None, h_ma
         With contact elements (:mod:`femb.elements.contact`); bilateral joints are allowed.
     t_end : float
     h : float
-        Step size (adjusted slightly so that the steps end on t_end); results are stored at
-        every step. With ``rtol``: the first step's size.
+        Step size (adjusted slightly so that the steps end on t_end). With ``rtol``: the first
+        step's size.
     rho_inf : float in [0, 1)
         Spectral radius at infinity of the smooth part (α_m, α_f, β, γ by Chung & Hulbert).
     t0 : float
@@ -310,9 +312,11 @@ def simulate(model, t_end, h, *, rho_inf=0.8, t0=0.0, rtol=None, atol=None, h_ma
         None (default) where it applies (dense systems with a constant mass matrix, no time
         functions), False the Python loop (the reference), True the compiled loop or a
         ParameterError where it does not apply. Both give the same results (to round-off).
-    **solver
-        The step's solver, by keyword (:func:`solver_options`): ``tol`` (Newton tolerance on the
-        residual in length units, default 1e-12 × length scale), ``max_iter`` (semismooth Newton
+    **options
+        ``stride`` (store every stride-th step, the first and the last always; events, iterations, work
+        and h_steps still cover every step, docs/contact.md §4), ``store`` (False: the first and the last
+        state only) and the step's solver (:func:`solver_options`): ``tol``
+        (Newton tolerance on the residual in length units, default 1e-12 × length scale), ``max_iter`` (semismooth Newton
         iterations per step, 40), ``max_fixed_point`` (prox fixed-point iterations of the fallback,
         400), ``locate_impacts`` (split a step in which an open contact closes at the impact,
         docs/contact.md §1.1, item 2, so that the impact law sees the velocity at the impact; True).
@@ -334,6 +338,9 @@ def simulate(model, t_end, h, *, rho_inf=0.8, t0=0.0, rtol=None, atol=None, h_ma
     if hasattr(model, "compile") and not hasattr(model, "contact_groups"):
         model = model.compile()
     _check_parameters(model, t_end, h, rho_inf, t0)
+    solver = dict(options)
+    stride, store = solver.pop("stride", 1), solver.pop("store", True)
+    every = _check_stride(stride) if store else 0
     t0, t_end = float(t0), float(t_end)
     nsteps = max(1, int(round((t_end - t0) / float(h))))
     if rtol is None:
@@ -354,8 +361,10 @@ def simulate(model, t_end, h, *, rho_inf=0.8, t0=0.0, rtol=None, atol=None, h_ma
     vel_tol = max(100.0 * tol / h, 1e-12)
     t_init = time.perf_counter()
     s, x0, ev0 = _start(model, lay, stepper, t0, vel_tol)
-    rec = _Recorder(model, lay)
+    rec = _Recorder(model, lay, every)
     rec.store(s, x0, ev0, _start_states(s, lay, 1e-9 * L, vel_tol), stepper, _sums(stepper, x0, ev0, 0.0, 0.0))
+    if rtol is None:
+        _check_storage(rec, nsteps)
     init_time = time.perf_counter() - t_init
     if compiled is None or compiled:
         from femb.contact import compiled as fast
@@ -371,17 +380,32 @@ def simulate(model, t_end, h, *, rho_inf=0.8, t0=0.0, rtol=None, atol=None, h_ma
         steps = adaptive.PythonSteps(stepper, s, rec, sys.modules[__name__], vel_tol, locate_impacts,
                                      (tol, rho_inf, init_time))
         return adaptive.run(steps, model, (t_end, float(h)), ctl, alpha, diagnose, vel_tol)
+    return _run_python(stepper, s, rec, nsteps, h, (vel_tol, locate_impacts, rho_inf, init_time))
+
+
+def _run_python(stepper, s, rec, nsteps, h, info):
+    """Steps 1 … nsteps from the StepState s (stored as step 0 in ``rec``) in the Python loop, as
+    :func:`femb.contact.compiled.run` in the compiled one (``info`` = (vel_tol, locate, rho_inf, init_time))."""
+    vel_tol, locate, rho_inf, init_time = info
+    model, lay, tol = stepper.model, stepper.lay, stepper.tol
     t_loop = time.perf_counter()
     for n in range(1, nsteps + 1):
         try:
-            s, x, ev, sets, work = _step(stepper, s, h, n, rec, vel_tol, locate_impacts)
+            s, x, ev, sets, work = _step(stepper, s, h, n, rec, vel_tol, locate)
         except StepFailure as err:
             res = rec.result(h, rho_inf, tol, init_time, time.perf_counter() - t_loop, "failed", str(err))
-            name, why = diagnose(model, lay, s, 1e-9 * L, vel_tol, h, res)
+            name, why = diagnose(model, lay, s, 1e-9 * model.length_scale, vel_tol, h, res)
             raise ContactError(f"contact step {n} from t = {s.t:.6g} s to t = {s.t + h:.6g} s failed: {why} "
                                f"({err})", contact=name, t=s.t + h, step=n, result=res) from None
         rec.store(s, x, ev, _states(ev, sets, lay, vel_tol), stepper, work)
     return rec.result(h, rho_inf, tol, init_time, time.perf_counter() - t_loop, "success", "")
+
+
+def _check_storage(rec, nsteps):
+    """A ParameterError (before the run) when the steps to store would not fit into the memory available."""
+    rows = 2 + (nsteps // rec.every if rec.every else 0)
+    row = sum(np.asarray(a).nbytes for a in rec.rows[0]) + 8 * len(rec.rows[0])
+    check_memory(rows * row, f"storing {rows} steps of {row} bytes of the contact run")
 
 
 def _start(model, lay, stepper, t0, vel_tol):
@@ -588,14 +612,19 @@ def _advance(stepper, s, x, ev):
                      gN=ev["gN"], gNdd=ev["gNdd"])
 
 
-class _Recorder:
-    """Stores every step and builds the :class:`ContactResult`."""
+#: the per-contact arrays a result stores per step (ContactResult.contact)
+CONTACT_KEYS = ("gN", "gN_d", "lam_N", "Lam_N", "P_N", "state", "gam_F", "lam_F", "Lam_F", "P_F", "work_N", "work_F")
 
-    def __init__(self, model, lay):
-        self.model, self.lay = model, lay
-        self.t, self.q, self.u, self.ud, self.lam = [], [], [], [], []
-        self.c = {k: [] for k in ("gN", "gN_d", "lam_N", "Lam_N", "P_N", "state", "gam_F", "lam_F", "Lam_F", "P_F",
-                                  "work_N", "work_F")}
+
+class _Recorder:
+    """Stores the steps (step 0, every ``every``-th step, the last taken; :func:`stored_step`) and builds
+    the :class:`ContactResult`; the events and iterations of every step."""
+
+    def __init__(self, model, lay, every=1):
+        self.model, self.lay, self.every = model, lay, every
+        self.rows = []
+        self.last = None                # the last step taken, while it is not stored
+        self.n = -1                     # the step of the last call of store (0: the start)
         self.iterations, self.methods, self.events = [], [], []
         self._wN = self._wF = 0.0
 
@@ -605,17 +634,17 @@ class _Recorder:
         parts = stepper.split(x)
         self._wN += work[0]
         self._wF += work[1]
+        self.n += 1
         kN, kF = self.lay.nN, self.lay.nF
         PN, LN, PF, LF = np.split(np.asarray(work[2:]), np.cumsum((kN, kN, kF)))
-        self.t.append(s.t)
-        self.q.append(s.q.copy())
-        self.u.append(s.u.copy())
-        self.ud.append(s.ud.copy())
-        self.lam.append(np.array(parts[5], dtype=float))
-        for key, val in (("gN", ev["gN"]), ("gN_d", ev["WN"] @ s.u), ("lam_N", parts[8]), ("Lam_N", LN),
-                         ("P_N", PN), ("state", state), ("gam_F", ev["WF"] @ s.u), ("lam_F", parts[10]),
-                         ("Lam_F", LF), ("P_F", PF), ("work_N", self._wN), ("work_F", self._wF)):
-            self.c[key].append(np.array(val, copy=True))
+        row = [s.t, s.q.copy(), s.u.copy(), s.ud.copy(), np.array(parts[5], dtype=float)]
+        row += [np.array(v, copy=True) for v in (ev["gN"], ev["WN"] @ s.u, parts[8], LN, PN, state, ev["WF"] @ s.u,
+                                                 parts[10], LF, PF, self._wN, self._wF)]
+        if stored_step(self.n, self.every):
+            self.rows.append(row)
+            self.last = None
+        else:
+            self.last = row
 
     def impacts(self, n, s, new, ev, sets, parts, vel_tol):
         """Impacts of a (sub)step: a contact closed at its end that began approaching (ġ_N < −vel_tol), whose
@@ -630,29 +659,36 @@ class _Recorder:
 
     def result(self, h, rho_inf, tol, init_time, wall, status, message):
         m, lay = self.model, self.lay
-        nt = len(self.t)
-        contact = {k: np.array(v) for k, v in self.c.items()}
+        rows = self.rows + ([self.last] if self.last is not None else [])
+        nt = len(rows)
+        cols = [np.array(c) for c in zip(*rows)] if rows else [np.zeros(0)] * (5 + len(CONTACT_KEYS))
+        contact = dict(zip(CONTACT_KEYS, cols[5:]))
         for k in ("gN", "gN_d", "lam_N", "Lam_N", "P_N", "state"):
             contact[k] = contact[k].reshape(nt, lay.nN)
         for k in ("gam_F", "lam_F", "Lam_F", "P_F"):
             contact[k] = contact[k].reshape(nt, lay.nF)
-        steps = dict(t=np.array(self.t), q=np.array(self.q), qd=np.array(self.u), qdd=np.array(self.ud),
-                     lam=np.array(self.lam).reshape(nt, m.nc), contact=contact,
-                     iterations=np.array(self.iterations, dtype=np.int64),
+        steps = dict(t=cols[0], q=cols[1], qd=cols[2], qdd=cols[3], lam=cols[4].reshape(nt, m.nc), contact=contact,
+                     iterations=np.array(self.iterations, dtype=np.int64), n_steps=max(self.n, 0),
                      fixed_point_steps=int(sum(1 for x in self.methods if x == "fixed_point")),
                      slip_on_P_steps=int(sum(1 for x in self.methods if x == "slip_on_P")), events=list(self.events))
         return contact_result(m, lay, steps, (h, rho_inf, tol, init_time, wall, status, message))
 
 
+def stored_step(n, every):
+    """Whether step n is stored for good (step 0 always; with ``every`` = 0, none after it). The last step
+    taken is stored too: the recorders keep it until a later step replaces it."""
+    return n == 0 or (every > 0 and n % every == 0)
+
+
 def contact_result(model, lay, steps, run):
     """The :class:`ContactResult` of the stored ``steps`` (dict: t, q, qd, qdd, lam, contact, iterations,
-    fixed_point_steps, slip_on_P_steps, events) and ``run`` = (h, rho_inf, tol, init_time, wall, status, message)."""
+    n_steps (the steps taken), fixed_point_steps, slip_on_P_steps, events) and ``run`` = (h, rho_inf, tol, init_time, wall, status, message)."""
     h, rho_inf, tol, init_time, wall, status, message = run
     its = steps["iterations"]
     return ContactResult(
         model=model, t=steps["t"], q=steps["q"], qd=steps["qd"], qdd=steps["qdd"], lam=steps["lam"],
         newton_iterations=its, status=status, message=message, wall_time=wall, init_time=init_time,
-        stats={"steps": steps["t"].size - 1, "substeps": int(its.size), "fixed_point_steps": steps["fixed_point_steps"],
+        stats={"steps": steps["n_steps"], "substeps": int(its.size), "fixed_point_steps": steps["fixed_point_steps"],
                "slip_on_P_steps": steps["slip_on_P_steps"]},
         settings={"h": h, "rho_inf": rho_inf, "tol": tol, "scheme": "nonsmooth generalized-alpha "
                   "(Capobianco, Harsch, Eugster & Leine 2021)"},
