@@ -197,6 +197,47 @@ fview1, fview2, fview3 = (_view_intrinsic(0, nd) for nd in (1, 2, 3))
 iview1, iview2, iview3 = (_view_intrinsic(1, nd) for nd in (1, 2, 3))
 
 
+def _borrow_value(context, builder, ty, val):
+    """``val`` of type ``ty`` with every array in it (nested tuples included) as a view without a
+    meminfo; anything else passed on as a new reference."""
+    if isinstance(ty, types.Array):
+        src = make_array(ty)(context, builder, value=val)
+        out = make_array(ty)(context, builder)
+        populate_array(out, data=src.data, shape=src.shape, strides=src.strides, itemsize=src.itemsize,
+                       meminfo=None)
+        return out._getvalue()
+    if isinstance(ty, types.BaseTuple):
+        vals = [_borrow_value(context, builder, t, builder.extract_value(val, i)) for i, t in enumerate(ty)]
+        return context.make_tuple(builder, ty, vals)
+    context.nrt.incref(builder, ty, val)
+    return val
+
+
+@intrinsic
+def borrowed(typingctx, x):
+    """``x`` (an array, or a tuple of arrays, nested) with its arrays as views that carry no reference
+    count, for the arguments of a compiled entry point that allocates (its stages are compiled with
+    reference counting).
+
+    Every compiled function increfs at its entry, and decrefs at its exit, each array it receives, and
+    each is an atomic operation; a tuple of 64 arrays passed through ten stages costs about 10³ of them
+    a time step (docs/contact.md §7, "Reference counting"). The arrays an entry point receives from
+    Python are owned by the caller until the call returns, so their views need no count. Never apply it
+    to an array the compiled code allocates: its memory is freed when its last counted reference goes.
+    """
+    sig = x(x)
+
+    def codegen(context, builder, sig_, args):
+        return _borrow_value(context, builder, sig_.args[0], args[0])
+
+    return sig, codegen
+
+
+if jit_disabled():
+    def borrowed(x):    # noqa: F811 (plain Python for NUMBA_DISABLE_JIT=1)
+        return x
+
+
 # --------------------------------------------------------------------------
 # kernels compiled once per element type, called by address from the engine
 # --------------------------------------------------------------------------

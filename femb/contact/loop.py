@@ -42,7 +42,7 @@ import math
 
 import numpy as np
 
-from femb.base.jit import kernel
+from femb.base.jit import borrowed, kernel
 from femb.engine.link import call
 from femb.contact.batches import evaluate_batches
 from femb.contact.core import _direction, _evaluate, fp_stalled, kinematics, newton_loop, prox_parameters, residual
@@ -586,6 +586,9 @@ def store(P, n, ctx, rec):
 def run_steps(P, h, n0, n1, ctx, rec):
     """Steps n0 … n1 of size h from row 0, each stored (:func:`store`). Returns (status, n): DONE and n1 + 1,
     or PYTHON / FULL and the step n not taken (the counters and the work sum as at its start)."""
+    # the arguments are the caller's until the call returns: their arrays pass through the stages without
+    # reference counts (femb.base.jit.borrowed)
+    P, ctx, rec = borrowed(P), borrowed(ctx), borrowed(rec)
     cnt, wsum = rec[4], rec[5]
     fr = (np.zeros((2 * _MAX_SPLITS, P.shape[1])), np.zeros((_MAX_SPLITS, 6)), np.zeros(_MAX_SPLITS, dtype=np.int64),
           np.zeros(1, dtype=np.int64))
