@@ -9,8 +9,10 @@ from __future__ import annotations
 
 import sys
 import time
+import warnings
 
 import numpy as np
+import scipy.linalg as sla
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
@@ -35,13 +37,37 @@ def _active_rows(model):
     return None if act is None or np.all(act) else np.nonzero(np.asarray(act, bool))[0]
 
 
-def _kkt(model, t, q):
-    """LU of [[M, Φ_qᵀ], [Φ_q, 0]] at (t, q), on the equations kept (:func:`_active_rows`)."""
+class _DenseLU:
+    """LU factors (partial pivoting) of a small dense matrix, with the parts of SciPy's SuperLU that the
+    start uses: ``shape``, ``solve`` and :func:`_u_diagonal`."""
+
+    def __init__(self, A):
+        self.shape = A.shape
+        with warnings.catch_warnings():             # a singular matrix is reported by _u_diagonal's test
+            warnings.simplefilter("ignore", sla.LinAlgWarning)
+            self.factors = sla.lu_factor(A, check_finite=False)
+
+    def solve(self, b):
+        return sla.lu_solve(self.factors, b, check_finite=False)
+
+
+def _u_diagonal(lu):
+    """The diagonal of U of the factors of :func:`_kkt`."""
+    return np.diag(lu.factors[0]) if isinstance(lu, _DenseLU) else lu.U.diagonal()
+
+
+def _kkt(model, t, q, dense=False):
+    """LU of [[M, Φ_qᵀ], [Φ_q, 0]] at (t, q), on the equations kept (:func:`_active_rows`): SciPy's sparse
+    LU, or with ``dense`` a dense one (small systems: a sparse matrix costs more to build than to factor)."""
     M = model.M_const if model.constant_mass else assembly.mass_matrix(model, q)
     B = assembly.constraint_jacobian(model, t, q)
     rows = _active_rows(model)
     if rows is not None:
         B = B[rows]
+    if dense:
+        M, B = M.toarray(), B.toarray()
+        m = B.shape[0]
+        return _DenseLU(np.block([[M, B.T], [B, np.zeros((m, m))]]) if m else M)
     return spla.splu(sp.bmat([[M, B.T], [B, None]], format="csc") if B.shape[0] else sp.csc_matrix(M))
 
 
@@ -58,13 +84,13 @@ def _solve_kkt(lu, model, rhs_q, rhs_c):
 
 def _diag_W_K_Wt(lu, model, W, batch=256):
     """The diagonal of W M⁻¹ Wᵀ with the bilateral constraints held (the KKT matrix's ``lu``), (k,): the rows
-    of W solved ``batch`` at a time."""
-    Wt = W.T.tocsc()
+    of W (sparse or dense) solved ``batch`` at a time."""
+    Wt = W.T.tocsc() if sp.issparse(W) else W.T
     k = W.shape[0]
     G = np.empty(k)
     for a in range(0, k, batch):
         b = min(k, a + batch)
-        R = Wt[:, a:b].toarray()
+        R = Wt[:, a:b].toarray() if sp.issparse(Wt) else np.ascontiguousarray(Wt[:, a:b])
         X = lu.solve(np.vstack((R, np.zeros((lu.shape[0] - model.nq, b - a)))))[:model.nq]
         G[a:b] = np.einsum("ij,ij->j", R, X)
     return G
@@ -76,7 +102,8 @@ def initial_contact_forces(model, lay, st, gap_tol, vel_tol, max_iter=5000, ev=N
     or the slip law on γ_F), solved by a projected Jacobi fixed point with prox parameters
     1/(W M⁻¹ Wᵀ)_ii (Studer 2009, §3.4), halved when it stalls (as the step's, ``core.FP_STALL``).
 
-    ``ev``: ``assemble.evaluate(model, st.t, st.q, st.qd)`` if the caller has it.
+    ``ev``: ``assemble.evaluate(model, st.t, st.q, st.qd)`` if the caller has it (``dense=True``: the
+    KKT system is factored dense too).
 
     Returns
     -------
@@ -85,13 +112,14 @@ def initial_contact_forces(model, lay, st, gap_tol, vel_tol, max_iter=5000, ev=N
     t, q, u = st.t, st.q, st.qd
     ev = assemble.evaluate(model, t, q, u) if ev is None else ev
     WN, WF = ev["WN"], ev["WF"]
+    dense = not sp.issparse(WN)
     closed = (ev["gN"] <= gap_tol) & (np.abs(WN @ u) <= vel_tol)
     lN, lF = np.zeros(lay.nN), np.zeros(lay.nF)
     f = assembly.force_vector(model, t, q, u)
     _, gam = assembly.constraint_rates(model, t, q, u)
     try:
-        lu = _kkt(model, t, q)
-        d = np.abs(lu.U.diagonal())
+        lu = _kkt(model, t, q, dense)
+        d = np.abs(_u_diagonal(lu))
         singular = not np.all(np.isfinite(d)) or d.min() <= 1e-13 * d.max()
     except RuntimeError:
         singular = True
@@ -101,7 +129,8 @@ def initial_contact_forces(model, lay, st, gap_tol, vel_tol, max_iter=5000, ev=N
     ud, lg = _solve_kkt(lu, model, f, -gam)
     if not closed.any():
         return ud, lg, lN, lF
-    r = 1.0 / np.maximum(_diag_W_K_Wt(lu, model, sp.vstack((WN, WF)).tocsc()), 1e-300)
+    r = 1.0 / np.maximum(_diag_W_K_Wt(lu, model, np.vstack((WN, WF)) if dense else sp.vstack((WN, WF)).tocsc()),
+                         1e-300)
     gF = WF @ u
     track = np.array([np.inf, 0.0, 0.0])           # core.fp_stalled, as the step's fixed point
     for _ in range(max_iter):
@@ -401,18 +430,23 @@ def _run_python(stepper, s, rec, nsteps, h, info):
     return rec.result(h, rho_inf, tol, init_time, time.perf_counter() - t_loop, "success", "")
 
 
+#: fixed-step runs that store more than this are checked against the memory available before they start
+STORAGE_CHECK_BYTES = 2 ** 26
+
+
 def _check_storage(rec, nsteps):
     """A ParameterError (before the run) when the steps to store would not fit into the memory available."""
     rows = 2 + (nsteps // rec.every if rec.every else 0)
     row = sum(np.asarray(a).nbytes for a in rec.rows[0]) + 8 * len(rec.rows[0])
-    check_memory(rows * row, f"storing {rows} steps of {row} bytes of the contact run")
+    if rows * row > STORAGE_CHECK_BYTES:       # (reading the memory available costs 40 µs: not for small runs)
+        check_memory(rows * row, f"storing {rows} steps of {row} bytes of the contact run")
 
 
 def _start(model, lay, stepper, t0, vel_tol):
     """The consistent starting state (bilateral projection, contact forces of the closed contacts)."""
     L = model.length_scale
     st = consistent_initial_state(model, t0=t0, contacts=True, accelerations=False)   # u̇ from the contact problem
-    ev0 = assemble.evaluate(model, t0, st.q, st.qd)
+    ev0 = assemble.evaluate(model, t0, st.q, st.qd, dense=stepper.dense)
     undefined = np.nonzero(~np.isfinite(ev0["gN"]))[0]
     if undefined.size:
         i = undefined[0]
@@ -438,6 +472,8 @@ def _start(model, lay, stepper, t0, vel_tol):
     x0[o[8]:o[9]] = lN
     x0[o[10]:o[11]] = lF
     s.x = x0
+    # W at t0 for the first step's prox parameters (NonsmoothStep.prox_r), instead of evaluating it again
+    stepper._r_cache = (s.q, t0, ev0["WN"], ev0["WF"])
     ev0 = dict(ev0, PN=np.zeros(lay.nN), PF=np.zeros(lay.nF), u=st.qd)
     return s, x0, ev0
 
