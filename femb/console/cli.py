@@ -428,14 +428,18 @@ def _integrate_contact(model, args, t_end, h, rho_inf):
     if args.formulation != "index3" or args.no_scaling:
         raise UsageError("--formulation and --no-scaling do not apply to the nonsmooth contact scheme "
                          "(it enforces the joints at position, velocity and acceleration level)")
+    # what is kept: the first and last state only (the report reads the final outputs; events, iterations and
+    # step sizes cover every step), every --every-th step for --vtk, every step for --vtk --dt (the stored
+    # step nearest each multiple of dt is written)
+    keep = dict(store=False) if args.vtk is None else ({} if args.dt is not None else dict(stride=args.every or 1))
     t0 = time.perf_counter()
     if args.rtol is not None:              # adaptive steps (docs/contact.md §1.2); h the first step's size
-        result = femb.contact.simulate(model, t_end, h, rho_inf=rho_inf, rtol=args.rtol, atol=args.atol)
+        result = femb.contact.simulate(model, t_end, h, rho_inf=rho_inf, rtol=args.rtol, atol=args.atol, **keep)
     else:
-        result = femb.contact.simulate(model, t_end, h, rho_inf=rho_inf)
+        result = femb.contact.simulate(model, t_end, h, rho_inf=rho_inf, **keep)
     if args.vtk is not None:
         try:
-            result.write_vtk(args.vtk, every=args.every or 1, dt=args.dt)   # --dt: the stored step nearest each
+            result.write_vtk(args.vtk, every=1, dt=args.dt)   # --dt: the stored step nearest each
         except (OutputError, OSError) as exc:
             raise _OutputFailure(f"writing output failed: {str(exc).splitlines()[0]}") from exc
     return result, time.perf_counter() - t0
