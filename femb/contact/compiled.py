@@ -18,7 +18,6 @@ from femb.contact import loop
 from femb.contact.adaptive import Steps, step_kind
 from femb.contact.step import StepFailure, StepState, _entry_point, _owned
 from femb.errors import ContactError
-from femb.results.storage import Column
 
 _F = loop.FIELDS.index
 
@@ -96,14 +95,25 @@ class _Arrays:
 class _Kept:
     """The stored steps of a compiled run, taken from the window of :class:`_Arrays` after each call of the
     loop: step 0, every ``every``-th step (none with 0) and the last step taken
-    (:func:`femb.contact.simulate.stored_step`). ``capacity``: the rows known ahead (fixed steps), or None."""
+    (:func:`femb.contact.simulate.stored_step`), in arrays of ``capacity`` rows (fixed steps: the rows known
+    ahead) that double when full (adaptive steps)."""
 
-    def __init__(self, out, every, capacity=None):
+    def __init__(self, out, every, capacity=256):
         self.every, self.n = every, 0
-        self.cols = [Column(a.shape[1:], a.dtype, capacity) for a in out]
-        for c, a in zip(self.cols, out):
-            c.append(a[:1])
+        self.bufs = [np.empty((max(int(capacity), 1),) + a.shape[1:], dtype=a.dtype) for a in out]
+        self.k = 0
+        self._append(out, slice(0, 1, 1))
         self.last = None
+
+    def _append(self, out, sel):
+        m = len(range(*sel.indices(out[0].shape[0])))
+        if self.k + m > self.bufs[0].shape[0]:
+            size = max(2 * self.bufs[0].shape[0], self.k + m)
+            self.bufs = [np.concatenate((b[:self.k], np.empty((size - self.k,) + b.shape[1:], dtype=b.dtype)))
+                         for b in self.bufs]
+        for b, a in zip(self.bufs, out):
+            b[self.k:self.k + m] = a[sel]
+        self.k += m
 
     def add(self, out, base, m):
         """Rows 1 … m of the window ``out`` hold the steps base + 1 … base + m."""
@@ -115,14 +125,14 @@ class _Kept:
         else:                           # rows j with (base + j) % k == 0, as a slice
             j0 = k - base % k if k else m + 1
             sel = slice(j0, m + 1, k or 1)
-        for c, a in zip(self.cols, out):
-            c.append(a[sel])
+        self._append(out, sel)
         stop = sel.start + ((m - sel.start) // sel.step) * sel.step if sel.start <= m else -1
         self.last = None if stop == m else tuple(a[m].copy() for a in out)
         self.n = base + m
 
     def arrays(self):
-        cols = [c.array() for c in self.cols]
+        trim = 4 * self.k < 3 * self.bufs[0].shape[0]        # over a quarter unused (doubled arrays): copies
+        cols = [b[:self.k].copy() if trim else b[:self.k] for b in self.bufs]
         if self.last is None:
             return cols
         return [np.concatenate((c, r[None])) for c, r in zip(cols, self.last)]
