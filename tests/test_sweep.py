@@ -170,6 +170,13 @@ def test_contact_scene_sweeps_through_the_contact_scheme(client):
             assert r["s"] == contact_block.outputs(res)["s"][-1] and r["steps"] == res.steps
             ref = contact_block.reference([0.5], **c)["s"][-1]        # μ = 0.5 sticks at 0.56 s: still sliding
             assert abs(r["s"] - ref) < 1e-6
+    # a case keeps its first and last states only (store=False) unless t_eval needs the history
+    df = femb.sweep("contact_block", cases=cases[:1], t_end=0.5, h=1e-2, outputs=["s"], t_eval=[0.25],
+                    client=client)
+    res = simulate(contact_block.build(**cases[0]).compile(), 0.5, 1e-2)
+    s = contact_block.outputs(res)["s"]
+    row = df.to_dict("records")[0]
+    assert row["s"] == s[-1] and row["s@0.25"] == float(np.interp(0.25, res.t, s))
 
 
 def test_failing_cases_are_rows(client):

@@ -575,7 +575,7 @@ def _run_case(scene, ref, case, job, worker):
             t_end = run.pop("t_end")
             kw = {k: v for k, v in run.items() if v is not None}
             if getattr(model, "n_contacts", 0):
-                result = _simulate_contact(model, scene, t_end, kw)
+                result = _simulate_contact(model, scene, t_end, dict(kw, store=need_store))
             else:
                 result = simulate(model, t_end, store=need_store, **kw)
             steps = result.steps
