@@ -285,13 +285,12 @@ def _solve_unit_rows(Js, b, passes=8):
     same solution (block elimination of a block-triangular J). Returns None (the caller factors the
     whole J) when fewer than :data:`UNIT_ROWS_MIN` rows, or fewer than a quarter of them, are known that
     way, or when the smaller system is singular (``_regular`` decides on the whole J there)."""
-    Jr = Js.tocsr()
-    Jc = Js.tocsc()
-    n = Jr.shape[0]
-    rows = np.repeat(np.arange(n), np.diff(Jr.indptr))
-    cols = Jr.indices
-    nzero = Jr.data != 0.0
-    diag = Jr.diagonal()
+    Jc = Js.tocsc()                                       # (J comes in CSC: no copy)
+    n = Jc.shape[0]
+    rows = Jc.indices
+    cols = np.repeat(np.arange(n), np.diff(Jc.indptr))
+    nzero = Jc.data != 0.0
+    diag = Jc.diagonal()
     known = np.zeros(n, dtype=bool)
     y = np.zeros(n)
     for _ in range(passes):
@@ -300,7 +299,7 @@ def _solve_unit_rows(Js, b, passes=8):
         new = np.nonzero(~known & (counts == 1) & (diag != 0.0))[0]
         if not new.size:
             break
-        y[new] = (b[new] - Jr[new] @ y) / diag[new]      # y is zero where not known
+        y[new] = (b[new] - (Jc @ y)[new]) / diag[new]    # y is zero where not known (and at new)
         known[new] = True
     nu = int(known.sum())
     if nu < UNIT_ROWS_MIN or 4 * nu < n:
