@@ -473,7 +473,7 @@ def _start(model, lay, stepper, t0, vel_tol):
     x0[o[10]:o[11]] = lF
     s.x = x0
     # W at t0 for the first step's prox parameters (NonsmoothStep.prox_r), instead of evaluating it again
-    stepper._r_cache = (s.q, t0, ev0["WN"], ev0["WF"])
+    stepper.remember_W(s.q, t0, ev0["WN"], ev0["WF"])
     ev0 = dict(ev0, PN=np.zeros(lay.nN), PF=np.zeros(lay.nF), u=st.qd)
     return s, x0, ev0
 

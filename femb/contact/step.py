@@ -1067,7 +1067,12 @@ class NonsmoothStep:
 
     def _remember(self, s, ev):
         """Keep W of a step's solution for the prox parameters of the step that starts there."""
-        self._r_cache = (ev["q"], s.t + self.h, ev["WN"], ev["WF"])
+        self.remember_W(ev["q"], s.t + self.h, ev["WN"], ev["WF"])
+
+    def remember_W(self, q, t, WN, WF):
+        """W at (q, t) (dense arrays on the dense path) for :meth:`prox_r` at that state, instead of
+        evaluating it again (the end of a step; the start of a run)."""
+        self._r_cache = (q, t, WN, WF)
 
     def solve(self, s):
         """One step from s: semismooth Newton, the fixed point if Newton fails, Newton again from where
