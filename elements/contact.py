@@ -131,6 +131,28 @@ class ContactElement(Element):
         return None
 
     @classmethod
+    def sphere_pairs(cls, P, qe, ve):
+        """The broad phase's view of a pair type (docs/contact.md §2, "Broad phase"): each element's two
+        spheres, whose gap is g_N = |c_b − c_a| − R_a − R_b.
+
+        Parameters
+        ----------
+        P : ndarray, shape (nel, npar)
+        qe : ndarray, shape (nel, ndx)
+        ve : ndarray, shape (nel, ndv)
+            Coordinates and velocities of each element's nodes.
+
+        Returns
+        -------
+        (c_a, c_b, v_a, v_b, R_a, R_b) or None
+            Centres (nel, 3) (m), their velocities (nel, 3) (m/s) and radii (nel,) (m). None (this base
+            class): the type is not a pair of spheres, and the sparse path evaluates it at every
+            iteration. A type that returns them promises that its gap is exactly this (the broad phase
+            reports it for the pairs it leaves out of a step).
+        """
+        return None
+
+    @classmethod
     def geometry_problems(cls, P, qe):
         """Elements of a batch whose gap or directions are undefined, or nearly so, at one state.
 
@@ -466,6 +488,20 @@ class DiscOnDisc(_DiscPair):
 
     def _law(self):
         return (1.0, -(self.Ra + self.Rb), self.Ra, self.Rb)
+
+    @classmethod
+    def sphere_pairs(cls, P, qe, ve):
+        """The discs as spheres in the plane z = 0 (:meth:`ContactElement.sphere_pairs`): c = r + R(θ)s,
+        v = ṙ + ω e_z × R(θ)s, radii R_a = ca, R_b = cb of the packed law."""
+        out = []
+        for col, s in ((0, P[:, 0:2]), (3, P[:, 2:4])):
+            c = _planar_points(qe, s, col)
+            w = ve[:, col + 2]
+            v = np.zeros_like(c)
+            v[:, 0] = ve[:, col] - w * (c[:, 1] - qe[:, col + 1])
+            v[:, 1] = ve[:, col + 1] + w * (c[:, 0] - qe[:, col])
+            out.append((c, v))
+        return out[0][0], out[1][0], out[0][1], out[1][1], P[:, 6].copy(), P[:, 7].copy()
 
 
 class PinInHole(_DiscPair):
@@ -1103,6 +1139,21 @@ class SpatialSpherePair(ContactElement):
     def pack(cls, elements):
         P = np.array([[*e.sa, *e.sb, e.Ra, e.Rb, *e.f1, *e.f2, *e.p] for e in elements], dtype=float)
         return {"P": np.ascontiguousarray(P.reshape(-1, 17))}
+
+    @classmethod
+    def sphere_pairs(cls, P, qe, ve):
+        """The two spheres (:meth:`ContactElement.sphere_pairs`): c = r + R s, v = ṙ + ω × R s (ω = R Ω);
+        the rotations formed only for the spheres off their body's node (s ≠ 0)."""
+        out = []
+        for x, v, s in ((0, 0, P[:, 0:3]), (7, 6, P[:, 3:6])):
+            c, w = qe[:, x:x + 3].copy(), ve[:, v:v + 3].copy()
+            off = np.nonzero(np.any(s != 0.0, axis=1))[0]
+            if off.size:
+                c_off, R = _spatial_points(qe[off], s[off], col=x)
+                c[off] = c_off
+                w[off] += np.cross(np.einsum("eij,ej->ei", R, ve[off, v + 3:v + 6]), c_off - qe[off, x:x + 3])
+            out.append((c, w))
+        return out[0][0], out[1][0], out[0][1], out[1][1], P[:, 6].copy(), P[:, 7].copy()
 
     @classmethod
     def contact_frames(cls, P, qe):

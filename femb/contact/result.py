@@ -52,7 +52,10 @@ class ContactResult(Result):
         (docs/contact.md §1.1 item 5: a sticking contact that starts to slip). Adaptive runs
         (docs/contact.md §1.2) add ``rejected_steps``, ``unchecked_steps`` (steps with an impact or a
         change of contact state, accepted without an error test) and ``failed_solves`` (tries without
-        a solution, taken again with h/4), and set ``h_steps`` and ``n_rejected``.
+        a solution, taken again with h/4), and set ``h_steps`` and ``n_rejected``. Runs with the broad
+        phase (docs/contact.md §7) add ``broad_phase``: ``solves`` (steps and substeps solved, repeats
+        included), ``repeated`` (solved again with pairs that came close), ``rebuilt`` (new subsets of
+        the contacts) and ``mean_contacts`` (contacts per solve).
     """
 
     contact: dict = field(default_factory=dict)

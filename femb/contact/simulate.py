@@ -16,7 +16,7 @@ import scipy.linalg as sla
 import scipy.sparse as sp
 import scipy.sparse.linalg as spla
 
-from femb.contact import assemble, core
+from femb.contact import assemble, broadphase, core
 from femb.contact.loop import first_root, margin
 from femb.contact.prox import prox_disc
 from femb.contact.result import OPEN, SLIP, STICK, ContactResult
@@ -129,8 +129,12 @@ def initial_contact_forces(model, lay, st, gap_tol, vel_tol, max_iter=5000, ev=N
     ud, lg = _solve_kkt(lu, model, f, -gam)
     if not closed.any():
         return ud, lg, lN, lF
-    r = 1.0 / np.maximum(_diag_W_K_Wt(lu, model, np.vstack((WN, WF)) if dense else sp.vstack((WN, WF)).tocsc()),
-                         1e-300)
+    # prox parameters of the closed contacts' rows only (the others' forces stay zero)
+    rows = np.concatenate((np.nonzero(closed)[0],
+                           lay.nN + np.concatenate([lay.friction[i] for i in np.nonzero(closed)[0]] + [np.zeros(0, int)])))
+    Wc = np.vstack((WN, WF))[rows] if dense else sp.vstack((WN, WF)).tocsr()[rows]
+    r = np.ones(lay.nN + lay.nF)
+    r[rows] = 1.0 / np.maximum(_diag_W_K_Wt(lu, model, Wc if dense else Wc.tocsc()), 1e-300)
     gF = WF @ u
     track = np.array([np.inf, 0.0, 0.0])           # core.fp_stalled, as the step's fixed point
     for _ in range(max_iter):
@@ -186,7 +190,7 @@ def _check_parameters(model, t_end, h, rho_inf, t0):
 def solver_options(model, solver):
     """(tol, max_iter, max_fixed_point, locate_impacts) from :func:`simulate`'s ``**solver`` keywords,
     validated; a ParameterError names an unknown or bad one."""
-    known = {"tol": None, "max_iter": 40, "max_fixed_point": 400, "locate_impacts": True}
+    known = {"tol": None, "max_iter": 40, "max_fixed_point": 400, "locate_impacts": True, "broad_phase": True}
     bad = sorted(set(solver) - set(known))
     if bad:
         raise ParameterError(f"femb.contact.simulate got unknown keyword(s) {', '.join(bad)}; the solver's are "
@@ -199,7 +203,7 @@ def solver_options(model, solver):
         if isinstance(v, bool) or not isinstance(v, (int, np.integer)) or v < 1:
             raise ParameterError(f"{name} must be a positive integer, got {v!r}")
         counts.append(int(v))
-    return tol, counts[0], counts[1], bool(o["locate_impacts"])
+    return tol, counts[0], counts[1], bool(o["locate_impacts"]), bool(o["broad_phase"])
 
 
 def geometry_problems(model, q):
@@ -348,7 +352,9 @@ def simulate(model, t_end, h, *, rho_inf=0.8, t0=0.0, rtol=None, atol=None, h_ma
         (Newton tolerance on the residual in length units, default 1e-12 × length scale), ``max_iter`` (semismooth Newton
         iterations per step, 40), ``max_fixed_point`` (prox fixed-point iterations of the fallback,
         400), ``locate_impacts`` (split a step in which an open contact closes at the impact,
-        docs/contact.md §1.1, item 2, so that the impact law sees the velocity at the impact; True).
+        docs/contact.md §1.1, item 2, so that the impact law sees the velocity at the impact; True),
+        ``broad_phase`` (on the sparse path with at least ``femb.contact.broadphase.BROAD_PHASE_MIN`` pair
+        contacts, solve each step on the contacts that can close in it, docs/contact.md §7; True).
 
     Returns
     -------
@@ -381,16 +387,21 @@ def simulate(model, t_end, h, *, rho_inf=0.8, t0=0.0, rtol=None, atol=None, h_ma
         from femb.contact import adaptive
         ctl = adaptive.tolerances(rtol, atol, h_max, t_end - t0)
     L = model.length_scale
-    tol, max_iter, max_fixed_point, locate_impacts = solver_options(model, solver)
+    tol, max_iter, max_fixed_point, locate_impacts, broad = solver_options(model, solver)
     lay = assemble.layout(model)
     alpha = GeneralizedAlpha.from_rho_inf(rho_inf)
     stepper = NonsmoothStep(model, h, alpha, lay, tol, max_iter, max_fixed_point)
+    bp = broadphase.for_model(model, stepper, broad)
+    if bp is not None:                  # many pairs on the sparse path: each step on the pairs that can touch
+        stepper = broadphase.BroadPhaseStep(stepper, bp)
     if rtol is not None:
         stepper.h_acc = float(h)
     vel_tol = max(100.0 * tol / h, 1e-12)
     t_init = time.perf_counter()
     s, x0, ev0 = _start(model, lay, stepper, t0, vel_tol)
     rec = _Recorder(model, lay, every)
+    if bp is not None:
+        rec.broad_phase = stepper.stats
     rec.store(s, x0, ev0, _start_states(s, lay, 1e-9 * L, vel_tol), stepper, _sums(stepper, x0, ev0, 0.0, 0.0))
     if rtol is None:
         _check_storage(rec, nsteps)
@@ -645,7 +656,7 @@ def _advance(stepper, s, x, ev):
     parts = stepper.split(x)
     return StepState(s.t + stepper.h, ev["q"], ev["u"], parts[0].copy(), ev["abar"], parts[8].copy(),
                      parts[10].copy(), ev["lbar_N"], ev["lbar_F"], ev["gNd"], ev["gF"], x.copy(),
-                     gN=ev["gN"], gNdd=ev["gNdd"])
+                     gN=ev["gN"], gNdd=ev["gNdd"], fresh=ev.get("fresh"))
 
 
 #: the per-contact arrays a result stores per step (ContactResult.contact)
@@ -663,6 +674,8 @@ class _Recorder:
         self.n = -1                     # the step of the last call of store (0: the start)
         self.iterations, self.methods, self.events = [], [], []
         self._wN = self._wF = 0.0
+        #: the broad phase's counters (femb.contact.broadphase.BroadPhaseStep.stats) when it runs
+        self.broad_phase = None
 
     def store(self, s, x, ev, state, stepper, work):
         """Store the step that ended at s: its last (sub)step's solution x, ev; ``work`` the step's sums
@@ -674,13 +687,24 @@ class _Recorder:
         kN, kF = self.lay.nN, self.lay.nF
         PN, LN, PF, LF = np.split(np.asarray(work[2:]), np.cumsum((kN, kN, kF)))
         row = [s.t, s.q.copy(), s.u.copy(), s.ud.copy(), np.array(parts[5], dtype=float)]
-        row += [np.array(v, copy=True) for v in (ev["gN"], ev["WN"] @ s.u, parts[8], LN, PN, state, ev["WF"] @ s.u,
+        row += [np.array(v, copy=True) for v in (ev["gN"], None, parts[8], LN, PN, state, None,
                                                  parts[10], LF, PF, self._wN, self._wF)]
+        # the normal and slip velocities when the row is kept (the broad phase's W of the pairs it left
+        # out of the step costs their kernels: femb.contact.broadphase.Rows)
+        row[6], row[11] = (ev["WN"], s.u), (ev["WF"], s.u)
         if stored_step(self.n, self.every):
-            self.rows.append(row)
+            self.rows.append(self._rates(row))
             self.last = None
         else:
             self.last = row
+
+    @staticmethod
+    def _rates(row):
+        for k in (6, 11):
+            if isinstance(row[k], tuple):
+                W, u = row[k]
+                row[k] = np.array(W @ u, dtype=float)
+        return row
 
     def impacts(self, n, s, new, ev, sets, parts, vel_tol):
         """Impacts of a (sub)step: a contact closed at its end that began approaching (ġ_N < −vel_tol), whose
@@ -695,7 +719,7 @@ class _Recorder:
 
     def result(self, h, rho_inf, tol, init_time, wall, status, message):
         m, lay = self.model, self.lay
-        rows = self.rows + ([self.last] if self.last is not None else [])
+        rows = self.rows + ([self._rates(self.last)] if self.last is not None else [])
         nt = len(rows)
         cols = [np.array(c) for c in zip(*rows)] if rows else [np.zeros(0)] * (5 + len(CONTACT_KEYS))
         contact = dict(zip(CONTACT_KEYS, cols[5:]))
@@ -706,7 +730,8 @@ class _Recorder:
         steps = dict(t=cols[0], q=cols[1], qd=cols[2], qdd=cols[3], lam=cols[4].reshape(nt, m.nc), contact=contact,
                      iterations=np.array(self.iterations, dtype=np.int64), n_steps=max(self.n, 0),
                      fixed_point_steps=int(sum(1 for x in self.methods if x == "fixed_point")),
-                     slip_on_P_steps=int(sum(1 for x in self.methods if x == "slip_on_P")), events=list(self.events))
+                     slip_on_P_steps=int(sum(1 for x in self.methods if x == "slip_on_P")), events=list(self.events),
+                     broad_phase=self.broad_phase)
         return contact_result(m, lay, steps, (h, rho_inf, tol, init_time, wall, status, message))
 
 
@@ -721,7 +746,7 @@ def contact_result(model, lay, steps, run):
     n_steps (the steps taken), fixed_point_steps, slip_on_P_steps, events) and ``run`` = (h, rho_inf, tol, init_time, wall, status, message)."""
     h, rho_inf, tol, init_time, wall, status, message = run
     its = steps["iterations"]
-    return ContactResult(
+    out = ContactResult(
         model=model, t=steps["t"], q=steps["q"], qd=steps["qd"], qdd=steps["qdd"], lam=steps["lam"],
         newton_iterations=its, status=status, message=message, wall_time=wall, init_time=init_time,
         stats={"steps": steps["n_steps"], "substeps": int(its.size), "fixed_point_steps": steps["fixed_point_steps"],
@@ -730,3 +755,8 @@ def contact_result(model, lay, steps, run):
                   "(Capobianco, Harsch, Eugster & Leine 2021)"},
         contact=steps["contact"], contact_names=list(lay.names), friction_rows=[r.copy() for r in lay.friction],
         events=steps["events"])
+    bp = steps.get("broad_phase")
+    if bp is not None:
+        out.stats["broad_phase"] = {"solves": bp["solves"], "repeated": bp["repeated"], "rebuilt": bp["rebuilt"],
+                                    "mean_contacts": bp["contacts"] / max(bp["solves"], 1)}
+    return out

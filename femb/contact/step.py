@@ -142,6 +142,9 @@ class StepState:
     x: np.ndarray = None    # the previous step's unknowns (initial guess)
     gN: np.ndarray = None   # g_N(q_n) and g̈_N(q_n, u_n, u̇_n): locate impacts inside a step
     gNdd: np.ndarray = None
+    #: per normal contact, whether its gFd, gNdd were computed (None: all); the broad phase
+    #: (femb/contact/broadphase.py) leaves them out for the pairs it left out of the step that ended here
+    fresh: np.ndarray = None
 
 
 #: dense linear algebra (and the compiled iteration, femb/contact/core.py) up to this many unknowns
@@ -330,6 +333,11 @@ class NonsmoothStep:
     tol : float
         Newton tolerance on the residual in length units (rows scaled by h, h², 1/m as below).
     max_iter, max_fixed_point : int
+    dense : bool, optional
+        Dense (compiled) or sparse linear algebra; None: dense up to ``DENSE_MAX_UNKNOWNS`` unknowns.
+    like : NonsmoothStep, optional
+        A sparse stepper of the same mechanism whose mass matrix's factors and structure this one shares
+        (the broad phase's steppers on subsets of the contacts, :mod:`femb.contact.broadphase`).
     """
 
     #: The slip law (138b) on the whole percussions P_F, P_N (the paper's) instead of their impulsive parts
@@ -341,7 +349,7 @@ class NonsmoothStep:
     #: Newton accept a stale u̇ and λ, which the error estimate reads (docs/contact.md §1.2)
     h_acc = 0.0
 
-    def __init__(self, model, h, alpha, lay, tol, max_iter=40, max_fixed_point=400):
+    def __init__(self, model, h, alpha, lay, tol, max_iter=40, max_fixed_point=400, dense=None, like=None):
         self.model, self.h, self.lay = model, float(h), lay
         self.am, self.af, self.beta, self.gamma = alpha.alpha_m, alpha.alpha_f, alpha.beta, alpha.gamma
         self.tol, self.max_iter, self.max_fp = tol, max_iter, max_fixed_point
@@ -358,9 +366,12 @@ class NonsmoothStep:
         for i, idx in enumerate(lay.friction):
             self.owner[idx] = i
         self.e_F = lay.e_F_rows
-        self.M = model.M_const.tocsc() if model.constant_mass else None
+        if like is not None:
+            self.M = like.M
+        else:
+            self.M = model.M_const.tocsc() if model.constant_mass else None
         #: dense linear algebra below this many unknowns (sparse overhead dominates small systems)
-        self.dense = self.nx <= DENSE_MAX_UNKNOWNS
+        self.dense = self.nx <= DENSE_MAX_UNKNOWNS if dense is None else bool(dense)
         self.Md = self.M.toarray() if (self.dense and self.M is not None) else None
         self.Minv = np.linalg.inv(self.Md) if self.Md is not None else None
         diagM = (self.M if self.M is not None else assembly.mass_matrix(model, model.q0)).diagonal()
@@ -377,8 +388,22 @@ class NonsmoothStep:
         self._patterns = None      # the sparse path's friction derivative blocks (_BlockPattern)
         self._maps = None          # (xmap, rotation blocks) of a Lie-group model (_rotation_maps)
         self._M_coo = None         # the sparse path's constant mass matrix as COO (_sparse_jacobian)
+        if like is not None:
+            self._share_from(like)
         if self.dense:
             self._dense_setup()
+
+    def _share_from(self, like):
+        """Take ``like``'s factors of the constant mass matrix, its components and the rotation maps (the
+        model's, the same for any subset of the contacts), forming them there first."""
+        if self.M is not None:
+            if like._M_lu is None:
+                like._M_lu = spla.splu(like.M)
+            if like._M_coo is None:
+                like._M_coo = sp.coo_matrix(like.M)
+            self._M_lu, self._M_coo = like._M_lu, like._M_coo
+        self._mass_comp = like._mass_components(self.model.q0)
+        self._maps = like._rotation_maps()
 
     def set_h(self, h):
         """Use step size h (impact steps are split at the impact, docs/contact.md §1.1, item 2)."""

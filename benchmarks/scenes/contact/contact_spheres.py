@@ -1,6 +1,6 @@
 """Many spheres sliding to rolling on the floor (persistent unilateral contact with Coulomb friction).
 
-``n`` spatial spheres (m = 1 kg, R = 0.05 m, θ = (2/5) m R²) on a square grid of pitch 0.15 m rest on
+``n`` spatial spheres (m = 1 kg, R = 0.05 m, θ = (2/5) m R²) on a square grid of pitch 0.15 m (``pitch``) rest on
 the floor z = 0 (:class:`femb.elements.contact.SpatialSphereOnPlane`, μ = 0.3, e_N = 0), each with a
 random horizontal velocity (|v_x|, |v_y| ≤ 0.05 m/s) and spin (|ω_i| ≤ 1 rad/s), seed 1, so that every
 contact slips and then sticks: the nonsmooth counterpart of
@@ -30,7 +30,7 @@ from femb import Mechanism
 from femb.elements import SpatialGravity, SpatialRigidBody
 from femb.elements.contact import SpatialSphereOnPlane
 
-PARAMS = {"n": 200, "mass": 1.0, "radius": 0.05, "g": 9.81, "mu": 0.3, "lift": 0.0, "seed": 1}
+PARAMS = {"n": 200, "mass": 1.0, "radius": 0.05, "g": 9.81, "mu": 0.3, "lift": 0.0, "seed": 1, "pitch": 0.15}
 DEFAULTS = {"t_end": 0.03, "h": 1e-3, "rho_inf": 0.8}
 PARAMETERS = {
     "n": ("number of spheres", "-"),
@@ -40,6 +40,7 @@ PARAMETERS = {
     "mu": ("friction coefficient", "-"),
     "lift": ("initial height of the spheres above the floor (0: resting on it)", "m"),
     "seed": ("seed of the random initial velocities and spins", "-"),
+    "pitch": ("distance between neighbouring spheres' centres on the grid", "m"),
 }
 OUTPUTS = {
     "z_mean": ("mean centre height", "m"),
@@ -48,11 +49,11 @@ OUTPUTS = {
 }
 
 
-def _initial(n, seed, lift):
+def _initial(n, seed, lift, pitch=PARAMS["pitch"]):
     """Grid positions (n, 2), velocities (n, 3) and spins (n, 3) of :func:`build`."""
     rng = np.random.default_rng(int(seed))
     side = int(math.ceil(math.sqrt(n)))
-    xy = np.array([(0.15 * (i % side), 0.15 * (i // side)) for i in range(n)])
+    xy = np.array([(pitch * (i % side), pitch * (i // side)) for i in range(n)])
     v, w = np.zeros((n, 3)), np.zeros((n, 3))
     if lift <= 0:
         for i in range(n):
@@ -62,12 +63,15 @@ def _initial(n, seed, lift):
 
 
 def build(n=PARAMS["n"], mass=PARAMS["mass"], radius=PARAMS["radius"], g=PARAMS["g"], mu=PARAMS["mu"],
-          lift=PARAMS["lift"], seed=PARAMS["seed"]):
+          lift=PARAMS["lift"], seed=PARAMS["seed"], pitch=PARAMS["pitch"]):
     """``n`` spheres ``s0`` … with floor contacts ``c0`` … and gravity."""
     n = int(n)
     if n < 1:
         raise ValueError(f"contact_spheres: n must be a positive integer, got {n!r}")
-    xy, v, w = _initial(n, seed, lift)
+    if not 2.0 * radius <= float(pitch) < float("inf"):
+        raise ValueError(f"contact_spheres: pitch must be at least the diameter 2 radius = {2.0 * radius:g} m, "
+                         f"got {pitch!r}")
+    xy, v, w = _initial(n, seed, lift, float(pitch))
     theta = 0.4 * mass * radius * radius
     mech = Mechanism("contact_spheres")
     mech.add(SpatialGravity((0.0, 0.0, -g)))
