@@ -133,7 +133,7 @@ class ContactElement(Element):
     @classmethod
     def sphere_pairs(cls, P, qe, ve):
         """The broad phase's view of a pair type (docs/contact.md §2, "Broad phase"): each element's two
-        spheres, whose gap is g_N = |c_b − c_a| − R_a − R_b.
+        spheres, whose gap is g_N = abs(c_b − c_a) − R_a − R_b.
 
         Parameters
         ----------

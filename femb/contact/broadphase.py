@@ -51,6 +51,15 @@ RECHECK = 0.005
 RETRIES = 3
 
 
+def _time_functions(g, idx):
+    """The time functions of a batch's elements ``idx`` (the batch's own list where they have none: only
+    its first entry's length is read then, :func:`femb.system.kernels.time_values`)."""
+    fns = g.time_functions
+    if not fns or not len(fns[0]):
+        return fns
+    return [fns[i] for i in idx]
+
+
 class ContactSubset:
     """A model seen with a subset of its contacts: what :class:`NonsmoothStep` and
     :func:`femb.contact.assemble.evaluate` read (``contact_groups``, ``n_contacts``, ``n_friction``), the
@@ -81,8 +90,7 @@ class ContactSubset:
             groups.append(dataclasses.replace(
                 g, elements=[g.elements[i] for i in idx], names=[g.names[i] for i in idx], dofs=g.dofs[idx],
                 lam=g.lam[idx], P=g.P[idx], xdofs=g.xdofs[idx],
-                tf_index=None if g.tf_index is None else g.tf_index[idx],
-                time_functions=None if g.time_functions is None else [g.time_functions[i] for i in idx],
+                tf_index=None if g.tf_index is None else g.tf_index[idx], time_functions=_time_functions(g, idx),
                 mu=None if g.mu is None else g.mu[idx],
                 cN=(nN + np.arange(cN.size, dtype=np.int64)).reshape(cN.shape),
                 cF=(nF + np.arange(cF.size, dtype=np.int64)).reshape(cF.shape)))
@@ -124,6 +132,7 @@ class BroadPhase:
                 self.pairs.append((k, g.cN[:, 0].copy()))
         self.rows = np.concatenate([r for _, r in self.pairs]) if self.pairs else np.zeros(0, dtype=np.int64)
         self.n = int(self.rows.size)
+        self._memo = None
 
     def spheres(self, q, u):
         """Gap, normal velocity, relative speed and radii sum of every pair at (q, u), in ``rows``' order.
@@ -133,6 +142,8 @@ class BroadPhase:
         gN, gNd, speed, size : ndarray, shape (n,)
             g_N = abs(c_b − c_a) − R_a − R_b, ġ_N = n·(v_b − v_a), abs(v_b − v_a), R_a + R_b.
         """
+        if self._memo is not None and self._memo[0] is q and self._memo[1] is u:     # a step's end, the next's start
+            return self._memo[2]
         m = self.model
         qx, ux = m.ext(np.asarray(q, dtype=float)), m.ext_velocity(np.asarray(u, dtype=float))
         out = [], [], [], []
@@ -145,7 +156,9 @@ class BroadPhase:
                 rate = np.einsum("ej,ej->e", d, dv) / L
             for o, v in zip(out, (L - Ra - Rb, rate, np.sqrt(np.einsum("ej,ej->e", dv, dv)), Ra + Rb)):
                 o.append(v)
-        return tuple(np.concatenate(o) if o else np.zeros(0) for o in out)
+        res = tuple(np.concatenate(o) if o else np.zeros(0) for o in out)
+        self._memo = (q, u, res)
+        return res
 
 
 def for_model(model, stepper, enabled=True):
@@ -192,8 +205,7 @@ class _LeftOut:
             if idx.size == 0:
                 continue
             sub = dataclasses.replace(g, P=g.P[idx], dofs=g.dofs[idx], xdofs=g.xdofs[idx],
-                                      time_functions=None if g.time_functions is None else
-                                      [g.time_functions[i] for i in idx])
+                                      time_functions=_time_functions(g, idx))
             _, W, _, _ = kernels.contact(sub, self.t, qx[sub.xdofs], vx[sub.dofs], None, False)
             Wv = np.einsum("erj,ej->er", W, vx[sub.dofs])
             kN = g.cN.shape[1]

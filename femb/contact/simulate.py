@@ -302,9 +302,9 @@ def _classify(closed, gF, lay, vel_tol):
     """State of each contact (nN,): OPEN, or where ``closed`` SLIP when its slip speed ‖γ_F‖ exceeds vel_tol,
     else STICK."""
     st = np.full(lay.nN, OPEN, dtype=np.int8)
-    for i, idx in enumerate(lay.friction):
-        if closed[i]:
-            st[i] = SLIP if idx.size and np.linalg.norm(gF[idx]) > vel_tol else STICK
+    for i in np.nonzero(closed)[0]:
+        idx = lay.friction[i]
+        st[i] = SLIP if idx.size and np.linalg.norm(gF[idx]) > vel_tol else STICK
     return st
 
 
