@@ -183,3 +183,34 @@ def test_broad_phase_option_checked():
     model = _pile(3)
     with pytest.raises(Exception, match="unknown keyword"):
         simulate(model, 0.01, 1e-3, broad_fase=False)
+
+
+def test_adaptive_steps_as_without_the_broad_phase():
+    model = _pile(12)
+    a = simulate(model, 0.02, 1e-3, rtol=1e-4, tol=TOL)
+    b = simulate(model, 0.02, 1e-3, rtol=1e-4, tol=TOL, broad_phase=False)
+    assert a.stats["rejected_steps"] == b.stats["rejected_steps"]
+    _same(a, b)
+    assert a.stats["broad_phase"]["mean_contacts"] < 0.5 * model.n_contacts
+
+
+def test_a_failing_step_stops_with_the_partial_result(monkeypatch):
+    """A step without a solution on the subset stops the run as it does without the broad phase: a
+    ContactError naming time and step, with the steps taken before (every contact's outputs finite)."""
+    from femb.errors import ContactError
+
+    model = _pile(12)
+    real, calls = contact_step.NonsmoothStep.solve, [0]
+
+    def failing(self, s):
+        calls[0] += 1
+        if s.t >= 0.005 - 1e-12:
+            raise contact_step.StepFailure("no solution here (test)", None, None)
+        return real(self, s)
+
+    monkeypatch.setattr(contact_step.NonsmoothStep, "solve", failing)
+    with pytest.raises(ContactError, match=r"step 6 from t = 0\.005") as err:
+        simulate(model, 0.02, 1e-3)
+    res = err.value.result
+    assert res.status == "failed" and res.t[-1] == pytest.approx(0.005)
+    assert all(np.all(np.isfinite(np.asarray(res.contact[k], float))) for k in res.contact)
