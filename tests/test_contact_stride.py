@@ -87,3 +87,35 @@ def test_bad_stride(bad):
     model = contact_ball.build(e_N=0.5).compile()
     with pytest.raises(ParameterError, match="stride"):
         simulate(model, 0.1, 1e-2, stride=bad)
+
+
+def test_models_and_their_dense_work_arrays_are_freed():
+    """The dense path's per-model work arrays (femb.contact.step._dense_model, a WeakKeyDictionary) do not
+    keep the model alive: a sweep of many models in one process does not keep them all (until 2026-11-29
+    every model used stayed in memory, with its arrays). Also the broad phase's subsets, a new one for
+    each change of the contacts in a step."""
+    import gc
+    import itertools
+
+    from femb.contact import step as contact_step
+    from femb import Mechanism
+    from femb.elements import SpatialRigidBody
+    from femb.elements.contact import SpatialSpherePair
+
+    gc.collect()
+    before = len(contact_step._DENSE)
+    for _ in range(3):
+        model = contact_ball.build().compile()
+        simulate(model, 0.01, 1e-3, compiled=False)
+        simulate(model, 0.01, 1e-3)
+    m = Mechanism("cradle")
+    for i in range(12):              # 12 spheres, 66 pairs: the sparse path, with the broad phase
+        m.add(SpatialRigidBody(f"s{i}", 1.0, (1e-3,) * 3, position=(0.101 * i, 0.0, 0.0),
+                               velocity=(10.0 if i == 0 else 0.0, 0.0, 0.0)))
+    for i, j in itertools.combinations(range(12), 2):
+        m.add(SpatialSpherePair(f"p{i}_{j}", f"s{i}", f"s{j}", 0.05, 0.05, e_N=1.0))
+    res = simulate(m.compile(), 0.01, 1e-3)
+    assert res.stats["broad_phase"]["rebuilt"] >= 2
+    del model, res
+    gc.collect()
+    assert len(contact_step._DENSE) == before

@@ -14,6 +14,8 @@ It computes what :mod:`femb.system.assembly` and :func:`femb.contact.assemble.ev
 """
 from __future__ import annotations
 
+import weakref
+
 import numpy as np
 
 from femb.contact.batches import evaluate_batches, records_list
@@ -97,7 +99,9 @@ class DenseModel:
     """
 
     def __init__(self, model):
-        self.model = model
+        # a weak reference: femb.contact.step keeps one DenseModel per model in a WeakKeyDictionary, whose
+        # entry a strong reference from the value would keep alive (and the model with it) for good
+        self.model = weakref.proxy(model)
         n, m = model.nq, model.nc
         self.n, self.m = n, m
         self.k, self.l = int(getattr(model, "n_contacts", 0)), int(getattr(model, "n_friction", 0))
