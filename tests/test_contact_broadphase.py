@@ -214,3 +214,16 @@ def test_a_failing_step_stops_with_the_partial_result(monkeypatch):
     res = err.value.result
     assert res.status == "failed" and res.t[-1] == pytest.approx(0.005)
     assert all(np.all(np.isfinite(np.asarray(res.contact[k], float))) for k in res.contact)
+
+
+def test_dense_models_with_many_pairs():
+    """Ten spheres, 45 pairs, 565 unknowns (the dense path): the broad phase runs (Python loop, subsets)
+    and gives the compiled loop's result on every contact; below BROAD_PHASE_DENSE_MIN unknowns, or with
+    compiled=True, the compiled loop runs."""
+    model = _pile(10)
+    a = simulate(model, 0.03, 1e-3, tol=TOL)
+    b = simulate(model, 0.03, 1e-3, tol=TOL, broad_phase=False)
+    assert "broad_phase" in a.stats and "broad_phase" not in b.stats
+    _same(a, b)
+    assert "broad_phase" not in simulate(model, 0.002, 1e-3, compiled=True).stats
+    assert "broad_phase" not in simulate(_pile(7), 0.002, 1e-3).stats       # 21 pairs

@@ -1,4 +1,4 @@
-"""The broad phase of the sparse path: a step solves for the contacts that can close in it.
+"""The broad phase: a step solves for the contacts that can close in it.
 
 A model that declares many pairs (``SpatialSpherePair``, ``DiscOnDisc``: types whose
 ``sphere_pairs`` describes each element as two spheres, docs/contact.md §2) has most of them far
@@ -39,8 +39,11 @@ from femb.contact import assemble
 from femb.contact.step import NonsmoothStep, StepFailure, StepState
 from femb.system import kernels
 
-#: the sparse path uses the broad phase when the model has at least this many pair contacts
+#: the broad phase runs when the model has at least this many pair contacts ...
 BROAD_PHASE_MIN = 32
+#: ... and its steps take the sparse path, or the dense one with at least this many unknowns: below, the
+#: compiled loop on every contact is faster than the Python loop on the subsets (docs/contact.md §7)
+BROAD_PHASE_DENSE_MIN = 400
 #: a pair joins a step when its gap is at most NEAR (R_a + R_b) + 2 h abs(v_b − v_a) at the step's start
 NEAR = 0.05
 #: ... and stays in the next steps while its gap is at most HOLD times that
@@ -162,9 +165,11 @@ class BroadPhase:
 
 
 def for_model(model, stepper, enabled=True):
-    """The broad phase of a model whose steps take the sparse path and which has at least
-    ``BROAD_PHASE_MIN`` pair contacts, else None."""
-    if not enabled or stepper.dense or not getattr(model, "contact_groups", None):
+    """The broad phase of a model with at least ``BROAD_PHASE_MIN`` pair contacts whose steps take the sparse
+    path or have at least ``BROAD_PHASE_DENSE_MIN`` unknowns on the dense one, else None."""
+    if not enabled or not getattr(model, "contact_groups", None):
+        return None
+    if stepper.dense and stepper.nx < BROAD_PHASE_DENSE_MIN:
         return None
     bp = BroadPhase(model)
     return bp if bp.n >= BROAD_PHASE_MIN else None
@@ -224,7 +229,7 @@ class BroadPhaseStep:
     Parameters
     ----------
     full : NonsmoothStep
-        The stepper of the whole model (sparse path): sizes, layout, parameters, the mass matrix's
+        The stepper of the whole model (either path): sizes, layout, parameters, the mass matrix's
         factors (shared with the steppers of the subsets).
     bp : BroadPhase
 

@@ -353,8 +353,9 @@ def simulate(model, t_end, h, *, rho_inf=0.8, t0=0.0, rtol=None, atol=None, h_ma
         iterations per step, 40), ``max_fixed_point`` (prox fixed-point iterations of the fallback,
         400), ``locate_impacts`` (split a step in which an open contact closes at the impact,
         docs/contact.md §1.1, item 2, so that the impact law sees the velocity at the impact; True),
-        ``broad_phase`` (on the sparse path with at least ``femb.contact.broadphase.BROAD_PHASE_MIN`` pair
-        contacts, solve each step on the contacts that can close in it, docs/contact.md §7; True).
+        ``broad_phase`` (with at least ``femb.contact.broadphase.BROAD_PHASE_MIN`` pair contacts, on the
+        sparse path or a dense one of at least ``BROAD_PHASE_DENSE_MIN`` unknowns, solve each step on the
+        contacts that can close in it, in the Python loop, docs/contact.md §7; True).
 
     Returns
     -------
@@ -391,7 +392,7 @@ def simulate(model, t_end, h, *, rho_inf=0.8, t0=0.0, rtol=None, atol=None, h_ma
     lay = assemble.layout(model)
     alpha = GeneralizedAlpha.from_rho_inf(rho_inf)
     stepper = NonsmoothStep(model, h, alpha, lay, tol, max_iter, max_fixed_point)
-    bp = broadphase.for_model(model, stepper, broad)
+    bp = broadphase.for_model(model, stepper, broad and compiled is not True)
     if bp is not None:                  # many pairs on the sparse path: each step on the pairs that can touch
         stepper = broadphase.BroadPhaseStep(stepper, bp)
     if rtol is not None:
