@@ -132,8 +132,8 @@ class ContactElement(Element):
 
     @classmethod
     def sphere_pairs(cls, P, qe, ve):
-        """The broad phase's view of a pair type (docs/contact.md §2, "Broad phase"): each element's two
-        spheres, whose gap is g_N = abs(c_b − c_a) − R_a − R_b.
+        """The broad phase's view of a pair type (docs/contact.md §7, "Broad phase"): each element's two
+        spheres, whose gap is g_N = abs(c_b − c_a) − R_a − R_b (types with one normal contact per element).
 
         Parameters
         ----------
