@@ -188,7 +188,7 @@ def _check_parameters(model, t_end, h, rho_inf, t0):
 
 
 def solver_options(model, solver):
-    """(tol, max_iter, max_fixed_point, locate_impacts) from :func:`simulate`'s ``**solver`` keywords,
+    """(tol, max_iter, max_fixed_point, locate_impacts, broad_phase) from :func:`simulate`'s ``**solver`` keywords,
     validated; a ParameterError names an unknown or bad one."""
     known = {"tol": None, "max_iter": 40, "max_fixed_point": 400, "locate_impacts": True, "broad_phase": True}
     bad = sorted(set(solver) - set(known))
@@ -393,7 +393,7 @@ def simulate(model, t_end, h, *, rho_inf=0.8, t0=0.0, rtol=None, atol=None, h_ma
     alpha = GeneralizedAlpha.from_rho_inf(rho_inf)
     stepper = NonsmoothStep(model, h, alpha, lay, tol, max_iter, max_fixed_point)
     bp = broadphase.for_model(model, stepper, broad and compiled is not True)
-    if bp is not None:                  # many pairs on the sparse path: each step on the pairs that can touch
+    if bp is not None:                  # many pairs: each step on the pairs that can touch (femb/contact/broadphase.py)
         stepper = broadphase.BroadPhaseStep(stepper, bp)
     if rtol is not None:
         stepper.h_acc = float(h)

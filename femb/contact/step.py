@@ -336,7 +336,7 @@ class NonsmoothStep:
     dense : bool, optional
         Dense (compiled) or sparse linear algebra; None: dense up to ``DENSE_MAX_UNKNOWNS`` unknowns.
     like : NonsmoothStep, optional
-        A sparse stepper of the same mechanism whose mass matrix's factors and structure this one shares
+        A stepper of the same model whose mass matrix, its factors and its structure this one shares
         (the broad phase's steppers on subsets of the contacts, :mod:`femb.contact.broadphase`).
     """
 
