@@ -388,21 +388,18 @@ def simulate(model, t_end, h, *, rho_inf=0.8, t0=0.0, rtol=None, atol=None, h_ma
         from femb.contact import adaptive
         ctl = adaptive.tolerances(rtol, atol, h_max, t_end - t0)
     L = model.length_scale
-    tol, max_iter, max_fixed_point, locate_impacts, broad = solver_options(model, solver)
+    opts = solver_options(model, solver)
+    tol, locate_impacts = opts[0], opts[3]
     lay = assemble.layout(model)
     alpha = GeneralizedAlpha.from_rho_inf(rho_inf)
-    stepper = NonsmoothStep(model, h, alpha, lay, tol, max_iter, max_fixed_point)
-    bp = broadphase.for_model(model, stepper, broad and compiled is not True)
-    if bp is not None:                  # many pairs: each step on the pairs that can touch (femb/contact/broadphase.py)
-        stepper = broadphase.BroadPhaseStep(stepper, bp)
+    stepper = _stepper(model, h, alpha, lay, opts, compiled)
     if rtol is not None:
         stepper.h_acc = float(h)
     vel_tol = max(100.0 * tol / h, 1e-12)
     t_init = time.perf_counter()
     s, x0, ev0 = _start(model, lay, stepper, t0, vel_tol)
     rec = _Recorder(model, lay, every)
-    if bp is not None:
-        rec.broad_phase = stepper.stats
+    rec.broad_phase = getattr(stepper, "stats", None)
     rec.store(s, x0, ev0, _start_states(s, lay, 1e-9 * L, vel_tol), stepper, _sums(stepper, x0, ev0, 0.0, 0.0))
     if rtol is None:
         _check_storage(rec, nsteps)
@@ -422,6 +419,16 @@ def simulate(model, t_end, h, *, rho_inf=0.8, t0=0.0, rtol=None, atol=None, h_ma
                                      (tol, rho_inf, init_time))
         return adaptive.run(steps, model, (t_end, float(h)), ctl, alpha, diagnose, vel_tol)
     return _run_python(stepper, s, rec, nsteps, h, (vel_tol, locate_impacts, rho_inf, init_time))
+
+
+def _stepper(model, h, alpha, lay, opts, compiled):
+    """The step's solver for the options ``opts`` of :func:`solver_options`: a :class:`NonsmoothStep`, or for
+    many pairs the broad phase's (:class:`femb.contact.broadphase.BroadPhaseStep`: each step on the pairs
+    that can touch), which ``compiled=True`` leaves out (it runs in the Python loop)."""
+    tol, max_iter, max_fixed_point, _, broad = opts
+    stepper = NonsmoothStep(model, h, alpha, lay, tol, max_iter, max_fixed_point)
+    bp = broadphase.for_model(model, stepper, broad and compiled is not True)
+    return stepper if bp is None else broadphase.BroadPhaseStep(stepper, bp)
 
 
 def _run_python(stepper, s, rec, nsteps, h, info):
