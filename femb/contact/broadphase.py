@@ -308,7 +308,7 @@ class BroadPhaseStep:
         reach = NEAR * size + 2.0 * h * speed
         near = ~(gN > reach)                            # NaN (centres coincide): in, its kernel says why
         held = self._last[self.bp.rows] & ~(gN > HOLD * reach)
-        want = ~self._pair.copy()
+        want = ~self._pair
         want[self.bp.rows] = near | held
         want |= ~self._negligible(s)
         return want

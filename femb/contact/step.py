@@ -333,8 +333,6 @@ class NonsmoothStep:
     tol : float
         Newton tolerance on the residual in length units (rows scaled by h, h², 1/m as below).
     max_iter, max_fixed_point : int
-    dense : bool, optional
-        Dense (compiled) or sparse linear algebra; None: dense up to ``DENSE_MAX_UNKNOWNS`` unknowns.
     like : NonsmoothStep, optional
         A stepper of the same model whose mass matrix, its factors and its structure this one shares
         (the broad phase's steppers on subsets of the contacts, :mod:`femb.contact.broadphase`).
@@ -349,7 +347,7 @@ class NonsmoothStep:
     #: Newton accept a stale u̇ and λ, which the error estimate reads (docs/contact.md §1.2)
     h_acc = 0.0
 
-    def __init__(self, model, h, alpha, lay, tol, max_iter=40, max_fixed_point=400, dense=None, like=None):
+    def __init__(self, model, h, alpha, lay, tol, max_iter=40, max_fixed_point=400, like=None):
         self.model, self.h, self.lay = model, float(h), lay
         self.am, self.af, self.beta, self.gamma = alpha.alpha_m, alpha.alpha_f, alpha.beta, alpha.gamma
         self.tol, self.max_iter, self.max_fp = tol, max_iter, max_fixed_point
@@ -371,7 +369,7 @@ class NonsmoothStep:
         else:
             self.M = model.M_const.tocsc() if model.constant_mass else None
         #: dense linear algebra below this many unknowns (sparse overhead dominates small systems)
-        self.dense = self.nx <= DENSE_MAX_UNKNOWNS if dense is None else bool(dense)
+        self.dense = self.nx <= DENSE_MAX_UNKNOWNS
         self.Md = self.M.toarray() if (self.dense and self.M is not None) else None
         self.Minv = np.linalg.inv(self.Md) if self.Md is not None else None
         diagM = (self.M if self.M is not None else assembly.mass_matrix(model, model.q0)).diagonal()
